@@ -1,0 +1,66 @@
+/* mf: the MaterialFusion command. `mf help` lists the subcommands. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli/mf_cli.h"
+#include "core/mf_error.h"
+
+#define MAX_CMDS 64
+static const MfCommand *g_cmds[MAX_CMDS];
+static int g_ncmds;
+
+void mf_cli_register(const MfCommand *cmd) {
+    if (g_ncmds < MAX_CMDS) g_cmds[g_ncmds++] = cmd;
+}
+
+static int cmp_cmd(const void *a, const void *b) {
+    return strcmp((*(const MfCommand *const *)a)->name, (*(const MfCommand *const *)b)->name);
+}
+
+static void print_help(FILE *f) {
+    fprintf(f, "usage: mf <command> [options]   (mf <command> --help for its options)\n\ncommands:\n");
+    for (int i = 0; i < g_ncmds; ++i) fprintf(f, "  %-14s %s\n", g_cmds[i]->name, g_cmds[i]->summary);
+}
+
+static const MfCommand *find_cmd(const char *name) {
+    for (int i = 0; i < g_ncmds; ++i)
+        if (!strcmp(g_cmds[i]->name, name)) return g_cmds[i];
+    return NULL;
+}
+
+int main(int argc, char **argv) {
+    qsort(g_cmds, (size_t)g_ncmds, sizeof g_cmds[0], cmp_cmd);
+    if (argc < 2) {
+        print_help(stderr);
+        return MF_EXIT_USAGE;
+    }
+    const char *name = argv[1];
+    if (!strcmp(name, "help") || !strcmp(name, "--help") || !strcmp(name, "-h")) {
+        if (argc >= 3) {
+            const MfCommand *c = find_cmd(argv[2]);
+            if (!c) { fprintf(stderr, "mf: unknown command '%s'\n", argv[2]); return MF_EXIT_USAGE; }
+            printf("%s", c->usage);
+            return MF_EXIT_OK;
+        }
+        print_help(stdout);
+        return MF_EXIT_OK;
+    }
+    const MfCommand *c = find_cmd(name);
+    if (!c) {
+        fprintf(stderr, "mf: unknown command '%s' (see 'mf help')\n", name);
+        return MF_EXIT_USAGE;
+    }
+    for (int i = 2; i < argc; ++i)
+        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
+            printf("%s", c->usage);
+            return MF_EXIT_OK;
+        }
+    mf_error_clear();
+    int rc = c->fn(argc - 1, argv + 1);
+    if (rc != MF_EXIT_OK) {
+        const char *msg = mf_error();
+        fprintf(stderr, "mf %s: error: %s\n", name, msg[0] ? msg : "failed");
+    }
+    return rc;
+}

@@ -1,0 +1,40 @@
+/* mf_cli: the `mf` command's subcommand registry and small option helpers.
+ *
+ * Each subcommand lives in its own mf/cli/cmd_<name>.c and registers itself:
+ *   static int cmd_render(int argc, char **argv);  // argv[0] is the subcommand name
+ *   MF_COMMAND(render, "render", "render a scene JSON's cameras to EXR/PNG", usage_text, cmd_render)
+ * (the first argument is a C identifier, the second the command's name, e.g. "bench-render")
+ * `mf help` lists them; `mf <cmd> --help` (or -h) prints the usage text. A command returns the
+ * process exit code (0 ok, 1 runtime failure, 2 usage error); main() prints mf_error() on failure. */
+#ifndef MF_CLI_H
+#define MF_CLI_H
+
+typedef int (*MfCmdFn)(int argc, char **argv);
+
+typedef struct {
+    const char *name;
+    const char *summary;
+    const char *usage;
+    MfCmdFn fn;
+} MfCommand;
+
+void mf_cli_register(const MfCommand *cmd);
+
+#define MF_COMMAND(id_, name_, summary_, usage_, fn_)                                  \
+    __attribute__((constructor)) static void mf_register_cmd_##id_(void) {             \
+        static const MfCommand c = {name_, summary_, usage_, fn_};                      \
+        mf_cli_register(&c);                                                           \
+    }
+
+/* Exit codes. */
+#define MF_EXIT_OK 0
+#define MF_EXIT_FAIL 1
+#define MF_EXIT_USAGE 2
+
+/* Option parsing helpers: return 1 and advance *i when argv[*i] is `name` with a value. On a
+ * missing or malformed value they set the error and return -1. */
+int mf_opt_str(int argc, char **argv, int *i, const char *name, const char **out);
+int mf_opt_int(int argc, char **argv, int *i, const char *name, int *out);
+int mf_opt_float(int argc, char **argv, int *i, const char *name, float *out);
+
+#endif

@@ -1,0 +1,119 @@
+#define _POSIX_C_SOURCE 200809L
+#include "mf_fs.h"
+
+#include <ctype.h>
+#include <errno.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "mf_error.h"
+
+static atomic_uint g_tmp_counter;
+
+int mf_tmp_path(const char *path, char *out, size_t cap) {
+    const char *slash = strrchr(path, '/');
+    const char *base = slash ? slash + 1 : path;
+    const char *dot = strrchr(base, '.');
+    size_t dirlen = (size_t)(base - path);
+    size_t stemlen = dot ? (size_t)(dot - base) : strlen(base);
+    unsigned n = atomic_fetch_add(&g_tmp_counter, 1u);
+    int w = snprintf(out, cap, "%.*s.%.*s.tmp%ld_%u%s", (int)dirlen, path, (int)stemlen, base,
+                     (long)getpid(), n, dot ? dot : "");
+    if (w < 0 || (size_t)w >= cap) return mf_fail(MF_EARG, "%s: path too long", path);
+    return MF_OK;
+}
+
+int mf_commit_file(const char *tmp, const char *path) {
+    if (rename(tmp, path) != 0) {
+        int e = errno;
+        remove(tmp);
+        return mf_fail(MF_EIO, "%s: cannot rename from %s: %s", path, tmp, strerror(e));
+    }
+    return MF_OK;
+}
+
+void mf_discard_file(const char *tmp) { remove(tmp); }
+
+int mf_mkdirs(const char *dir) {
+    char buf[MF_PATH_MAX];
+    size_t n = strlen(dir);
+    if (n == 0) return MF_OK;
+    if (n >= sizeof buf) return mf_fail(MF_EARG, "%s: path too long", dir);
+    memcpy(buf, dir, n + 1);
+    for (size_t i = 1; i <= n; ++i) {
+        if (buf[i] == '/' || buf[i] == '\0') {
+            char c = buf[i];
+            buf[i] = '\0';
+            if (mkdir(buf, 0777) != 0 && errno != EEXIST)
+                return mf_fail(MF_EIO, "%s: cannot create directory: %s", buf, strerror(errno));
+            buf[i] = c;
+        }
+    }
+    return MF_OK;
+}
+
+int mf_mkdirs_for(const char *path) {
+    const char *slash = strrchr(path, '/');
+    if (!slash) return MF_OK;
+    char buf[MF_PATH_MAX];
+    size_t n = (size_t)(slash - path);
+    if (n >= sizeof buf) return mf_fail(MF_EARG, "%s: path too long", path);
+    memcpy(buf, path, n);
+    buf[n] = '\0';
+    return mf_mkdirs(buf);
+}
+
+int mf_file_exists(const char *path) {
+    struct stat st;
+    return stat(path, &st) == 0;
+}
+
+int mf_read_file(const char *path, char **data, size_t *len) {
+    FILE *f = fopen(path, "rb");
+    if (!f) return mf_fail(MF_EIO, "%s: cannot open: %s", path, strerror(errno));
+    if (fseek(f, 0, SEEK_END) != 0) { fclose(f); return mf_fail(MF_EIO, "%s: cannot seek", path); }
+    long sz = ftell(f);
+    if (sz < 0) { fclose(f); return mf_fail(MF_EIO, "%s: cannot tell size", path); }
+    rewind(f);
+    char *buf = malloc((size_t)sz + 1);
+    if (!buf) { fclose(f); return mf_fail(MF_ENOMEM, "%s: out of memory (%ld bytes)", path, sz); }
+    size_t got = fread(buf, 1, (size_t)sz, f);
+    fclose(f);
+    if (got != (size_t)sz) { free(buf); return mf_fail(MF_EIO, "%s: short read", path); }
+    buf[sz] = '\0';
+    *data = buf;
+    if (len) *len = (size_t)sz;
+    return MF_OK;
+}
+
+int mf_write_file(const char *path, const void *data, size_t len) {
+    char tmp[MF_PATH_MAX];
+    int rc = mf_tmp_path(path, tmp, sizeof tmp);
+    if (rc) return rc;
+    FILE *f = fopen(tmp, "wb");
+    if (!f) return mf_fail(MF_EIO, "%s: cannot write: %s", path, strerror(errno));
+    size_t put = fwrite(data, 1, len, f);
+    int bad = fclose(f) != 0 || put != len;
+    if (bad) { mf_discard_file(tmp); return mf_fail(MF_EIO, "%s: write failed", path); }
+    return mf_commit_file(tmp, path);
+}
+
+int mf_path_join(char *out, size_t cap, const char *a, const char *b) {
+    size_t la = strlen(a);
+    int w = (la == 0 || a[la - 1] == '/') ? snprintf(out, cap, "%s%s", a, b) : snprintf(out, cap, "%s/%s", a, b);
+    if (w < 0 || (size_t)w >= cap) return mf_fail(MF_EARG, "%s/%s: path too long", a, b);
+    return MF_OK;
+}
+
+void mf_path_ext(const char *path, char *ext, size_t cap) {
+    const char *slash = strrchr(path, '/');
+    const char *dot = strrchr(slash ? slash : path, '.');
+    size_t i = 0;
+    if (dot)
+        for (const char *p = dot + 1; *p && i + 1 < cap; ++p) ext[i++] = (char)tolower((unsigned char)*p);
+    ext[i] = '\0';
+}

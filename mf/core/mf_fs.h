@@ -1,0 +1,34 @@
+/* mf_fs: file-system helpers for safe outputs.
+ *
+ * Every output file is written to a temporary name beside the target and renamed into place
+ * only when complete, so an interrupted or failed run never leaves a half-written file:
+ *   char tmp[MF_PATH_MAX]; mf_tmp_path(path, tmp, sizeof tmp);  write tmp ...
+ *   mf_commit_file(tmp, path)    (or mf_discard_file(tmp) on failure). */
+#ifndef MF_FS_H
+#define MF_FS_H
+
+#include <stddef.h>
+
+#define MF_PATH_MAX 4096
+
+/* "dir/.name.tmp.PID.N" beside path, keeping path's extension last so writers that pick a
+ * format from the extension still work ("a/b.png" -> "a/.b.tmp123_0.png"). */
+int mf_tmp_path(const char *path, char *out, size_t cap);
+/* rename(tmp, path); on failure removes tmp and sets the error. */
+int mf_commit_file(const char *tmp, const char *path);
+void mf_discard_file(const char *tmp);
+/* mkdir -p. */
+int mf_mkdirs(const char *dir);
+/* mkdir -p of the directory part of a file path. */
+int mf_mkdirs_for(const char *path);
+int mf_file_exists(const char *path);
+/* Reads a whole file into a NUL-terminated heap buffer (*len excludes the NUL). */
+int mf_read_file(const char *path, char **data, size_t *len);
+/* Writes a buffer atomically (tmp + rename). */
+int mf_write_file(const char *path, const void *data, size_t len);
+/* Joins a and b with '/' into out; returns MF_EARG if it does not fit. */
+int mf_path_join(char *out, size_t cap, const char *a, const char *b);
+/* Extension of path in lower case without the dot ("" if none), written to ext (cap >= 8). */
+void mf_path_ext(const char *path, char *ext, size_t cap);
+
+#endif

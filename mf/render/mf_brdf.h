@@ -1,0 +1,51 @@
+/* mf_brdf: the nvdiffrecmc BRDF (REFERENCE.md), its sampling and pdf.
+ *
+ * All directions are unit vectors in the local shading frame (z = shading normal); wo points
+ * toward the viewer, wi toward the light. Material (metallic workflow):
+ *   diffuse  = kd (1 - m) / pi                         (Lambert)
+ *   specular = F D G / (4 cos_o cos_i), GGX D with alpha = r^2, r = max(roughness, 0.08),
+ *              G = height-correlated Smith 1 / (1 + Lambda(wi) + Lambda(wo)),
+ *              F = Schlick(F0, dot(wo, h)), F0 = 0.04 (1 - m) + kd m, f90 = 1.
+ * mf_brdf_eval returns both lobes multiplied by cos_i (the integrand's BRDF factor); the
+ * diffuse part is also returned demodulated (without kd (1 - m)) for the renderer's AOVs.
+ * Sampling: lobe chosen with p_diffuse = (1-m) lum(kd) / ((1-m) lum(kd) + lum(F(F0, cos_o)));
+ * diffuse by cosine-weighted hemisphere, specular by GGX visible normals (Heitz 2018).
+ * Hard cases (roughness at its floor, grazing angles, black or white albedo) stay finite. */
+#ifndef MF_BRDF_H
+#define MF_BRDF_H
+
+#include "core/mf_math.h"
+
+#define MF_MIN_ROUGHNESS 0.08f
+
+typedef enum { MF_LOBE_DIFFUSE = 1, MF_LOBE_SPECULAR = 2, MF_LOBE_ALL = 3 } MfLobes;
+
+typedef struct {
+    MfVec3 kd;       /* base colour, linear */
+    float roughness; /* [0, 1], clamped to >= MF_MIN_ROUGHNESS inside */
+    float metallic;  /* [0, 1] */
+} MfMaterial;
+
+typedef struct {
+    MfVec3 diffuse;       /* kd (1-m) / pi * cos_i */
+    MfVec3 specular;      /* F D G / (4 cos_o cos_i) * cos_i */
+    float diffuse_demod;  /* cos_i / pi (white-Lambert factor) */
+} MfBrdfValue;
+
+/* Zero when wo.z <= 0 or wi.z <= 0. Lobes not in `lobes` are zero. */
+MfBrdfValue mf_brdf_eval(const MfMaterial *mat, MfVec3 wo, MfVec3 wi, int lobes);
+/* Probability of choosing the diffuse lobe (1 or 0 when only one lobe is enabled). */
+float mf_brdf_p_diffuse(const MfMaterial *mat, MfVec3 wo, int lobes);
+/* Solid-angle pdf of mf_brdf_sample. */
+float mf_brdf_pdf(const MfMaterial *mat, MfVec3 wo, MfVec3 wi, int lobes);
+/* Samples wi from (u0 chooses the lobe, u1, u2 the direction); returns 0 if no valid direction
+ * (then *wi and *pdf are unspecified). */
+int mf_brdf_sample(const MfMaterial *mat, MfVec3 wo, float u0, float u1, float u2, int lobes, MfVec3 *wi, float *pdf);
+
+/* Building blocks, exposed for tests and the adjoint. alpha = roughness^2 (already clamped). */
+float mf_ggx_D(float alpha, float cos_h);
+float mf_smith_lambda(float alpha, float cos_theta);
+float mf_smith_G(float alpha, float cos_o, float cos_i);
+MfVec3 mf_fresnel_schlick(MfVec3 f0, float cos_d);
+
+#endif

@@ -1,0 +1,50 @@
+/* mf_envmap: HDR equirectangular environment light in Blender's world mapping, with
+ * importance sampling.
+ *
+ * Mapping (DESIGN.md): unit world direction d = (x, y, z), +Z up:
+ *   u = 0.5 - atan2(y, x) / (2 pi),   v = 0.5 + asin(z) / pi,
+ * image row 0 at v = 1 (+Z), texel centres at u*W - 0.5 (bilinear, wrap in u, clamp in v).
+ * Radiance is linear (W / (m^2 sr)), RGB.
+ * Sampling (as nvdiffrecmc): piecewise-constant over texels with probability proportional to
+ * max(R, G, B) * sin(theta) (theta = polar angle of the texel centre row); pdf returned in solid
+ * angle. Rebuild the tables (mf_env_update) whenever texels change. */
+#ifndef MF_ENVMAP_H
+#define MF_ENVMAP_H
+
+#include "core/mf_math.h"
+#include "io/mf_image.h"
+
+typedef struct {
+    MfImage img;     /* owned; (h, w, 3) linear radiance */
+    float *marg_cdf; /* owned; (h + 1,) cumulative over rows */
+    float *cond_cdf; /* owned; (h, w + 1) cumulative within each row */
+    double total;    /* sum of texel weights (for pdf) */
+} MfEnvMap;
+
+/* Takes ownership of img (must have c >= 3; extra channels dropped; NaN/Inf refused) and builds
+ * the sampling tables. On failure img is freed. */
+int mf_env_init(MfEnvMap *env, MfImage *img);
+/* Constant radiance env map of size w x h. */
+int mf_env_init_constant(MfEnvMap *env, int w, int h, MfVec3 radiance);
+/* Loads an EXR/HDR file. */
+int mf_env_load(MfEnvMap *env, const char *path);
+void mf_env_free(MfEnvMap *env);
+/* Rebuilds the sampling tables after the texels changed. */
+int mf_env_update(MfEnvMap *env);
+/* Rotates the map about +Z by angle (radians, right-handed: a feature at azimuth phi moves to
+ * phi + angle), resampling columns with linear interpolation in u. */
+int mf_env_rotate_z(MfEnvMap *env, float angle);
+
+void mf_env_dir_to_uv(MfVec3 d, float *u, float *v);
+MfVec3 mf_env_uv_to_dir(float u, float v);
+/* Bilinear radiance along world direction d (unit). */
+MfVec3 mf_env_eval(const MfEnvMap *env, MfVec3 d);
+/* Adjoint of mf_env_eval: dimg (h, w, 3) += weights * dL. */
+void mf_env_eval_backward(const MfEnvMap *env, MfVec3 d, MfVec3 dL, float *dimg);
+/* Draws a direction from (u1, u2) in [0,1)^2; returns its radiance (mf_env_eval), writes the
+ * direction and its solid-angle pdf. */
+MfVec3 mf_env_sample(const MfEnvMap *env, float u1, float u2, MfVec3 *dir, float *pdf);
+/* Solid-angle pdf of mf_env_sample for direction d. */
+float mf_env_pdf(const MfEnvMap *env, MfVec3 d);
+
+#endif

@@ -1,0 +1,38 @@
+/* mf_mesh: indexed triangle meshes with UVs, in world units.
+ *
+ * Vertices carry position, optional normal and optional UV (OBJ's separate v/vt/vn indices are
+ * unified on load). UV convention: OBJ/glTF-style u right, v up (v = 0 is the bottom row of a
+ * texture image). Triangles may carry a material id (OBJ usemtl order). */
+#ifndef MF_MESH_H
+#define MF_MESH_H
+
+#include <stdint.h>
+#include <stddef.h>
+
+#include "core/mf_math.h"
+
+typedef struct {
+    int nv, nt;
+    float *pos;    /* owned; (nv, 3) */
+    float *nrm;    /* owned; (nv, 3) unit, or NULL (then face normals are used) */
+    float *uv;     /* owned; (nv, 2), or NULL */
+    uint32_t *tri; /* owned; (nt, 3) vertex indices */
+    int *mat;      /* owned; (nt,) material id, or NULL */
+    int nmat;
+    char **mat_names; /* owned; (nmat,) strings, or NULL */
+} MfMesh;
+
+int mf_mesh_alloc(MfMesh *m, int nv, int nt, int with_nrm, int with_uv);
+void mf_mesh_free(MfMesh *m);
+/* Area-weighted smooth vertex normals (allocates nrm if NULL). */
+int mf_mesh_compute_normals(MfMesh *m);
+/* Axis-aligned bounds. */
+void mf_mesh_bounds(const MfMesh *m, MfVec3 *lo, MfVec3 *hi);
+/* Counts triangles with area below eps (degenerate). */
+int mf_mesh_count_degenerate(const MfMesh *m, float eps);
+/* Centres at the origin and scales so the largest extent is `extent`. */
+void mf_mesh_normalize(MfMesh *m, float extent);
+/* Appends b to a (material ids of b offset by a->nmat). */
+int mf_mesh_append(MfMesh *a, const MfMesh *b);
+
+#endif

@@ -1,0 +1,75 @@
+/* mf_test: a tiny test framework (after Redis's testhelp.h).
+ *
+ * Each test_<module>.c defines tests with MF_TEST(name) { ... }; they register themselves at
+ * start-up, so adding a file to tests/ is all it takes. Checks count failures and print the
+ * file, line and values; a test with any failed check fails. MF_SKIP(reason) ends a test as
+ * skipped (e.g. ../shared missing). The runner prints one line per test and, last,
+ * "N passed, N failed, N skipped"; it exits non-zero if any test failed.
+ *
+ *   ./mf_tests            run all tests
+ *   ./mf_tests brdf env   run the tests whose name contains any of the words */
+#ifndef MF_TEST_H
+#define MF_TEST_H
+
+#include <math.h>
+#include <stdio.h>
+
+typedef void (*MfTestFn)(void);
+void mf_test_register(const char *name, MfTestFn fn, const char *file);
+void mf_test_fail_at(const char *file, int line, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+void mf_test_skip(const char *reason);
+int mf_test_failed_now(void);
+/* A scratch directory for this test run (created on first use, removed at exit when all pass). */
+const char *mf_test_tmpdir(void);
+/* "tmpdir/name" in a static rotating buffer. */
+const char *mf_test_path(const char *name);
+
+#define MF_TEST(name)                                                                  \
+    static void test_##name(void);                                                     \
+    __attribute__((constructor)) static void register_##name(void) {                   \
+        mf_test_register(#name, test_##name, __FILE__);                                \
+    }                                                                                  \
+    static void test_##name(void)
+
+#define CHECK(cond)                                                                    \
+    do {                                                                               \
+        if (!(cond)) mf_test_fail_at(__FILE__, __LINE__, "CHECK(%s)", #cond);          \
+    } while (0)
+
+#define CHECK_MSG(cond, ...)                                                           \
+    do {                                                                               \
+        if (!(cond)) mf_test_fail_at(__FILE__, __LINE__, __VA_ARGS__);                 \
+    } while (0)
+
+/* |a - b| <= tol, and both finite. */
+#define CHECK_NEAR(a, b, tol)                                                          \
+    do {                                                                               \
+        double a_ = (double)(a), b_ = (double)(b), t_ = (double)(tol);                 \
+        if (!(isfinite(a_) && isfinite(b_) && fabs(a_ - b_) <= t_))                    \
+            mf_test_fail_at(__FILE__, __LINE__, "CHECK_NEAR(%s, %s): %.9g vs %.9g, tol %.3g", #a, #b, a_, b_, t_); \
+    } while (0)
+
+/* Status code MF_OK expected; prints mf_error() otherwise. */
+#define CHECK_OK(expr)                                                                 \
+    do {                                                                               \
+        int rc_ = (expr);                                                              \
+        if (rc_ != 0) mf_test_fail_at(__FILE__, __LINE__, "%s -> %d: %s", #expr, rc_, mf_error()); \
+    } while (0)
+
+/* Failure expected, with a message containing `needle`. */
+#define CHECK_ERR(expr, needle)                                                        \
+    do {                                                                               \
+        mf_error_clear();                                                              \
+        int rc_ = (expr);                                                              \
+        if (rc_ == 0) mf_test_fail_at(__FILE__, __LINE__, "%s: expected failure", #expr); \
+        else if (!strstr(mf_error(), (needle)))                                        \
+            mf_test_fail_at(__FILE__, __LINE__, "%s: message '%s' lacks '%s'", #expr, mf_error(), (needle)); \
+    } while (0)
+
+#define MF_SKIP(reason)                                                                \
+    do {                                                                               \
+        mf_test_skip(reason);                                                          \
+        return;                                                                        \
+    } while (0)
+
+#endif

@@ -1,0 +1,100 @@
+#define _POSIX_C_SOURCE 200809L
+#include <stdarg.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "core/mf_fs.h"
+#include "core/mf_log.h"
+#include "mf_test.h"
+
+#define MAX_TESTS 1024
+typedef struct { const char *name; MfTestFn fn; const char *file; } TestEntry;
+static TestEntry g_tests[MAX_TESTS];
+static int g_ntests;
+static int g_cur_failed, g_cur_skipped;
+static char g_skip_reason[256];
+static char g_tmpdir[256];
+
+void mf_test_register(const char *name, MfTestFn fn, const char *file) {
+    if (g_ntests < MAX_TESTS) g_tests[g_ntests++] = (TestEntry){name, fn, file};
+}
+
+void mf_test_fail_at(const char *file, int line, const char *fmt, ...) {
+    va_list ap;
+    va_start(ap, fmt);
+    fprintf(stdout, "    %s:%d: ", file, line);
+    vfprintf(stdout, fmt, ap);
+    fprintf(stdout, "\n");
+    va_end(ap);
+    ++g_cur_failed;
+}
+
+void mf_test_skip(const char *reason) {
+    g_cur_skipped = 1;
+    snprintf(g_skip_reason, sizeof g_skip_reason, "%s", reason);
+}
+
+int mf_test_failed_now(void) { return g_cur_failed; }
+
+const char *mf_test_tmpdir(void) {
+    if (!g_tmpdir[0]) {
+        const char *base = getenv("TMPDIR");
+        snprintf(g_tmpdir, sizeof g_tmpdir, "%s/mf_tests.%ld", base ? base : "/tmp", (long)getpid());
+        mf_mkdirs(g_tmpdir);
+    }
+    return g_tmpdir;
+}
+
+const char *mf_test_path(const char *name) {
+    static _Thread_local char bufs[8][1024];
+    static _Thread_local int k;
+    char *b = bufs[k++ & 7];
+    snprintf(b, 1024, "%s/%s", mf_test_tmpdir(), name);
+    return b;
+}
+
+static int cmp_entry(const void *a, const void *b) {
+    const TestEntry *x = a, *y = b;
+    int c = strcmp(x->file, y->file);
+    return c ? c : strcmp(x->name, y->name);
+}
+
+static int selected(const char *name, int argc, char **argv) {
+    if (argc <= 1) return 1;
+    for (int i = 1; i < argc; ++i)
+        if (strstr(name, argv[i])) return 1;
+    return 0;
+}
+
+int main(int argc, char **argv) {
+    if (!getenv("MF_LOG")) mf_log_set_level(MF_LOG_WARN);
+    qsort(g_tests, (size_t)g_ntests, sizeof g_tests[0], cmp_entry);
+    int passed = 0, failed = 0, skipped = 0;
+    for (int i = 0; i < g_ntests; ++i) {
+        if (!selected(g_tests[i].name, argc, argv)) continue;
+        g_cur_failed = 0;
+        g_cur_skipped = 0;
+        double t0 = mf_now();
+        g_tests[i].fn();
+        double dt = mf_now() - t0;
+        if (g_cur_failed) {
+            ++failed;
+            printf("[FAIL] %s (%s, %.2fs)\n", g_tests[i].name, g_tests[i].file, dt);
+        } else if (g_cur_skipped) {
+            ++skipped;
+            printf("[skip] %s: %s\n", g_tests[i].name, g_skip_reason);
+        } else {
+            ++passed;
+            printf("[ ok ] %s (%.2fs)\n", g_tests[i].name, dt);
+        }
+        fflush(stdout);
+    }
+    if (g_tmpdir[0] && failed == 0) {
+        char cmd[512];
+        snprintf(cmd, sizeof cmd, "rm -rf '%s'", g_tmpdir);
+        if (system(cmd) != 0) fprintf(stderr, "could not remove %s\n", g_tmpdir);
+    }
+    printf("%d passed, %d failed, %d skipped\n", passed, failed, skipped);
+    return failed ? 1 : 0;
+}
