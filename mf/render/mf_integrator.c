@@ -6,6 +6,7 @@
 
 #include "core/mf_error.h"
 #include "core/mf_rng.h"
+#include "io/mf_exr.h"
 #include "scene/mf_texture.h"
 
 #define MF_SHADOW_EPS 0.001f
@@ -36,6 +37,33 @@ void mf_render_out_free(MfRenderOut *o) {
     if (!o) return;
     free(o->mem);
     memset(o, 0, sizeof *o);
+}
+
+int mf_render_out_write_exr(const char *path, const MfRenderOut *o) {
+    MfExrChannel ch[20] = {
+        {"R", o->rgb, 3}, {"G", o->rgb + 1, 3}, {"B", o->rgb + 2, 3}, {"A", o->alpha, 1},
+        {"albedo.R", o->albedo, 3}, {"albedo.G", o->albedo + 1, 3}, {"albedo.B", o->albedo + 2, 3},
+        {"orm.R", o->orm, 3}, {"orm.G", o->orm + 1, 3}, {"orm.B", o->orm + 2, 3},
+        {"normal.X", o->normal, 3}, {"normal.Y", o->normal + 1, 3}, {"normal.Z", o->normal + 2, 3},
+        {"depth.Z", o->depth, 1},
+        {"diffuse.R", o->diffuse, 3}, {"diffuse.G", o->diffuse + 1, 3}, {"diffuse.B", o->diffuse + 2, 3},
+        {"specular.R", o->specular, 3}, {"specular.G", o->specular + 1, 3}, {"specular.B", o->specular + 2, 3},
+    };
+    return mf_exr_write(path, o->w, o->h, ch, 20, MF_EXR_FLOAT);
+}
+
+int mf_render_out_write_png(const char *path, const MfRenderOut *o) {
+    MfImage img;
+    int rc = mf_image_alloc(&img, o->w, o->h, 4);
+    if (rc) return rc;
+    for (size_t i = 0; i < (size_t)o->w * o->h; ++i) {
+        float a = o->alpha[i], inv = a > 0.0f ? 1.0f / a : 0.0f;
+        for (int c = 0; c < 3; ++c) img.data[4 * i + c] = o->rgb[3 * i + c] * inv;
+        img.data[4 * i + 3] = a;
+    }
+    rc = mf_image_write(path, &img, MF_ENC_SRGB, 8);
+    mf_image_free(&img);
+    return rc;
 }
 
 void mf_raylog_free(MfRayLog *log) {

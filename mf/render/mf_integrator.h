@@ -87,6 +87,12 @@ typedef struct {
 int mf_render_out_alloc(MfRenderOut *o, int w, int h);
 void mf_render_out_free(MfRenderOut *o);
 
+/* Writes all AOVs to one multi-layer EXR (float32; channels R G B A, albedo.R/G/B, orm.R/G/B,
+ * normal.X/Y/Z, depth.Z, diffuse.R/G/B, specular.R/G/B; R G B premultiplied by A), atomically. */
+int mf_render_out_write_exr(const char *path, const MfRenderOut *o);
+/* Writes rgb and alpha as an 8-bit sRGB PNG with straight (un-premultiplied) alpha, atomically. */
+int mf_render_out_write_png(const char *path, const MfRenderOut *o);
+
 /* One recorded ray (for the bare-Embree benchmark). kind 0 = primary (closest hit),
  * 1 = shadow (occlusion). */
 typedef struct {
