@@ -90,7 +90,7 @@ static int cmd_bench_render(int argc, char **argv) {
     MfTexMaterial mat = {NULL, NULL, {0.6f, 0.5f, 0.4f}, {0.0f, 0.4f, 0.3f}};
     MfRenderInput in = {rt, &mesh, &mat, 1, &env, NULL, 0};
     MfRenderOpts o = {spp, ps, 1, MF_LOBE_ALL};
-    MfMat4 m = mf_mat4_look_at(mf_v3(0.0f, -1.6f, 1.0f), mf_v3(0, 0, 0), mf_v3(0, 0, 1));
+    MfMat4 m = mf_mat4_look_at(mf_v3(0.0f, -1.15f, 0.75f), mf_v3(0, 0, 0), mf_v3(0, 0, 1));
     double c2w[16];
     for (int i = 0; i < 16; ++i) c2w[i] = m.m[i];
     MfCamera cam;
