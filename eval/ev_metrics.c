@@ -200,29 +200,30 @@ int ev_ssim_map(const MfImage *a, const MfImage *b, float *map) {
     return MF_OK;
 }
 
-int ev_ssim(const MfImage *a, const MfImage *b, const MfImage *mask, double *out) {
-    int rc = check_pair(a, b, mask, "ssim");
-    if (rc) return rc;
-    size_t n = (size_t)a->w * a->h;
-    double *m = malloc(sizeof(double) * n);
-    if (!m) return mf_fail(MF_ENOMEM, "ssim: out of memory");
-    if ((rc = ssim_map_d(a, b, m))) {
-        free(m);
-        return rc;
-    }
+/* Mean of the SSIM map over the cropped interior (inside the mask when given). */
+static int ssim_mean(const double *m, int w, int h, const MfImage *mask, double *out) {
     int pad = (EV_SSIM_WIN - 1) / 2;
     double sum = 0.0;
     size_t cnt = 0;
-    for (int y = pad; y < a->h - pad; y++)
-        for (int x = pad; x < a->w - pad; x++) {
+    for (int y = pad; y < h - pad; y++)
+        for (int x = pad; x < w - pad; x++) {
             if (mask && !ev_mask_inside(mask, x, y)) continue;
-            sum += m[(size_t)y * a->w + x];
+            sum += m[(size_t)y * w + x];
             cnt++;
         }
-    free(m);
     if (cnt == 0)
         return mf_fail(MF_EARG, "ssim: the mask has no pixel with coverage > 0.5 inside the %d-pixel border crop", pad);
     return finite_out(sum / (double)cnt, "ssim", out);
+}
+
+int ev_ssim(const MfImage *a, const MfImage *b, const MfImage *mask, double *out) {
+    int rc = check_pair(a, b, mask, "ssim");
+    if (rc) return rc;
+    double *m = malloc(sizeof(double) * (size_t)a->w * a->h);
+    if (!m) return mf_fail(MF_ENOMEM, "ssim: out of memory");
+    if (!(rc = ssim_map_d(a, b, m))) rc = ssim_mean(m, a->w, a->h, mask, out);
+    free(m);
+    return rc;
 }
 
 /* ---------------------------------------------------------------- LDR-FLIP */
@@ -429,27 +430,28 @@ int ev_flip_map(const MfImage *ref, const MfImage *test, double ppd, float *map)
     return MF_OK;
 }
 
+/* Mean of the FLIP map (inside the mask when given). */
+static int flip_mean(const float *map, int w, int h, const MfImage *mask, double *out) {
+    double sum = 0.0;
+    size_t cnt = 0;
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            if (mask && !ev_mask_inside(mask, x, y)) continue;
+            sum += map[(size_t)y * w + x];
+            cnt++;
+        }
+    if (cnt == 0) return mf_fail(MF_EARG, "flip: the mask is empty (no pixel with coverage > 0.5)");
+    return finite_out(sum / (double)cnt, "flip", out);
+}
+
 int ev_flip(const MfImage *ref, const MfImage *test, const MfImage *mask, double ppd, double *out) {
     int rc = check_pair(ref, test, mask, "flip");
     if (rc) return rc;
-    size_t n = (size_t)ref->w * ref->h;
-    float *map = malloc(sizeof(float) * n);
+    float *map = malloc(sizeof(float) * (size_t)ref->w * ref->h);
     if (!map) return mf_fail(MF_ENOMEM, "flip: out of memory");
-    if ((rc = ev_flip_map(ref, test, ppd, map))) {
-        free(map);
-        return rc;
-    }
-    double sum = 0.0;
-    size_t cnt = 0;
-    for (int y = 0; y < ref->h; y++)
-        for (int x = 0; x < ref->w; x++) {
-            if (mask && !ev_mask_inside(mask, x, y)) continue;
-            sum += map[(size_t)y * ref->w + x];
-            cnt++;
-        }
+    if (!(rc = ev_flip_map(ref, test, ppd, map))) rc = flip_mean(map, ref->w, ref->h, mask, out);
     free(map);
-    if (cnt == 0) return mf_fail(MF_EARG, "flip: the mask is empty (no pixel with coverage > 0.5)");
-    return finite_out(sum / (double)cnt, "flip", out);
+    return rc;
 }
 
 /* ---------------------------------------------------------------- all at once */
@@ -457,16 +459,26 @@ int ev_flip(const MfImage *ref, const MfImage *test, const MfImage *mask, double
 int ev_metrics_compute(const MfImage *pred, const MfImage *gt, const MfImage *mask, EvMetrics *out) {
     EvMetrics m;
     memset(&m, 0, sizeof m);
-    int rc;
-    if ((rc = ev_psnr(pred, gt, NULL, &m.psnr)) || (rc = ev_ssim(pred, gt, NULL, &m.ssim)) ||
-        (rc = ev_l1(pred, gt, NULL, &m.l1)) || (rc = ev_flip(gt, pred, NULL, 0.0, &m.flip)))
+    int rc = check_pair(pred, gt, mask, "metrics");
+    if (rc) return rc;
+    if ((rc = ev_psnr(pred, gt, NULL, &m.psnr)) || (rc = ev_l1(pred, gt, NULL, &m.l1))) return rc;
+    if (mask && ((rc = ev_psnr(pred, gt, mask, &m.psnr_masked)) || (rc = ev_l1(pred, gt, mask, &m.l1_masked))))
         return rc;
-    if (mask) {
-        if ((rc = ev_psnr(pred, gt, mask, &m.psnr_masked)) || (rc = ev_ssim(pred, gt, mask, &m.ssim_masked)) ||
-            (rc = ev_l1(pred, gt, mask, &m.l1_masked)) || (rc = ev_flip(gt, pred, mask, 0.0, &m.flip_masked)))
-            return rc;
-        m.has_mask = 1;
+    /* SSIM and FLIP maps once each, averaged with and without the mask */
+    size_t n = (size_t)gt->w * gt->h;
+    double *smap = malloc(sizeof(double) * n);
+    float *fmap = malloc(sizeof(float) * n);
+    if (!smap || !fmap) {
+        free(smap), free(fmap);
+        return mf_fail(MF_ENOMEM, "metrics: out of memory");
     }
+    if (!(rc = ssim_map_d(pred, gt, smap)) && !(rc = ssim_mean(smap, gt->w, gt->h, NULL, &m.ssim)) &&
+        !(rc = ev_flip_map(gt, pred, 0.0, fmap)) && !(rc = flip_mean(fmap, gt->w, gt->h, NULL, &m.flip)) && mask &&
+        !(rc = ssim_mean(smap, gt->w, gt->h, mask, &m.ssim_masked)))
+        rc = flip_mean(fmap, gt->w, gt->h, mask, &m.flip_masked);
+    free(smap), free(fmap);
+    if (rc) return rc;
+    m.has_mask = mask != NULL;
     *out = m;
     return MF_OK;
 }

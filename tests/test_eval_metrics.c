@@ -15,6 +15,7 @@
 #include "eval/ev_align.h"
 #include "eval/ev_metrics.h"
 #include "io/mf_image.h"
+#include "io/mf_image_oiio.h"
 #include "mf_test.h"
 
 /* ---------------------------------------------------------------- fixtures */
@@ -448,6 +449,32 @@ MF_TEST(eval_flip_properties) {
     mf_image_free(&e), mf_image_free(&two);
 }
 
+/* ev_metrics_compute agrees with the single metrics (it shares the SSIM and FLIP maps). */
+MF_TEST(eval_metrics_compute_matches_parts) {
+    MfImage gt = img_gradient(26, 21, 3, 0.2f, 70), pred = img_perturb(&gt, 0.15f, 71);
+    MfImage mask = img_const(26, 21, 1, 0.0f);
+    for (int y = 4; y < 18; y++)
+        for (int x = 6; x < 22; x++) mf_image_px(&mask, x, y)[0] = 1.0f;
+    EvMetrics m;
+    double v;
+    CHECK_OK(ev_metrics_compute(&pred, &gt, &mask, &m));
+    CHECK(m.has_mask == 1);
+    CHECK_OK(ev_psnr(&pred, &gt, NULL, &v)); CHECK(v == m.psnr);
+    CHECK_OK(ev_ssim(&pred, &gt, NULL, &v)); CHECK(v == m.ssim);
+    CHECK_OK(ev_l1(&pred, &gt, NULL, &v)); CHECK(v == m.l1);
+    CHECK_OK(ev_flip(&gt, &pred, NULL, 0, &v)); CHECK(v == m.flip);
+    CHECK_OK(ev_psnr(&pred, &gt, &mask, &v)); CHECK(v == m.psnr_masked);
+    CHECK_OK(ev_ssim(&pred, &gt, &mask, &v)); CHECK(v == m.ssim_masked);
+    CHECK_OK(ev_l1(&pred, &gt, &mask, &v)); CHECK(v == m.l1_masked);
+    CHECK_OK(ev_flip(&gt, &pred, &mask, 0, &v)); CHECK(v == m.flip_masked);
+    CHECK(m.psnr_masked != m.psnr && m.flip_masked != m.flip);
+    CHECK_OK(ev_metrics_compute(&pred, &gt, NULL, &m));
+    CHECK(m.has_mask == 0 && m.psnr_masked == 0.0);
+    MfImage e = img_const(26, 21, 1, 0.0f);
+    CHECK_ERR(ev_metrics_compute(&pred, &gt, &e, &m), "mask is empty");
+    mf_image_free(&gt), mf_image_free(&pred), mf_image_free(&mask), mf_image_free(&e);
+}
+
 /* ---------------------------------------------------------------- alignment */
 
 MF_TEST(eval_align_recovers_scaled_gt) {
@@ -646,6 +673,16 @@ MF_TEST(eval_cli_metrics) {
     CHECK(run_mf(args, out, sizeof out) == 2);
     snprintf(args, sizeof args, "'%s'", pp);
     CHECK(run_mf(args, out, sizeof out) == 2);
+    /* a NaN pixel in a file (written through the OIIO shim, since mf_image_write refuses NaN) */
+    char pn[1024], err[256];
+    snprintf(pn, sizeof pn, "%s", mf_test_path("cli_nan.exr"));
+    MfImage nanimg = img_const(32, 28, 4, 0.5f);
+    nanimg.data[4 * (3 * 32 + 5) + 1] = NAN;
+    CHECK(mf_oiio_write(pn, 32, 28, 4, nanimg.data, 32, err, sizeof err) == 0);
+    snprintf(args, sizeof args, "'%s' '%s'", pn, pg);
+    CHECK(run_mf(args, out, sizeof out) == 1);
+    CHECK_MSG(strstr(out, "cli_nan.exr") && strstr(out, "NaN"), "%s", out);
+    mf_image_free(&nanimg);
     snprintf(args, sizeof args, "'%s' '%s'", pp, mf_test_path("missing.exr"));
     CHECK(run_mf(args, out, sizeof out) == 1);
     CHECK_MSG(strstr(out, "missing.exr"), "%s", out);
