@@ -119,3 +119,40 @@ int ev_protocol_prepare(const MfImage *pred_lin, const MfImage *gt_lin, const Mf
     if (degenerate) *degenerate = flags;
     return MF_OK;
 }
+
+int ev_protocol_prepare_orm(const MfImage *pred_orm, const MfImage *gt_orm, const MfImage *mask, MfImage *pred_out,
+                            MfImage *gt_out) {
+    int rc = check_inputs(pred_orm, gt_orm, mask);
+    if (rc) return rc;
+    if (gt_orm->c < 3) return mf_fail(MF_EARG, "ORM images need 3 or 4 channels, got %d", gt_orm->c);
+    int w = gt_orm->w, h = gt_orm->h;
+    if (mask) {
+        size_t inside = 0;
+        for (int y = 0; y < h; y++)
+            for (int x = 0; x < w; x++) inside += ev_mask_inside(mask, x, y);
+        if (inside == 0) return mf_fail(MF_EARG, "mask is empty (no pixel with coverage > 0.5)");
+    }
+    MfImage po = {0}, go = {0};
+    if ((rc = mf_image_alloc(&po, w, h, 2)) || (rc = mf_image_alloc(&go, w, h, 2))) {
+        mf_image_free(&po);
+        return rc;
+    }
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            float m = 1.0f;
+            if (mask) {
+                m = ev_mask_coverage(mask, x, y);
+                m = m < 0.0f ? 0.0f : (m > 1.0f ? 1.0f : m);
+            }
+            const float *p = mf_image_px(pred_orm, x, y), *g = mf_image_px(gt_orm, x, y);
+            float *pd = mf_image_px(&po, x, y), *gd = mf_image_px(&go, x, y);
+            for (int k = 0; k < 2; k++) {
+                float pv = p[k + 1], gv = g[k + 1];
+                pd[k] = (pv < 0.0f ? 0.0f : (pv > 1.0f ? 1.0f : pv)) * m;
+                gd[k] = (gv < 0.0f ? 0.0f : (gv > 1.0f ? 1.0f : gv)) * m;
+            }
+        }
+    *pred_out = po;
+    *gt_out = go;
+    return MF_OK;
+}

@@ -43,4 +43,10 @@ int ev_align_scales(const MfImage *pred, const MfImage *gt, const MfImage *mask,
 int ev_protocol_prepare(const MfImage *pred_lin, const MfImage *gt_lin, const MfImage *mask, EvAlign mode,
                         MfImage *pred_out, MfImage *gt_out, float *scale, unsigned *degenerate);
 
+/* ORM protocol (DESIGN.md: ORM is linear, metrics use G roughness and B metallic only): takes
+ * channels 1 and 2 of linear ORM images (c >= 3), no alignment and no sRGB curve, clips to
+ * [0, 1] and composites on black with the mask. Outputs (w, h, 2). */
+int ev_protocol_prepare_orm(const MfImage *pred_orm, const MfImage *gt_orm, const MfImage *mask, MfImage *pred_out,
+                            MfImage *gt_out);
+
 #endif

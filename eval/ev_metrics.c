@@ -472,9 +472,11 @@ int ev_metrics_compute(const MfImage *pred, const MfImage *gt, const MfImage *ma
         free(smap), free(fmap);
         return mf_fail(MF_ENOMEM, "metrics: out of memory");
     }
-    if (!(rc = ssim_map_d(pred, gt, smap)) && !(rc = ssim_mean(smap, gt->w, gt->h, NULL, &m.ssim)) &&
-        !(rc = ev_flip_map(gt, pred, 0.0, fmap)) && !(rc = flip_mean(fmap, gt->w, gt->h, NULL, &m.flip)) && mask &&
-        !(rc = ssim_mean(smap, gt->w, gt->h, mask, &m.ssim_masked)))
+    m.has_flip = gt->c == 1 || gt->c == 3;
+    if (!(rc = ssim_map_d(pred, gt, smap)) && !(rc = ssim_mean(smap, gt->w, gt->h, NULL, &m.ssim)) && mask)
+        rc = ssim_mean(smap, gt->w, gt->h, mask, &m.ssim_masked);
+    if (!rc && m.has_flip && !(rc = ev_flip_map(gt, pred, 0.0, fmap)) &&
+        !(rc = flip_mean(fmap, gt->w, gt->h, NULL, &m.flip)) && mask)
         rc = flip_mean(fmap, gt->w, gt->h, mask, &m.flip_masked);
     free(smap), free(fmap);
     if (rc) return rc;

@@ -56,11 +56,13 @@ int ev_flip(const MfImage *ref, const MfImage *test, const MfImage *mask, double
 /* Per-pixel LDR-FLIP error, map (h, w), values in [0, 1]. */
 int ev_flip_map(const MfImage *ref, const MfImage *test, double ppd, float *map);
 
-/* All metrics at once; the *_masked fields are computed only when mask != NULL (else 0). */
+/* All metrics at once; the *_masked fields are computed only when mask != NULL (else 0); FLIP
+ * only for 1 or 3 channels (has_flip; e.g. not for ORM's G, B pair). */
 typedef struct {
     double psnr, ssim, l1, flip;
     double psnr_masked, ssim_masked, l1_masked, flip_masked;
     int has_mask;
+    int has_flip;
 } EvMetrics;
 
 /* pred is the image under test, gt the reference (FLIP's reference). */

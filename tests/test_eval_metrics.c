@@ -584,6 +584,30 @@ MF_TEST(eval_protocol_srgb_clip) {
     mf_image_free(&po), mf_image_free(&go), mf_image_free(&gt), mf_image_free(&pred), mf_image_free(&m);
 }
 
+/* ORM protocol: G and B only, linear, no alignment; R is ignored. */
+MF_TEST(eval_protocol_orm) {
+    MfImage gt = img_gradient(16, 14, 4, 0.1f, 80), pred = img_perturb(&gt, 0.2f, 81), m = img_const(16, 14, 1, 1.0f);
+    for (size_t i = 0; i < (size_t)16 * 14; i++) pred.data[i * 4] = 0.0f, gt.data[i * 4] = 1.0f; /* R differs */
+    MfImage po = {0}, go = {0};
+    CHECK_OK(ev_protocol_prepare_orm(&pred, &gt, &m, &po, &go));
+    CHECK(po.c == 2 && go.c == 2);
+    double maxd = 0;
+    for (size_t i = 0; i < (size_t)16 * 14; i++)
+        for (int k = 0; k < 2; k++) maxd = fmax(maxd, fabs(go.data[i * 2 + k] - gt.data[i * 4 + k + 1]));
+    CHECK(maxd == 0.0);
+    EvMetrics r;
+    CHECK_OK(ev_metrics_compute(&po, &go, &m, &r));
+    CHECK(r.has_flip == 0 && r.has_mask == 1);
+    double v;
+    CHECK_OK(ev_l1(&po, &go, NULL, &v));
+    CHECK(v == r.l1 && v > 0.0);
+    mf_image_free(&po), mf_image_free(&go);
+    MfImage e = img_const(16, 14, 1, 0.0f), two = img_const(16, 14, 2, 0.5f);
+    CHECK_ERR(ev_protocol_prepare_orm(&pred, &gt, &e, &po, &go), "mask is empty");
+    CHECK_ERR(ev_protocol_prepare_orm(&two, &two, NULL, &po, &go), "3 or 4 channels");
+    mf_image_free(&gt), mf_image_free(&pred), mf_image_free(&m), mf_image_free(&e), mf_image_free(&two);
+}
+
 /* ---------------------------------------------------------------- the mf metrics command */
 
 /* Runs `$MF_BIN metrics args`, captures stdout+stderr into out; returns the exit code or -1. */
@@ -662,6 +686,18 @@ MF_TEST(eval_cli_metrics) {
     CHECK(run_mf(args, out, sizeof out) == 0);
     CHECK(isnan(find_value(out, "psnr_masked")));
     CHECK(find_value(out, "psnr") < m.psnr);
+    /* --orm: G, B only, no flip line */
+    snprintf(args, sizeof args, "'%s' '%s' --orm --mask '%s'", pp, pg, pm);
+    CHECK(run_mf(args, out, sizeof out) == 0);
+    MfImage oo = {0}, og = {0};
+    CHECK_OK(ev_protocol_prepare_orm(&pred, &gt, &mask, &oo, &og));
+    CHECK_OK(ev_metrics_compute(&oo, &og, &mask, &m));
+    CHECK_NEAR(find_value(out, "psnr"), m.psnr, 1e-5);
+    CHECK_NEAR(find_value(out, "l1_masked"), m.l1_masked, 1e-5);
+    CHECK(isnan(find_value(out, "flip")) && isnan(find_value(out, "flip_masked")));
+    mf_image_free(&oo), mf_image_free(&og);
+    snprintf(args, sizeof args, "'%s' '%s' --orm --align mean", pp, pg);
+    CHECK(run_mf(args, out, sizeof out) == 2);
     /* errors: sizes (naming both files), empty mask, usage */
     snprintf(args, sizeof args, "'%s' '%s'", pp, ps);
     CHECK(run_mf(args, out, sizeof out) == 1);

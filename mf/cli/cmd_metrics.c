@@ -10,7 +10,7 @@
 #include "io/mf_image.h"
 
 static const char usage[] =
-    "usage: mf metrics PRED GT [--mask M|alpha] [--align none|mean|lsq] [--linear]\n"
+    "usage: mf metrics PRED GT [--mask M|alpha] [--align none|mean|lsq] [--linear] [--orm]\n"
     "\n"
     "Scores the prediction PRED against the ground truth GT with the evaluation protocol:\n"
     "per-channel scale alignment in linear space inside the mask (default mean: ratio of means;\n"
@@ -24,6 +24,8 @@ static const char usage[] =
     "                the word 'alpha' uses GT's alpha channel\n"
     "  --align MODE  none | mean | lsq (default mean)\n"
     "  --linear      PNG/JPEG inputs hold linear values (default: sRGB colour). EXR/HDR are linear.\n"
+    "  --orm         ORM images (linear, glTF order): scores roughness G and metallic B only, no\n"
+    "                alignment, no sRGB curve (clip, composite); prints psnr, ssim, l1 (no flip)\n"
     "Alpha channels of PRED and GT are dropped before scoring. Exit code 1 on bad images (sizes\n"
     "differ, NaN pixels, empty mask), 2 on bad usage.\n";
 
@@ -40,13 +42,16 @@ static int color_only(const MfImage *src, MfImage *dst) {
 
 static int cmd_metrics(int argc, char **argv) {
     const char *pos[2] = {NULL, NULL}, *mask_path = NULL, *align_s = "mean";
-    int npos = 0, linear = 0;
+    int npos = 0, linear = 0, orm = 0, align_given = 0;
     for (int i = 1; i < argc; i++) {
         int r;
         if ((r = mf_opt_str(argc, argv, &i, "--mask", &mask_path)) != 0) {
             if (r < 0) return MF_EXIT_USAGE;
         } else if ((r = mf_opt_str(argc, argv, &i, "--align", &align_s)) != 0) {
             if (r < 0) return MF_EXIT_USAGE;
+            align_given = 1;
+        } else if (!strcmp(argv[i], "--orm")) {
+            orm = 1;
         } else if (!strcmp(argv[i], "--linear")) {
             linear = 1;
         } else if (argv[i][0] == '-' && argv[i][1] != '\0') {
@@ -65,8 +70,12 @@ static int cmd_metrics(int argc, char **argv) {
     }
     EvAlign mode;
     if (ev_align_parse(align_s, &mode)) return MF_EXIT_USAGE;
+    if (orm && align_given) {
+        mf_fail(MF_EARG, "--orm scores ORM without alignment; drop --align");
+        return MF_EXIT_USAGE;
+    }
     const char *pred_path = pos[0], *gt_path = pos[1];
-    MfEncoding enc = linear ? MF_ENC_LINEAR : MF_ENC_SRGB;
+    MfEncoding enc = (linear || orm) ? MF_ENC_LINEAR : MF_ENC_SRGB;
 
     MfImage pred = {0}, gt = {0}, mask = {0}, pc = {0}, gc = {0}, po = {0}, go = {0};
     const MfImage *maskp = NULL;
@@ -98,10 +107,16 @@ static int cmd_metrics(int argc, char **argv) {
         }
         maskp = &mask;
     }
-    if (color_only(&pred, &pc) || color_only(&gt, &gc)) goto done;
     float scale[4] = {1, 1, 1, 1};
     unsigned degenerate = 0;
-    if ((rc = ev_protocol_prepare(&pc, &gc, maskp, mode, &po, &go, scale, &degenerate))) {
+    if (orm) {
+        if ((rc = ev_protocol_prepare_orm(&pred, &gt, maskp, &po, &go))) {
+            mf_fail_prefix(rc, "%s vs %s%s%s", pred_path, gt_path, maskp ? " with mask " : "", maskp ? mask_path : "");
+            goto done;
+        }
+    } else if (color_only(&pred, &pc) || color_only(&gt, &gc)) {
+        goto done;
+    } else if ((rc = ev_protocol_prepare(&pc, &gc, maskp, mode, &po, &go, scale, &degenerate))) {
         mf_fail_prefix(rc, "%s vs %s%s%s", pred_path, gt_path, maskp ? " with mask " : "", maskp ? mask_path : "");
         goto done;
     }
@@ -110,15 +125,17 @@ static int cmd_metrics(int argc, char **argv) {
                     pred_path, degenerate);
     mf_log_debug("mf metrics: align %s scales %g %g %g", ev_align_name(mode), scale[0], scale[1], scale[2]);
     EvMetrics m;
-    /* FLIP needs 1 or 3 channels; ev_color_channels gives 1 or 3 for 1..4-channel files. */
+    /* FLIP needs 1 or 3 channels: ev_color_channels gives that for colour files; ORM (2) has none. */
     if ((rc = ev_metrics_compute(&po, &go, maskp, &m))) {
         mf_fail_prefix(rc, "%s vs %s", pred_path, gt_path);
         goto done;
     }
-    printf("psnr %.6f\nssim %.6f\nl1 %.6f\nflip %.6f\n", m.psnr, m.ssim, m.l1, m.flip);
-    if (m.has_mask)
-        printf("psnr_masked %.6f\nssim_masked %.6f\nl1_masked %.6f\nflip_masked %.6f\n", m.psnr_masked,
-               m.ssim_masked, m.l1_masked, m.flip_masked);
+    printf("psnr %.6f\nssim %.6f\nl1 %.6f\n", m.psnr, m.ssim, m.l1);
+    if (m.has_flip) printf("flip %.6f\n", m.flip);
+    if (m.has_mask) {
+        printf("psnr_masked %.6f\nssim_masked %.6f\nl1_masked %.6f\n", m.psnr_masked, m.ssim_masked, m.l1_masked);
+        if (m.has_flip) printf("flip_masked %.6f\n", m.flip_masked);
+    }
     ret = MF_EXIT_OK;
 done:
     mf_image_free(&pred);
