@@ -36,7 +36,7 @@ kd.save(os.path.join(D, "kd.png")); orm.save(os.path.join(D, "orm.png"))
 frames = []
 for k in range(4):
     a = 2 * math.pi * k / 4 + 0.3
-    eye = (2.2 * math.cos(a), 2.2 * math.sin(a), 1.2)
+    eye = (1.3 * math.cos(a), 1.3 * math.sin(a), 0.8)
     z = [e / math.sqrt(sum(q * q for q in eye)) for e in eye]
     x = [-z[1], z[0], 0.0]; n = math.sqrt(x[0] ** 2 + x[1] ** 2); x = [q / n for q in x]
     y = [z[1] * x[2] - z[2] * x[1], z[2] * x[0] - z[0] * x[2], z[0] * x[1] - z[1] * x[0]]
