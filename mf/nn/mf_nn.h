@@ -1,0 +1,219 @@
+/* mf_nn: a small CPU neural-network engine (float32, NCHW), in the style of llm.c.
+ *
+ * Tensors are plain float pointers plus sizes; every array carries its shape in a comment.
+ * Layout is NCHW for images: (B, C, H, W), row-major, W fastest. Token tensors are (B, T, C).
+ * Layers come as x_forward / x_backward pairs:
+ *   - forward WRITES its output (=) and whatever it caches for backward;
+ *   - backward ACCUMULATES (+=) into every gradient it produces (input and weights), so callers
+ *     zero gradient buffers once per step. A gradient pointer may be NULL to skip it where noted.
+ * Parameters of a model live in ONE allocation: a model lists its tensors (MfTensorSpec, name and
+ * shape, in a fixed order) and binds a struct of float pointers into a flat buffer with
+ * mf_params_bind (the gradient buffer is bound to a second struct of the same type).
+ * Matrix products go through OpenBLAS cblas_sgemm (its own pthreads); element-wise loops use
+ * OpenMP. Everything is deterministic for a fixed thread count (no atomics, fixed reduction
+ * order; OpenBLAS's sgemm itself is deterministic for fixed sizes and threads).
+ * Scratch buffers are passed in by the caller; sizes come from the *_floats() helpers. */
+#ifndef MF_NN_H
+#define MF_NN_H
+
+#include <stddef.h>
+
+/* ---- parameter tables ---------------------------------------------------------------- */
+
+#define MF_NN_NAME_MAX 64
+#define MF_NN_MAXDIM 4
+
+/* One named parameter tensor: name (e.g. "down.0.res.conv1.w") and shape. */
+typedef struct {
+    char name[MF_NN_NAME_MAX];
+    int ndim;
+    int shape[MF_NN_MAXDIM];
+} MfTensorSpec;
+
+/* Number of floats of one tensor / of a whole table. */
+size_t mf_tensor_numel(const MfTensorSpec *s);
+size_t mf_specs_numel(const MfTensorSpec *specs, int n);
+/* Fills spec with name (prefix + "." + leaf, or leaf when prefix is "" or NULL) and shape. */
+void mf_spec_set(MfTensorSpec *spec, const char *prefix, const char *leaf, int ndim, const int *shape);
+/* Points slots[i] (n pointers, e.g. the fields of a struct of float*) at consecutive tensors of
+ * mem in table order; mem holds mf_specs_numel(specs, n) floats (borrowed). */
+void mf_params_bind(float **slots, const MfTensorSpec *specs, int n, float *mem);
+
+/* ---- initialisation ------------------------------------------------------------------- */
+
+/* Fills w (n floats) with uniform(-bound, bound), deterministic in seed (PCG32). */
+void mf_nn_init_uniform(float *w, size_t n, float bound, unsigned long long seed);
+
+/* ---- conv2d (im2col + sgemm) ---------------------------------------------------------- */
+
+/* K x K convolution, pad = K/2 (so 3x3 pad 1, 1x1 pad 0), stride 1 or 2.
+ * Output size Ho = (H + 2*pad - K)/stride + 1 (H/2 for even H with 3x3 stride 2). */
+int mf_conv2d_out_size(int H, int K, int stride);
+/* Scratch floats for im2col of ONE batch item: Cin*K*K*Ho*Wo (0 for 1x1 stride 1). */
+size_t mf_conv2d_col_floats(int Cin, int H, int W, int K, int stride);
+/* out (B, Cout, Ho, Wo) = conv(in (B, Cin, H, W), w (Cout, Cin, K, K)) + bias (Cout, may be NULL).
+ * col: scratch of mf_conv2d_col_floats floats (may be NULL when that is 0). */
+void mf_conv2d_forward(float *out, float *col, const float *in, const float *w, const float *bias,
+                       int B, int Cin, int H, int W, int Cout, int K, int stride);
+/* din (B, Cin, H, W) += ..., dw (Cout, Cin, K, K) += ..., dbias (Cout) += ...; din and dbias may
+ * be NULL. dout (B, Cout, Ho, Wo); col: same scratch as forward (im2col is recomputed). */
+void mf_conv2d_backward(float *din, float *dw, float *dbias, float *col, const float *dout,
+                        const float *in, const float *w, int B, int Cin, int H, int W, int Cout, int K,
+                        int stride);
+
+/* ---- nearest upsample x2 ---------------------------------------------------------------- */
+
+/* out (B, C, 2H, 2W) from in (B, C, H, W). */
+void mf_upsample2x_forward(float *out, const float *in, int B, int C, int H, int W);
+/* din (B, C, H, W) += sum of the 2x2 block of dout (B, C, 2H, 2W). */
+void mf_upsample2x_backward(float *din, const float *dout, int B, int C, int H, int W);
+
+/* ---- group norm (affine) ---------------------------------------------------------------- */
+
+/* out (B, C, HW) = (in - mean_g) * rstd_g * gamma[c] + beta[c], statistics over each group of
+ * C/G channels x HW pixels (population variance, + eps). Caches mean, rstd (B, G). C % G == 0. */
+void mf_groupnorm_forward(float *out, float *mean, float *rstd, const float *in, const float *gamma,
+                          const float *beta, int B, int C, int HW, int G, float eps);
+/* din (B, C, HW) += ..., dgamma (C) += ..., dbeta (C) += ... */
+void mf_groupnorm_backward(float *din, float *dgamma, float *dbeta, const float *dout,
+                           const float *in, const float *mean, const float *rstd,
+                           const float *gamma, int B, int C, int HW, int G);
+
+/* ---- SiLU ------------------------------------------------------------------------------- */
+
+/* out (n) = in * sigmoid(in); out may alias in. */
+void mf_silu_forward(float *out, const float *in, size_t n);
+/* din (n) += dout * silu'(in) (in is the forward INPUT). */
+void mf_silu_backward(float *din, const float *dout, const float *in, size_t n);
+
+/* ---- linear ----------------------------------------------------------------------------- */
+
+/* out (N, OC) = in (N, IC) . w^T + bias; w (OC, IC) (PyTorch layout), bias (OC) or NULL. */
+void mf_linear_forward(float *out, const float *in, const float *w, const float *bias, int N, int IC,
+                       int OC);
+/* din (N, IC) += dout . w, dw (OC, IC) += dout^T . in, dbias (OC) += column sums; din and
+ * dbias may be NULL. */
+void mf_linear_backward(float *din, float *dw, float *dbias, const float *dout, const float *in,
+                        const float *w, int N, int IC, int OC);
+
+/* ---- token layout ----------------------------------------------------------------------- */
+
+/* out (B, HW, C) = transpose of in (B, C, HW), and its backward din (B, C, HW) += dout^T. */
+void mf_nchw_to_tokens_forward(float *out, const float *in, int B, int C, int HW);
+void mf_nchw_to_tokens_backward(float *din, const float *dout, int B, int C, int HW);
+/* out (B, C, HW) = transpose of in (B, HW, C), and its backward. */
+void mf_tokens_to_nchw_forward(float *out, const float *in, int B, int C, int HW);
+void mf_tokens_to_nchw_backward(float *din, const float *dout, int B, int C, int HW);
+
+/* ---- multi-head self-attention (core; projections are mf_linear layers) --------------- */
+
+/* qkv (B, T, 3C): per token [q (C) | k (C) | v (C)], head h uses channels h*C/NH .. (h+1)*C/NH
+ * of each. out (B, T, C) = softmax(q k^T / sqrt(C/NH)) v per head (no mask).
+ * att (B, NH, T, T) caches the softmax probabilities. C % NH == 0. */
+void mf_attention_forward(float *out, float *att, const float *qkv, int B, int T, int C, int NH);
+/* dqkv (B, T, 3C) += ...; scratch holds T*T floats. */
+void mf_attention_backward(float *dqkv, float *scratch, const float *dout, const float *att,
+                           const float *qkv, int B, int T, int C, int NH);
+
+/* Multi-view attention over spatial tokens (StableMaterialMV). The batch holds BV = B*V images,
+ * V consecutive views per object, each with HW tokens: qkv (BV, HW, 3C), out (BV, HW, C).
+ * joint = 0: every image attends within itself (T = HW, BV batches).
+ * joint = 1: the V views of an object attend jointly: (BV, HW, C) is viewed as (B, V*HW, C),
+ * which is the same memory, so tokens of all V views form one sequence. BV % V == 0.
+ * att: mf_mv_attention_att_floats floats; scratch: (T*T) with T = joint ? V*HW : HW. */
+size_t mf_mv_attention_att_floats(int BV, int V, int HW, int NH, int joint);
+void mf_mv_attention_forward(float *out, float *att, const float *qkv, int BV, int V, int HW, int C,
+                             int NH, int joint);
+void mf_mv_attention_backward(float *dqkv, float *scratch, const float *dout, const float *att,
+                              const float *qkv, int BV, int V, int HW, int C, int NH, int joint);
+
+/* ---- timestep embedding (forward only) --------------------------------------------------- */
+
+/* out (B, dim) = [cos(t*f_0..f_{half-1}) | sin(t*f_0..)] with f_i = exp(-ln(max_period)*i/half),
+ * half = dim/2 (Stable Diffusion's flip_sin_to_cos=True, shift 0); t (B) in timesteps.
+ * dim must be even. max_period is usually 10000. */
+void mf_timestep_embedding(float *out, const float *t, int B, int dim, float max_period);
+
+/* ---- MSE ---------------------------------------------------------------------------------- */
+
+/* mean((pred - target)^2) over n elements (accumulated in double). */
+float mf_mse_forward(const float *pred, const float *target, size_t n);
+/* dpred (n) += dloss * 2 (pred - target) / n. */
+void mf_mse_backward(float *dpred, const float *pred, const float *target, size_t n, float dloss);
+
+/* ---- residual block ------------------------------------------------------------------------ */
+
+/* x (B, Cin, H, W), temb (B, Ct):
+ *   h  = conv1(SiLU(GN1(x)))  + (temb_w . SiLU(temb) + temb_b)[b, c]   (broadcast over H, W)
+ *   out = conv2(SiLU(GN2(h))) + skip(x)        skip = 1x1 conv when Cin != Cout, else identity.
+ * conv1, conv2: 3x3 pad 1 stride 1. GN: G groups, eps. Ct = 0 disables the time embedding. */
+typedef struct {
+    int B, Cin, Cout, H, W, Ct, G;
+    float eps;
+} MfResBlockDims;
+
+#define MF_RESBLOCK_NPARAMS 12
+/* Parameter pointers (into one flat buffer, bound in this field order by mf_params_bind). */
+typedef struct {
+    float *gn1_w, *gn1_b;     // (Cin), (Cin)
+    float *conv1_w, *conv1_b; // (Cout, Cin, 3, 3), (Cout)
+    float *temb_w, *temb_b;   // (Cout, Ct), (Cout)      absent (NULL) when Ct == 0
+    float *gn2_w, *gn2_b;     // (Cout), (Cout)
+    float *conv2_w, *conv2_b; // (Cout, Cout, 3, 3), (Cout)
+    float *skip_w, *skip_b;   // (Cout, Cin, 1, 1), (Cout) absent (NULL) when Cin == Cout
+} MfResBlockW;
+
+/* Activations and backward scratch (one flat buffer, bound by mf_resblock_acts_bind). */
+typedef struct {
+    float *h1;           // (B, Cin, H, W)  GN1(x)
+    float *mean1, *rstd1; // (B, G)
+    float *a1;           // (B, Cin, H, W)  SiLU(h1)
+    float *tsilu;        // (B, Ct)         SiLU(temb)
+    float *tproj;        // (B, Cout)       projection of SiLU(temb)
+    float *c1;           // (B, Cout, H, W) conv1(a1) + tproj
+    float *h2;           // (B, Cout, H, W) GN2(c1)
+    float *mean2, *rstd2; // (B, G)
+    float *a2;           // (B, Cout, H, W) SiLU(h2)
+    float *col;          // im2col scratch, max(Cin, Cout)*9*H*W
+    float *gA, *gB;      // (B, max(Cin, Cout), H, W) backward scratch
+    float *gt;           // (B, Cout + Ct) backward scratch
+} MfResBlockActs;
+
+/* Writes the block's tensor specs (names prefix.gn1.w, ...) in MfResBlockW field order, absent
+ * tensors skipped; returns how many (<= MF_RESBLOCK_NPARAMS). */
+int mf_resblock_specs(MfTensorSpec *specs, const char *prefix, const MfResBlockDims *d);
+/* Binds w's present fields to consecutive tensors of mem (mf_specs_numel of the specs); absent
+ * fields are set to NULL. Call once for the parameters and once for the gradients. */
+void mf_resblock_bind(MfResBlockW *w, const MfResBlockDims *d, float *mem);
+size_t mf_resblock_acts_floats(const MfResBlockDims *d);
+void mf_resblock_acts_bind(MfResBlockActs *a, const MfResBlockDims *d, float *mem);
+/* Default initialisation (PyTorch-like uniform(+-1/sqrt(fan_in)) weights, GN gamma 1, beta 0). */
+void mf_resblock_init(MfResBlockW *w, const MfResBlockDims *d, unsigned long long seed);
+/* out (B, Cout, H, W); temb (B, Ct) or NULL when Ct == 0. */
+void mf_resblock_forward(float *out, MfResBlockActs *a, const float *x, const float *temb,
+                         const MfResBlockW *w, const MfResBlockDims *d);
+/* dx (B, Cin, H, W) +=, dtemb (B, Ct) += (may be NULL), g (gradients) +=. */
+void mf_resblock_backward(float *dx, float *dtemb, MfResBlockW *g, MfResBlockActs *a,
+                          const float *dout, const float *x, const float *temb, const MfResBlockW *w,
+                          const MfResBlockDims *d);
+
+/* ---- AdamW ---------------------------------------------------------------------------------- */
+
+/* AdamW (Loshchilov & Hutter) over a flat parameter buffer: with bias-corrected moments
+ *   p -= lr * (m_hat / (sqrt(v_hat) + eps) + weight_decay * p)      (decoupled decay).
+ * Decay applies to every element; run two optimisers over ranges to exempt some. */
+typedef struct {
+    float lr, beta1, beta2, eps, weight_decay;
+    long long t;  /* steps taken */
+    size_t n;
+    float *m;     // (n) owned, first moment
+    float *v;     // (n) owned, second moment
+} MfAdamW;
+
+int mf_adamw_init(MfAdamW *opt, size_t n, float lr, float beta1, float beta2, float eps,
+                  float weight_decay);
+/* One step: params (n) updated from grads (n). lr may be changed between steps (schedules). */
+void mf_adamw_step(MfAdamW *opt, float *params, const float *grads);
+void mf_adamw_free(MfAdamW *opt);
+
+#endif
