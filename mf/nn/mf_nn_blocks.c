@@ -197,7 +197,6 @@ void mf_adamw_step(MfAdamW *opt, float *params, const float *grads) {
     float c1 = 1.0f - (float)pow(b1, (double)opt->t), c2 = 1.0f - (float)pow(b2, (double)opt->t);
     float *m = opt->m, *v = opt->v;
     size_t n = opt->n;
-#pragma omp parallel for schedule(static)
     for (size_t i = 0; i < n; ++i) {
         float gi = grads[i];
         float mi = b1 * m[i] + (1.0f - b1) * gi;

@@ -59,7 +59,6 @@ size_t mf_conv2d_col_floats(int Cin, int H, int W, int K, int stride) {
 static void im2col(float *col, const float *in, int Cin, int H, int W, int K, int stride, int Ho,
                    int Wo) {
     int pad = K / 2;
-#pragma omp parallel for schedule(static)
     for (int r = 0; r < Cin * K * K; ++r) {
         int c = r / (K * K), ki = (r / K) % K, kj = r % K;
         const float *src = in + (size_t)c * H * W;
@@ -91,7 +90,6 @@ static void im2col(float *col, const float *in, int Cin, int H, int W, int K, in
 static void col2im_add(float *din, const float *col, int Cin, int H, int W, int K, int stride, int Ho,
                        int Wo) {
     int pad = K / 2;
-#pragma omp parallel for schedule(static)
     for (int c = 0; c < Cin; ++c) {
         float *dst = din + (size_t)c * H * W;
         for (int ki = 0; ki < K; ++ki)
@@ -180,7 +178,6 @@ void mf_conv2d_backward(float *din, float *dw, float *dbias, float *col, const f
 
 void mf_upsample2x_forward(float *out, const float *in, int B, int C, int H, int W) {
     int W2 = 2 * W;
-#pragma omp parallel for schedule(static)
     for (int bc = 0; bc < B * C; ++bc) {
         const float *s = in + (size_t)bc * H * W;
         float *d = out + (size_t)bc * 4 * H * W;
@@ -196,7 +193,6 @@ void mf_upsample2x_forward(float *out, const float *in, int B, int C, int H, int
 
 void mf_upsample2x_backward(float *din, const float *dout, int B, int C, int H, int W) {
     int W2 = 2 * W;
-#pragma omp parallel for schedule(static)
     for (int bc = 0; bc < B * C; ++bc) {
         float *d = din + (size_t)bc * H * W;
         const float *s = dout + (size_t)bc * 4 * H * W;
@@ -214,7 +210,6 @@ void mf_groupnorm_forward(float *out, float *mean, float *rstd, const float *in,
                           const float *beta, int B, int C, int HW, int G, float eps) {
     int cpg = C / G;
     size_t n = (size_t)cpg * HW;
-#pragma omp parallel for schedule(static)
     for (int bg = 0; bg < B * G; ++bg) {
         int b = bg / G, g = bg % G;
         size_t off = ((size_t)b * C + (size_t)g * cpg) * HW;
@@ -245,7 +240,6 @@ void mf_groupnorm_backward(float *din, float *dgamma, float *dbeta, const float 
     int cpg = C / G;
     size_t n = (size_t)cpg * HW;
     /* parallel over groups: each owns its channels of dgamma/dbeta; batch items in order */
-#pragma omp parallel for schedule(static)
     for (int g = 0; g < G; ++g) {
         for (int b = 0; b < B; ++b) {
             int bg = b * G + g;
@@ -286,7 +280,6 @@ void mf_groupnorm_backward(float *din, float *dgamma, float *dbeta, const float 
 /* ---- SiLU ------------------------------------------------------------------------------------ */
 
 void mf_silu_forward(float *out, const float *in, size_t n) {
-#pragma omp parallel for schedule(static)
     for (size_t i = 0; i < n; ++i) {
         float x = in[i];
         out[i] = x / (1.0f + expf(-x));
@@ -294,7 +287,6 @@ void mf_silu_forward(float *out, const float *in, size_t n) {
 }
 
 void mf_silu_backward(float *din, const float *dout, const float *in, size_t n) {
-#pragma omp parallel for schedule(static)
     for (size_t i = 0; i < n; ++i) {
         float x = in[i], s = 1.0f / (1.0f + expf(-x));
         din[i] += dout[i] * s * (1.0f + x * (1.0f - s));
@@ -329,7 +321,6 @@ void mf_linear_backward(float *din, float *dw, float *dbias, const float *dout, 
 
 /* dst (B, R, S) (op)= transpose of src (B, S, R) */
 static void transpose_batched(float *dst, const float *src, int B, int S, int R, int accumulate) {
-#pragma omp parallel for schedule(static)
     for (int b = 0; b < B; ++b) {
         const float *s = src + (size_t)b * S * R;
         float *d = dst + (size_t)b * S * R;
@@ -369,7 +360,6 @@ void mf_attention_forward(float *out, float *att, const float *qkv, int B, int T
             /* P (T, T) = scale * q (T, hs) . k^T (hs, T) */
             cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, T, T, hs, scale, q, C3, k, C3, 0.0f, P,
                         T);
-#pragma omp parallel for schedule(static)
             for (int i = 0; i < T; ++i) {
                 float *row = P + (size_t)i * T, mx = row[0];
                 for (int j = 1; j < T; ++j) mx = row[j] > mx ? row[j] : mx;
@@ -404,7 +394,6 @@ void mf_attention_backward(float *dqkv, float *scratch, const float *dout, const
             /* dP (T, T) = dO (T, hs) . v^T (hs, T) */
             cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, T, T, hs, 1.0f, dO, C, v, C3, 0.0f, dP, T);
             /* softmax backward: dS = P * (dP - sum_j P dP), times the scale */
-#pragma omp parallel for schedule(static)
             for (int i = 0; i < T; ++i) {
                 const float *pr = P + (size_t)i * T;
                 float *dr = dP + (size_t)i * T;
