@@ -59,6 +59,7 @@ static void gradcheck(const char *what, LossFn f, void *ctx, float *x, const flo
         if (err > lim && bad++ < 3)
             mf_test_fail_at(__FILE__, __LINE__, "%s[%zu]: numeric %.6g analytic %.6g", what, i, num, (double)g[i]);
     }
+    if (getenv("NN_GC_VERBOSE")) fprintf(stderr, "  %-40s worst err/bound %.3f\n", what, worst);
     CHECK_MSG(bad == 0, "%s: %d elements out of bound (worst err/bound %.3g)", what, bad, worst);
 }
 
@@ -457,6 +458,88 @@ MF_TEST(nn_resblock_grad) {
     rb_case(4, 2, 0); /* no time embedding */
 }
 
+/* ---- attention block -------------------------------------------------------------------------- */
+
+typedef struct {
+    MfAttnBlockDims d;
+    MfAttnBlockW w;
+    MfAttnBlockActs a;
+    float *x, *out, *r;
+} AbCtx;
+
+static double ab_loss(void *p) {
+    AbCtx *c = p;
+    mf_attnblock_forward(c->out, &c->a, c->x, &c->w, &c->d);
+    return dotd(c->out, c->r, (size_t)c->d.BV * c->d.C * c->d.H * c->d.W);
+}
+
+static void ab_setup(AbCtx *c, float **pm, float **gm, float **am, MfAttnBlockW *g) {
+    MfTensorSpec specs[MF_ATTNBLOCK_NPARAMS];
+    mf_attnblock_specs(specs, "attn", &c->d);
+    size_t np = mf_specs_numel(specs, MF_ATTNBLOCK_NPARAMS);
+    *pm = fal(np), *gm = fal(np), *am = fal(mf_attnblock_acts_floats(&c->d));
+    mf_attnblock_bind(&c->w, &c->d, *pm);
+    mf_attnblock_bind(g, &c->d, *gm);
+    mf_attnblock_acts_bind(&c->a, &c->d, *am);
+    mf_attnblock_init(&c->w, &c->d, 3);
+    fill(c->w.gn_w, (size_t)c->d.C, 0.7f, 1.3f, 60);
+    fill(c->w.gn_b, (size_t)c->d.C, -0.3f, 0.3f, 61);
+    size_t n = (size_t)c->d.BV * c->d.C * c->d.H * c->d.W;
+    c->x = fal(n), c->out = fal(n), c->r = fal(n);
+    fill(c->x, n, -1, 1, 62);
+    fill(c->r, n, -1, 1, 63);
+}
+
+MF_TEST(nn_attnblock_grad) {
+    for (int joint = 0; joint <= 1; ++joint) {
+        AbCtx c = {.d = {.BV = 4, .C = 4, .H = 2, .W = 3, .G = 2, .NH = 2, .V = 2, .joint = joint, .eps = 1e-5f}};
+        float *pm, *gm, *am;
+        MfAttnBlockW g;
+        ab_setup(&c, &pm, &gm, &am, &g);
+        size_t n = (size_t)4 * 4 * 6;
+        float *dx = fal(n);
+        ab_loss(&c);
+        mf_attnblock_backward(dx, &g, &c.a, c.r, c.x, &c.w, &c.d);
+        char what[160];
+        snprintf(what, sizeof what, "attnblock(joint=%d) dx", joint);
+        gradcheck(what, ab_loss, &c, c.x, dx, n, 60);
+        MfTensorSpec specs[MF_ATTNBLOCK_NPARAMS];
+        mf_attnblock_specs(specs, "attn", &c.d);
+        size_t off = 0;
+        for (int i = 0; i < MF_ATTNBLOCK_NPARAMS; ++i) {
+            size_t k = mf_tensor_numel(&specs[i]);
+            snprintf(what, sizeof what, "attnblock(joint=%d) d%.63s", joint, specs[i].name);
+            gradcheck(what, ab_loss, &c, pm + off, gm + off, k, 25);
+            off += k;
+        }
+        free(pm), free(gm), free(am), free(c.x), free(c.out), free(c.r), free(dx);
+    }
+}
+
+MF_TEST(nn_attnblock_views_interact_only_when_joint) {
+    for (int joint = 0; joint <= 1; ++joint) {
+        AbCtx c = {.d = {.BV = 2, .C = 4, .H = 2, .W = 2, .G = 2, .NH = 2, .V = 2, .joint = joint, .eps = 1e-5f}};
+        float *pm, *gm, *am;
+        MfAttnBlockW g;
+        ab_setup(&c, &pm, &gm, &am, &g);
+        size_t per = (size_t)4 * 4; /* one view: C * HW */
+        float *o0 = fal(2 * per);
+        ab_loss(&c);
+        memcpy(o0, c.out, 2 * per * sizeof(float));
+        c.x[per + 3] += 0.5f; /* change view 1 only */
+        ab_loss(&c);
+        double d0 = 0, d1 = 0;
+        for (size_t i = 0; i < per; ++i) d0 = fmax(d0, fabs(c.out[i] - o0[i]));
+        for (size_t i = per; i < 2 * per; ++i) d1 = fmax(d1, fabs(c.out[i] - o0[i]));
+        CHECK(d1 > 1e-3);
+        if (joint)
+            CHECK_MSG(d0 > 1e-4, "joint: view 0 does not see view 1 (%g)", d0);
+        else
+            CHECK_MSG(d0 == 0.0, "per-view: view 0 changed with view 1 (%g)", d0);
+        free(pm), free(gm), free(am), free(c.x), free(c.out), free(c.r), free(o0);
+    }
+}
+
 /* ---- AdamW ------------------------------------------------------------------------------------ */
 
 MF_TEST(nn_adamw_fits_regression) {
@@ -591,4 +674,23 @@ MF_TEST(nn_checkpoint_roundtrip_and_refusals) {
     CHECK_ERR(mf_ckpt_load(p2, s, 3, back, NULL), "checksum");
     for (size_t i = 0; i < n; ++i) CHECK(back[i] == 0.0f);
     free(raw), free(cp), free(data), free(back);
+}
+
+/* ---- mf bench-nn (CLI smoke test: tiny sizes, checks the report is written; no timing asserts) */
+
+MF_TEST(nn_bench_cli_writes_report) {
+    const char *bin = getenv("MF_BIN");
+    if (!bin) MF_SKIP("MF_BIN not set (run through make test)");
+    const char *out = mf_test_path("bench_nn.md");
+    char cmd[8192];
+    snprintf(cmd, sizeof cmd, "'%s' bench-nn --batch 1 --channels 4 --size 8 --gemm 32 --reps 1 -o '%s' > /dev/null",
+             bin, out);
+    CHECK(system(cmd) == 0);
+    char *md = NULL;
+    size_t len = 0;
+    CHECK_OK(mf_read_file(out, &md, &len));
+    CHECK(md && strstr(md, "conv2d / sgemm ratio") && strstr(md, "B=1 C=4->4 8x8"));
+    free(md);
+    snprintf(cmd, sizeof cmd, "'%s' bench-nn --size 0 2> /dev/null", bin);
+    CHECK(system(cmd) != 0);
 }

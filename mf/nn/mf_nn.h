@@ -200,6 +200,50 @@ void mf_resblock_backward(float *dx, float *dtemb, MfResBlockW *g, MfResBlockAct
                           const float *dout, const float *x, const float *temb, const MfResBlockW *w,
                           const MfResBlockDims *d);
 
+/* ---- spatial self-attention block -------------------------------------------------------- */
+
+/* x (BV, C, H, W), BV = B*V images (V consecutive views per object):
+ *   h = GN(x); tokens (BV, HW, C); qkv = h . Wqkv^T + bqkv; y = MV-attention(qkv) (joint across
+ *   the V views when joint = 1, see mf_mv_attention_forward); out = x + NCHW(y . Wproj^T + bproj). */
+typedef struct {
+    int BV, C, H, W, G, NH, V, joint;
+    float eps;
+} MfAttnBlockDims;
+
+#define MF_ATTNBLOCK_NPARAMS 6
+typedef struct {
+    float *gn_w, *gn_b;     // (C), (C)
+    float *qkv_w, *qkv_b;   // (3C, C), (3C)
+    float *proj_w, *proj_b; // (C, C), (C)
+} MfAttnBlockW;
+
+typedef struct {
+    float *h;           // (BV, C, HW) GN(x)
+    float *mean, *rstd; // (BV, G)
+    float *tok;         // (BV, HW, C)
+    float *qkv;         // (BV, HW, 3C)
+    float *att;         // mf_mv_attention_att_floats(BV, V, HW, NH, joint)
+    float *y;           // (BV, HW, C) attention output
+    float *z;           // (BV, HW, C) projection output
+    float *scratch;     // (T, T), T = joint ? V*HW : HW
+    float *g1, *g2;     // (BV, HW, C) backward scratch
+    float *gqkv;        // (BV, HW, 3C) backward scratch
+} MfAttnBlockActs;
+
+int mf_attnblock_specs(MfTensorSpec *specs, const char *prefix, const MfAttnBlockDims *d);
+void mf_attnblock_bind(MfAttnBlockW *w, const MfAttnBlockDims *d, float *mem);
+size_t mf_attnblock_acts_floats(const MfAttnBlockDims *d);
+void mf_attnblock_acts_bind(MfAttnBlockActs *a, const MfAttnBlockDims *d, float *mem);
+/* GN gamma 1, beta 0; linear weights uniform(+-1/sqrt(C)); proj initialised like the others
+ * (zero it for an identity block at the start of training if wanted). */
+void mf_attnblock_init(MfAttnBlockW *w, const MfAttnBlockDims *d, unsigned long long seed);
+/* out (BV, C, H, W) */
+void mf_attnblock_forward(float *out, MfAttnBlockActs *a, const float *x, const MfAttnBlockW *w,
+                          const MfAttnBlockDims *d);
+/* dx (BV, C, H, W) +=, g +=. */
+void mf_attnblock_backward(float *dx, MfAttnBlockW *g, MfAttnBlockActs *a, const float *dout,
+                           const float *x, const MfAttnBlockW *w, const MfAttnBlockDims *d);
+
 /* ---- AdamW ---------------------------------------------------------------------------------- */
 
 /* AdamW (Loshchilov & Hutter) over a flat parameter buffer: with bias-corrected moments

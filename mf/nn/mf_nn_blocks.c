@@ -169,6 +169,98 @@ void mf_resblock_backward(float *dx, float *dtemb, MfResBlockW *g, MfResBlockAct
     mf_groupnorm_backward(dx, g->gn1_w, g->gn1_b, a->gA, x, a->mean1, a->rstd1, w->gn1_w, B, Ci, HW, d->G);
 }
 
+/* ---- spatial self-attention block ---------------------------------------------------------- */
+
+int mf_attnblock_specs(MfTensorSpec *specs, const char *prefix, const MfAttnBlockDims *d) {
+    int c[1] = {d->C}, c3[1] = {3 * d->C}, wq[2] = {3 * d->C, d->C}, wp[2] = {d->C, d->C};
+    mf_spec_set(&specs[0], prefix, "gn.w", 1, c);
+    mf_spec_set(&specs[1], prefix, "gn.b", 1, c);
+    mf_spec_set(&specs[2], prefix, "qkv.w", 2, wq);
+    mf_spec_set(&specs[3], prefix, "qkv.b", 1, c3);
+    mf_spec_set(&specs[4], prefix, "proj.w", 2, wp);
+    mf_spec_set(&specs[5], prefix, "proj.b", 1, c);
+    return MF_ATTNBLOCK_NPARAMS;
+}
+
+void mf_attnblock_bind(MfAttnBlockW *w, const MfAttnBlockDims *d, float *mem) {
+    MfTensorSpec specs[MF_ATTNBLOCK_NPARAMS];
+    mf_attnblock_specs(specs, "", d);
+    float *slots[MF_ATTNBLOCK_NPARAMS];
+    mf_params_bind(slots, specs, MF_ATTNBLOCK_NPARAMS, mem);
+    w->gn_w = slots[0], w->gn_b = slots[1], w->qkv_w = slots[2], w->qkv_b = slots[3];
+    w->proj_w = slots[4], w->proj_b = slots[5];
+}
+
+static size_t attn_T(const MfAttnBlockDims *d) {
+    return d->joint ? (size_t)d->V * d->H * d->W : (size_t)d->H * d->W;
+}
+
+size_t mf_attnblock_acts_floats(const MfAttnBlockDims *d) {
+    size_t n = (size_t)d->BV * d->C * d->H * d->W, T = attn_T(d);
+    return n + 2 * (size_t)d->BV * d->G + n + 3 * n +
+           mf_mv_attention_att_floats(d->BV, d->V, d->H * d->W, d->NH, d->joint) + 2 * n + T * T + 2 * n + 3 * n;
+}
+
+void mf_attnblock_acts_bind(MfAttnBlockActs *a, const MfAttnBlockDims *d, float *mem) {
+    size_t n = (size_t)d->BV * d->C * d->H * d->W, T = attn_T(d);
+    float *p = mem;
+#define TAKE(field, count) (a->field = p, p += (count))
+    TAKE(h, n);
+    TAKE(mean, (size_t)d->BV * d->G);
+    TAKE(rstd, (size_t)d->BV * d->G);
+    TAKE(tok, n);
+    TAKE(qkv, 3 * n);
+    TAKE(att, mf_mv_attention_att_floats(d->BV, d->V, d->H * d->W, d->NH, d->joint));
+    TAKE(y, n);
+    TAKE(z, n);
+    TAKE(scratch, T * T);
+    TAKE(g1, n);
+    TAKE(g2, n);
+    TAKE(gqkv, 3 * n);
+#undef TAKE
+}
+
+void mf_attnblock_init(MfAttnBlockW *w, const MfAttnBlockDims *d, unsigned long long seed) {
+    int C = d->C;
+    float bd = 1.0f / sqrtf((float)C);
+    for (int c = 0; c < C; ++c) w->gn_w[c] = 1.0f, w->gn_b[c] = 0.0f;
+    mf_nn_init_uniform(w->qkv_w, (size_t)3 * C * C, bd, seed * 16 + 1);
+    mf_nn_init_uniform(w->qkv_b, (size_t)3 * C, bd, seed * 16 + 2);
+    mf_nn_init_uniform(w->proj_w, (size_t)C * C, bd, seed * 16 + 3);
+    mf_nn_init_uniform(w->proj_b, (size_t)C, bd, seed * 16 + 4);
+}
+
+void mf_attnblock_forward(float *out, MfAttnBlockActs *a, const float *x, const MfAttnBlockW *w,
+                          const MfAttnBlockDims *d) {
+    int BV = d->BV, C = d->C, HW = d->H * d->W, N = BV * HW;
+    size_t n = (size_t)BV * C * HW;
+    mf_groupnorm_forward(a->h, a->mean, a->rstd, x, w->gn_w, w->gn_b, BV, C, HW, d->G, d->eps);
+    mf_nchw_to_tokens_forward(a->tok, a->h, BV, C, HW);
+    mf_linear_forward(a->qkv, a->tok, w->qkv_w, w->qkv_b, N, C, 3 * C);
+    mf_mv_attention_forward(a->y, a->att, a->qkv, BV, d->V, HW, C, d->NH, d->joint);
+    mf_linear_forward(a->z, a->y, w->proj_w, w->proj_b, N, C, C);
+    mf_tokens_to_nchw_forward(out, a->z, BV, C, HW);
+    for (size_t i = 0; i < n; ++i) out[i] += x[i];
+}
+
+void mf_attnblock_backward(float *dx, MfAttnBlockW *g, MfAttnBlockActs *a, const float *dout,
+                           const float *x, const MfAttnBlockW *w, const MfAttnBlockDims *d) {
+    int BV = d->BV, C = d->C, HW = d->H * d->W, N = BV * HW;
+    size_t n = (size_t)BV * C * HW;
+    for (size_t i = 0; i < n; ++i) dx[i] += dout[i];
+    memset(a->g1, 0, n * sizeof(float)); /* dz (BV, HW, C) */
+    mf_tokens_to_nchw_backward(a->g1, dout, BV, C, HW);
+    memset(a->g2, 0, n * sizeof(float)); /* dy */
+    mf_linear_backward(a->g2, g->proj_w, g->proj_b, a->g1, a->y, w->proj_w, N, C, C);
+    memset(a->gqkv, 0, 3 * n * sizeof(float));
+    mf_mv_attention_backward(a->gqkv, a->scratch, a->g2, a->att, a->qkv, BV, d->V, HW, C, d->NH, d->joint);
+    memset(a->g1, 0, n * sizeof(float)); /* dtok */
+    mf_linear_backward(a->g1, g->qkv_w, g->qkv_b, a->gqkv, a->tok, w->qkv_w, N, C, 3 * C);
+    memset(a->g2, 0, n * sizeof(float)); /* dh (BV, C, HW) */
+    mf_nchw_to_tokens_backward(a->g2, a->g1, BV, C, HW);
+    mf_groupnorm_backward(dx, g->gn_w, g->gn_b, a->g2, x, a->mean, a->rstd, w->gn_w, BV, C, HW, d->G);
+}
+
 /* ---- AdamW ---------------------------------------------------------------------------------- */
 
 int mf_adamw_init(MfAdamW *opt, size_t n, float lr, float beta1, float beta2, float eps,
