@@ -17,20 +17,20 @@
     "usage: mf bench-nn [-o out.md] [--batch B] [--channels C] [--size S] [--gemm N] [--reps R]\n" \
     "  Measures OpenBLAS sgemm GFLOP/s (N x N x N, default 1024) and conv2d 3x3 stride 1\n" \
     "  forward+backward GFLOP/s on a (B, C, S, S) -> (B, C, S, S) layer (default 8, 64, 32),\n" \
-    "  best of R repetitions (default 5), and writes a markdown table to -o (atomically).\n"
+    "  best of R interleaved rounds (default 10), and writes a markdown table to -o (atomically).\n"
 
-/* Best wall time of reps runs of fn (after one warm-up run). */
+/* Best wall times of reps rounds; each round times every function once, in turn, so the load of a
+ * shared machine affects them alike. One warm-up run of each first. */
 typedef void (*BenchFn)(void *ctx);
-static double best_time(BenchFn fn, void *ctx, int reps) {
-    fn(ctx);
-    double best = 1e30;
-    for (int r = 0; r < reps; ++r) {
-        double t0 = mf_now();
-        fn(ctx);
-        double dt = mf_now() - t0;
-        if (dt < best) best = dt;
-    }
-    return best;
+static void best_times(int nfn, BenchFn *fns, void **ctxs, int reps, double *best) {
+    for (int f = 0; f < nfn; ++f) fns[f](ctxs[f]), best[f] = 1e30;
+    for (int r = 0; r < reps; ++r)
+        for (int f = 0; f < nfn; ++f) {
+            double t0 = mf_now();
+            fns[f](ctxs[f]);
+            double dt = mf_now() - t0;
+            if (dt < best[f]) best[f] = dt;
+        }
 }
 
 typedef struct {
@@ -62,20 +62,17 @@ static float *alloc_fill(size_t n, float v) {
     return p;
 }
 
-static int gemm_gflops(int M, int N, int K, int reps, double *gflops) {
-    GemmCtx g = {M, N, K, alloc_fill((size_t)M * K, 1), alloc_fill((size_t)K * N, 1), alloc_fill((size_t)M * N, 0)};
-    int rc = MF_OK;
-    if (!g.a || !g.b || !g.c)
-        rc = mf_fail(MF_ENOMEM, "bench-nn: out of memory");
-    else
-        *gflops = 2.0 * M * N * K / best_time(run_gemm, &g, reps) * 1e-9;
-    free(g.a), free(g.b), free(g.c);
-    return rc;
+static int gemm_alloc(GemmCtx *g, int M, int N, int K) {
+    g->M = M, g->N = N, g->K = K;
+    g->a = alloc_fill((size_t)M * K, 1), g->b = alloc_fill((size_t)K * N, 1), g->c = alloc_fill((size_t)M * N, 0);
+    return g->a && g->b && g->c;
 }
+
+static void gemm_free(GemmCtx *g) { free(g->a), free(g->b), free(g->c); }
 
 static int cmd_bench_nn(int argc, char **argv) {
     const char *out = NULL;
-    int B = 8, C = 64, S = 32, NG = 1024, reps = 5;
+    int B = 8, C = 64, S = 32, NG = 1024, reps = 10;
     for (int i = 1; i < argc; ++i) {
         int r;
         if ((r = mf_opt_str(argc, argv, &i, "-o", &out)) || (r = mf_opt_int(argc, argv, &i, "--batch", &B)) ||
@@ -92,38 +89,44 @@ static int cmd_bench_nn(int argc, char **argv) {
         return MF_EXIT_USAGE;
     }
     int blas_threads = openblas_get_num_threads(), omp_threads = omp_get_max_threads();
-    double g_sq = 0, g_shape = 0;
     int P = S * S, CKK = C * 9;
-    if (gemm_gflops(NG, NG, NG, reps, &g_sq) || gemm_gflops(C, P, CKK, reps, &g_shape)) return MF_EXIT_FAIL;
-
+    GemmCtx gsq = {0}, gsh = {0};
     ConvCtx c = {.B = B, .C = C, .S = S};
     size_t nact = (size_t)B * C * P, nw = (size_t)C * CKK;
     c.in = alloc_fill(nact, 1), c.out = alloc_fill(nact, 0), c.din = alloc_fill(nact, 0), c.dout = alloc_fill(nact, 0.01f);
     c.w = alloc_fill(nw, 0.05f), c.dw = alloc_fill(nw, 0), c.bias = alloc_fill((size_t)C, 0.1f), c.db = alloc_fill((size_t)C, 0);
     c.col = alloc_fill(mf_conv2d_col_floats(C, S, S, 3, 1), 0);
     int rc = MF_EXIT_OK;
-    if (!c.in || !c.out || !c.din || !c.dout || !c.w || !c.dw || !c.bias || !c.db || !c.col) {
+    int ok_g = gemm_alloc(&gsq, NG, NG, NG) & gemm_alloc(&gsh, C, P, CKK);
+    if (!ok_g || !c.in || !c.out || !c.din || !c.dout || !c.w || !c.dw || !c.bias || !c.db || !c.col) {
         mf_fail(MF_ENOMEM, "bench-nn: out of memory");
         rc = MF_EXIT_FAIL;
     } else {
-        double t = best_time(run_conv, &c, reps);
+        BenchFn fns[3] = {run_gemm, run_gemm, run_conv};
+        void *ctxs[3] = {&gsq, &gsh, &c};
+        double best[3];
+        best_times(3, fns, ctxs, reps, best);
+        double g_sq = 2.0 * NG * NG * (double)NG / best[0] * 1e-9;
+        double g_shape = 2.0 * C * (double)P * CKK / best[1] * 1e-9;
+        double t = best[2];
         double flops = 3.0 * 2.0 * B * C * (double)P * CKK; /* forward, dW, dX */
         double g_conv = flops / t * 1e-9;
         double ratio = g_conv / g_sq;
         char md[4096];
         snprintf(md, sizeof md,
                  "# mf bench-nn\n\n"
-                 "OpenBLAS threads %d, OpenMP threads %d; best of %d runs after one warm-up.\n\n"
+                 "OpenBLAS threads %d, OpenMP threads %d; best of %d interleaved rounds after one warm-up.\n\n"
                  "| measurement | shape | GFLOP/s |\n|---|---|---|\n"
                  "| sgemm (reference) | %d x %d x %d | %.1f |\n"
                  "| sgemm at the conv's GEMM shape | M=%d N=%d K=%d | %.1f |\n"
-                 "| conv2d 3x3 s1 forward+backward | B=%d C=%d->%d %dx%d (%.3f s) | %.1f |\n\n"
-                 "conv2d / sgemm ratio: **%.2f** (target >= 0.4)\n",
+                 "| conv2d 3x3 s1 forward+backward | B=%d C=%d->%d %dx%d (%.4f s) | %.1f |\n\n"
+                 "conv2d / sgemm ratio: **%.2f** (target >= 0.4); conv2d / sgemm at its own GEMM shape: %.2f\n",
                  blas_threads, omp_threads, reps, NG, NG, NG, g_sq, C, P, CKK, g_shape, B, C, C, S, S, t,
-                 g_conv, ratio);
+                 g_conv, ratio, g_conv / g_shape);
         printf("%s", md);
         if (out && (mf_mkdirs_for(out) || mf_write_file(out, md, strlen(md)))) rc = MF_EXIT_FAIL;
     }
+    gemm_free(&gsq), gemm_free(&gsh);
     free(c.in), free(c.out), free(c.din), free(c.dout), free(c.w), free(c.dw), free(c.bias), free(c.db), free(c.col);
     return rc;
 }

@@ -55,12 +55,22 @@ size_t mf_conv2d_col_floats(int Cin, int H, int W, int K, int stride) {
     return (size_t)Cin * K * K * Ho * Wo;
 }
 
+/* Output columns ox whose input column ox*stride - pad + kj lies inside [0, W): [*lo, *hi). */
+static void valid_cols(int W, int Wo, int pad, int kj, int stride, int *lo, int *hi) {
+    int a = pad - kj, l = a > 0 ? (a + stride - 1) / stride : 0;
+    int h = (W + pad - kj + stride - 1) / stride;
+    *lo = l < Wo ? l : Wo;
+    *hi = h < Wo ? h : Wo;
+    if (*hi < *lo) *hi = *lo;
+}
+
 /* col (Cin*K*K, Ho*Wo) from in (Cin, H, W). */
 static void im2col(float *col, const float *in, int Cin, int H, int W, int K, int stride, int Ho,
                    int Wo) {
     int pad = K / 2;
     for (int r = 0; r < Cin * K * K; ++r) {
-        int c = r / (K * K), ki = (r / K) % K, kj = r % K;
+        int c = r / (K * K), ki = (r / K) % K, kj = r % K, lo, hi;
+        valid_cols(W, Wo, pad, kj, stride, &lo, &hi);
         const float *src = in + (size_t)c * H * W;
         float *dst = col + (size_t)r * Ho * Wo;
         for (int oy = 0; oy < Ho; ++oy) {
@@ -70,23 +80,18 @@ static void im2col(float *col, const float *in, int Cin, int H, int W, int K, in
                 memset(d, 0, sizeof(float) * (size_t)Wo);
                 continue;
             }
-            const float *s = src + (size_t)iy * W;
-            if (stride == 1) {
-                for (int ox = 0; ox < Wo; ++ox) {
-                    int ix = ox - pad + kj;
-                    d[ox] = (ix >= 0 && ix < W) ? s[ix] : 0.0f;
-                }
-            } else {
-                for (int ox = 0; ox < Wo; ++ox) {
-                    int ix = ox * stride - pad + kj;
-                    d[ox] = (ix >= 0 && ix < W) ? s[ix] : 0.0f;
-                }
-            }
+            const float *s = src + (size_t)iy * W - pad + kj; /* s[ox*stride] is column ox's input */
+            for (int ox = 0; ox < lo; ++ox) d[ox] = 0.0f;
+            if (stride == 1)
+                memcpy(d + lo, s + lo, sizeof(float) * (size_t)(hi - lo));
+            else
+                for (int ox = lo; ox < hi; ++ox) d[ox] = s[ox * stride];
+            for (int ox = hi; ox < Wo; ++ox) d[ox] = 0.0f;
         }
     }
 }
 
-/* din (Cin, H, W) += col2im(col (Cin*K*K, Ho*Wo)); parallel over input channels (disjoint). */
+/* din (Cin, H, W) += col2im(col (Cin*K*K, Ho*Wo)). */
 static void col2im_add(float *din, const float *col, int Cin, int H, int W, int K, int stride, int Ho,
                        int Wo) {
     int pad = K / 2;
@@ -94,16 +99,18 @@ static void col2im_add(float *din, const float *col, int Cin, int H, int W, int 
         float *dst = din + (size_t)c * H * W;
         for (int ki = 0; ki < K; ++ki)
             for (int kj = 0; kj < K; ++kj) {
+                int lo, hi;
+                valid_cols(W, Wo, pad, kj, stride, &lo, &hi);
                 const float *src = col + ((size_t)(c * K + ki) * K + kj) * Ho * Wo;
                 for (int oy = 0; oy < Ho; ++oy) {
                     int iy = oy * stride - pad + ki;
                     if (iy < 0 || iy >= H) continue;
-                    float *d = dst + (size_t)iy * W;
+                    float *d = dst + (size_t)iy * W - pad + kj;
                     const float *s = src + (size_t)oy * Wo;
-                    for (int ox = 0; ox < Wo; ++ox) {
-                        int ix = ox * stride - pad + kj;
-                        if (ix >= 0 && ix < W) d[ix] += s[ox];
-                    }
+                    if (stride == 1)
+                        for (int ox = lo; ox < hi; ++ox) d[ox] += s[ox];
+                    else
+                        for (int ox = lo; ox < hi; ++ox) d[ox * stride] += s[ox];
                 }
             }
     }
