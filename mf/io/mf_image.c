@@ -1,0 +1,101 @@
+#include "io/mf_image.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/mf_error.h"
+#include "core/mf_fs.h"
+#include "core/mf_math.h"
+#include "io/mf_image_oiio.h"
+
+int mf_image_alloc(MfImage *img, int w, int h, int c) {
+    if (w <= 0 || h <= 0 || c <= 0 || c > 64) return mf_fail(MF_EARG, "image size %dx%dx%d is invalid", w, h, c);
+    float *d = calloc((size_t)w * h * c, sizeof(float));
+    if (!d) return mf_fail(MF_ENOMEM, "out of memory for a %dx%dx%d image", w, h, c);
+    img->w = w;
+    img->h = h;
+    img->c = c;
+    img->data = d;
+    return MF_OK;
+}
+
+void mf_image_free(MfImage *img) {
+    if (!img) return;
+    free(img->data);
+    memset(img, 0, sizeof *img);
+}
+
+float mf_srgb_to_linear(float s) {
+    return s <= 0.04045f ? s / 12.92f : powf((s + 0.055f) / 1.055f, 2.4f);
+}
+
+float mf_linear_to_srgb(float l) {
+    if (!(l > 0.0f)) return 0.0f * l; /* keeps NaN visible, maps negatives and -0 to 0 */
+    return l <= 0.0031308f ? l * 12.92f : 1.055f * powf(l, 1.0f / 2.4f) - 0.055f;
+}
+
+static int is_alpha(int ch, int c, int alpha_channel) {
+    if (alpha_channel >= 0) return ch == alpha_channel;
+    return (c == 4 && ch == 3) || (c == 2 && ch == 1);
+}
+
+int mf_image_read(const char *path, MfEncoding enc, MfImage *out) {
+    int w, h, c, is_int, ach;
+    float *data = NULL;
+    char err[512];
+    if (!mf_file_exists(path)) return mf_fail(MF_EIO, "%s: no such file", path);
+    if (mf_oiio_read(path, &w, &h, &c, &is_int, &ach, &data, err, sizeof err) != 0)
+        return mf_fail(MF_EFORMAT, "%s: cannot read image: %s", path, err);
+    size_t npx = (size_t)w * h;
+    for (size_t i = 0; i < npx * (size_t)c; ++i)
+        if (!isfinite(data[i])) {
+            size_t px = i / (size_t)c;
+            free(data);
+            return mf_fail(MF_ENAN, "%s: pixel (%zu, %zu) channel %zu is NaN or Inf", path, px % (size_t)w,
+                           px / (size_t)w, i % (size_t)c);
+        }
+    if (is_int && enc == MF_ENC_SRGB)
+        for (size_t i = 0; i < npx; ++i)
+            for (int ch = 0; ch < c; ++ch)
+                if (!is_alpha(ch, c, ach)) data[i * c + ch] = mf_srgb_to_linear(data[i * c + ch]);
+    out->w = w;
+    out->h = h;
+    out->c = c;
+    out->data = data;
+    return MF_OK;
+}
+
+int mf_image_write(const char *path, const MfImage *img, MfEncoding enc, int bits) {
+    char ext[16], tmp[MF_PATH_MAX], err[512];
+    if (!img || !img->data) return mf_fail(MF_EARG, "%s: no image to write", path);
+    mf_path_ext(path, ext, sizeof ext);
+    int is_float = !strcmp(ext, "exr") || !strcmp(ext, "hdr");
+    if (!is_float && strcmp(ext, "png") && strcmp(ext, "jpg") && strcmp(ext, "jpeg") && strcmp(ext, "tif") &&
+        strcmp(ext, "tiff"))
+        return mf_fail(MF_EARG, "%s: unsupported image extension '%s'", path, ext);
+    size_t n = (size_t)img->w * img->h * img->c;
+    const float *src = img->data;
+    float *conv = NULL;
+    for (size_t i = 0; i < n; ++i)
+        if (!isfinite(src[i])) return mf_fail(MF_ENAN, "%s: refusing to write NaN/Inf pixel values", path);
+    if (!is_float) {
+        conv = malloc(n * sizeof(float));
+        if (!conv) return mf_fail(MF_ENOMEM, "%s: out of memory", path);
+        for (size_t i = 0; i < n; ++i) {
+            int ch = (int)(i % (size_t)img->c);
+            float v = src[i];
+            if (enc == MF_ENC_SRGB && !is_alpha(ch, img->c, -1)) v = mf_linear_to_srgb(v);
+            conv[i] = mf_clampf(v, 0.0f, 1.0f);
+        }
+        src = conv;
+    }
+    int rc = mf_tmp_path(path, tmp, sizeof tmp);
+    if (rc == MF_OK && mf_oiio_write(tmp, img->w, img->h, img->c, src, bits, err, sizeof err) != 0) {
+        mf_discard_file(tmp);
+        rc = mf_fail(MF_EIO, "%s: cannot write image: %s", path, err);
+    }
+    free(conv);
+    if (rc) return rc;
+    return mf_commit_file(tmp, path);
+}

@@ -1,0 +1,89 @@
+// C++ shim over OpenImageIO for mf_image.c (see mf_image_oiio.h).
+#include "mf_image_oiio.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+
+using namespace OIIO;
+
+static void set_err(char *err, size_t cap, const std::string &msg) {
+    std::snprintf(err, cap, "%s", msg.empty() ? "unknown OpenImageIO error" : msg.c_str());
+}
+
+extern "C" int mf_oiio_read(const char *path, int *w, int *h, int *c, int *is_int, int *alpha_channel,
+                            float **data, char *err, size_t errcap) {
+    ImageSpec config;
+    config.attribute("oiio:UnassociatedAlpha", 1);
+    auto in = ImageInput::open(path, &config);
+    if (!in) {
+        set_err(err, errcap, OIIO::geterror());
+        return -1;
+    }
+    const ImageSpec &spec = in->spec();
+    if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || spec.depth > 1) {
+        set_err(err, errcap, "unsupported image dimensions");
+        return -1;
+    }
+    size_t n = (size_t)spec.width * spec.height * spec.nchannels;
+    float *buf = (float *)std::malloc(n * sizeof(float));
+    if (!buf) {
+        set_err(err, errcap, "out of memory");
+        return -1;
+    }
+    if (!in->read_image(0, 0, 0, spec.nchannels, TypeDesc::FLOAT, buf)) {
+        std::string e = in->geterror();
+        std::free(buf);
+        set_err(err, errcap, e.empty() ? std::string("cannot decode pixels (truncated or corrupt file?)") : e);
+        return -1;
+    }
+    std::string e = in->geterror();
+    in->close();
+    if (!e.empty()) {
+        std::free(buf);
+        set_err(err, errcap, e);
+        return -1;
+    }
+    *w = spec.width;
+    *h = spec.height;
+    *c = spec.nchannels;
+    TypeDesc::BASETYPE bt = (TypeDesc::BASETYPE)spec.format.basetype;
+    *is_int = !(bt == TypeDesc::HALF || bt == TypeDesc::FLOAT || bt == TypeDesc::DOUBLE);
+    *alpha_channel = spec.alpha_channel;
+    *data = buf;
+    return 0;
+}
+
+extern "C" int mf_oiio_write(const char *path, int w, int h, int c, const float *data, int bits, char *err,
+                             size_t errcap) {
+    auto out = ImageOutput::create(path);
+    if (!out) {
+        set_err(err, errcap, OIIO::geterror());
+        return -1;
+    }
+    std::string fmt = out->format_name();
+    TypeDesc td = TypeDesc::FLOAT;
+    if (fmt == "openexr") td = bits == 32 ? TypeDesc::FLOAT : TypeDesc::HALF;
+    else if (fmt == "hdr") td = TypeDesc::FLOAT;
+    else td = bits == 16 ? TypeDesc::UINT16 : TypeDesc::UINT8;
+    ImageSpec spec(w, h, c, td);
+    if (c == 4) spec.alpha_channel = 3;
+    if (c == 2) spec.alpha_channel = 1;
+    spec.attribute("oiio:UnassociatedAlpha", 1);
+    if (fmt == "openexr") spec.attribute("compression", "zip");
+    if (!out->open(path, spec)) {
+        set_err(err, errcap, out->geterror());
+        return -1;
+    }
+    bool ok = out->write_image(TypeDesc::FLOAT, data);
+    std::string e = out->geterror();
+    ok = out->close() && ok;
+    if (!ok) {
+        set_err(err, errcap, e.empty() ? std::string("write failed") : e);
+        return -1;
+    }
+    return 0;
+}
