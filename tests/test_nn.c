@@ -76,13 +76,13 @@ static double conv_loss(void *p) {
     return dotd(c->out, c->r, (size_t)c->B * c->Co * c->Ho * c->Wo);
 }
 
-static void conv_case(int K, int S, int H, int W) {
-    ConvCtx c = {.B = 2, .Ci = 3, .H = H, .W = W, .Co = 4, .K = K, .S = S};
+static void conv_case(int B, int K, int S, int H, int W) {
+    ConvCtx c = {.B = B, .Ci = 3, .H = H, .W = W, .Co = 4, .K = K, .S = S};
     c.Ho = mf_conv2d_out_size(H, K, S);
     c.Wo = mf_conv2d_out_size(W, K, S);
     size_t nin = (size_t)c.B * c.Ci * H * W, nw = (size_t)c.Co * c.Ci * K * K, nout = (size_t)c.B * c.Co * c.Ho * c.Wo;
     c.in = fal(nin), c.w = fal(nw), c.b = fal(c.Co), c.out = fal(nout), c.r = fal(nout);
-    c.col = fal(mf_conv2d_col_floats(c.Ci, H, W, K, S));
+    c.col = fal(mf_conv2d_col_floats(c.B, c.Ci, H, W, c.Co, K, S));
     fill(c.in, nin, -1, 1, 1);
     fill(c.w, nw, -0.5f, 0.5f, 2);
     fill(c.b, c.Co, -0.5f, 0.5f, 3);
@@ -125,11 +125,22 @@ static void conv_case(int K, int S, int H, int W) {
 }
 
 MF_TEST(nn_conv2d_grad) {
-    conv_case(3, 1, 5, 6);
-    conv_case(3, 2, 6, 6);
-    conv_case(3, 2, 5, 7);
-    conv_case(1, 1, 4, 5);
-    conv_case(1, 2, 6, 4);
+    /* small images, B = 2: grouped path (both items in one GEMM) */
+    conv_case(2, 3, 1, 5, 6);
+    conv_case(2, 3, 2, 6, 6);
+    conv_case(2, 3, 2, 5, 7);
+    conv_case(2, 1, 1, 4, 5);
+    conv_case(2, 1, 2, 6, 4);
+    /* B = 1: one item per GEMM (direct path for 1x1 stride 1) */
+    conv_case(1, 3, 1, 5, 6);
+    conv_case(1, 3, 2, 6, 6);
+    conv_case(1, 1, 1, 4, 5);
+    /* 16x32 = 512 pixels: groups of 2 items, B = 3 leaves a last group of 1 */
+    conv_case(3, 3, 1, 16, 32);
+    conv_case(3, 1, 1, 16, 32);
+    /* 32x32 = 1024 pixels: one item per GEMM with B = 2 */
+    conv_case(2, 3, 1, 32, 32);
+    conv_case(2, 1, 1, 32, 32);
     CHECK(mf_conv2d_out_size(32, 3, 2) == 16);
     CHECK(mf_conv2d_out_size(32, 3, 1) == 32);
     CHECK(mf_conv2d_out_size(32, 1, 2) == 16);

@@ -95,7 +95,7 @@ static int cmd_bench_nn(int argc, char **argv) {
     size_t nact = (size_t)B * C * P, nw = (size_t)C * CKK;
     c.in = alloc_fill(nact, 1), c.out = alloc_fill(nact, 0), c.din = alloc_fill(nact, 0), c.dout = alloc_fill(nact, 0.01f);
     c.w = alloc_fill(nw, 0.05f), c.dw = alloc_fill(nw, 0), c.bias = alloc_fill((size_t)C, 0.1f), c.db = alloc_fill((size_t)C, 0);
-    c.col = alloc_fill(mf_conv2d_col_floats(C, S, S, 3, 1), 0);
+    c.col = alloc_fill(mf_conv2d_col_floats(B, C, S, S, C, 3, 1), 0);
     int rc = MF_EXIT_OK;
     int ok_g = gemm_alloc(&gsq, NG, NG, NG) & gemm_alloc(&gsh, C, P, CKK);
     if (!ok_g || !c.in || !c.out || !c.din || !c.dout || !c.w || !c.dw || !c.bias || !c.db || !c.col) {
@@ -118,9 +118,9 @@ static int cmd_bench_nn(int argc, char **argv) {
                  "OpenBLAS threads %d, OpenMP threads %d; best of %d interleaved rounds after one warm-up.\n\n"
                  "| measurement | shape | GFLOP/s |\n|---|---|---|\n"
                  "| sgemm (reference) | %d x %d x %d | %.1f |\n"
-                 "| sgemm at the conv's GEMM shape | M=%d N=%d K=%d | %.1f |\n"
+                 "| sgemm at one image's GEMM shape | M=%d N=%d K=%d | %.1f |\n"
                  "| conv2d 3x3 s1 forward+backward | B=%d C=%d->%d %dx%d (%.4f s) | %.1f |\n\n"
-                 "conv2d / sgemm ratio: **%.2f** (target >= 0.4); conv2d / sgemm at its own GEMM shape: %.2f\n",
+                 "conv2d / sgemm ratio: **%.2f** (target >= 0.4); conv2d / sgemm at one image's GEMM shape: %.2f\n",
                  blas_threads, omp_threads, reps, NG, NG, NG, g_sq, C, P, CKK, g_shape, B, C, C, S, S, t,
                  g_conv, ratio, g_conv / g_shape);
         printf("%s", md);

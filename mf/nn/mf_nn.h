@@ -52,8 +52,10 @@ void mf_nn_init_uniform(float *w, size_t n, float bound, unsigned long long seed
 /* K x K convolution, pad = K/2 (so 3x3 pad 1, 1x1 pad 0), stride 1 or 2.
  * Output size Ho = (H + 2*pad - K)/stride + 1 (H/2 for even H with 3x3 stride 2). */
 int mf_conv2d_out_size(int H, int K, int stride);
-/* Scratch floats for im2col of ONE batch item: Cin*K*K*Ho*Wo (0 for 1x1 stride 1). */
-size_t mf_conv2d_col_floats(int Cin, int H, int W, int K, int stride);
+/* Scratch floats for the im2col buffer. Images with Ho*Wo < 1024 are processed nb at a time
+ * (nb = min(B, ceil(1024/(Ho*Wo)))) so each GEMM has >= ~1024 columns: scratch is then
+ * (Cin*K*K + Cout)*nb*Ho*Wo; otherwise one item at a time, Cin*K*K*Ho*Wo (0 for 1x1 stride 1). */
+size_t mf_conv2d_col_floats(int B, int Cin, int H, int W, int Cout, int K, int stride);
 /* out (B, Cout, Ho, Wo) = conv(in (B, Cin, H, W), w (Cout, Cin, K, K)) + bias (Cout, may be NULL).
  * col: scratch of mf_conv2d_col_floats floats (may be NULL when that is 0). */
 void mf_conv2d_forward(float *out, float *col, const float *in, const float *w, const float *bias,
@@ -177,7 +179,7 @@ typedef struct {
     float *h2;           // (B, Cout, H, W) GN2(c1)
     float *mean2, *rstd2; // (B, G)
     float *a2;           // (B, Cout, H, W) SiLU(h2)
-    float *col;          // im2col scratch, max(Cin, Cout)*9*H*W
+    float *col;          // conv scratch, max of mf_conv2d_col_floats of conv1, conv2, skip
     float *gA, *gB;      // (B, max(Cin, Cout), H, W) backward scratch
     float *gt;           // (B, Cout + Ct) backward scratch
 } MfResBlockActs;

@@ -47,11 +47,19 @@ void mf_resblock_bind(MfResBlockW *w, const MfResBlockDims *d, float *mem) {
     }
 }
 
+static size_t resblock_col_floats(const MfResBlockDims *d) {
+    size_t a = mf_conv2d_col_floats(d->B, d->Cin, d->H, d->W, d->Cout, 3, 1);
+    size_t b = mf_conv2d_col_floats(d->B, d->Cout, d->H, d->W, d->Cout, 3, 1);
+    size_t c = mf_conv2d_col_floats(d->B, d->Cin, d->H, d->W, d->Cout, 1, 1);
+    size_t m = a > b ? a : b;
+    return m > c ? m : c;
+}
+
 size_t mf_resblock_acts_floats(const MfResBlockDims *d) {
     size_t hw = (size_t)d->H * d->W, B = (size_t)d->B;
     size_t cm = (size_t)(d->Cin > d->Cout ? d->Cin : d->Cout);
     return 2 * B * d->Cin * hw + 4 * B * d->G + B * d->Ct + B * d->Cout + 3 * B * d->Cout * hw +
-           cm * 9 * hw + 2 * B * cm * hw + B * (d->Cout + d->Ct);
+           resblock_col_floats(d) + 2 * B * cm * hw + B * (d->Cout + d->Ct);
 }
 
 void mf_resblock_acts_bind(MfResBlockActs *a, const MfResBlockDims *d, float *mem) {
@@ -70,7 +78,7 @@ void mf_resblock_acts_bind(MfResBlockActs *a, const MfResBlockDims *d, float *me
     TAKE(mean2, B * d->G);
     TAKE(rstd2, B * d->G);
     TAKE(a2, B * d->Cout * hw);
-    TAKE(col, cm * 9 * hw);
+    TAKE(col, resblock_col_floats(d));
     TAKE(gA, B * cm * hw);
     TAKE(gB, B * cm * hw);
     TAKE(gt, B * (d->Cout + d->Ct));
@@ -118,7 +126,7 @@ void mf_resblock_forward(float *out, MfResBlockActs *a, const float *x, const fl
     mf_conv2d_forward(out, a->col, a->a2, w->conv2_w, w->conv2_b, B, Co, H, W, Co, 3, 1);
     if (w->skip_w) {
         /* out += skip(x): 1x1 conv into gA, then add */
-        mf_conv2d_forward(a->gA, NULL, x, w->skip_w, w->skip_b, B, Ci, H, W, Co, 1, 1);
+        mf_conv2d_forward(a->gA, a->col, x, w->skip_w, w->skip_b, B, Ci, H, W, Co, 1, 1);
         for (size_t i = 0; i < nout; ++i) out[i] += a->gA[i];
     } else {
         for (size_t i = 0; i < nout; ++i) out[i] += x[i];
@@ -132,7 +140,7 @@ void mf_resblock_backward(float *dx, float *dtemb, MfResBlockW *g, MfResBlockAct
     size_t nin = (size_t)B * Ci * HW, nout = (size_t)B * Co * HW;
     /* skip path */
     if (w->skip_w)
-        mf_conv2d_backward(dx, g->skip_w, g->skip_b, NULL, dout, x, w->skip_w, B, Ci, H, W, Co, 1, 1);
+        mf_conv2d_backward(dx, g->skip_w, g->skip_b, a->col, dout, x, w->skip_w, B, Ci, H, W, Co, 1, 1);
     else
         for (size_t i = 0; i < nin; ++i) dx[i] += dout[i];
     /* conv2: dA2 -> gA */

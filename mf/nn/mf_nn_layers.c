@@ -49,10 +49,18 @@ void mf_nn_init_uniform(float *w, size_t n, float bound, unsigned long long seed
 
 int mf_conv2d_out_size(int H, int K, int stride) { return (H + 2 * (K / 2) - K) / stride + 1; }
 
-size_t mf_conv2d_col_floats(int Cin, int H, int W, int K, int stride) {
-    if (K == 1 && stride == 1) return 0;
+/* Batch items per GEMM: small images are grouped so the GEMM has N = nb*Ho*Wo >= ~1024 columns. */
+static int conv_chunk(int B, int P) {
+    int nb = P >= 1024 ? 1 : (1024 + P - 1) / P;
+    return nb < B ? nb : B;
+}
+
+size_t mf_conv2d_col_floats(int B, int Cin, int H, int W, int Cout, int K, int stride) {
     int Ho = mf_conv2d_out_size(H, K, stride), Wo = mf_conv2d_out_size(W, K, stride);
-    return (size_t)Cin * K * K * Ho * Wo;
+    size_t P = (size_t)Ho * Wo, CKK = (size_t)Cin * K * K;
+    int nb = conv_chunk(B, (int)P);
+    if (nb == 1) return (K == 1 && stride == 1) ? 0 : CKK * P;
+    return (CKK + (size_t)Cout) * nb * P;
 }
 
 /* Output columns ox whose input column ox*stride - pad + kj lies inside [0, W): [*lo, *hi). */
@@ -64,15 +72,15 @@ static void valid_cols(int W, int Wo, int pad, int kj, int stride, int *lo, int 
     if (*hi < *lo) *hi = *lo;
 }
 
-/* col (Cin*K*K, Ho*Wo) from in (Cin, H, W). */
-static void im2col(float *col, const float *in, int Cin, int H, int W, int K, int stride, int Ho,
-                   int Wo) {
+/* col (Cin*K*K, Ho*Wo; row stride ld) from in (Cin, H, W). */
+static void im2col(float *col, size_t ld, const float *in, int Cin, int H, int W, int K, int stride,
+                   int Ho, int Wo) {
     int pad = K / 2;
     for (int r = 0; r < Cin * K * K; ++r) {
         int c = r / (K * K), ki = (r / K) % K, kj = r % K, lo, hi;
         valid_cols(W, Wo, pad, kj, stride, &lo, &hi);
         const float *src = in + (size_t)c * H * W;
-        float *dst = col + (size_t)r * Ho * Wo;
+        float *dst = col + (size_t)r * ld;
         for (int oy = 0; oy < Ho; ++oy) {
             int iy = oy * stride - pad + ki;
             float *d = dst + (size_t)oy * Wo;
@@ -91,9 +99,9 @@ static void im2col(float *col, const float *in, int Cin, int H, int W, int K, in
     }
 }
 
-/* din (Cin, H, W) += col2im(col (Cin*K*K, Ho*Wo)). */
-static void col2im_add(float *din, const float *col, int Cin, int H, int W, int K, int stride, int Ho,
-                       int Wo) {
+/* din (Cin, H, W) += col2im(col (Cin*K*K, Ho*Wo; row stride ld)). */
+static void col2im_add(float *din, const float *col, size_t ld, int Cin, int H, int W, int K,
+                       int stride, int Ho, int Wo) {
     int pad = K / 2;
     for (int c = 0; c < Cin; ++c) {
         float *dst = din + (size_t)c * H * W;
@@ -101,7 +109,7 @@ static void col2im_add(float *din, const float *col, int Cin, int H, int W, int 
             for (int kj = 0; kj < K; ++kj) {
                 int lo, hi;
                 valid_cols(W, Wo, pad, kj, stride, &lo, &hi);
-                const float *src = col + ((size_t)(c * K + ki) * K + kj) * Ho * Wo;
+                const float *src = col + ((size_t)(c * K + ki) * K + kj) * ld;
                 for (int oy = 0; oy < Ho; ++oy) {
                     int iy = oy * stride - pad + ki;
                     if (iy < 0 || iy >= H) continue;
@@ -116,28 +124,59 @@ static void col2im_add(float *din, const float *col, int Cin, int H, int W, int 
     }
 }
 
+static void add_bias_rows(float *out_b, const float *bias, int Cout, int P) {
+    if (!bias) return;
+    for (int o = 0; o < Cout; ++o) {
+        float bo = bias[o], *row = out_b + (size_t)o * P;
+        for (int p = 0; p < P; ++p) row[p] += bo;
+    }
+}
+
 void mf_conv2d_forward(float *out, float *col, const float *in, const float *w, const float *bias,
                        int B, int Cin, int H, int W, int Cout, int K, int stride) {
     int Ho = mf_conv2d_out_size(H, K, stride), Wo = mf_conv2d_out_size(W, K, stride);
-    int P = Ho * Wo, CKK = Cin * K * K;
-    int direct = (K == 1 && stride == 1);
-    for (int b = 0; b < B; ++b) {
-        const float *in_b = in + (size_t)b * Cin * H * W;
-        float *out_b = out + (size_t)b * Cout * P;
-        const float *colp = in_b;
-        if (!direct) {
-            im2col(col, in_b, Cin, H, W, K, stride, Ho, Wo);
-            colp = col;
-        }
-        /* out_b (Cout, P) = w (Cout, CKK) . col (CKK, P) */
-        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, Cout, P, CKK, 1.0f, w, CKK, colp, P,
-                    0.0f, out_b, P);
-        if (bias) {
-            for (int o = 0; o < Cout; ++o) {
-                float bo = bias[o], *row = out_b + (size_t)o * P;
-                for (int p = 0; p < P; ++p) row[p] += bo;
+    int P = Ho * Wo, CKK = Cin * K * K, nb = conv_chunk(B, P);
+    size_t in_sz = (size_t)Cin * H * W, out_sz = (size_t)Cout * P;
+    if (nb == 1) {
+        int direct = (K == 1 && stride == 1);
+        for (int b = 0; b < B; ++b) {
+            const float *in_b = in + b * in_sz, *colp = in_b;
+            float *out_b = out + b * out_sz;
+            if (!direct) {
+                im2col(col, (size_t)P, in_b, Cin, H, W, K, stride, Ho, Wo);
+                colp = col;
             }
+            /* out_b (Cout, P) = w (Cout, CKK) . col (CKK, P) */
+            cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, Cout, P, CKK, 1.0f, w, CKK, colp, P,
+                        0.0f, out_b, P);
+            add_bias_rows(out_b, bias, Cout, P);
         }
+        return;
+    }
+    /* grouped: col (CKK, n*P) holds n items side by side; tmp (Cout, n*P) is the GEMM result */
+    float *tmp = col + (size_t)CKK * nb * P;
+    for (int b0 = 0; b0 < B; b0 += nb) {
+        int n = B - b0 < nb ? B - b0 : nb, NP = n * P;
+        for (int i = 0; i < n; ++i)
+            im2col(col + (size_t)i * P, (size_t)NP, in + (b0 + i) * in_sz, Cin, H, W, K, stride, Ho, Wo);
+        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, Cout, NP, CKK, 1.0f, w, CKK, col, NP, 0.0f,
+                    tmp, NP);
+        for (int i = 0; i < n; ++i) {
+            float *out_b = out + (b0 + i) * out_sz;
+            for (int o = 0; o < Cout; ++o)
+                memcpy(out_b + (size_t)o * P, tmp + (size_t)o * NP + (size_t)i * P, sizeof(float) * (size_t)P);
+            add_bias_rows(out_b, bias, Cout, P);
+        }
+    }
+}
+
+static void bias_grad_rows(float *dbias, const float *dout_b, int Cout, int P) {
+    if (!dbias) return;
+    for (int o = 0; o < Cout; ++o) {
+        const float *row = dout_b + (size_t)o * P;
+        float s = 0.0f;
+        for (int p = 0; p < P; ++p) s += row[p];
+        dbias[o] += s;
     }
 }
 
@@ -145,39 +184,52 @@ void mf_conv2d_backward(float *din, float *dw, float *dbias, float *col, const f
                         const float *in, const float *w, int B, int Cin, int H, int W, int Cout, int K,
                         int stride) {
     int Ho = mf_conv2d_out_size(H, K, stride), Wo = mf_conv2d_out_size(W, K, stride);
-    int P = Ho * Wo, CKK = Cin * K * K;
-    int direct = (K == 1 && stride == 1);
-    for (int b = 0; b < B; ++b) {
-        const float *in_b = in + (size_t)b * Cin * H * W;
-        const float *dout_b = dout + (size_t)b * Cout * P;
-        const float *colp = in_b;
-        if (!direct) {
-            im2col(col, in_b, Cin, H, W, K, stride, Ho, Wo);
-            colp = col;
-        }
-        /* dw (Cout, CKK) += dout_b (Cout, P) . col^T (P, CKK) */
-        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, Cout, CKK, P, 1.0f, dout_b, P, colp, P,
-                    1.0f, dw, CKK);
-        if (dbias) {
-            for (int o = 0; o < Cout; ++o) {
-                const float *row = dout_b + (size_t)o * P;
-                float s = 0.0f;
-                for (int p = 0; p < P; ++p) s += row[p];
-                dbias[o] += s;
+    int P = Ho * Wo, CKK = Cin * K * K, nb = conv_chunk(B, P);
+    size_t in_sz = (size_t)Cin * H * W, out_sz = (size_t)Cout * P;
+    if (nb == 1) {
+        int direct = (K == 1 && stride == 1);
+        for (int b = 0; b < B; ++b) {
+            const float *in_b = in + b * in_sz, *dout_b = dout + b * out_sz, *colp = in_b;
+            if (!direct) {
+                im2col(col, (size_t)P, in_b, Cin, H, W, K, stride, Ho, Wo);
+                colp = col;
+            }
+            /* dw (Cout, CKK) += dout_b (Cout, P) . col^T (P, CKK) */
+            cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, Cout, CKK, P, 1.0f, dout_b, P, colp, P,
+                        1.0f, dw, CKK);
+            bias_grad_rows(dbias, dout_b, Cout, P);
+            if (!din) continue;
+            float *din_b = din + b * in_sz;
+            if (direct) {
+                /* din_b (Cin, P) += w^T (Cin, Cout) . dout_b (Cout, P) */
+                cblas_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, Cin, P, Cout, 1.0f, w, Cin, dout_b, P,
+                            1.0f, din_b, P);
+            } else {
+                /* dcol (CKK, P) = w^T (CKK, Cout) . dout_b (Cout, P), then scatter-add */
+                cblas_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, CKK, P, Cout, 1.0f, w, CKK, dout_b, P,
+                            0.0f, col, P);
+                col2im_add(din_b, col, (size_t)P, Cin, H, W, K, stride, Ho, Wo);
             }
         }
-        if (!din) continue;
-        float *din_b = din + (size_t)b * Cin * H * W;
-        if (direct) {
-            /* din_b (Cin, P) += w^T (Cin, Cout) . dout_b (Cout, P) */
-            cblas_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, Cin, P, Cout, 1.0f, w, Cin, dout_b, P,
-                        1.0f, din_b, P);
-        } else {
-            /* dcol (CKK, P) = w^T (CKK, Cout) . dout_b (Cout, P), then scatter-add */
-            cblas_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, CKK, P, Cout, 1.0f, w, CKK, dout_b, P,
-                        0.0f, col, P);
-            col2im_add(din_b, col, Cin, H, W, K, stride, Ho, Wo);
+        return;
+    }
+    float *tmp = col + (size_t)CKK * nb * P; /* dout of the group as (Cout, n*P) */
+    for (int b0 = 0; b0 < B; b0 += nb) {
+        int n = B - b0 < nb ? B - b0 : nb, NP = n * P;
+        for (int i = 0; i < n; ++i) {
+            const float *dout_b = dout + (b0 + i) * out_sz;
+            im2col(col + (size_t)i * P, (size_t)NP, in + (b0 + i) * in_sz, Cin, H, W, K, stride, Ho, Wo);
+            for (int o = 0; o < Cout; ++o)
+                memcpy(tmp + (size_t)o * NP + (size_t)i * P, dout_b + (size_t)o * P, sizeof(float) * (size_t)P);
+            bias_grad_rows(dbias, dout_b, Cout, P);
         }
+        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, Cout, CKK, NP, 1.0f, tmp, NP, col, NP, 1.0f, dw,
+                    CKK);
+        if (!din) continue;
+        cblas_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, CKK, NP, Cout, 1.0f, w, CKK, tmp, NP, 0.0f, col,
+                    NP);
+        for (int i = 0; i < n; ++i)
+            col2im_add(din + (b0 + i) * in_sz, col + (size_t)i * P, (size_t)NP, Cin, H, W, K, stride, Ho, Wo);
     }
 }
 
