@@ -228,6 +228,54 @@ MF_TEST(nn_tokens_transpose_adjoint) {
     free(x), free(y), free(tx), free(ty), free(back);
 }
 
+static double gelu_loss(void *p) {
+    EwCtx *c = p;
+    mf_gelu_forward(c->out, c->in, c->n);
+    return dotd(c->out, c->r, c->n);
+}
+
+MF_TEST(nn_gelu_grad) {
+    EwCtx c = {.n = 64};
+    c.in = fal(64), c.out = fal(64), c.r = fal(64);
+    fill(c.in, 64, -4, 4, 70);
+    fill(c.r, 64, -1, 1, 71);
+    float *din = fal(64);
+    gelu_loss(&c);
+    double x = c.in[0];
+    CHECK_NEAR(c.out[0], 0.5 * x * (1 + tanh(sqrt(2 / M_PI) * (x + 0.044715 * x * x * x))), 1e-6);
+    mf_gelu_backward(din, c.r, c.in, 64);
+    gradcheck("gelu din", gelu_loss, &c, c.in, din, 64, 64);
+    free(c.in), free(c.out), free(c.r), free(din);
+}
+
+typedef struct {
+    int N, C;
+    float *in, *w, *b, *out, *mean, *rstd, *r;
+} LnCtx;
+
+static double ln_loss(void *p) {
+    LnCtx *c = p;
+    mf_layernorm_forward(c->out, c->mean, c->rstd, c->in, c->w, c->b, c->N, c->C, 1e-5f);
+    return dotd(c->out, c->r, (size_t)c->N * c->C);
+}
+
+MF_TEST(nn_layernorm_grad) {
+    LnCtx c = {.N = 3, .C = 6};
+    c.in = fal(18), c.w = fal(6), c.b = fal(6), c.out = fal(18), c.mean = fal(3), c.rstd = fal(3), c.r = fal(18);
+    fill(c.in, 18, -1, 2, 72);
+    fill(c.w, 6, 0.5f, 1.5f, 73);
+    fill(c.b, 6, -0.5f, 0.5f, 74);
+    fill(c.r, 18, -1, 1, 75);
+    float *din = fal(18), *dw = fal(6), *db = fal(6);
+    ln_loss(&c);
+    mf_layernorm_backward(din, dw, db, c.r, c.in, c.mean, c.rstd, c.w, c.N, c.C);
+    gradcheck("layernorm din", ln_loss, &c, c.in, din, 18, 18);
+    gradcheck("layernorm dw", ln_loss, &c, c.w, dw, 6, 6);
+    gradcheck("layernorm db", ln_loss, &c, c.b, db, 6, 6);
+    free(c.in), free(c.w), free(c.b), free(c.out), free(c.mean), free(c.rstd), free(c.r);
+    free(din), free(dw), free(db);
+}
+
 /* ---- group norm -------------------------------------------------------------------------------- */
 
 typedef struct {
@@ -609,6 +657,15 @@ MF_TEST(nn_adamw_step_formula) {
     mf_adamw_free(&o2);
     mf_adamw_free(&o3);
     mf_adamw_free(NULL);
+}
+
+MF_TEST(nn_grad_clip_norm) {
+    float g[2] = {3.0f, 4.0f};
+    CHECK_NEAR(mf_grad_clip_norm(g, 2, 10.0f), 5.0, 1e-6);
+    CHECK(g[0] == 3.0f && g[1] == 4.0f);
+    CHECK_NEAR(mf_grad_clip_norm(g, 2, 1.0f), 5.0, 1e-6);
+    CHECK_NEAR(g[0], 0.6, 1e-6);
+    CHECK_NEAR(g[1], 0.8, 1e-6);
 }
 
 /* ---- checkpoints ------------------------------------------------------------------------------- */

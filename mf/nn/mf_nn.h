@@ -91,6 +91,22 @@ void mf_silu_forward(float *out, const float *in, size_t n);
 /* din (n) += dout * silu'(in) (in is the forward INPUT). */
 void mf_silu_backward(float *din, const float *dout, const float *in, size_t n);
 
+/* ---- GELU (tanh approximation, as GPT-2 / llm.c) ----------------------------------------- */
+
+/* out (n) = 0.5 x (1 + tanh(sqrt(2/pi) (x + 0.044715 x^3))); out may alias in. */
+void mf_gelu_forward(float *out, const float *in, size_t n);
+/* din (n) += dout * gelu'(in). */
+void mf_gelu_backward(float *din, const float *dout, const float *in, size_t n);
+
+/* ---- layer norm over the last dimension ---------------------------------------------------- */
+
+/* out (N, C) = (in - mean) * rstd * w + b per row; caches mean, rstd (N). */
+void mf_layernorm_forward(float *out, float *mean, float *rstd, const float *in, const float *w,
+                          const float *b, int N, int C, float eps);
+/* din (N, C) +=, dw (C) +=, db (C) += */
+void mf_layernorm_backward(float *din, float *dw, float *db, const float *dout, const float *in,
+                           const float *mean, const float *rstd, const float *w, int N, int C);
+
 /* ---- linear ----------------------------------------------------------------------------- */
 
 /* out (N, OC) = in (N, IC) . w^T + bias; w (OC, IC) (PyTorch layout), bias (OC) or NULL. */
@@ -264,5 +280,9 @@ int mf_adamw_init(MfAdamW *opt, size_t n, float lr, float beta1, float beta2, fl
 /* One step: params (n) updated from grads (n). lr may be changed between steps (schedules). */
 void mf_adamw_step(MfAdamW *opt, float *params, const float *grads);
 void mf_adamw_free(MfAdamW *opt);
+
+/* Global L2 norm of grads (n), accumulated in double; if it exceeds max_norm > 0 the gradients
+ * are scaled by max_norm / norm. Returns the norm before clipping. */
+float mf_grad_clip_norm(float *grads, size_t n, float max_norm);
 
 #endif

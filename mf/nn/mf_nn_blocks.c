@@ -315,3 +315,14 @@ void mf_adamw_free(MfAdamW *opt) {
     opt->m = opt->v = NULL;
     opt->n = 0;
 }
+
+float mf_grad_clip_norm(float *grads, size_t n, float max_norm) {
+    double s = 0.0;
+    for (size_t i = 0; i < n; ++i) s += (double)grads[i] * grads[i];
+    float norm = (float)sqrt(s);
+    if (max_norm > 0.0f && norm > max_norm) {
+        float k = max_norm / norm;
+        for (size_t i = 0; i < n; ++i) grads[i] *= k;
+    }
+    return norm;
+}

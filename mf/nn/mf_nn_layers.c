@@ -352,6 +352,67 @@ void mf_silu_backward(float *din, const float *dout, const float *in, size_t n) 
     }
 }
 
+/* ---- GELU ------------------------------------------------------------------------------------ */
+
+#define GELU_K 0.7978845608028654f /* sqrt(2/pi) */
+
+void mf_gelu_forward(float *out, const float *in, size_t n) {
+    for (size_t i = 0; i < n; ++i) {
+        float x = in[i];
+        out[i] = 0.5f * x * (1.0f + tanhf(GELU_K * (x + 0.044715f * x * x * x)));
+    }
+}
+
+void mf_gelu_backward(float *din, const float *dout, const float *in, size_t n) {
+    for (size_t i = 0; i < n; ++i) {
+        float x = in[i], u = GELU_K * (x + 0.044715f * x * x * x), t = tanhf(u);
+        float sech2 = 1.0f - t * t;
+        float g = 0.5f * (1.0f + t) + 0.5f * x * sech2 * GELU_K * (1.0f + 3.0f * 0.044715f * x * x);
+        din[i] += dout[i] * g;
+    }
+}
+
+/* ---- layer norm ------------------------------------------------------------------------------- */
+
+void mf_layernorm_forward(float *out, float *mean, float *rstd, const float *in, const float *w,
+                          const float *b, int N, int C, float eps) {
+    for (int i = 0; i < N; ++i) {
+        const float *x = in + (size_t)i * C;
+        double s = 0.0, v = 0.0;
+        for (int c = 0; c < C; ++c) s += x[c];
+        double mu = s / C;
+        for (int c = 0; c < C; ++c) v += (x[c] - mu) * (x[c] - mu);
+        float m = (float)mu, rs = (float)(1.0 / sqrt(v / C + eps));
+        float *o = out + (size_t)i * C;
+        for (int c = 0; c < C; ++c) o[c] = (x[c] - m) * rs * w[c] + b[c];
+        mean[i] = m;
+        rstd[i] = rs;
+    }
+}
+
+void mf_layernorm_backward(float *din, float *dw, float *db, const float *dout, const float *in,
+                           const float *mean, const float *rstd, const float *w, int N, int C) {
+    for (int i = 0; i < N; ++i) {
+        const float *x = in + (size_t)i * C, *dy = dout + (size_t)i * C;
+        float m = mean[i], rs = rstd[i];
+        double s1 = 0.0, s2 = 0.0;
+        for (int c = 0; c < C; ++c) {
+            float xh = (x[c] - m) * rs, dxh = dy[c] * w[c];
+            s1 += dxh;
+            s2 += (double)dxh * xh;
+            dw[c] += dy[c] * xh;
+            db[c] += dy[c];
+        }
+        float m1 = (float)(s1 / C), m2 = (float)(s2 / C);
+        if (!din) continue;
+        float *dx = din + (size_t)i * C;
+        for (int c = 0; c < C; ++c) {
+            float xh = (x[c] - m) * rs;
+            dx[c] += rs * (dy[c] * w[c] - m1 - xh * m2);
+        }
+    }
+}
+
 /* ---- linear ---------------------------------------------------------------------------------- */
 
 void mf_linear_forward(float *out, const float *in, const float *w, const float *bias, int N, int IC,
