@@ -69,9 +69,9 @@ static void contribute(Ctx *c, const MfHit *h, const Mat *mat, MfVec3 wo, MfVec3
     float m = mat->m.metallic;
     MfVec3 kd = mat->m.kd;
     /* radiance adjoint: rgb = kd (1-m) D + S, D = sum L cos/pi w, S = sum L f_s w */
-    MfVec3 gL = mf_scale(mf_add(mf_mul(mf_add(a->g, mf_scale(a->gd, 0.0f)), mf_add(mf_scale(kd, (1.0f - m) * f.diffuse_demod), f.specular)),
-                                mf_add(mf_scale(a->gd, f.diffuse_demod), mf_mul(a->gs, f.specular))),
-                         w);
+    MfVec3 f_rgb = mf_add(mf_scale(kd, (1.0f - m) * f.diffuse_demod), f.specular);
+    MfVec3 gL = mf_add(mf_mul(a->g, f_rgb), mf_add(mf_scale(a->gd, f.diffuse_demod), mf_mul(a->gs, f.specular)));
+    gL = mf_scale(gL, w);
     if (c->denv) mf_env_eval_backward(c->s->env, wi_w, gL, c->denv);
     /* material adjoint */
     MfVec3 hv = mf_norm(mf_add(wo, wi));
@@ -145,6 +145,8 @@ static void shade(Ctx *c, const MfHit *h, MfVec3 wo_w, MfRng *rng, MfVec3 *dif, 
     }
 }
 
+static inline int is_zero3(MfVec3 v) { return v.x == 0.0f && v.y == 0.0f && v.z == 0.0f; }
+
 static void pixel(Ctx *c, int x, int y, MfRenderOut *out) {
     const MfCamera *cam = c->cam;
     MfRng rng;
@@ -166,9 +168,7 @@ static void pixel(Ctx *c, int x, int y, MfRenderOut *out) {
         a.g = g ? mf_v3(g[3 * i] * inv_ps, g[3 * i + 1] * inv_ps, g[3 * i + 2] * inv_ps) : mf_v3s(0.0f);
         a.gd = gd ? mf_v3(gd[3 * i] * inv_ps, gd[3 * i + 1] * inv_ps, gd[3 * i + 2] * inv_ps) : mf_v3s(0.0f);
         a.gs = gs ? mf_v3(gs[3 * i] * inv_ps, gs[3 * i + 1] * inv_ps, gs[3 * i + 2] * inv_ps) : mf_v3s(0.0f);
-        if (mf_maxc(a.g) == 0.0f && -mf_maxc(mf_neg(a.g)) == 0.0f && mf_maxc(a.gd) == 0.0f &&
-            -mf_maxc(mf_neg(a.gd)) == 0.0f && mf_maxc(a.gs) == 0.0f && -mf_maxc(mf_neg(a.gs)) == 0.0f)
-            return; /* no adjoint at this pixel: nothing to trace */
+        if (is_zero3(a.g) && is_zero3(a.gd) && is_zero3(a.gs)) return; /* no adjoint here: nothing to trace */
     }
     MfVec3 rgb = mf_v3s(0), dif = mf_v3s(0), spec = mf_v3s(0), alb = mf_v3s(0), orm = mf_v3s(0);
     int hits = 0;
