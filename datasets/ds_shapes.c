@@ -9,6 +9,7 @@
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "core/mf_rng.h"
+#include "io/mf_obj.h"
 
 static const char *k_fam_names[DS_FAM_COUNT] = {"cup", "vase", "bottle", "bowl", "box",
                                                 "superquadric", "torus", "mug", "clock", "displaced"};
@@ -919,4 +920,14 @@ int ds_object_write_textures(const DsObject *o, const char *dir) {
     if ((rc = mf_image_write(p, &o->kd, MF_ENC_SRGB, 8))) return rc;
     if ((rc = mf_path_join(p, sizeof p, dir, "orm.png"))) return rc;
     return mf_image_write(p, &o->orm, MF_ENC_LINEAR, 8);
+}
+
+int ds_object_write(const DsObject *o, const char *scene_dir) {
+    char p[MF_PATH_MAX];
+    int rc;
+    if ((rc = mf_mkdirs(scene_dir))) return rc;
+    if ((rc = mf_path_join(p, sizeof p, scene_dir, "gt"))) return rc;
+    if ((rc = ds_object_write_textures(o, p))) return rc;
+    if ((rc = mf_path_join(p, sizeof p, scene_dir, "mesh.obj"))) return rc;
+    return mf_obj_write(p, &o->mesh, "gt/kd.png");
 }

@@ -76,8 +76,11 @@ int ds_family_from_name(const char *name);
 int ds_object_generate(DsObject *o, DsFamily fam, uint64_t seed, int tex_res);
 void ds_object_free(DsObject *o);
 
-/* Writes kd.png (sRGB 8-bit) and orm.png (linear 8-bit) into dir (created). The mesh is written
- * by the caller through the OBJ writer. */
+/* Writes kd.png (sRGB 8-bit) and orm.png (linear 8-bit) into dir (created). */
 int ds_object_write_textures(const DsObject *o, const char *dir);
+
+/* Writes the object's ground truth in the bvault layout (DESIGN.md "Contracts") under scene_dir:
+ * mesh.obj (+ mesh.mtl: one material per part, map_Kd gt/kd.png), gt/kd.png, gt/orm.png. */
+int ds_object_write(const DsObject *o, const char *scene_dir);
 
 #endif

@@ -67,8 +67,9 @@ static int vkey_cmp(const void *x, const void *y) {
 }
 
 static int open_edges(const MfMesh *m, int *n_edges) {
-    VKey *keys = malloc(sizeof(VKey) * m->nv);
-    int *vpart = calloc((size_t)m->nv, sizeof(int)), *rep = malloc(sizeof(int) * (size_t)m->nv);
+    size_t nv = (size_t)(m->nv > 0 ? m->nv : 0) + 1;
+    VKey *keys = malloc(sizeof(VKey) * nv);
+    int *vpart = calloc(nv, sizeof(int)), *rep = malloc(sizeof(int) * nv);
     for (int t = 0; t < m->nt; ++t)
         for (int k = 0; k < 3; ++k) vpart[m->tri[3 * t + k]] = m->mat[t];
     for (int i = 0; i < m->nv; ++i) {
@@ -268,7 +269,7 @@ MF_TEST(ds_shapes_seam_continuity) {
     const MfMesh *m = &o.mesh;
     double diff = 0.0;
     int n = 0;
-    VKey *keys = malloc(sizeof(VKey) * m->nv);
+    VKey *keys = malloc(sizeof(VKey) * (size_t)m->nv);
     for (int i = 0; i < m->nv; ++i) {
         for (int k = 0; k < 3; ++k) keys[i].k[k] = llrint(m->pos[3 * i + k] * 1e6);
         keys[i].k[3] = 0;
