@@ -10,6 +10,7 @@
 #include <sys/stat.h>
 
 #include "core/mf_error.h"
+#include "io/mf_exr.h"
 #include "io/mf_json.h"
 
 static const char *k_fmt_names[] = {"unknown", "nerf-synthetic", "nerfactor", "stanford-orb", "bvault"};
@@ -149,14 +150,20 @@ static void free_views(DsView *views, int n) {
 
 /* ---- NeRF-synthetic and bvault ---- */
 
-/* Reads optional per-view GT of a bvault scene. */
-static int bvault_view_gt(const char *dir, DsView *view) {
-    char p[MF_PATH_MAX];
+/* Reads optional per-view GT of a bvault scene: gt/albedo/<name>.png (sRGB) and gt/orm/<name>.png
+ * (linear); when those are absent but the split's image has a multi-layer EXR beside it
+ * (<split>/<name>.exr with albedo.* / orm.* layers, as `mf render` writes), the layers are used. */
+static int bvault_view_gt(const char *dir, const char *split, DsView *view) {
+    char p[MF_PATH_MAX], exr[MF_PATH_MAX];
     int rc;
+    if ((rc = joinf(exr, "%s/%s/%s.exr", dir, split, view->name))) return rc;
+    int has_exr = mf_file_exists(exr);
     if ((rc = joinf(p, "%s/gt/albedo/%s.png", dir, view->name))) return rc;
-    if (mf_file_exists(p) && (rc = read_image(p, MF_ENC_SRGB, 3, &view->albedo))) return rc;
+    if (mf_file_exists(p)) { if ((rc = read_image(p, MF_ENC_SRGB, 3, &view->albedo))) return rc; }
+    else if (has_exr && mf_exr_read_layer(exr, "albedo", "RGB", &view->albedo)) mf_error_clear();
     if ((rc = joinf(p, "%s/gt/orm/%s.png", dir, view->name))) return rc;
-    if (mf_file_exists(p) && (rc = read_image(p, MF_ENC_LINEAR, 3, &view->orm))) return rc;
+    if (mf_file_exists(p)) { if ((rc = read_image(p, MF_ENC_LINEAR, 3, &view->orm))) return rc; }
+    else if (has_exr && mf_exr_read_layer(exr, "orm", "RGB", &view->orm)) mf_error_clear();
     return MF_OK;
 }
 
@@ -240,7 +247,7 @@ static int load_transforms(const char *dir, const char *split, TfKind kind, cons
             }
         }
         if ((rc = check_size(&v, i, &view->rgba, view->image_path))) goto fail;
-        if (kind == TF_BVAULT && o->load_gt && (rc = bvault_view_gt(dir, view))) goto fail;
+        if (kind == TF_BVAULT && o->load_gt && (rc = bvault_view_gt(dir, split, view))) goto fail;
         if ((rc = finish_view(view, o, ax, c2w, what))) goto fail;
     }
     cJSON_Delete(root);
@@ -534,7 +541,27 @@ int ds_load_relit(const DsViews *v, int i, int k, MfImage *out) {
     int rc;
     if (v->format == DS_FMT_BVAULT) {
         if ((rc = joinf(p, "%s/relight/%s/%s.exr", v->dir, v->relight_name[k], v->views[i].name))) return rc;
-        return read_image(p, MF_ENC_LINEAR, 4, out);
+        if (!mf_file_exists(p)) return mf_fail(MF_EIO, "%s: no such file", p);
+        MfExrImage ex = {0};
+        if ((rc = mf_exr_read(p, &ex))) return rc;
+        static const char *const rgba[4] = {"R", "G", "B", "A"};
+        int has_a = mf_exr_channel(&ex, "A") != NULL;
+        MfImage im = {0};
+        rc = mf_exr_gather(&ex, p, rgba, has_a ? 4 : 3, &im);
+        mf_exr_free(&ex);
+        if (rc) return rc;
+        if (!has_a) { /* RGB only: opaque */
+            MfImage r4 = {0};
+            if ((rc = mf_image_alloc(&r4, im.w, im.h, 4))) { mf_image_free(&im); return rc; }
+            for (size_t q = 0; q < (size_t)im.w * im.h; ++q) {
+                for (int c = 0; c < 3; ++c) r4.data[4 * q + c] = im.data[3 * q + c];
+                r4.data[4 * q + 3] = 1.0f;
+            }
+            mf_image_free(&im);
+            im = r4;
+        }
+        *out = im;
+        return MF_OK;
     }
     if (v->format == DS_FMT_NERFACTOR) {
         if ((rc = joinf(p, "%s/%s/rgba_%s.png", v->dir, v->views[i].name, v->relight_name[k]))) return rc;

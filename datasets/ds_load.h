@@ -24,7 +24,9 @@
  *                  ds_orb_env_to_world), mesh_blender/mesh.obj.
  *  bvault          NeRF-synthetic files plus gt/albedo/r_NNN.png (sRGB), gt/orm/r_NNN.png
  *                  (linear), gt/kd.png, gt/orm.png, gt/env.exr, mesh.obj, relight/<env>.exr and
- *                  relight/<env>/r_NNN.exr (DESIGN.md "Contracts").
+ *                  relight/<env>/r_NNN.exr (DESIGN.md "Contracts"). Per-view GT falls back to the
+ *                  albedo.* / orm.* layers of <split>/r_NNN.exr when the PNGs are absent (the
+ *                  multi-layer EXR `mf render --png` writes beside each PNG).
  *
  * Errors name the file and the JSON path: "x/transforms_train.json: frames[2].transform_matrix:
  * missing", "...: expected 4x4 numbers", "x/train/r_3.png: no such file", a truncated PNG
@@ -103,8 +105,10 @@ int ds_load_bvault(const char *dir, const char *split, const DsLoadOptions *opt,
 
 void ds_views_free(DsViews *v);
 
-/* Ground-truth relit image of view i under relighting light k (bvault: relight/<env>/<name>.exr,
- * linear RGBA; NeRFactor: <view folder>/rgba_<probe>.png, sRGB) into out (h, w, 4). */
+/* Ground-truth relit image of view i under relighting light k into out (h, w, 4), linear:
+ * bvault: relight/<env>/<name>.exr channels R, G, B, A looked up by name (colour as stored:
+ * premultiplied by A, the EXR convention `mf render` follows); NeRFactor:
+ * <view folder>/rgba_<probe>.png, sRGB decoded, straight alpha. */
 int ds_load_relit(const DsViews *v, int i, int k, MfImage *out);
 
 /* Stanford-ORB env maps are lat-long maps in the camera frame. This resamples cam_env (h, w, c)

@@ -106,3 +106,114 @@ MF_TEST(ds_object_write_bvault_layout) {
     mf_image_free(&orm);
     ds_object_free(&o);
 }
+
+static void write_probe(const char *path, float v) {
+    MfImage im = {0};
+    mf_image_alloc(&im, 8, 4, 3);
+    for (int i = 0; i < 8 * 4 * 3; ++i) im.data[i] = v;
+    mf_mkdirs_for(path);
+    CHECK_OK(mf_image_write(path, &im, MF_ENC_LINEAR, 32));
+    mf_image_free(&im);
+}
+
+#include "datasets/ds_split.h"
+#include "io/mf_json.h"
+
+MF_TEST(ds_split_tiny_layout) {
+    const char *probes = mf_test_path("probes");
+    const char *names[] = {"alpha", "beta", "gamma", "delta"};
+    for (int i = 0; i < 4; ++i) {
+        char p[MF_PATH_MAX];
+        snprintf(p, sizeof p, "%s/%s.exr", probes, names[i]);
+        write_probe(p, 0.5f + i);
+    }
+    DsSplitSpec s;
+    CHECK_OK(ds_split_spec("tiny", &s));
+    CHECK(s.n_scenes == 3 && s.width == 32 && s.n_relight == 2);
+    CHECK_ERR(ds_split_spec("huge", &s), "unknown split");
+    CHECK_OK(ds_split_spec("tiny", &s));
+    const char *out = mf_test_path("tiny");
+    CHECK_OK(ds_write_split(&s, out, probes, 11));
+    char p[MF_PATH_MAX];
+    cJSON *list = NULL;
+    snprintf(p, sizeof p, "%s/split.json", out);
+    CHECK_OK(mf_json_load(p, &list));
+    const cJSON *scenes = list ? cJSON_GetObjectItem(list, "scenes") : NULL;
+    CHECK(cJSON_GetArraySize(scenes) == 3);
+    for (int k = 0; k < cJSON_GetArraySize(scenes); ++k) {
+        const cJSON *sc = cJSON_GetArrayItem(scenes, k);
+        const char *name = cJSON_GetObjectItem(sc, "name")->valuestring, *tenv = cJSON_GetObjectItem(sc, "train_env")->valuestring;
+        const cJSON *rl = cJSON_GetObjectItem(sc, "relight");
+        CHECK(cJSON_GetArraySize(rl) == 2);
+        for (int r = 0; r < cJSON_GetArraySize(rl); ++r) {
+            const char *en = cJSON_GetArrayItem(rl, r)->valuestring;
+            CHECK_MSG(strcmp(en, tenv) != 0, "scene %s: training light %s is also a relighting light", name, tenv);
+            snprintf(p, sizeof p, "%s/%s/relight/%s.exr", out, name, en);
+            CHECK(mf_file_exists(p));
+            snprintf(p, sizeof p, "%s/%s/render_relight_%s.json", out, name, en);
+            CHECK(mf_file_exists(p));
+        }
+        const char *files[] = {"mesh.obj", "mesh.mtl", "gt/kd.png", "gt/orm.png", "gt/env.exr", "transforms_train.json",
+                               "transforms_test.json", "render_train.json", "render_test.json"};
+        for (size_t f = 0; f < sizeof files / sizeof files[0]; ++f) {
+            snprintf(p, sizeof p, "%s/%s/%s", out, name, files[f]);
+            CHECK_MSG(mf_file_exists(p), "missing %s", p);
+        }
+        /* cameras: counts as the spec */
+        cJSON *tf = NULL;
+        snprintf(p, sizeof p, "%s/%s/transforms_train.json", out, name);
+        CHECK_OK(mf_json_load(p, &tf));
+        if (tf) CHECK(cJSON_GetArraySize(cJSON_GetObjectItem(tf, "frames")) == 8);
+        cJSON_Delete(tf);
+        /* render JSON points at the scene's own files */
+        cJSON *rj = NULL;
+        snprintf(p, sizeof p, "%s/%s/render_test.json", out, name);
+        CHECK_OK(mf_json_load(p, &rj));
+        if (rj) {
+            CHECK(!strcmp(cJSON_GetObjectItem(rj, "cameras")->valuestring, "transforms_test.json"));
+            CHECK(cJSON_GetObjectItem(rj, "width")->valueint == 32);
+            CHECK(!strcmp(cJSON_GetObjectItem(cJSON_GetObjectItem(rj, "env"), "file")->valuestring, "gt/env.exr"));
+        }
+        cJSON_Delete(rj);
+    }
+    cJSON_Delete(list);
+    CHECK_ERR(ds_write_split(&s, mf_test_path("tiny2"), mf_test_path("no_probes_here"), 1), "no_probes_here");
+}
+
+/* bvault per-view GT read from the albedo/orm layers of the multi-layer EXR beside each PNG */
+#include "io/mf_exr.h"
+MF_TEST(ds_load_bvault_gt_from_exr_layers) {
+    const char *dir = mf_test_path("bvault_exr");
+    MfMat4 c2w[2];
+    DsCamSampling s = ds_cam_sampling_default();
+    CHECK_OK(ds_sample_cameras(&s, 2, 3, 1, c2w));
+    CHECK_OK(ds_write_transforms(dir, "test", s.camera_angle_x, c2w, 2));
+    float plane[3][16];
+    for (int i = 0; i < 2; ++i) {
+        char p[MF_PATH_MAX];
+        MfImage im = {0};
+        mf_image_alloc(&im, 4, 4, 4);
+        snprintf(p, sizeof p, "%s/test/r_%03d.png", dir, i);
+        mf_mkdirs_for(p);
+        CHECK_OK(mf_image_write(p, &im, MF_ENC_SRGB, 8));
+        mf_image_free(&im);
+        for (int c = 0; c < 3; ++c)
+            for (int q = 0; q < 16; ++q) plane[c][q] = 0.1f * c + 0.01f * q + 0.3f * i;
+        MfExrChannel ch[6] = {{"albedo.R", plane[0], 1}, {"albedo.G", plane[1], 1}, {"albedo.B", plane[2], 1},
+                              {"orm.R", plane[2], 1},    {"orm.G", plane[1], 1},    {"orm.B", plane[0], 1}};
+        snprintf(p, sizeof p, "%s/test/r_%03d.exr", dir, i);
+        CHECK_OK(mf_exr_write(p, 4, 4, ch, 6, MF_EXR_FLOAT));
+    }
+    char p[MF_PATH_MAX];
+    snprintf(p, sizeof p, "%s/gt", dir);
+    mf_mkdirs(p);
+    DsViews v = {0};
+    CHECK_OK(ds_load(dir, "test", NULL, &v));
+    CHECK(v.format == DS_FMT_BVAULT && v.n == 2);
+    for (int i = 0; i < v.n; ++i) {
+        CHECK(v.views[i].albedo.data && v.views[i].orm.data);
+        if (v.views[i].albedo.data) CHECK_NEAR(mf_image_px(&v.views[i].albedo, 3, 2)[1], 0.1f + 0.01f * 11 + 0.3f * i, 1e-6);
+        if (v.views[i].orm.data) CHECK_NEAR(mf_image_px(&v.views[i].orm, 3, 2)[2], 0.01f * 11 + 0.3f * i, 1e-6);
+    }
+    ds_views_free(&v);
+}
