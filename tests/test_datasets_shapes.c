@@ -1,5 +1,6 @@
 /* Tests of datasets/ds_shapes + ds_materials: determinism, mesh validity (closed, oriented,
  * non-degenerate, normalised), UV atlas (in range, no overlaps), material ranges, baking. */
+#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -290,4 +291,27 @@ MF_TEST(ds_shapes_seam_continuity) {
     CHECK_MSG(n > 20, "only %d seam pairs found", n);
     CHECK_MSG(n > 0 && diff / (3 * n) < 0.05, "mean seam difference %g over %d pairs", n ? diff / (3 * n) : -1.0, n);
     ds_object_free(&o);
+}
+
+/* Same bytes whatever the thread count (the bake evaluates pure functions per texel); tiny
+ * resolutions still pack every chart without overlap. */
+MF_TEST(ds_shapes_threads_and_tiny_res) {
+    DsObject a = {0}, b = {0};
+    int nt = omp_get_max_threads();
+    omp_set_num_threads(1);
+    CHECK_OK(ds_object_generate(&a, DS_FAM_CLOCK, 21, 96));
+    omp_set_num_threads(3);
+    CHECK_OK(ds_object_generate(&b, DS_FAM_CLOCK, 21, 96));
+    omp_set_num_threads(nt);
+    CHECK(a.kd.data && b.kd.data && !memcmp(a.kd.data, b.kd.data, sizeof(float) * 3 * 96 * 96));
+    CHECK(a.orm.data && b.orm.data && !memcmp(a.orm.data, b.orm.data, sizeof(float) * 3 * 96 * 96));
+    ds_object_free(&a);
+    ds_object_free(&b);
+    CHECK_OK(ds_object_generate(&a, DS_FAM_CLOCK, 2, 16));
+    long cov = 0, over = uv_overlaps(&a.mesh, 512, &cov);
+    CHECK_MSG(over <= cov / 1000, "UV overlap %ld of %ld at texture size 16", over, cov);
+    int bad = 0;
+    for (int i = 0; i < 2 * a.mesh.nv; ++i) bad += !(a.mesh.uv[i] >= 0.0f && a.mesh.uv[i] <= 1.0f);
+    CHECK(bad == 0);
+    ds_object_free(&a);
 }
