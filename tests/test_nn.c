@@ -733,6 +733,20 @@ MF_TEST(nn_checkpoint_roundtrip_and_refusals) {
     CHECK(write_bytes(p2, raw, 2) == 0);
     CHECK_ERR(mf_ckpt_load(p2, s, 3, back, NULL), "truncated");
     memcpy(cp, raw, len);
+    cp[8] = (char)0xff, cp[9] = (char)0xff, cp[10] = (char)0xff, cp[11] = (char)0x7f; /* absurd tensor count */
+    CHECK(write_bytes(p2, cp, len) == 0);
+    CHECK_ERR(mf_ckpt_load(p2, s, 3, back, NULL), "truncated");
+    memcpy(cp, raw, len);
+    /* absurd first dimension of tensor 0: header is at 16 + meta (11 bytes); entry: len 5, "enc.w", ndim */
+    {
+        size_t off = 16 + 11 + 4 + 5 + 4;
+        uint32_t big = 0x7fffffffu;
+        memcpy(cp + off, &big, 4);
+        CHECK(write_bytes(p2, cp, len) == 0);
+        CHECK_ERR(mf_ckpt_load(p2, s, 3, back, NULL), "truncated");
+        CHECK_ERR(mf_ckpt_load(p2, s, 3, back, NULL), "enc.w");
+    }
+    memcpy(cp, raw, len);
     cp[0] = 'X';
     CHECK(write_bytes(p2, cp, len) == 0);
     CHECK_ERR(mf_ckpt_load(p2, s, 3, back, NULL), "not an MFCK checkpoint");
