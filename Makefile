@@ -16,7 +16,7 @@ CXX      ?= g++
 OPT      ?= -O2
 SAN      ?=
 WARN     := -Wall -Wextra -Wno-unused-parameter
-INCLUDES := -Imf -I. -I/usr/include/OpenEXR -I/usr/include/Imath -I/usr/include/cjson \
+INCLUDES := -Imf -I. -I$(BUILD)/gen -I/usr/include/OpenEXR -I/usr/include/Imath -I/usr/include/cjson \
             -I/usr/include/x86_64-linux-gnu/openblas-pthread
 CFLAGS   += -std=c17 $(OPT) -g $(WARN) -fopenmp -D_GNU_SOURCE $(SAN) $(INCLUDES) -MMD -MP
 CXXFLAGS += -std=c++17 $(OPT) -g $(WARN) $(SAN) $(INCLUDES) -MMD -MP
@@ -34,7 +34,7 @@ LIB_OBJ  := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
 CLI_OBJ  := $(CLI_C:%.c=$(BUILD)/obj/%.o)
 TEST_OBJ := $(TEST_C:%.c=$(BUILD)/obj/%.o)
 
-.PHONY: all deps test asan bench-render bench-baseline bench-prior bench-quick bench train-prior clean
+.PHONY: FORCE all deps test asan bench-render bench-baseline bench-prior bench-quick bench train-prior clean
 all: $(BUILD)/mf $(BUILD)/mf_tests
 
 deps:
@@ -52,6 +52,13 @@ $(BUILD)/obj/%.o: %.c
 $(BUILD)/obj/%.o: %.cpp
 	@mkdir -p $(dir $@)
 	$(CXX) $(CXXFLAGS) -c $< -o $@
+
+# The git revision, for run.json; rewritten only when it changes, so nothing rebuilds needlessly.
+$(BUILD)/gen/mf_build_info.h: FORCE
+	@mkdir -p $(dir $@)
+	@echo "#define MF_GIT_REV \"$$(git rev-parse --short HEAD 2>/dev/null || echo unknown)$$(git diff --quiet HEAD 2>/dev/null || echo -dirty)\"" > $@.tmp
+	@cmp -s $@.tmp $@ || mv $@.tmp $@; rm -f $@.tmp
+$(CLI_OBJ): $(BUILD)/gen/mf_build_info.h
 
 $(BUILD)/libmf.a: $(LIB_OBJ)
 	@rm -f $@

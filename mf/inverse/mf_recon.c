@@ -21,7 +21,7 @@
 struct MfRecon {
     const MfMesh *mesh;         /* borrowed */
     MfRtScene *rt;              /* owned */
-    MfReconView *views;         /* owned; (nviews,) */
+    MfReconView *views;         /* owned; (nviews,) with owned refs */
     int nviews;
     MfReconOpts o;
     MfParamBlock blocks[MF_NBLOCKS];
@@ -114,6 +114,7 @@ int mf_recon_new(const MfMesh *mesh, MfReconView *views, int nviews, const MfRec
     if (!rc) rc = mf_param_init(&r->blocks[MF_BLOCK_ENV], "env", nenv, 3, NULL);
     if (!rc) rc = mf_env_init_constant(&r->env, opts->env_w, opts->env_h, mf_v3s(opts->init_light));
     if (!rc && !(r->uv_mask = malloc((size_t)T * T * sizeof(float)))) rc = mf_fail(MF_ENOMEM, "out of memory");
+    if (!rc && !(r->views = malloc((size_t)nviews * sizeof *views))) rc = mf_fail(MF_ENOMEM, "out of memory");
     if (rc) {
         mf_recon_free(r);
         return rc;
@@ -134,7 +135,10 @@ int mf_recon_new(const MfMesh *mesh, MfReconView *views, int nviews, const MfRec
     mf_param_project(orm);
     mf_adam_init(&r->adam, opts->lr);
     uv_mask_build(mesh, T, r->uv_mask);
-    r->views = views;
+    for (int i = 0; i < nviews; ++i) {
+        r->views[i] = views[i];
+        memset(&views[i].ref, 0, sizeof views[i].ref);
+    }
     r->nviews = nviews;
     *out = r;
     return MF_OK;
@@ -146,6 +150,7 @@ void mf_recon_free(MfRecon *r) {
     for (int b = 0; b < MF_NBLOCKS; ++b) mf_param_free(&r->blocks[b]);
     mf_env_free(&r->env);
     for (int i = 0; r->views && i < r->nviews; ++i) mf_image_free(&r->views[i].ref);
+    free(r->views);
     free(r->uv_mask);
     free(r);
 }

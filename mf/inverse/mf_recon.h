@@ -72,7 +72,9 @@ typedef struct {
     void *ctx;
 } MfReconHook;
 
-/* Takes ownership of views[] contents (refs) and borrows mesh (must have UVs; must outlive r). */
+/* On success takes the views' reference images (views[i].ref is moved: the caller's copy is
+ * zeroed; the views array itself stays the caller's); on failure views are untouched. Borrows
+ * mesh (must have UVs; must outlive r). */
 int mf_recon_new(const MfMesh *mesh, MfReconView *views, int nviews, const MfReconOpts *opts, MfRecon **out);
 void mf_recon_free(MfRecon *r);
 
