@@ -97,10 +97,35 @@ static int score_color(const MfImage *pred, const MfImage *gt, EvAlign align, Ev
     return rc;
 }
 
+/* The GT of a bvault scene as a result (mesh.obj, gt/kd.png, gt/orm.png), or its grey version. */
+static int trivial_result(const char *scene_dir, int grey, EvResult *out) {
+    EvResult r;
+    memset(&r, 0, sizeof r);
+    char p[MF_PATH_MAX];
+    int rc = mf_path_join(p, sizeof p, scene_dir, "mesh.obj");
+    if (!rc) rc = mf_obj_read(p, &r.mesh);
+    if (!rc && grey) {
+        if (!(rc = mf_image_alloc(&r.kd, 1, 1, 3)) && !(rc = mf_image_alloc(&r.orm, 1, 1, 3))) {
+            r.kd.data[0] = r.kd.data[1] = r.kd.data[2] = 0.5f;
+            r.orm.data[0] = 1.0f, r.orm.data[1] = 0.5f, r.orm.data[2] = 0.0f;
+        }
+    } else if (!rc) {
+        if (!(rc = mf_path_join(p, sizeof p, scene_dir, "gt/kd.png"))) rc = mf_image_read(p, MF_ENC_SRGB, &r.kd);
+        if (!rc && !(rc = mf_path_join(p, sizeof p, scene_dir, "gt/orm.png"))) rc = mf_image_read(p, MF_ENC_LINEAR, &r.orm);
+    }
+    if (rc) {
+        ev_result_free(&r);
+        return rc;
+    }
+    *out = r;
+    return MF_OK;
+}
+
 int ev_eval_scene(const char *scene_dir, const char *result_dir, const char *method, const char *dataset,
                   const char *scene, const EvEvalOpts *o, EvTable *t, FILE *csv, int *excluded) {
     EvResult res;
-    int rc = ev_result_load(result_dir, o->mesh_path, &res);
+    int flat = !strcmp(result_dir, EV_TRIVIAL_FLAT_DIR), grey = !strcmp(result_dir, EV_TRIVIAL_GREY_DIR);
+    int rc = (flat || grey) ? trivial_result(scene_dir, grey, &res) : ev_result_load(result_dir, o->mesh_path, &res);
     if (rc) return rc;
     DsViews dv;
     DsLoadOptions lo = {1, o->max_views, 1, 0};
@@ -120,7 +145,7 @@ int ev_eval_scene(const char *scene_dir, const char *result_dir, const char *met
     for (int k = 0; k < nl && !rc; ++k) {
         if (!dv.relight_env[k][0]) continue;
         MfEnvMap env;
-        if ((rc = mf_env_load(&env, dv.relight_env[k]))) break;
+        if ((rc = flat ? mf_env_init_constant(&env, 8, 4, mf_v3s(1.0f)) : mf_env_load(&env, dv.relight_env[k]))) break;
         MfRenderInput in = {rt, &res.mesh, &mat, 1, &env, NULL, 0};
         for (int i = 0; i < dv.n && !rc; ++i) {
             MfImage gt = {0}, pred = {0};
@@ -153,7 +178,7 @@ int ev_eval_scene(const char *scene_dir, const char *result_dir, const char *met
     MfRenderOpts ao = ro;
     ao.spp_sqrt = 1;
     MfRenderInput ain = {rt, &res.mesh, &mat, 1, NULL, NULL, 0};
-    for (int i = 0; i < dv.n && !rc; ++i) {
+    for (int i = 0; i < dv.n && !rc && !flat && !grey; ++i) { /* trivial guesses: relighting only */
         const DsView *v = &dv.views[i];
         if (!v->albedo.data && !v->orm.data) continue;
         MfRenderOut out;

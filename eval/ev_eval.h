@@ -48,6 +48,16 @@ typedef struct {
     const char *mesh_path; /* NULL: the result folder's mesh.obj */
 } EvEvalOpts;
 
+/* Trivial guesses that every method must beat (pass as result_dir, with the scene's GT):
+ *   EV_TRIVIAL_GREY_DIR   mid-grey albedo 0.5, roughness 0.5, metallic 0 on the GT mesh, relit
+ *                         under the true relighting light;
+ *   EV_TRIVIAL_FLAT_DIR   the true albedo and ORM on the GT mesh, but rendered under a constant
+ *                         white light instead of the relighting light (lighting ignored).
+ * Both go through the same protocol (so their scale is aligned like every method's) and are
+ * scored on relighting only (their materials are not estimates). */
+#define EV_TRIVIAL_GREY_DIR ":trivial-grey"
+#define EV_TRIVIAL_FLAT_DIR ":trivial-flat-light"
+
 EvEvalOpts ev_eval_opts_default(void);
 
 /* Scores result_dir against scene_dir's test split; adds per-scene records to t and per-view rows

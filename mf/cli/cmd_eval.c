@@ -19,6 +19,7 @@
 static const char usage[] =
     "usage: mf eval DATA_DIR --results RESULTS_DIR -o REPORT_DIR [--methods a,b,...] [--dataset NAME]\n"
     "               [--align mean|lsq|none] [--spp N] [--pixel-samples P] [--max-views N] [--no-curves]\n"
+    "               [--trivial]\n"
     "Scores RESULTS_DIR/<method>/<scene>/ against DATA_DIR (a split folder of bvault scenes, or one\n"
     "scene) with the protocol stated in the README: relit views (every relighting light, test\n"
     "cameras; per-channel scale inside the GT mask (mean: ratio of means, default; lsq: least\n"
@@ -26,7 +27,9 @@ static const char usage[] =
     "metallic, no scaling; orm3 adds a constant R channel). Metrics: PSNR, SSIM, L1, FLIP (LPIPS is\n"
     "not computed: it needs pretrained weights that cannot be obtained here). Writes REPORT_DIR/\n"
     "per_view.csv, scenes.csv, relight.{md,tex}, materials.{md,tex}, cost.md, speed_error.png,\n"
-    "grid_<scene>.png and index.html. Methods default to every folder in RESULTS_DIR.\n";
+    "and index.html. Methods default to every folder in RESULTS_DIR. --trivial adds two guesses every\n"
+    "method must beat: trivial-grey (albedo 0.5 on the GT mesh under the true light) and\n"
+    "trivial-flat-light (the true textures under a constant white light).\n";
 
 #define MAX_ITEMS 64
 
@@ -110,7 +113,7 @@ static int snapshot_curve(const char *scene_dir, const char *result_dir, const E
 
 static int cmd_eval(int argc, char **argv) {
     const char *data = NULL, *results = NULL, *out = NULL, *methods_s = NULL, *dataset = NULL, *align_s = "mean";
-    int curves = 1;
+    int curves = 1, trivial = 0;
     EvEvalOpts o = ev_eval_opts_default();
     for (int i = 1; i < argc; ++i) {
         int r;
@@ -123,6 +126,7 @@ static int cmd_eval(int argc, char **argv) {
             continue;
         }
         if (!strcmp(argv[i], "--no-curves")) { curves = 0; continue; }
+        if (!strcmp(argv[i], "--trivial")) { trivial = 1; continue; }
         if (argv[i][0] == '-') { mf_fail(MF_EARG, "unknown option %s (see mf eval --help)", argv[i]); return MF_EXIT_USAGE; }
         data = argv[i];
     }
@@ -153,6 +157,10 @@ static int cmd_eval(int argc, char **argv) {
     } else {
         nm = list_dirs(results, methods, MAX_ITEMS, 0);
     }
+    if (trivial && nm + 2 <= MAX_ITEMS) {
+        snprintf(methods[nm++], 64, "trivial-grey");
+        snprintf(methods[nm++], 64, "trivial-flat-light");
+    }
     if (nm <= 0) { mf_fail(MF_EIO, "%s: no method result folders", results); return MF_EXIT_FAIL; }
     if (!dataset) {
         const char *slash = strrchr(scene_root, '/');
@@ -180,7 +188,9 @@ static int cmd_eval(int argc, char **argv) {
             if ((rc = mf_path_join(sd, sizeof sd, scene_root, scenes[s])) || (rc = mf_path_join(md, sizeof md, results, methods[m])) ||
                 (rc = mf_path_join(rd, sizeof rd, md, scenes[s])))
                 break;
-            if (!mf_file_exists(rd)) {
+            if (!strcmp(methods[m], "trivial-grey")) snprintf(rd, sizeof rd, "%s", EV_TRIVIAL_GREY_DIR);
+            else if (!strcmp(methods[m], "trivial-flat-light")) snprintf(rd, sizeof rd, "%s", EV_TRIVIAL_FLAT_DIR);
+            else if (!mf_file_exists(rd)) {
                 mf_log_warn("%s: missing; %s is not scored on %s", rd, methods[m], scenes[s]);
                 continue;
             }
