@@ -145,6 +145,16 @@ static void shade(Ctx *c, const MfHit *h, MfVec3 wo_w, MfRng *rng, MfVec3 *dif, 
     }
 }
 
+/* A random permutation pairing the x and y strata of the pixel samples (N-rooks). */
+static void stratified_perm(MfRng *rng, int ps, int *perm) {
+    for (int k = 0; k < ps; ++k) perm[k] = k;
+    for (int k = ps - 1; k > 0; --k) {
+        int r = (int)mf_rng_below(rng, (uint32_t)(k + 1)), t = perm[k];
+        perm[k] = perm[r];
+        perm[r] = t;
+    }
+}
+
 static inline int is_zero3(MfVec3 v) { return v.x == 0.0f && v.y == 0.0f && v.z == 0.0f; }
 
 static void pixel(Ctx *c, int x, int y, MfRenderOut *out) {
@@ -153,13 +163,7 @@ static void pixel(Ctx *c, int x, int y, MfRenderOut *out) {
     mf_rng_seed(&rng, c->o->seed, (uint64_t)y * (uint64_t)cam->w + (uint64_t)x);
     int ps = c->o->pixel_samples;
     int perm[MAX_PIXEL_SAMPLES];
-    for (int k = 0; k < ps; ++k) perm[k] = k;
-    for (int k = ps - 1; k > 0; --k) {
-        int r = (int)mf_rng_below(&rng, (uint32_t)(k + 1));
-        int t = perm[k];
-        perm[k] = perm[r];
-        perm[r] = t;
-    }
+    stratified_perm(&rng, ps, perm);
     size_t i = (size_t)y * cam->w + x;
     float inv_ps = 1.0f / (float)ps;
     Adj a;
@@ -251,6 +255,91 @@ int mf_diff_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts
         for (size_t i = 0; i < nkd; ++i) g->dkd[i] += b[i];
         for (size_t i = 0; i < norm; ++i) g->dorm[i] += b[nkd + i];
         for (size_t i = 0; i < nenv; ++i) g->denv[i] += b[nkd + norm + i];
+    }
+    free(buf);
+    return MF_OK;
+}
+
+/* ---- material AOVs ---- */
+
+/* Primary hits of pixel (x, y) with the forward pass's pixel sampling; returns their count. */
+static int pixel_hits(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, int x, int y, MfHit *hits) {
+    MfRng rng;
+    mf_rng_seed(&rng, o->seed, (uint64_t)y * (uint64_t)cam->w + (uint64_t)x);
+    int ps = o->pixel_samples, perm[MAX_PIXEL_SAMPLES], n = 0;
+    stratified_perm(&rng, ps, perm);
+    float inv_ps = 1.0f / (float)ps;
+    for (int k = 0; k < ps; ++k) {
+        float px = (float)x + ((float)k + mf_rng_float(&rng)) * inv_ps;
+        float py = (float)y + ((float)perm[k] + mf_rng_float(&rng)) * inv_ps;
+        MfVec3 org, dir;
+        mf_camera_ray(cam, px, py, &org, &dir);
+        if (mf_rtscene_intersect(s->rt, org, dir, 0.0f, INFINITY, &hits[n])) ++n;
+    }
+    return n;
+}
+
+int mf_diff_aov_forward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, float *albedo, float *orm,
+                        float *alpha) {
+    int rc = check(s, cam, o);
+    if (rc) return rc;
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int y = 0; y < cam->h; ++y) {
+        MfHit hits[MAX_PIXEL_SAMPLES];
+        for (int x = 0; x < cam->w; ++x) {
+            size_t i = (size_t)y * cam->w + x;
+            int n = pixel_hits(s, cam, o, x, y, hits);
+            float a[3] = {0, 0, 0}, m[3] = {0, 0, 0}, b[4];
+            for (int k = 0; k < n; ++k) {
+                mf_tex_sample(s->kd, hits[k].uv.x, hits[k].uv.y, MF_WRAP_REPEAT, b);
+                for (int c = 0; c < 3; ++c) a[c] += b[c] / (float)n;
+                mf_tex_sample(s->orm, hits[k].uv.x, hits[k].uv.y, MF_WRAP_REPEAT, b);
+                for (int c = 0; c < 3; ++c) m[c] += b[c] / (float)n;
+            }
+            for (int c = 0; c < 3; ++c) {
+                if (albedo) albedo[3 * i + c] = a[c];
+                if (orm) orm[3 * i + c] = m[c];
+            }
+            if (alpha) alpha[i] = (float)n / (float)o->pixel_samples;
+        }
+    }
+    return MF_OK;
+}
+
+int mf_diff_aov_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, const float *dalbedo,
+                         const float *dorm, MfDiffGrads *g) {
+    int rc = check(s, cam, o);
+    if (rc) return rc;
+    size_t nkd = (g->dkd && dalbedo) ? (size_t)s->kd->w * s->kd->h * 3 : 0;
+    size_t norm = (g->dorm && dorm) ? (size_t)s->orm->w * s->orm->h * 3 : 0;
+    size_t per = nkd + norm;
+    int nt = omp_get_max_threads();
+    float *buf = calloc((size_t)nt * per + 1, sizeof(float));
+    if (!buf) return mf_fail(MF_ENOMEM, "diffrender: out of memory for AOV gradient buffers");
+#pragma omp parallel num_threads(nt)
+    {
+        float *b = buf + (size_t)omp_get_thread_num() * per;
+        MfHit hits[MAX_PIXEL_SAMPLES];
+#pragma omp for schedule(static, 1)
+        for (int y = 0; y < cam->h; ++y)
+            for (int x = 0; x < cam->w; ++x) {
+                size_t i = (size_t)y * cam->w + x;
+                int n = pixel_hits(s, cam, o, x, y, hits);
+                for (int k = 0; k < n; ++k) {
+                    float ga[3], gm[3];
+                    for (int c = 0; c < 3; ++c) {
+                        ga[c] = nkd ? dalbedo[3 * i + c] / (float)n : 0.0f;
+                        gm[c] = norm ? dorm[3 * i + c] / (float)n : 0.0f;
+                    }
+                    if (nkd) mf_tex_sample_backward(s->kd, hits[k].uv.x, hits[k].uv.y, MF_WRAP_REPEAT, ga, b);
+                    if (norm) mf_tex_sample_backward(s->orm, hits[k].uv.x, hits[k].uv.y, MF_WRAP_REPEAT, gm, b + nkd);
+                }
+            }
+    }
+    for (int t = 0; t < nt; ++t) {
+        const float *b = buf + (size_t)t * per;
+        for (size_t i = 0; i < nkd; ++i) g->dkd[i] += b[i];
+        for (size_t i = 0; i < norm; ++i) g->dorm[i] += b[nkd + i];
     }
     free(buf);
     return MF_OK;

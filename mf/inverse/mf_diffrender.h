@@ -68,6 +68,16 @@ int mf_diff_forward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts 
 int mf_diff_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, const MfDiffAdjoint *adj,
                      MfDiffGrads *g);
 
+/* Material AOVs for the prior term: per pixel, the mean over its primary-ray hits of kd (albedo)
+ * and ORM at the hit's UV, and the coverage. Samples are stratified like the forward pass
+ * (seed o->seed); lighting is not evaluated. albedo, orm (h, w, 3), alpha (h, w). */
+int mf_diff_aov_forward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, float *albedo, float *orm,
+                        float *alpha);
+/* Adjoint of mf_diff_aov_forward (same seed: same hits): g->dkd += from dalbedo (h, w, 3),
+ * g->dorm += from dorm (h, w, 3) (either may be NULL). Deterministic (per-thread buffers). */
+int mf_diff_aov_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, const float *dalbedo,
+                         const float *dorm, MfDiffGrads *g);
+
 /* The specular lobe's factor Q(alpha) = D(h) cos_i / (2 (s(cos_o) cos_i + s(cos_i) cos_o))
  * (spec * cos_i = F Q) and dQ/dalpha, in double (exposed for tests). */
 double mf_spec_q(double alpha, double cos_h, double cos_o, double cos_i);
