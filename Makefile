@@ -81,6 +81,43 @@ asan:
 bench-render: $(BUILD)/mf
 	./$(BUILD)/mf bench-render -o reports/perf/render.md
 
+# ---- data sets and benchmarks (generated data in $(DATA), method outputs in $(RESULTS)) ----
+DATA        ?= data
+RESULTS     ?= results
+BENCH_SPLIT ?= test-3d
+MF          := $(abspath $(BUILD)/mf)
+ifeq ($(BENCH_FULL),1)
+RECON_CONFIG ?= baselines/nvdiffrecmc_full.json
+else
+RECON_CONFIG ?= baselines/nvdiffrecmc.json
+endif
+
+# Renders every render_*.json of one generated scene into its folder; each output folder gets a
+# .done marker, so an interrupted run resumes where it stopped.
+define render_scene
+cd $(1) && for j in render_*.json; do n=$${j#render_}; n=$${n%.json}; \
+  case $$n in relight_*) o=relight/$${n#relight_};; *) o=$$n;; esac; \
+  [ -f $$o/.done ] || { $(MF) render $$j -o $$o --png && touch $$o/.done; } || exit 1; done
+endef
+
+# One command per split: generate the layout, then render it.
+$(DATA)/%/.rendered: | $(BUILD)/mf
+	$(MF) gen --split $* -o $(DATA)/$*
+	@for s in $(DATA)/$*/*/; do $(call render_scene,$$s) || exit 1; done
+	touch $@
+
+data-%: $(DATA)/%/.rendered ;
+
+# Per-scene reconstruction jobs: resumable (--resume), parallel with make -j.
+SCENES = $(notdir $(patsubst %/,%,$(dir $(wildcard $(DATA)/$(BENCH_SPLIT)/*/transforms_test.json))))
+recon-runs: $(foreach s,$(SCENES),$(RESULTS)/$(BENCH_SPLIT)/$(METHOD)/$(s)/run.json)
+$(RESULTS)/$(BENCH_SPLIT)/$(METHOD)/%/run.json: | $(BUILD)/mf
+	$(MF) recon $(DATA)/$(BENCH_SPLIT)/$* -o $(dir $@) --method $(METHOD) --config $(RECON_CONFIG) --resume
+
+bench-baseline: $(BUILD)/mf $(DATA)/$(BENCH_SPLIT)/.rendered
+	$(MAKE) --no-print-directory recon-runs METHOD=nvdiffrecmc
+	$(MF) eval $(DATA)/$(BENCH_SPLIT) --results $(RESULTS)/$(BENCH_SPLIT) --methods nvdiffrecmc --trivial -o reports/baseline
+
 clean:
 	rm -rf build build-asan build-*
 

@@ -126,6 +126,11 @@ static int cmd_recon(int argc, char **argv) {
         mf_recon_opts_to_json(&o, opts);
         cJSON_AddStringToObject(opts, "method", method);
         cJSON_AddStringToObject(opts, "mesh", mesh_path);
+        double tf, ta;
+        mf_recon_timing(r, &tf, &ta);
+        cJSON_AddNumberToObject(opts, "forward_render_s", tf);
+        cJSON_AddNumberToObject(opts, "adjoint_render_s", ta);
+        cJSON_AddNumberToObject(opts, "adjoint_over_forward", tf > 0 ? ta / tf : 0.0);
         rc = mf_write_run_json(out, argc, argv, o.seed, mf_now() - t0, opts);
     }
     mf_recon_free(r);

@@ -30,6 +30,7 @@ struct MfRecon {
     float *uv_mask;             /* owned; (tex_res, tex_res) 1 where the mesh's UVs reach */
     int it;                     /* iterations done */
     double wall_offset;         /* wall seconds of earlier (resumed) runs */
+    double t_forward, t_adjoint; /* seconds in the primal and adjoint renders (this process) */
 };
 
 MfReconOpts mf_recon_opts_default(void) {
@@ -163,6 +164,10 @@ int mf_recon_nviews(const MfRecon *r) { return r->nviews; }
 const MfMesh *mf_recon_mesh(const MfRecon *r) { return r->mesh; }
 const MfRtScene *mf_recon_rtscene(const MfRecon *r) { return r->rt; }
 const MfEnvMap *mf_recon_env(const MfRecon *r) { return &r->env; }
+void mf_recon_timing(const MfRecon *r, double *forward_s, double *adjoint_s) {
+    *forward_s = r->t_forward;
+    *adjoint_s = r->t_adjoint;
+}
 
 static MfImage block_image(const MfParamBlock *b, int w, int h) {
     MfImage im = {w, h, 3, b->p};
@@ -267,7 +272,9 @@ static int view_step(MfRecon *r, int vi, uint64_t vseed, float scale, IterStats 
         rc = mf_fail(MF_ENOMEM, "out of memory for a %dx%d view", w, h);
         goto done;
     }
+    double t0 = mf_now();
     if ((rc = mf_diff_forward(&s, &v->cam, &fo, &out))) goto done;
+    r->t_forward += mf_now() - t0;
     MfRng rng;
     mf_rng_seed(&rng, mf_hash64(vseed, 2), 0);
     for (size_t i = 0; i < npx * 3; ++i) bg[i] = mf_rng_float(&rng);
@@ -294,7 +301,9 @@ static int view_step(MfRecon *r, int vi, uint64_t vseed, float scale, IterStats 
     bo.seed = mf_hash64(vseed, 3); /* decorrelated from the primal samples */
     MfDiffAdjoint adj = {drgb, dd, ds};
     MfDiffGrads g = {r->blocks[MF_BLOCK_KD].g, r->blocks[MF_BLOCK_ORM].g, r->blocks[MF_BLOCK_ENV].g};
+    t0 = mf_now();
     rc = mf_diff_backward(&s, &v->cam, &bo, &adj, &g);
+    r->t_adjoint += mf_now() - t0;
 done:
     mf_render_out_free(&out);
     free(bg), free(cp), free(cr), free(ra), free(drgb), free(dd), free(ds), free(rrgb);

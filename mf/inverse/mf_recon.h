@@ -99,6 +99,8 @@ const MfRtScene *mf_recon_rtscene(const MfRecon *r);
 MfImage mf_recon_kd_image(const MfRecon *r);
 MfImage mf_recon_orm_image(const MfRecon *r);
 const MfEnvMap *mf_recon_env(const MfRecon *r);
+/* Seconds spent in the primal (forward) and adjoint renders by this process. */
+void mf_recon_timing(const MfRecon *r, double *forward_s, double *adjoint_s);
 /* Peak resident set size of this process in bytes (from getrusage). */
 long mf_peak_rss_bytes(void);
 
