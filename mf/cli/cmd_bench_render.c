@@ -11,16 +11,18 @@
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "core/mf_log.h"
+#include "io/mf_image.h"
 #include "render/mf_integrator.h"
 #include "render/mf_rtscene.h"
 #include "scene/mf_shapes.h"
 
 static const char usage[] =
     "usage: mf bench-render [-o reports/perf/render.md] [--width W] [--height H] [--spp N] [--threads T]\n"
-    "                       [--pixel-samples P] [--env FILE.exr]\n"
+    "                       [--pixel-samples P] [--env FILE.exr] [--env-width EW]\n"
     "Renders a procedural torus (131072 triangles) under an HDR probe (default Blender's sunset.exr,\n"
     "else a constant sky) with N^2 light + N^2 BSDF samples per pixel (default 512x512, N = 8,\n"
-    "2 threads), then replays exactly the renderer's rays (recorded per row) through a bare\n"
+    "2 threads; --env-width box-filters the probe down to at most EW columns, e.g. 512 for the\n"
+    "inverse pipeline's env resolution), then replays exactly the renderer's rays (recorded per row) through a bare\n"
     "rtcIntersect1/rtcOccluded1 loop, and reports path samples/s, rays/s and bare time / render time.\n";
 
 /* Replays recorded rays; returns the number of occluded shadow rays + primary hits (a checksum). */
@@ -53,15 +55,36 @@ static long replay(RTCScene scene, const MfRayLog *log) {
     return acc;
 }
 
+/* Box-filters img down by integer factors until its width is <= max_w (keeps 2:1 lat-long). */
+static int downsample_env(MfImage *img, int max_w) {
+    int f = 1;
+    while (img->w / f > max_w && img->w % (2 * f) == 0 && img->h % (2 * f) == 0) f *= 2;
+    if (f == 1) return MF_OK;
+    MfImage o;
+    int rc = mf_image_alloc(&o, img->w / f, img->h / f, 3);
+    if (rc) return rc;
+    for (int y = 0; y < o.h; ++y)
+        for (int x = 0; x < o.w; ++x)
+            for (int c = 0; c < 3; ++c) {
+                double acc = 0;
+                for (int dy = 0; dy < f; ++dy)
+                    for (int dx = 0; dx < f; ++dx) acc += mf_image_px(img, x * f + dx, y * f + dy)[c];
+                mf_image_px(&o, x, y)[c] = (float)(acc / (f * f));
+            }
+    mf_image_free(img);
+    *img = o;
+    return MF_OK;
+}
+
 static int cmd_bench_render(int argc, char **argv) {
     const char *outp = "reports/perf/render.md", *envp = "/usr/share/blender/datafiles/studiolights/world/sunset.exr";
-    int W = 512, H = 512, spp = 8, threads = 2, ps = 1;
+    int W = 512, H = 512, spp = 8, threads = 2, ps = 1, env_w = 0;
     for (int i = 1; i < argc; ++i) {
         int r;
         if ((r = mf_opt_str(argc, argv, &i, "-o", &outp)) || (r = mf_opt_int(argc, argv, &i, "--width", &W)) ||
             (r = mf_opt_int(argc, argv, &i, "--height", &H)) || (r = mf_opt_int(argc, argv, &i, "--spp", &spp)) ||
             (r = mf_opt_int(argc, argv, &i, "--threads", &threads)) || (r = mf_opt_int(argc, argv, &i, "--pixel-samples", &ps)) ||
-            (r = mf_opt_str(argc, argv, &i, "--env", &envp))) {
+            (r = mf_opt_str(argc, argv, &i, "--env", &envp)) || (r = mf_opt_int(argc, argv, &i, "--env-width", &env_w))) {
             if (r < 0) return MF_EXIT_USAGE;
             continue;
         }
@@ -78,12 +101,26 @@ static int cmd_bench_render(int argc, char **argv) {
     MfRtScene *rt = NULL;
     MfEnvMap env;
     int has_env = 0, rc;
-    const char *env_desc = envp;
+    char env_desc[1200];
+    snprintf(env_desc, sizeof env_desc, "%s", envp);
     if ((rc = mf_rtscene_new(&mesh, &rt))) goto done;
     if (mf_file_exists(envp)) {
-        if ((rc = mf_env_load(&env, envp))) goto done;
+        MfImage img;
+        if ((rc = mf_image_read(envp, MF_ENC_LINEAR, &img))) goto done;
+        int w0 = img.w, h0 = img.h;
+        if (img.c != 3) {
+            MfImage o;
+            if ((rc = mf_image_alloc(&o, img.w, img.h, 3))) { mf_image_free(&img); goto done; }
+            for (size_t i = 0; i < (size_t)img.w * img.h; ++i)
+                for (int c = 0; c < 3; ++c) o.data[3 * i + c] = img.data[i * img.c + (c < img.c ? c : 0)];
+            mf_image_free(&img);
+            img = o;
+        }
+        if (env_w > 0 && (rc = downsample_env(&img, env_w))) { mf_image_free(&img); goto done; }
+        snprintf(env_desc, sizeof env_desc, "%s (%dx%d, used at %dx%d)", envp, w0, h0, img.w, img.h);
+        if ((rc = mf_env_init(&env, &img))) goto done;
     } else {
-        env_desc = "constant radiance 1 (probe not found)";
+        snprintf(env_desc, sizeof env_desc, "constant radiance 1 (probe not found)");
         if ((rc = mf_env_init_constant(&env, 64, 32, mf_v3s(1.0f)))) goto done;
     }
     has_env = 1;
