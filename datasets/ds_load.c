@@ -571,11 +571,6 @@ int ds_load_relit(const DsViews *v, int i, int k, MfImage *out) {
 }
 
 /* Blender lat-long mapping (DESIGN.md). */
-static void dir_to_uv(MfVec3 d, float *u, float *v) {
-    *u = 0.5f - atan2f(d.y, d.x) * MF_INV_2PI;
-    *v = 0.5f + asinf(mf_clampf(d.z, -1.0f, 1.0f)) * MF_INV_PI;
-}
-
 static MfVec3 uv_to_dir(float u, float v) {
     float phi = (0.5f - u) * 2.0f * MF_PI, th = (v - 0.5f) * MF_PI;
     return mf_v3(cosf(th) * cosf(phi), cosf(th) * sinf(phi), sinf(th));
@@ -590,12 +585,13 @@ int ds_orb_env_to_world(const MfImage *cam_env, const MfMat4 *c2w, MfImage *worl
     int W = cam_env->w, H = cam_env->h, C = cam_env->c;
     for (int y = 0; y < H; ++y)
         for (int x = 0; x < W; ++x) {
+            /* world direction of this output texel (Blender mapping, texel centres) */
             MfVec3 d = uv_to_dir(((float)x + 0.5f) / (float)W, 1.0f - ((float)y + 0.5f) / (float)H);
             /* camera-frame direction R^T d */
             MfVec3 dc = mf_v3(m[0] * d.x + m[4] * d.y + m[8] * d.z, m[1] * d.x + m[5] * d.y + m[9] * d.z, m[2] * d.x + m[6] * d.y + m[10] * d.z);
-            float u, v;
-            dir_to_uv(dc, &u, &v);
-            float fx = u * (float)W - 0.5f, fy = (1.0f - v) * (float)H - 0.5f;
+            /* Stanford-ORB camera-frame layout (orb/utils/env_map.py), pixel centres at integers */
+            float fy = acosf(mf_clampf(dc.y, -1.0f, 1.0f)) * MF_INV_PI * (float)(H - 1);
+            float fx = (atan2f(dc.x, -dc.z) + MF_PI) * MF_INV_2PI * (float)(W - 1);
             int x0 = (int)floorf(fx), y0 = (int)floorf(fy);
             float tx = fx - (float)x0, ty = fy - (float)y0;
             float *q = mf_image_px(&r, x, y);
