@@ -3,6 +3,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/wait.h>
 
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
@@ -216,4 +217,23 @@ MF_TEST(ds_load_bvault_gt_from_exr_layers) {
         if (v.views[i].orm.data) CHECK_NEAR(mf_image_px(&v.views[i].orm, 3, 2)[2], 0.01f * 11 + 0.3f * i, 1e-6);
     }
     ds_views_free(&v);
+}
+
+/* The `mf gen` command: writes the layout, exit code 2 on usage errors. */
+MF_TEST(ds_cli_gen) {
+    const char *bin = getenv("MF_BIN");
+    if (!bin || !mf_file_exists(bin)) MF_SKIP("MF_BIN not set (run through make test)");
+    const char *out = mf_test_path("cli_gen");
+    char cmd[3 * MF_PATH_MAX];
+    snprintf(cmd, sizeof cmd, "'%s' gen -o '%s' --family torus --seed 3 --tex-res 32 --train 3 --test 2 2>/dev/null", bin, out);
+    CHECK(system(cmd) == 0);
+    const char *files[] = {"mesh.obj", "gt/kd.png", "gt/orm.png", "transforms_train.json", "transforms_test.json"};
+    for (size_t f = 0; f < sizeof files / sizeof files[0]; ++f) {
+        char p[MF_PATH_MAX];
+        snprintf(p, sizeof p, "%s/%s", out, files[f]);
+        CHECK_MSG(mf_file_exists(p), "missing %s", p);
+    }
+    snprintf(cmd, sizeof cmd, "'%s' gen -o '%s' --family teapot 2>/dev/null", bin, out);
+    int st = system(cmd);
+    CHECK(WIFEXITED(st) && WEXITSTATUS(st) == 2);
 }
