@@ -171,6 +171,54 @@ static int bvault_view_gt(const char *dir, const char *split, DsView *view) {
  * ORB's per-frame resolution of file_path. */
 typedef enum { TF_NERF = 0, TF_BVAULT = 1, TF_ORB = 2 } TfKind;
 
+/* Per-frame work of the parallel image phase; the message of a failure is kept so it can be
+ * reported in frame order (the error text is thread-local). */
+typedef struct {
+    double c2w[16];
+    double ax;
+    char what[MF_PATH_MAX + 128];
+    char base_dir[MF_PATH_MAX];
+    int w0, h0; /* size as stored, before downsampling */
+    int rc;
+    char msg[MF_PATH_MAX + 256];
+} FrameJob;
+
+static int load_frame_images(TfKind kind, const char *dir, const char *split, const char *orb_root, const char *orb_capture,
+                             const DsLoadOptions *o, FrameJob *job, DsView *view) {
+    int rc;
+    int is_exr = !strcmp(strrchr(view->image_path, '.'), ".exr");
+    if ((rc = read_image(view->image_path, is_exr ? MF_ENC_LINEAR : MF_ENC_SRGB, 4, &view->rgba))) return rc;
+    if (kind == TF_ORB) {
+        /* mask from <split>_mask/<name>.png replaces alpha */
+        char mpath[MF_PATH_MAX];
+        MfImage mask = {0};
+        const char *msplit = (!strcmp(split, "novel")) ? "test" : split;
+        if ((rc = joinf(mpath, "%s/%s_mask/%s.png", job->base_dir, msplit, view->name))) return rc;
+        if ((rc = read_image(mpath, MF_ENC_LINEAR, 3, &mask))) return rc;
+        if (mask.w != view->rgba.w || mask.h != view->rgba.h) {
+            mf_image_free(&mask);
+            return mf_fail(MF_EFORMAT, "%s: mask is %dx%d, the image is %dx%d", mpath, mask.w, mask.h, view->rgba.w, view->rgba.h);
+        }
+        for (size_t k = 0; k < (size_t)mask.w * mask.h; ++k) view->rgba.data[4 * k + 3] = mask.data[3 * k];
+        mf_image_free(&mask);
+        if (!strcmp(split, "test")) {
+            char ep[MF_PATH_MAX];
+            if ((rc = joinf(ep, "%s/ground_truth/%s/env_map/%s.exr", orb_root, orb_capture, view->name))) return rc;
+            if (mf_file_exists(ep)) snprintf(view->env_path, sizeof view->env_path, "%s", ep);
+        }
+    }
+    job->w0 = view->rgba.w;
+    job->h0 = view->rgba.h;
+    if (kind == TF_BVAULT && o->load_gt && (rc = bvault_view_gt(dir, split, view))) return rc;
+    if ((rc = downsample(&view->rgba, o->downsample, view->image_path))) return rc;
+    if ((rc = downsample(&view->albedo, o->downsample, view->image_path))) return rc;
+    if ((rc = downsample(&view->orm, o->downsample, view->image_path))) return rc;
+    return MF_OK;
+}
+
+/* Three phases: the JSON is parsed and every camera validated first (serial, cheap), images
+ * are decoded in parallel (OpenMP over frames), then failures and size mismatches are reported
+ * in frame order, so the result and the messages do not depend on the thread count. */
 static int load_transforms(const char *dir, const char *split, TfKind kind, const DsLoadOptions *o, const char *orb_root,
                            const char *orb_capture, DsViews *out) {
     char jpath[MF_PATH_MAX], name[64];
@@ -181,6 +229,7 @@ static int load_transforms(const char *dir, const char *split, TfKind kind, cons
     if ((rc = mf_json_load(jpath, &root))) return rc;
     DsViews v = {0};
     DsView *views = NULL;
+    FrameJob *jobs = NULL;
     int nf = 0;
     const cJSON *frames;
     double angle = 0.0;
@@ -189,69 +238,65 @@ static int load_transforms(const char *dir, const char *split, TfKind kind, cons
     if (nf == 0) { rc = mf_fail(MF_EFORMAT, "%s: frames: empty", jpath); goto fail; }
     if (o->max_views > 0 && nf > o->max_views) nf = o->max_views;
     views = calloc((size_t)nf, sizeof(DsView));
-    if (!views) { rc = mf_fail(MF_ENOMEM, "out of memory"); goto fail; }
+    jobs = calloc((size_t)nf, sizeof(FrameJob));
+    if (!views || !jobs) { rc = mf_fail(MF_ENOMEM, "out of memory"); goto fail; }
+    /* 1. frames and cameras */
     for (int i = 0; i < nf; ++i) {
         const cJSON *fr = cJSON_GetArrayItem(frames, i);
-        char where[64], what[MF_PATH_MAX + 128];
-        snprintf(where, sizeof where, "frames[%d]", i);
-        snprintf(what, sizeof what, "%s: %s", jpath, where);
-        const char *fp;
-        double c2w[16], ax = angle;
+        FrameJob *job = &jobs[i];
         DsView *view = &views[i];
+        char where[64];
+        snprintf(where, sizeof where, "frames[%d]", i);
+        snprintf(job->what, sizeof job->what, "%s: %s", jpath, where);
+        const char *fp;
+        job->ax = angle;
         if ((rc = mf_json_string(jpath, where, fr, "file_path", &fp))) goto fail;
-        if ((rc = mf_json_numbers(jpath, where, fr, "transform_matrix", 4, 4, c2w))) goto fail;
-        if ((rc = mf_json_number_opt(jpath, where, fr, "camera_angle_x", angle, &ax))) goto fail;
-        if (isnan(ax)) { rc = mf_fail(MF_EFORMAT, "%s: camera_angle_x: missing", jpath); goto fail; }
+        if ((rc = mf_json_numbers(jpath, where, fr, "transform_matrix", 4, 4, job->c2w))) goto fail;
+        if ((rc = mf_json_number_opt(jpath, where, fr, "camera_angle_x", angle, &job->ax))) goto fail;
+        if (isnan(job->ax)) { rc = mf_fail(MF_EFORMAT, "%s: camera_angle_x: missing", jpath); goto fail; }
+        MfCamera probe;
+        if ((rc = mf_camera_init(&probe, 1, 1, job->ax, job->c2w, job->what))) goto fail;
         stem_of(fp, view->name, sizeof view->name);
-        const char *base_dir = dir;
-        char other[MF_PATH_MAX];
+        snprintf(job->base_dir, sizeof job->base_dir, "%s", dir);
         if (kind == TF_ORB) {
             const char *sn = NULL;
             if ((rc = mf_json_string_opt(jpath, where, fr, "scene_name", NULL, &sn))) goto fail;
-            if (sn && strcmp(sn, orb_capture)) {
-                /* novel frames: the image lives in the other capture's folder */
-                snprintf(view->scene_name, sizeof view->scene_name, "%s", sn);
-                if ((rc = joinf(other, "%s/../%s", dir, sn))) goto fail;
-                base_dir = other;
-            } else if (sn) snprintf(view->scene_name, sizeof view->scene_name, "%s", sn);
+            if (sn) snprintf(view->scene_name, sizeof view->scene_name, "%s", sn);
+            /* novel frames: the image lives in the other capture's folder */
+            if (sn && strcmp(sn, orb_capture) && (rc = joinf(job->base_dir, "%s/../%s", dir, sn))) goto fail;
         }
         while (fp[0] == '.' && fp[1] == '/') fp += 2; /* "./train/r_0" */
-        if ((rc = join(view->image_path, base_dir, fp))) goto fail;
+        if ((rc = join(view->image_path, job->base_dir, fp))) goto fail;
         char ext[16];
         mf_path_ext(fp, ext, sizeof ext);
         if (!ext[0]) {
             const char *def = (kind == TF_ORB && !o->ldr) ? ".exr" : ".png";
-            if (strlen(view->image_path) + 5 >= MF_PATH_MAX) { rc = mf_fail(MF_EARG, "%s: path too long", what); goto fail; }
+            if (strlen(view->image_path) + 5 >= MF_PATH_MAX) { rc = mf_fail(MF_EARG, "%s: path too long", job->what); goto fail; }
             strcat(view->image_path, def);
         }
-        int is_exr = !strcmp(strrchr(view->image_path, '.'), ".exr");
-        if ((rc = read_image(view->image_path, is_exr ? MF_ENC_LINEAR : MF_ENC_SRGB, 4, &view->rgba))) goto fail;
-        if (kind == TF_ORB) {
-            /* mask from <split>_mask/<name>.png replaces alpha */
-            char mpath[MF_PATH_MAX];
-            MfImage mask = {0};
-            const char *msplit = (!strcmp(split, "novel")) ? "test" : split;
-            if ((rc = joinf(mpath, "%s/%s_mask/%s.png", base_dir, msplit, view->name))) goto fail;
-            if ((rc = read_image(mpath, MF_ENC_LINEAR, 3, &mask))) goto fail;
-            if (mask.w != view->rgba.w || mask.h != view->rgba.h) {
-                mf_image_free(&mask);
-                rc = mf_fail(MF_EFORMAT, "%s: mask is %dx%d, the image is %dx%d", mpath, mask.w, mask.h, view->rgba.w, view->rgba.h);
-                goto fail;
-            }
-            for (size_t k = 0; k < (size_t)mask.w * mask.h; ++k) view->rgba.data[4 * k + 3] = mask.data[3 * k];
-            mf_image_free(&mask);
-            if (!strcmp(split, "test")) {
-                char ep[MF_PATH_MAX];
-                if ((rc = joinf(ep, "%s/ground_truth/%s/env_map/%s.exr", orb_root, orb_capture, view->name))) goto fail;
-                if (mf_file_exists(ep)) snprintf(view->env_path, sizeof view->env_path, "%s", ep);
-            }
-        }
-        if ((rc = check_size(&v, i, &view->rgba, view->image_path))) goto fail;
-        if (kind == TF_BVAULT && o->load_gt && (rc = bvault_view_gt(dir, split, view))) goto fail;
-        if ((rc = finish_view(view, o, ax, c2w, what))) goto fail;
     }
     cJSON_Delete(root);
     root = NULL;
+    /* 2. images, in parallel */
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int i = 0; i < nf; ++i) {
+        FrameJob *job = &jobs[i];
+        job->rc = load_frame_images(kind, dir, split, orb_root, orb_capture, o, job, &views[i]);
+        if (job->rc) snprintf(job->msg, sizeof job->msg, "%s", mf_error());
+    }
+    /* 3. failures and sizes in frame order; cameras at the final size */
+    for (int i = 0; i < nf; ++i) {
+        FrameJob *job = &jobs[i];
+        if (job->rc) { rc = mf_fail(job->rc, "%s", job->msg); goto fail; }
+        if (job->w0 != jobs[0].w0 || job->h0 != jobs[0].h0) {
+            rc = mf_fail(MF_EFORMAT, "%s: image is %dx%d, the split's first image is %dx%d", views[i].image_path, job->w0, job->h0,
+                         jobs[0].w0, jobs[0].h0);
+            goto fail;
+        }
+        views[i].camera_angle_x = job->ax;
+        if ((rc = mf_camera_init(&views[i].cam, views[i].rgba.w, views[i].rgba.h, job->ax, job->c2w, job->what))) goto fail;
+    }
+    free(jobs);
     v.format = kind == TF_ORB ? DS_FMT_STANFORD_ORB : (kind == TF_BVAULT ? DS_FMT_BVAULT : DS_FMT_NERF_SYNTHETIC);
     snprintf(v.dir, sizeof v.dir, "%s", dir);
     snprintf(v.split, sizeof v.split, "%s", split);
@@ -263,6 +308,7 @@ static int load_transforms(const char *dir, const char *split, TfKind kind, cons
     return MF_OK;
 fail:
     cJSON_Delete(root);
+    free(jobs);
     free_views(views, nf);
     return rc;
 }

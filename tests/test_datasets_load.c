@@ -4,6 +4,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <omp.h>
 #include <unistd.h>
 
 #include "core/mf_error.h"
@@ -171,6 +172,19 @@ MF_TEST(ds_load_errors) {
     /* mismatched sizes within a split */
     write_coded_png(pj(d1, "train/r_1.png"), 1, 16, 8, 4, 8);
     CHECK_ERR(ds_load_nerf_synthetic(d1, "train", NULL, &v), "train/r_1.png: image is 16x8, the split's first image is 8x8");
+    /* several bad frames: the first in frame order is reported, whatever the thread count */
+    make_nerf_scene(d1, 6);
+    write_coded_png(pj(d1, "train/r_4.png"), 1, 16, 8, 4, 8);
+    unlink(pj(d1, "train/r_2.png"));
+    int nt = omp_get_max_threads();
+    for (int t = 1; t <= 4; t += 3) {
+        omp_set_num_threads(t);
+        CHECK_ERR(ds_load_nerf_synthetic(d1, "train", NULL, &v), "train/r_2.png: no such file");
+    }
+    omp_set_num_threads(nt);
+    write_coded_png(pj(d1, "train/r_2.png"), 2, 8, 8, 4, 8);
+    CHECK_ERR(ds_load_nerf_synthetic(d1, "train", NULL, &v), "train/r_4.png: image is 16x8");
+    make_nerf_scene(d1, 3);
     /* non-rigid matrix */
     write_coded_png(pj(d1, "train/r_1.png"), 1, 8, 8, 4, 8);
     write_text(pj(d1, "transforms_train.json"),
