@@ -451,8 +451,15 @@ int ds_load_nerfactor(const char *dir, const char *split, const DsLoadOptions *o
         const char *ms;
         double c2w[16], ax;
         int imh = 0, imw = 0;
-        if ((rc = mf_json_string(mpath, "", meta, "cam_transform_mat", &ms))) goto fail;
-        if ((rc = parse_mat_string(mpath, ms, c2w))) goto fail;
+        const cJSON *mt = cJSON_GetObjectItemCaseSensitive(meta, "cam_transform_mat");
+        if (cJSON_IsArray(mt)) { /* some NeRFactor-style sets store numbers: 16 flat or 4x4 */
+            const cJSON *first = cJSON_GetArrayItem(mt, 0);
+            if ((rc = mf_json_numbers(mpath, "", meta, "cam_transform_mat", cJSON_IsArray(first) ? 4 : 0, cJSON_IsArray(first) ? 4 : 16, c2w)))
+                goto fail;
+        } else {
+            if ((rc = mf_json_string(mpath, "", meta, "cam_transform_mat", &ms))) goto fail;
+            if ((rc = parse_mat_string(mpath, ms, c2w))) goto fail;
+        }
         if ((rc = mf_json_number(mpath, "", meta, "cam_angle_x", &ax))) goto fail;
         if ((rc = mf_json_int(mpath, "", meta, "imh", &imh)) || (rc = mf_json_int(mpath, "", meta, "imw", &imw))) goto fail;
         const char *envmap = NULL;

@@ -11,7 +11,8 @@
  *                  (4x4 c2w). Images: 8/16-bit RGBA PNG, sRGB colour, alpha = mask. A split
  *                  whose json is missing (often "val") fails with MF_EIO ("...: no such file").
  *  NeRFactor       <dir>/<split>_NNN/ folders (sorted by NNN), each with metadata.json
- *                  (cam_transform_mat: "a,b,..." 16 comma-separated numbers, row-major c2w;
+ *                  (cam_transform_mat: "a,b,..." 16 comma-separated numbers, row-major c2w,
+ *                  as NeRFactor writes it; a JSON array of 16 or 4x4 numbers is accepted too;
  *                  cam_angle_x; imh; imw; envmap), rgba.png (16-bit, sRGB colour, alpha = mask),
  *                  and when present albedo.png (linear, as NeRFactor writes it), normal.png
  *                  (linear, n = 2 x - 1) and relit rgba_<probe>.png (sRGB).

@@ -256,6 +256,13 @@ MF_TEST(ds_load_nerfactor) {
     write_text(pj(dir, "test_000/metadata.json"), "{\"cam_transform_mat\": \"1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1\", \"imh\": 8, \"imw\": 8}");
     CHECK_ERR(ds_load_nerfactor(dir, "test", NULL, &v), "test_000/metadata.json: cam_angle_x: missing");
     CHECK_ERR(ds_load_nerfactor(dir, "nope", NULL, &v), "no nope_NNN folders");
+    /* matrix as a JSON array (flat or nested) */
+    write_text(pj(dir, "test_000/metadata.json"), "{\"cam_transform_mat\": [1,0,0,0, 0,1,0,0, 0,0,1,2.5, 0,0,0,1], \"cam_angle_x\": 0.69, \"imh\": 8, \"imw\": 8}");
+    CHECK_OK(ds_load_nerfactor(dir, "test", NULL, &v));
+    CHECK(v.n == 1 && v.views[0].cam.c2w.m[11] == 2.5f);
+    ds_views_free(&v);
+    write_text(pj(dir, "test_000/metadata.json"), "{\"cam_transform_mat\": [[1,0,0,0],[0,1,0,0],[0,0,1,2.5]], \"cam_angle_x\": 0.69, \"imh\": 8, \"imw\": 8}");
+    CHECK_ERR(ds_load_nerfactor(dir, "test", NULL, &v), "cam_transform_mat: expected 4x4 numbers");
 }
 
 /* ---- Stanford-ORB ---- */
