@@ -123,24 +123,6 @@ static int read_image(const char *path, MfEncoding enc, int want, MfImage *out) 
     return MF_OK;
 }
 
-/* Checks size against the split's first image and applies the downsample factor. */
-static int check_size(DsViews *v, int i, const MfImage *im, const char *path) {
-    if (i == 0) { v->w = im->w; v->h = im->h; return MF_OK; }
-    if (im->w != v->w || im->h != v->h)
-        return mf_fail(MF_EFORMAT, "%s: image is %dx%d, the split's first image is %dx%d", path, im->w, im->h, v->w, v->h);
-    return MF_OK;
-}
-
-static int finish_view(DsView *view, const DsLoadOptions *o, double angle_x, const double c2w[16], const char *what) {
-    int rc;
-    if ((rc = downsample(&view->rgba, o->downsample, view->image_path))) return rc;
-    if ((rc = downsample(&view->albedo, o->downsample, view->image_path))) return rc;
-    if ((rc = downsample(&view->orm, o->downsample, view->image_path))) return rc;
-    if ((rc = downsample(&view->normal, o->downsample, view->image_path))) return rc;
-    view->camera_angle_x = angle_x;
-    return mf_camera_init(&view->cam, view->rgba.w, view->rgba.h, angle_x, c2w, what);
-}
-
 static void free_views(DsView *views, int n) {
     DsViews tmp = {0};
     tmp.views = views;
@@ -440,53 +422,79 @@ int ds_load_nerfactor(const char *dir, const char *split, const DsLoadOptions *o
     if (o.max_views > 0 && n > o.max_views) n = o.max_views;
     DsViews v = {0};
     DsView *views = calloc((size_t)n, sizeof(DsView));
+    FrameJob *jobs = calloc((size_t)n, sizeof(FrameJob));
+    int *dims = calloc((size_t)n * 2, sizeof(int)); /* (n, 2) imw, imh from metadata */
     cJSON *meta = NULL;
-    if (!views) { rc = mf_fail(MF_ENOMEM, "out of memory"); goto fail; }
+    if (!views || !jobs || !dims) { rc = mf_fail(MF_ENOMEM, "out of memory"); goto fail; }
+    /* 1. metadata and cameras (serial) */
     for (int i = 0; i < n; ++i) {
         DsView *view = &views[i];
-        char vdir[MF_PATH_MAX], mpath[MF_PATH_MAX], p[MF_PATH_MAX];
+        FrameJob *job = &jobs[i];
+        char vdir[MF_PATH_MAX], mpath[MF_PATH_MAX];
         snprintf(view->name, sizeof view->name, "%s", names[i]);
         if ((rc = join(vdir, dir, names[i])) || (rc = join(mpath, vdir, "metadata.json"))) goto fail;
+        snprintf(job->base_dir, sizeof job->base_dir, "%s", vdir);
+        snprintf(job->what, sizeof job->what, "%s", mpath);
         if ((rc = mf_json_load(mpath, &meta))) goto fail;
         const char *ms;
-        double c2w[16], ax;
-        int imh = 0, imw = 0;
         const cJSON *mt = cJSON_GetObjectItemCaseSensitive(meta, "cam_transform_mat");
         if (cJSON_IsArray(mt)) { /* some NeRFactor-style sets store numbers: 16 flat or 4x4 */
             const cJSON *first = cJSON_GetArrayItem(mt, 0);
-            if ((rc = mf_json_numbers(mpath, "", meta, "cam_transform_mat", cJSON_IsArray(first) ? 4 : 0, cJSON_IsArray(first) ? 4 : 16, c2w)))
+            if ((rc = mf_json_numbers(mpath, "", meta, "cam_transform_mat", cJSON_IsArray(first) ? 4 : 0, cJSON_IsArray(first) ? 4 : 16, job->c2w)))
                 goto fail;
         } else {
             if ((rc = mf_json_string(mpath, "", meta, "cam_transform_mat", &ms))) goto fail;
-            if ((rc = parse_mat_string(mpath, ms, c2w))) goto fail;
+            if ((rc = parse_mat_string(mpath, ms, job->c2w))) goto fail;
         }
-        if ((rc = mf_json_number(mpath, "", meta, "cam_angle_x", &ax))) goto fail;
-        if ((rc = mf_json_int(mpath, "", meta, "imh", &imh)) || (rc = mf_json_int(mpath, "", meta, "imw", &imw))) goto fail;
+        if ((rc = mf_json_number(mpath, "", meta, "cam_angle_x", &job->ax))) goto fail;
+        if ((rc = mf_json_int(mpath, "", meta, "imh", &dims[2 * i + 1])) || (rc = mf_json_int(mpath, "", meta, "imw", &dims[2 * i]))) goto fail;
         const char *envmap = NULL;
         if ((rc = mf_json_string_opt(mpath, "", meta, "envmap", NULL, &envmap))) goto fail;
         if (envmap && i == 0) snprintf(v.env_path, sizeof v.env_path, "%s", envmap);
         cJSON_Delete(meta);
         meta = NULL;
+        MfCamera probe;
+        if ((rc = mf_camera_init(&probe, 1, 1, job->ax, job->c2w, job->what))) goto fail;
         if ((rc = join(view->image_path, vdir, "rgba.png"))) goto fail;
-        if ((rc = read_image(view->image_path, MF_ENC_SRGB, 4, &view->rgba))) goto fail;
-        if (view->rgba.w != imw || view->rgba.h != imh) {
-            rc = mf_fail(MF_EFORMAT, "%s: image is %dx%d, metadata.json says imw %d, imh %d", view->image_path, view->rgba.w,
-                         view->rgba.h, imw, imh);
-            goto fail;
-        }
-        if ((rc = check_size(&v, i, &view->rgba, view->image_path))) goto fail;
-        if (o.load_gt) {
-            if ((rc = join(p, vdir, "albedo.png"))) goto fail;
-            if (mf_file_exists(p) && (rc = read_image(p, MF_ENC_LINEAR, 3, &view->albedo))) goto fail;
-            if ((rc = join(p, vdir, "normal.png"))) goto fail;
-            if (mf_file_exists(p)) {
-                if ((rc = read_image(p, MF_ENC_LINEAR, 3, &view->normal))) goto fail;
-                for (size_t k = 0; k < (size_t)view->normal.w * view->normal.h * 3; ++k) view->normal.data[k] = 2.0f * view->normal.data[k] - 1.0f;
+    }
+    /* 2. images (parallel); failures kept per view */
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int i = 0; i < n; ++i) {
+        DsView *view = &views[i];
+        FrameJob *job = &jobs[i];
+        char p[MF_PATH_MAX];
+        int r = read_image(view->image_path, MF_ENC_SRGB, 4, &view->rgba);
+        if (!r) { job->w0 = view->rgba.w; job->h0 = view->rgba.h; }
+        if (!r && (view->rgba.w != dims[2 * i] || view->rgba.h != dims[2 * i + 1]))
+            r = mf_fail(MF_EFORMAT, "%s: image is %dx%d, metadata.json says imw %d, imh %d", view->image_path, view->rgba.w,
+                        view->rgba.h, dims[2 * i], dims[2 * i + 1]);
+        if (!r && o.load_gt) {
+            r = join(p, job->base_dir, "albedo.png");
+            if (!r && mf_file_exists(p)) r = read_image(p, MF_ENC_LINEAR, 3, &view->albedo);
+            if (!r) r = join(p, job->base_dir, "normal.png");
+            if (!r && mf_file_exists(p)) {
+                r = read_image(p, MF_ENC_LINEAR, 3, &view->normal);
+                for (size_t k = 0; !r && k < (size_t)view->normal.w * view->normal.h * 3; ++k)
+                    view->normal.data[k] = 2.0f * view->normal.data[k] - 1.0f;
             }
         }
-        char what[MF_PATH_MAX + 32];
-        snprintf(what, sizeof what, "%s", mpath);
-        if ((rc = finish_view(view, &o, ax, c2w, what))) goto fail;
+        if (!r) r = downsample(&view->rgba, o.downsample, view->image_path);
+        if (!r) r = downsample(&view->albedo, o.downsample, view->image_path);
+        if (!r) r = downsample(&view->normal, o.downsample, view->image_path);
+        job->rc = r;
+        if (r) snprintf(job->msg, sizeof job->msg, "%s", mf_error());
+    }
+    /* 3. in view order: failures, sizes, cameras */
+    for (int i = 0; i < n; ++i) {
+        FrameJob *job = &jobs[i];
+        if (job->rc) { rc = mf_fail(job->rc, "%s", job->msg); goto fail; }
+        if (job->w0 != jobs[0].w0 || job->h0 != jobs[0].h0) {
+            rc = mf_fail(MF_EFORMAT, "%s: image is %dx%d, the split's first image is %dx%d", views[i].image_path, job->w0, job->h0,
+                         jobs[0].w0, jobs[0].h0);
+            goto fail;
+        }
+        views[i].camera_angle_x = job->ax;
+        if ((rc = mf_camera_init(&views[i].cam, views[i].rgba.w, views[i].rgba.h, job->ax, job->c2w, job->what))) goto fail;
     }
     /* relighting probes: rgba_<probe>.png in the first view's folder */
     {
@@ -512,10 +520,14 @@ int ds_load_nerfactor(const char *dir, const char *split, const DsLoadOptions *o
     v.w = views[0].rgba.w;
     v.h = views[0].rgba.h;
     free_names(names, n_names);
+    free(jobs);
+    free(dims);
     *out = v;
     return MF_OK;
 fail:
     cJSON_Delete(meta);
+    free(jobs);
+    free(dims);
     free_views(views, n);
     free_names(names, n_names);
     return rc;

@@ -256,6 +256,16 @@ MF_TEST(ds_load_nerfactor) {
     write_text(pj(dir, "test_000/metadata.json"), "{\"cam_transform_mat\": \"1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1\", \"imh\": 8, \"imw\": 8}");
     CHECK_ERR(ds_load_nerfactor(dir, "test", NULL, &v), "test_000/metadata.json: cam_angle_x: missing");
     CHECK_ERR(ds_load_nerfactor(dir, "nope", NULL, &v), "no nope_NNN folders");
+    /* downsampled: normals and albedo follow */
+    DsLoadOptions o2 = {1, 2, 2, 0};
+    CHECK_OK(ds_load_nerfactor(dir, "train", &o2, &v));
+    CHECK(v.n == 2 && v.w == 4 && v.views[1].normal.w == 4 && v.views[1].albedo.h == 4);
+    if (v.n == 2) CHECK_NEAR(v.views[1].cam.fx, 4 / (2.0 * tan(ANGLE / 2.0)), 1e-4);
+    ds_views_free(&v);
+    /* a view whose size disagrees with the split's first */
+    make_nerfactor_view(dir, "train_002", 2, 16, 8);
+    CHECK_ERR(ds_load_nerfactor(dir, "train", NULL, &v), "train_002/rgba.png: image is 16x8, the split's first image is 8x8");
+    make_nerfactor_view(dir, "train_002", 2, 8, 8);
     /* matrix as a JSON array (flat or nested) */
     write_text(pj(dir, "test_000/metadata.json"), "{\"cam_transform_mat\": [1,0,0,0, 0,1,0,0, 0,0,1,2.5, 0,0,0,1], \"cam_angle_x\": 0.69, \"imh\": 8, \"imw\": 8}");
     CHECK_OK(ds_load_nerfactor(dir, "test", NULL, &v));
