@@ -367,6 +367,35 @@ MF_TEST(ds_load_stanford_orb) {
     CHECK_ERR(ds_load_stanford_orb(root, "cactus_scene001", "train", NULL, &v), "train_mask/0000.png: no such file");
 }
 
+/* blender_LDR: PNG images (sRGB) with the same masks and transforms */
+MF_TEST(ds_load_stanford_orb_ldr) {
+    const char *root = mf_test_path("orb_ldr");
+    char cd[MF_PATH_MAX], buf[4096], m[1024], p[MF_PATH_MAX];
+    snprintf(cd, sizeof cd, "%s/blender_LDR/teapot_scene001", root);
+    mat_json(m, sizeof m, fixture_c2w(1));
+    snprintf(buf, sizeof buf, "{\"camera_angle_x\": %.9g, \"frames\": [{\"file_path\": \"./train/0000\", \"transform_matrix\": %s}]}", ANGLE, m);
+    write_text(pj(cd, "transforms_train.json"), buf);
+    snprintf(p, sizeof p, "%s/train/0000.png", cd);
+    write_coded_png(p, 5, 8, 8, 3, 8);
+    snprintf(p, sizeof p, "%s/train_mask/0000.png", cd);
+    write_coded_png(p, 6, 8, 8, 1, 8);
+    DsLoadOptions o = {1, 0, 1, 1};
+    DsViews v = {0};
+    CHECK_OK(ds_load_stanford_orb(root, "teapot_scene001", "train", &o, &v));
+    CHECK(v.n == 1 && v.format == DS_FMT_STANFORD_ORB);
+    if (v.n == 1) {
+        check_cam(&v.views[0].cam, 1, 8);
+        CHECK(strstr(v.views[0].image_path, "blender_LDR/teapot_scene001/train/0000.png") != NULL);
+        CHECK_NEAR(mf_image_px(&v.views[0].rgba, 3, 4)[1], mf_srgb_to_linear(code(5, 3, 4, 1) / 255.0f), 1e-6);
+        CHECK_NEAR(mf_image_px(&v.views[0].rgba, 3, 4)[3], code(6, 3, 4, 0) / 255.0, 1e-6);
+    }
+    ds_views_free(&v);
+    /* auto-detection picks LDR from the folder name */
+    CHECK_OK(ds_load(cd, "train", NULL, &v));
+    CHECK(v.n == 1);
+    ds_views_free(&v);
+}
+
 MF_TEST(ds_load_orb_env_to_world) {
     /* camera-frame map in ORB's layout holding f(d_cam) = d_cam + 1; the world map (Blender
      * mapping) at world direction d must hold R^T d + 1 */
