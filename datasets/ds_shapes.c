@@ -587,6 +587,23 @@ static void pack_atlas(Builder *b, float pad, float minsz) {
         if (shelf_pack(b, order, mid, pad, minsz, 0)) lo = mid; else hi = mid;
     }
     shelf_pack(b, order, lo, pad, minsz, 1);
+    /* stretch the layout along x and y separately so that it spans the atlas (single long charts
+     * such as a torus would otherwise leave most of it empty); gaps only grow */
+    float mx = 0.0f, my = 0.0f;
+    for (int k = 0; k < b->npatch; ++k) {
+        mx = fmaxf(mx, b->patch[k].x0 + b->patch[k].w);
+        my = fmaxf(my, b->patch[k].y0 + b->patch[k].h);
+    }
+    float sx = mx > pad ? (1.0f - 2.0f * pad) / (mx - pad) : 1.0f, sy = my > pad ? (1.0f - 2.0f * pad) / (my - pad) : 1.0f;
+    if (sx < 1.0f) sx = 1.0f;
+    if (sy < 1.0f) sy = 1.0f;
+    for (int k = 0; k < b->npatch; ++k) {
+        Patch *pa = &b->patch[k];
+        pa->x0 = pad + (pa->x0 - pad) * sx;
+        pa->w *= sx;
+        pa->y0 = pad + (pa->y0 - pad) * sy;
+        pa->h *= sy;
+    }
 }
 
 /* ------------------------------------------------------------------------------------------ */
