@@ -9,6 +9,7 @@
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "core/mf_rng.h"
+#include "io/mf_json.h"
 #include "io/mf_obj.h"
 
 static const char *k_fam_names[DS_FAM_COUNT] = {"cup", "vase", "bottle", "bowl", "box",
@@ -979,5 +980,31 @@ int ds_object_write(const DsObject *o, const char *scene_dir) {
     if ((rc = mf_path_join(p, sizeof p, scene_dir, "gt"))) return rc;
     if ((rc = ds_object_write_textures(o, p))) return rc;
     if ((rc = mf_path_join(p, sizeof p, scene_dir, "mesh.obj"))) return rc;
-    return mf_obj_write(p, &o->mesh, "gt/kd.png");
+    if ((rc = mf_obj_write(p, &o->mesh, "gt/kd.png"))) return rc;
+    /* gt/object.json: what was generated (family, seed, per-part material class and parameters) */
+    static const char *pat_names[DS_PAT_COUNT] = {"plain", "fbm", "stripes", "checker", "label", "ticks"};
+    cJSON *root = cJSON_CreateObject(), *parts = cJSON_CreateArray();
+    char seedstr[32];
+    snprintf(seedstr, sizeof seedstr, "%llu", (unsigned long long)o->seed);
+    cJSON_AddStringToObject(root, "family", ds_family_name(o->family));
+    cJSON_AddStringToObject(root, "seed", seedstr);
+    cJSON_AddNumberToObject(root, "triangles", o->mesh.nt);
+    cJSON_AddNumberToObject(root, "texture_size", o->kd.w);
+    cJSON_AddItemToObject(root, "parts", parts);
+    for (int k = 0; k < o->nparts; ++k) {
+        const DsMaterial *m = &o->parts[k].mat;
+        cJSON *pj = cJSON_CreateObject();
+        const float base[3] = {m->base.x, m->base.y, m->base.z};
+        cJSON_AddStringToObject(pj, "name", o->parts[k].name);
+        cJSON_AddStringToObject(pj, "class", ds_mat_class_name(m->cls));
+        cJSON_AddStringToObject(pj, "pattern", pat_names[m->pattern]);
+        cJSON_AddItemToObject(pj, "base_color_linear", cJSON_CreateFloatArray(base, 3));
+        cJSON_AddNumberToObject(pj, "roughness", m->rough);
+        cJSON_AddNumberToObject(pj, "metallic", m->metallic);
+        cJSON_AddBoolToObject(pj, "metallic_mask", m->mask_metal);
+        cJSON_AddItemToArray(parts, pj);
+    }
+    if (!(rc = mf_path_join(p, sizeof p, scene_dir, "gt/object.json"))) rc = mf_json_save(p, root);
+    cJSON_Delete(root);
+    return rc;
 }

@@ -10,6 +10,7 @@
 #include "datasets/ds_cameras.h"
 #include "datasets/ds_load.h"
 #include "datasets/ds_shapes.h"
+#include "io/mf_json.h"
 #include "io/mf_obj.h"
 #include "mf_test.h"
 
@@ -92,6 +93,17 @@ MF_TEST(ds_object_write_bvault_layout) {
     mf_mesh_bounds(&m, &lo, &hi);
     CHECK_NEAR(mf_maxc(mf_sub(hi, lo)), 1.0, 1e-5);
     mf_mesh_free(&m);
+    cJSON *oj = NULL;
+    snprintf(p, sizeof p, "%s/gt/object.json", dir);
+    CHECK_OK(mf_json_load(p, &oj));
+    if (oj) {
+        CHECK(!strcmp(cJSON_GetObjectItem(oj, "family")->valuestring, "clock"));
+        const cJSON *parts = cJSON_GetObjectItem(oj, "parts");
+        CHECK(cJSON_GetArraySize(parts) == o.nparts);
+        CHECK(!strcmp(cJSON_GetObjectItem(cJSON_GetArrayItem(parts, 1), "name")->valuestring, "face"));
+        CHECK(!strcmp(cJSON_GetObjectItem(cJSON_GetArrayItem(parts, 1), "pattern")->valuestring, "ticks"));
+    }
+    cJSON_Delete(oj);
     MfImage kd = {0}, orm = {0};
     snprintf(p, sizeof p, "%s/gt/kd.png", dir);
     CHECK_OK(mf_image_read(p, MF_ENC_SRGB, &kd));
