@@ -32,7 +32,13 @@
  * Errors name the file and the JSON path: "x/transforms_train.json: frames[2].transform_matrix:
  * missing", "...: expected 4x4 numbers", "x/train/r_3.png: no such file", a truncated PNG
  * ("cannot read image"), "x/train/r_2.png: image is 16x8, the split's first image is 8x8",
- * NaN in an EXR (named by the image reader). On failure *out is untouched. */
+ * NaN in an EXR (named by the image reader). On failure *out is untouched.
+ *
+ * Loading: the JSON/metadata are parsed and every camera checked first (serial), then images are
+ * decoded in parallel (OpenMP over views); failures and size mismatches are reported for the
+ * first offending view in file order, so results and messages do not depend on the thread
+ * count. DsLoadOptions.downsample box-filters by an integer factor (colour weighted by alpha)
+ * and scales the cameras with the image (same camera_angle_x). */
 #ifndef DS_LOAD_H
 #define DS_LOAD_H
 
