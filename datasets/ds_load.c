@@ -123,24 +123,6 @@ static int read_image(const char *path, MfEncoding enc, int want, MfImage *out) 
     return MF_OK;
 }
 
-/* Checks size against the split's first image and applies the downsample factor. */
-static int check_size(DsViews *v, int i, const MfImage *im, const char *path) {
-    if (i == 0) { v->w = im->w; v->h = im->h; return MF_OK; }
-    if (im->w != v->w || im->h != v->h)
-        return mf_fail(MF_EFORMAT, "%s: image is %dx%d, the split's first image is %dx%d", path, im->w, im->h, v->w, v->h);
-    return MF_OK;
-}
-
-static int finish_view(DsView *view, const DsLoadOptions *o, double angle_x, const double c2w[16], const char *what) {
-    int rc;
-    if ((rc = downsample(&view->rgba, o->downsample, view->image_path))) return rc;
-    if ((rc = downsample(&view->albedo, o->downsample, view->image_path))) return rc;
-    if ((rc = downsample(&view->orm, o->downsample, view->image_path))) return rc;
-    if ((rc = downsample(&view->normal, o->downsample, view->image_path))) return rc;
-    view->camera_angle_x = angle_x;
-    return mf_camera_init(&view->cam, view->rgba.w, view->rgba.h, angle_x, c2w, what);
-}
-
 static void free_views(DsView *views, int n) {
     DsViews tmp = {0};
     tmp.views = views;
@@ -171,6 +153,54 @@ static int bvault_view_gt(const char *dir, const char *split, DsView *view) {
  * ORB's per-frame resolution of file_path. */
 typedef enum { TF_NERF = 0, TF_BVAULT = 1, TF_ORB = 2 } TfKind;
 
+/* Per-frame work of the parallel image phase; the message of a failure is kept so it can be
+ * reported in frame order (the error text is thread-local). */
+typedef struct {
+    double c2w[16];
+    double ax;
+    char what[MF_PATH_MAX + 128];
+    char base_dir[MF_PATH_MAX];
+    int w0, h0; /* size as stored, before downsampling */
+    int rc;
+    char msg[MF_PATH_MAX + 256];
+} FrameJob;
+
+static int load_frame_images(TfKind kind, const char *dir, const char *split, const char *orb_root, const char *orb_capture,
+                             const DsLoadOptions *o, FrameJob *job, DsView *view) {
+    int rc;
+    int is_exr = !strcmp(strrchr(view->image_path, '.'), ".exr");
+    if ((rc = read_image(view->image_path, is_exr ? MF_ENC_LINEAR : MF_ENC_SRGB, 4, &view->rgba))) return rc;
+    if (kind == TF_ORB) {
+        /* mask from <split>_mask/<name>.png replaces alpha */
+        char mpath[MF_PATH_MAX];
+        MfImage mask = {0};
+        const char *msplit = (!strcmp(split, "novel")) ? "test" : split;
+        if ((rc = joinf(mpath, "%s/%s_mask/%s.png", job->base_dir, msplit, view->name))) return rc;
+        if ((rc = read_image(mpath, MF_ENC_LINEAR, 3, &mask))) return rc;
+        if (mask.w != view->rgba.w || mask.h != view->rgba.h) {
+            mf_image_free(&mask);
+            return mf_fail(MF_EFORMAT, "%s: mask is %dx%d, the image is %dx%d", mpath, mask.w, mask.h, view->rgba.w, view->rgba.h);
+        }
+        for (size_t k = 0; k < (size_t)mask.w * mask.h; ++k) view->rgba.data[4 * k + 3] = mask.data[3 * k];
+        mf_image_free(&mask);
+        if (!strcmp(split, "test")) {
+            char ep[MF_PATH_MAX];
+            if ((rc = joinf(ep, "%s/ground_truth/%s/env_map/%s.exr", orb_root, orb_capture, view->name))) return rc;
+            if (mf_file_exists(ep)) snprintf(view->env_path, sizeof view->env_path, "%s", ep);
+        }
+    }
+    job->w0 = view->rgba.w;
+    job->h0 = view->rgba.h;
+    if (kind == TF_BVAULT && o->load_gt && (rc = bvault_view_gt(dir, split, view))) return rc;
+    if ((rc = downsample(&view->rgba, o->downsample, view->image_path))) return rc;
+    if ((rc = downsample(&view->albedo, o->downsample, view->image_path))) return rc;
+    if ((rc = downsample(&view->orm, o->downsample, view->image_path))) return rc;
+    return MF_OK;
+}
+
+/* Three phases: the JSON is parsed and every camera validated first (serial, cheap), images
+ * are decoded in parallel (OpenMP over frames), then failures and size mismatches are reported
+ * in frame order, so the result and the messages do not depend on the thread count. */
 static int load_transforms(const char *dir, const char *split, TfKind kind, const DsLoadOptions *o, const char *orb_root,
                            const char *orb_capture, DsViews *out) {
     char jpath[MF_PATH_MAX], name[64];
@@ -181,6 +211,7 @@ static int load_transforms(const char *dir, const char *split, TfKind kind, cons
     if ((rc = mf_json_load(jpath, &root))) return rc;
     DsViews v = {0};
     DsView *views = NULL;
+    FrameJob *jobs = NULL;
     int nf = 0;
     const cJSON *frames;
     double angle = 0.0;
@@ -189,69 +220,65 @@ static int load_transforms(const char *dir, const char *split, TfKind kind, cons
     if (nf == 0) { rc = mf_fail(MF_EFORMAT, "%s: frames: empty", jpath); goto fail; }
     if (o->max_views > 0 && nf > o->max_views) nf = o->max_views;
     views = calloc((size_t)nf, sizeof(DsView));
-    if (!views) { rc = mf_fail(MF_ENOMEM, "out of memory"); goto fail; }
+    jobs = calloc((size_t)nf, sizeof(FrameJob));
+    if (!views || !jobs) { rc = mf_fail(MF_ENOMEM, "out of memory"); goto fail; }
+    /* 1. frames and cameras */
     for (int i = 0; i < nf; ++i) {
         const cJSON *fr = cJSON_GetArrayItem(frames, i);
-        char where[64], what[MF_PATH_MAX + 128];
-        snprintf(where, sizeof where, "frames[%d]", i);
-        snprintf(what, sizeof what, "%s: %s", jpath, where);
-        const char *fp;
-        double c2w[16], ax = angle;
+        FrameJob *job = &jobs[i];
         DsView *view = &views[i];
+        char where[64];
+        snprintf(where, sizeof where, "frames[%d]", i);
+        snprintf(job->what, sizeof job->what, "%s: %s", jpath, where);
+        const char *fp;
+        job->ax = angle;
         if ((rc = mf_json_string(jpath, where, fr, "file_path", &fp))) goto fail;
-        if ((rc = mf_json_numbers(jpath, where, fr, "transform_matrix", 4, 4, c2w))) goto fail;
-        if ((rc = mf_json_number_opt(jpath, where, fr, "camera_angle_x", angle, &ax))) goto fail;
-        if (isnan(ax)) { rc = mf_fail(MF_EFORMAT, "%s: camera_angle_x: missing", jpath); goto fail; }
+        if ((rc = mf_json_numbers(jpath, where, fr, "transform_matrix", 4, 4, job->c2w))) goto fail;
+        if ((rc = mf_json_number_opt(jpath, where, fr, "camera_angle_x", angle, &job->ax))) goto fail;
+        if (isnan(job->ax)) { rc = mf_fail(MF_EFORMAT, "%s: camera_angle_x: missing", jpath); goto fail; }
+        MfCamera probe;
+        if ((rc = mf_camera_init(&probe, 1, 1, job->ax, job->c2w, job->what))) goto fail;
         stem_of(fp, view->name, sizeof view->name);
-        const char *base_dir = dir;
-        char other[MF_PATH_MAX];
+        snprintf(job->base_dir, sizeof job->base_dir, "%s", dir);
         if (kind == TF_ORB) {
             const char *sn = NULL;
             if ((rc = mf_json_string_opt(jpath, where, fr, "scene_name", NULL, &sn))) goto fail;
-            if (sn && strcmp(sn, orb_capture)) {
-                /* novel frames: the image lives in the other capture's folder */
-                snprintf(view->scene_name, sizeof view->scene_name, "%s", sn);
-                if ((rc = joinf(other, "%s/../%s", dir, sn))) goto fail;
-                base_dir = other;
-            } else if (sn) snprintf(view->scene_name, sizeof view->scene_name, "%s", sn);
+            if (sn) snprintf(view->scene_name, sizeof view->scene_name, "%s", sn);
+            /* novel frames: the image lives in the other capture's folder */
+            if (sn && strcmp(sn, orb_capture) && (rc = joinf(job->base_dir, "%s/../%s", dir, sn))) goto fail;
         }
         while (fp[0] == '.' && fp[1] == '/') fp += 2; /* "./train/r_0" */
-        if ((rc = join(view->image_path, base_dir, fp))) goto fail;
+        if ((rc = join(view->image_path, job->base_dir, fp))) goto fail;
         char ext[16];
         mf_path_ext(fp, ext, sizeof ext);
         if (!ext[0]) {
             const char *def = (kind == TF_ORB && !o->ldr) ? ".exr" : ".png";
-            if (strlen(view->image_path) + 5 >= MF_PATH_MAX) { rc = mf_fail(MF_EARG, "%s: path too long", what); goto fail; }
+            if (strlen(view->image_path) + 5 >= MF_PATH_MAX) { rc = mf_fail(MF_EARG, "%s: path too long", job->what); goto fail; }
             strcat(view->image_path, def);
         }
-        int is_exr = !strcmp(strrchr(view->image_path, '.'), ".exr");
-        if ((rc = read_image(view->image_path, is_exr ? MF_ENC_LINEAR : MF_ENC_SRGB, 4, &view->rgba))) goto fail;
-        if (kind == TF_ORB) {
-            /* mask from <split>_mask/<name>.png replaces alpha */
-            char mpath[MF_PATH_MAX];
-            MfImage mask = {0};
-            const char *msplit = (!strcmp(split, "novel")) ? "test" : split;
-            if ((rc = joinf(mpath, "%s/%s_mask/%s.png", base_dir, msplit, view->name))) goto fail;
-            if ((rc = read_image(mpath, MF_ENC_LINEAR, 3, &mask))) goto fail;
-            if (mask.w != view->rgba.w || mask.h != view->rgba.h) {
-                mf_image_free(&mask);
-                rc = mf_fail(MF_EFORMAT, "%s: mask is %dx%d, the image is %dx%d", mpath, mask.w, mask.h, view->rgba.w, view->rgba.h);
-                goto fail;
-            }
-            for (size_t k = 0; k < (size_t)mask.w * mask.h; ++k) view->rgba.data[4 * k + 3] = mask.data[3 * k];
-            mf_image_free(&mask);
-            if (!strcmp(split, "test")) {
-                char ep[MF_PATH_MAX];
-                if ((rc = joinf(ep, "%s/ground_truth/%s/env_map/%s.exr", orb_root, orb_capture, view->name))) goto fail;
-                if (mf_file_exists(ep)) snprintf(view->env_path, sizeof view->env_path, "%s", ep);
-            }
-        }
-        if ((rc = check_size(&v, i, &view->rgba, view->image_path))) goto fail;
-        if (kind == TF_BVAULT && o->load_gt && (rc = bvault_view_gt(dir, split, view))) goto fail;
-        if ((rc = finish_view(view, o, ax, c2w, what))) goto fail;
     }
     cJSON_Delete(root);
     root = NULL;
+    /* 2. images, in parallel */
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int i = 0; i < nf; ++i) {
+        FrameJob *job = &jobs[i];
+        job->rc = load_frame_images(kind, dir, split, orb_root, orb_capture, o, job, &views[i]);
+        if (job->rc) snprintf(job->msg, sizeof job->msg, "%s", mf_error());
+    }
+    /* 3. failures and sizes in frame order; cameras at the final size */
+    for (int i = 0; i < nf; ++i) {
+        FrameJob *job = &jobs[i];
+        if (job->rc) { rc = mf_fail(job->rc, "%s", job->msg); goto fail; }
+        if (job->w0 != jobs[0].w0 || job->h0 != jobs[0].h0) {
+            rc = mf_fail(MF_EFORMAT, "%s: image is %dx%d, the split's first image is %dx%d", views[i].image_path, job->w0, job->h0,
+                         jobs[0].w0, jobs[0].h0);
+            goto fail;
+        }
+        views[i].camera_angle_x = job->ax;
+        if ((rc = mf_camera_init(&views[i].cam, views[i].rgba.w, views[i].rgba.h, job->ax, job->c2w, job->what))) goto fail;
+    }
+    free(jobs);
     v.format = kind == TF_ORB ? DS_FMT_STANFORD_ORB : (kind == TF_BVAULT ? DS_FMT_BVAULT : DS_FMT_NERF_SYNTHETIC);
     snprintf(v.dir, sizeof v.dir, "%s", dir);
     snprintf(v.split, sizeof v.split, "%s", split);
@@ -263,6 +290,7 @@ static int load_transforms(const char *dir, const char *split, TfKind kind, cons
     return MF_OK;
 fail:
     cJSON_Delete(root);
+    free(jobs);
     free_views(views, nf);
     return rc;
 }
@@ -394,46 +422,79 @@ int ds_load_nerfactor(const char *dir, const char *split, const DsLoadOptions *o
     if (o.max_views > 0 && n > o.max_views) n = o.max_views;
     DsViews v = {0};
     DsView *views = calloc((size_t)n, sizeof(DsView));
+    FrameJob *jobs = calloc((size_t)n, sizeof(FrameJob));
+    int *dims = calloc((size_t)n * 2, sizeof(int)); /* (n, 2) imw, imh from metadata */
     cJSON *meta = NULL;
-    if (!views) { rc = mf_fail(MF_ENOMEM, "out of memory"); goto fail; }
+    if (!views || !jobs || !dims) { rc = mf_fail(MF_ENOMEM, "out of memory"); goto fail; }
+    /* 1. metadata and cameras (serial) */
     for (int i = 0; i < n; ++i) {
         DsView *view = &views[i];
-        char vdir[MF_PATH_MAX], mpath[MF_PATH_MAX], p[MF_PATH_MAX];
+        FrameJob *job = &jobs[i];
+        char vdir[MF_PATH_MAX], mpath[MF_PATH_MAX];
         snprintf(view->name, sizeof view->name, "%s", names[i]);
         if ((rc = join(vdir, dir, names[i])) || (rc = join(mpath, vdir, "metadata.json"))) goto fail;
+        snprintf(job->base_dir, sizeof job->base_dir, "%s", vdir);
+        snprintf(job->what, sizeof job->what, "%s", mpath);
         if ((rc = mf_json_load(mpath, &meta))) goto fail;
         const char *ms;
-        double c2w[16], ax;
-        int imh = 0, imw = 0;
-        if ((rc = mf_json_string(mpath, "", meta, "cam_transform_mat", &ms))) goto fail;
-        if ((rc = parse_mat_string(mpath, ms, c2w))) goto fail;
-        if ((rc = mf_json_number(mpath, "", meta, "cam_angle_x", &ax))) goto fail;
-        if ((rc = mf_json_int(mpath, "", meta, "imh", &imh)) || (rc = mf_json_int(mpath, "", meta, "imw", &imw))) goto fail;
+        const cJSON *mt = cJSON_GetObjectItemCaseSensitive(meta, "cam_transform_mat");
+        if (cJSON_IsArray(mt)) { /* some NeRFactor-style sets store numbers: 16 flat or 4x4 */
+            const cJSON *first = cJSON_GetArrayItem(mt, 0);
+            if ((rc = mf_json_numbers(mpath, "", meta, "cam_transform_mat", cJSON_IsArray(first) ? 4 : 0, cJSON_IsArray(first) ? 4 : 16, job->c2w)))
+                goto fail;
+        } else {
+            if ((rc = mf_json_string(mpath, "", meta, "cam_transform_mat", &ms))) goto fail;
+            if ((rc = parse_mat_string(mpath, ms, job->c2w))) goto fail;
+        }
+        if ((rc = mf_json_number(mpath, "", meta, "cam_angle_x", &job->ax))) goto fail;
+        if ((rc = mf_json_int(mpath, "", meta, "imh", &dims[2 * i + 1])) || (rc = mf_json_int(mpath, "", meta, "imw", &dims[2 * i]))) goto fail;
         const char *envmap = NULL;
         if ((rc = mf_json_string_opt(mpath, "", meta, "envmap", NULL, &envmap))) goto fail;
         if (envmap && i == 0) snprintf(v.env_path, sizeof v.env_path, "%s", envmap);
         cJSON_Delete(meta);
         meta = NULL;
+        MfCamera probe;
+        if ((rc = mf_camera_init(&probe, 1, 1, job->ax, job->c2w, job->what))) goto fail;
         if ((rc = join(view->image_path, vdir, "rgba.png"))) goto fail;
-        if ((rc = read_image(view->image_path, MF_ENC_SRGB, 4, &view->rgba))) goto fail;
-        if (view->rgba.w != imw || view->rgba.h != imh) {
-            rc = mf_fail(MF_EFORMAT, "%s: image is %dx%d, metadata.json says imw %d, imh %d", view->image_path, view->rgba.w,
-                         view->rgba.h, imw, imh);
-            goto fail;
-        }
-        if ((rc = check_size(&v, i, &view->rgba, view->image_path))) goto fail;
-        if (o.load_gt) {
-            if ((rc = join(p, vdir, "albedo.png"))) goto fail;
-            if (mf_file_exists(p) && (rc = read_image(p, MF_ENC_LINEAR, 3, &view->albedo))) goto fail;
-            if ((rc = join(p, vdir, "normal.png"))) goto fail;
-            if (mf_file_exists(p)) {
-                if ((rc = read_image(p, MF_ENC_LINEAR, 3, &view->normal))) goto fail;
-                for (size_t k = 0; k < (size_t)view->normal.w * view->normal.h * 3; ++k) view->normal.data[k] = 2.0f * view->normal.data[k] - 1.0f;
+    }
+    /* 2. images (parallel); failures kept per view */
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int i = 0; i < n; ++i) {
+        DsView *view = &views[i];
+        FrameJob *job = &jobs[i];
+        char p[MF_PATH_MAX];
+        int r = read_image(view->image_path, MF_ENC_SRGB, 4, &view->rgba);
+        if (!r) { job->w0 = view->rgba.w; job->h0 = view->rgba.h; }
+        if (!r && (view->rgba.w != dims[2 * i] || view->rgba.h != dims[2 * i + 1]))
+            r = mf_fail(MF_EFORMAT, "%s: image is %dx%d, metadata.json says imw %d, imh %d", view->image_path, view->rgba.w,
+                        view->rgba.h, dims[2 * i], dims[2 * i + 1]);
+        if (!r && o.load_gt) {
+            r = join(p, job->base_dir, "albedo.png");
+            if (!r && mf_file_exists(p)) r = read_image(p, MF_ENC_LINEAR, 3, &view->albedo);
+            if (!r) r = join(p, job->base_dir, "normal.png");
+            if (!r && mf_file_exists(p)) {
+                r = read_image(p, MF_ENC_LINEAR, 3, &view->normal);
+                for (size_t k = 0; !r && k < (size_t)view->normal.w * view->normal.h * 3; ++k)
+                    view->normal.data[k] = 2.0f * view->normal.data[k] - 1.0f;
             }
         }
-        char what[MF_PATH_MAX + 32];
-        snprintf(what, sizeof what, "%s", mpath);
-        if ((rc = finish_view(view, &o, ax, c2w, what))) goto fail;
+        if (!r) r = downsample(&view->rgba, o.downsample, view->image_path);
+        if (!r) r = downsample(&view->albedo, o.downsample, view->image_path);
+        if (!r) r = downsample(&view->normal, o.downsample, view->image_path);
+        job->rc = r;
+        if (r) snprintf(job->msg, sizeof job->msg, "%s", mf_error());
+    }
+    /* 3. in view order: failures, sizes, cameras */
+    for (int i = 0; i < n; ++i) {
+        FrameJob *job = &jobs[i];
+        if (job->rc) { rc = mf_fail(job->rc, "%s", job->msg); goto fail; }
+        if (job->w0 != jobs[0].w0 || job->h0 != jobs[0].h0) {
+            rc = mf_fail(MF_EFORMAT, "%s: image is %dx%d, the split's first image is %dx%d", views[i].image_path, job->w0, job->h0,
+                         jobs[0].w0, jobs[0].h0);
+            goto fail;
+        }
+        views[i].camera_angle_x = job->ax;
+        if ((rc = mf_camera_init(&views[i].cam, views[i].rgba.w, views[i].rgba.h, job->ax, job->c2w, job->what))) goto fail;
     }
     /* relighting probes: rgba_<probe>.png in the first view's folder */
     {
@@ -459,10 +520,14 @@ int ds_load_nerfactor(const char *dir, const char *split, const DsLoadOptions *o
     v.w = views[0].rgba.w;
     v.h = views[0].rgba.h;
     free_names(names, n_names);
+    free(jobs);
+    free(dims);
     *out = v;
     return MF_OK;
 fail:
     cJSON_Delete(meta);
+    free(jobs);
+    free(dims);
     free_views(views, n);
     free_names(names, n_names);
     return rc;
@@ -571,11 +636,6 @@ int ds_load_relit(const DsViews *v, int i, int k, MfImage *out) {
 }
 
 /* Blender lat-long mapping (DESIGN.md). */
-static void dir_to_uv(MfVec3 d, float *u, float *v) {
-    *u = 0.5f - atan2f(d.y, d.x) * MF_INV_2PI;
-    *v = 0.5f + asinf(mf_clampf(d.z, -1.0f, 1.0f)) * MF_INV_PI;
-}
-
 static MfVec3 uv_to_dir(float u, float v) {
     float phi = (0.5f - u) * 2.0f * MF_PI, th = (v - 0.5f) * MF_PI;
     return mf_v3(cosf(th) * cosf(phi), cosf(th) * sinf(phi), sinf(th));
@@ -590,12 +650,13 @@ int ds_orb_env_to_world(const MfImage *cam_env, const MfMat4 *c2w, MfImage *worl
     int W = cam_env->w, H = cam_env->h, C = cam_env->c;
     for (int y = 0; y < H; ++y)
         for (int x = 0; x < W; ++x) {
+            /* world direction of this output texel (Blender mapping, texel centres) */
             MfVec3 d = uv_to_dir(((float)x + 0.5f) / (float)W, 1.0f - ((float)y + 0.5f) / (float)H);
             /* camera-frame direction R^T d */
             MfVec3 dc = mf_v3(m[0] * d.x + m[4] * d.y + m[8] * d.z, m[1] * d.x + m[5] * d.y + m[9] * d.z, m[2] * d.x + m[6] * d.y + m[10] * d.z);
-            float u, v;
-            dir_to_uv(dc, &u, &v);
-            float fx = u * (float)W - 0.5f, fy = (1.0f - v) * (float)H - 0.5f;
+            /* Stanford-ORB camera-frame layout (orb/utils/env_map.py), pixel centres at integers */
+            float fy = acosf(mf_clampf(dc.y, -1.0f, 1.0f)) * MF_INV_PI * (float)(H - 1);
+            float fx = (atan2f(dc.x, -dc.z) + MF_PI) * MF_INV_2PI * (float)(W - 1);
             int x0 = (int)floorf(fx), y0 = (int)floorf(fy);
             float tx = fx - (float)x0, ty = fy - (float)y0;
             float *q = mf_image_px(&r, x, y);

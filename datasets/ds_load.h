@@ -11,7 +11,8 @@
  *                  (4x4 c2w). Images: 8/16-bit RGBA PNG, sRGB colour, alpha = mask. A split
  *                  whose json is missing (often "val") fails with MF_EIO ("...: no such file").
  *  NeRFactor       <dir>/<split>_NNN/ folders (sorted by NNN), each with metadata.json
- *                  (cam_transform_mat: "a,b,..." 16 comma-separated numbers, row-major c2w;
+ *                  (cam_transform_mat: "a,b,..." 16 comma-separated numbers, row-major c2w,
+ *                  as NeRFactor writes it; a JSON array of 16 or 4x4 numbers is accepted too;
  *                  cam_angle_x; imh; imw; envmap), rgba.png (16-bit, sRGB colour, alpha = mask),
  *                  and when present albedo.png (linear, as NeRFactor writes it), normal.png
  *                  (linear, n = 2 x - 1) and relit rgba_<probe>.png (sRGB).
@@ -20,8 +21,8 @@
  *                  novel frames carry "scene_name" (the capture whose test folder holds the image)
  *                  and their own "camera_angle_x". Ground truth in <root>/ground_truth/<capture>/:
  *                  env_map/NNNN.exr per test view (a lat-long map in the CAMERA's frame: to
- *                  get the world light, rotate directions by the view's c2w rotation — see
- *                  ds_orb_env_to_world), mesh_blender/mesh.obj.
+ *                  get the world light, rotate directions by the view's c2w rotation; see
+ *                  ds_orb_env_to_world for the layout), mesh_blender/mesh.obj.
  *  bvault          NeRF-synthetic files plus gt/albedo/r_NNN.png (sRGB), gt/orm/r_NNN.png
  *                  (linear), gt/kd.png, gt/orm.png, gt/env.exr, mesh.obj, relight/<env>.exr and
  *                  relight/<env>/r_NNN.exr (DESIGN.md "Contracts"). Per-view GT falls back to the
@@ -31,7 +32,13 @@
  * Errors name the file and the JSON path: "x/transforms_train.json: frames[2].transform_matrix:
  * missing", "...: expected 4x4 numbers", "x/train/r_3.png: no such file", a truncated PNG
  * ("cannot read image"), "x/train/r_2.png: image is 16x8, the split's first image is 8x8",
- * NaN in an EXR (named by the image reader). On failure *out is untouched. */
+ * NaN in an EXR (named by the image reader). On failure *out is untouched.
+ *
+ * Loading: the JSON/metadata are parsed and every camera checked first (serial), then images are
+ * decoded in parallel (OpenMP over views); failures and size mismatches are reported for the
+ * first offending view in file order, so results and messages do not depend on the thread
+ * count. DsLoadOptions.downsample box-filters by an integer factor (colour weighted by alpha)
+ * and scales the cameras with the image (same camera_angle_x). */
 #ifndef DS_LOAD_H
 #define DS_LOAD_H
 
@@ -111,11 +118,14 @@ void ds_views_free(DsViews *v);
  * <view folder>/rgba_<probe>.png, sRGB decoded, straight alpha. */
 int ds_load_relit(const DsViews *v, int i, int k, MfImage *out);
 
-/* Stanford-ORB env maps are lat-long maps in the camera frame. This resamples cam_env (h, w, c)
- * into a world-frame map of the same size with DESIGN.md's Blender mapping: the world texel of
- * direction d takes the camera-map value at direction R^T d, where R is the rotation part of
- * c2w (bilinear, wrap in u). The camera-frame map uses the same u, v formula on camera-frame
- * directions (x right, y up, z backwards). */
+/* Stanford-ORB's ground-truth env maps are lat-long maps in each test view's CAMERA frame,
+ * laid out as ORB's own orb/utils/env_map.py reads them: for a camera-frame direction
+ * (x right, y up, z backwards) the row is acos(y) / pi * (H - 1) (camera up at the top) and the
+ * column (atan2(x, -z) + pi) / (2 pi) * (W - 1) (the viewing direction -z in the centre column),
+ * integer coordinates at pixel centres, wrapping in x. To get the world light, rotate
+ * directions by the view's c2w rotation R: this writes world_env (same size) in DESIGN.md's
+ * Blender mapping of the transforms' world frame, each texel of world direction d taking the
+ * camera-map value at R^T d (bilinear). */
 int ds_orb_env_to_world(const MfImage *cam_env, const MfMat4 *c2w, MfImage *world_env);
 
 #endif

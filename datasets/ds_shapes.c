@@ -9,6 +9,7 @@
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "core/mf_rng.h"
+#include "io/mf_json.h"
 #include "io/mf_obj.h"
 
 static const char *k_fam_names[DS_FAM_COUNT] = {"cup", "vase", "bottle", "bowl", "box",
@@ -153,12 +154,13 @@ static void vessel_profile(Profile *pr, const Spline *s, float th, float fl, flo
     float rt = spline_r(s, H);
     prof_arc(pr, rt - 0.5f * th, H, 0.5f * th, 0.0f, MF_PI, 8);
     int ni = 34;
+    float fi = 0.025f; /* concave fillet where the inner wall meets the floor */
     for (int k = 1; k <= ni; ++k) {
-        float z = H - (H - fl) * (float)k / (float)ni;
-        prof_add(pr, fmaxf(spline_r(s, z) - th, 0.02f), z);
+        float z = H - (H - fl - fi) * (float)k / (float)ni;
+        prof_add(pr, fmaxf(spline_r(s, z) - th, 0.02f + fi), z);
     }
     float ri = pr->p[pr->n - 1].r;
-    (void)ri;
+    prof_arc(pr, ri - fi, fl + fi, fi, 0.0f, -0.5f * MF_PI, 5);
     prof_line(pr, 0.0f, fl, 8);
 }
 
@@ -173,8 +175,36 @@ static void puck_profile(Profile *pr, float R, float z0, float z1, float e) {
     prof_line(pr, 0.0f, z1, 6);
 }
 
-static void revolve(Builder *b, int part, const Profile *pr, int nphi) {
+/* Rounds every interior corner that turns by more than 20 degrees: the corner point is replaced
+ * by a quadratic Bezier tangent to both segments (cut back by at most 40% of the shorter one),
+ * sampled so that each new segment turns by at most about 12 degrees. Smooth vertex normals
+ * then stay within a few degrees of the faces around them. */
+static void prof_round_corners(const Profile *in, Profile *out) {
+    out->n = 0;
+    for (int i = 0; i < in->n; ++i) {
+        if (i == 0 || i == in->n - 1) { prof_add(out, in->p[i].r, in->p[i].z); continue; }
+        V2 a = in->p[i - 1], c = in->p[i], e = in->p[i + 1];
+        float ar = c.r - a.r, az = c.z - a.z, br = e.r - c.r, bz = e.z - c.z;
+        float la = sqrtf(ar * ar + az * az), lb = sqrtf(br * br + bz * bz);
+        float cosang = (ar * br + az * bz) / (la * lb);
+        float ang = acosf(mf_clampf(cosang, -1.0f, 1.0f));
+        if (!(ang > 20.0f * MF_PI / 180.0f) || la <= 0.0f || lb <= 0.0f) { prof_add(out, c.r, c.z); continue; }
+        float t = 0.4f * fminf(la, lb);
+        V2 s0 = {c.r - ar / la * t, c.z - az / la * t}, s1 = {c.r + br / lb * t, c.z + bz / lb * t};
+        int k = (int)ceilf(ang / (12.0f * MF_PI / 180.0f));
+        for (int q = 0; q <= k; ++q) {
+            float u = (float)q / (float)k, w0 = (1 - u) * (1 - u), w1 = 2 * u * (1 - u), w2 = u * u;
+            prof_add(out, w0 * s0.r + w1 * c.r + w2 * s1.r, w0 * s0.z + w1 * c.z + w2 * s1.z);
+        }
+    }
+}
+
+static void revolve(Builder *b, int part, const Profile *pr_in, int nphi) {
+    Profile *pr = malloc(sizeof(Profile));
+    if (!pr) { b->oom = 1; return; }
+    prof_round_corners(pr_in, pr);
     Patch *pa = new_patch(b, part, nphi, pr->n - 1);
+    if (!pa) { free(pr); return; }
     if (!pa) return;
     for (int j = 0; j < pr->n; ++j)
         for (int i = 0; i <= nphi; ++i) {
@@ -183,6 +213,7 @@ static void revolve(Builder *b, int part, const Profile *pr, int nphi) {
             float r = pr->p[j].r;
             PP(pa, i, j) = r == 0.0f ? mf_v3(0.0f, 0.0f, pr->p[j].z) : mf_v3(r * cosf(ph), r * sinf(ph), pr->p[j].z);
         }
+    free(pr);
 }
 
 /* ---- rounded box: six face patches ---- */
@@ -443,8 +474,11 @@ static void build_clock(Builder *b, MfRng *rng) {
     prof_arc(&pr, Rc - f, f, f, -0.5f * MF_PI, 0.0f, 5);
     prof_line(&pr, Rc, h - e, 6);
     prof_arc(&pr, Rc - e, h - e, e, 0.0f, 0.5f * MF_PI, 5);
-    prof_line(&pr, Rc - w, h, 4);
-    prof_line(&pr, Rc - w, h - d, 4);
+    float f2 = fminf(0.012f, d / 3.0f); /* fillets at the recess edge (convex) and floor (concave) */
+    prof_line(&pr, Rc - w + f2, h, 4);
+    prof_arc(&pr, Rc - w + f2, h - f2, f2, 0.5f * MF_PI, MF_PI, 4);
+    prof_line(&pr, Rc - w, h - d + f2, 4);
+    prof_arc(&pr, Rc - w - f2, h - d + f2, f2, 0.0f, -0.5f * MF_PI, 4);
     prof_line(&pr, 0.0f, h - d, 10);
     int casep = add_part(b, "case", stand, &cm);
     revolve(b, casep, &pr, 96);
@@ -554,6 +588,23 @@ static void pack_atlas(Builder *b, float pad, float minsz) {
         if (shelf_pack(b, order, mid, pad, minsz, 0)) lo = mid; else hi = mid;
     }
     shelf_pack(b, order, lo, pad, minsz, 1);
+    /* stretch the layout along x and y separately so that it spans the atlas (single long charts
+     * such as a torus would otherwise leave most of it empty); gaps only grow */
+    float mx = 0.0f, my = 0.0f;
+    for (int k = 0; k < b->npatch; ++k) {
+        mx = fmaxf(mx, b->patch[k].x0 + b->patch[k].w);
+        my = fmaxf(my, b->patch[k].y0 + b->patch[k].h);
+    }
+    float sx = mx > pad ? (1.0f - 2.0f * pad) / (mx - pad) : 1.0f, sy = my > pad ? (1.0f - 2.0f * pad) / (my - pad) : 1.0f;
+    if (sx < 1.0f) sx = 1.0f;
+    if (sy < 1.0f) sy = 1.0f;
+    for (int k = 0; k < b->npatch; ++k) {
+        Patch *pa = &b->patch[k];
+        pa->x0 = pad + (pa->x0 - pad) * sx;
+        pa->w *= sx;
+        pa->y0 = pad + (pa->y0 - pad) * sy;
+        pa->h *= sy;
+    }
 }
 
 /* ------------------------------------------------------------------------------------------ */
@@ -929,5 +980,31 @@ int ds_object_write(const DsObject *o, const char *scene_dir) {
     if ((rc = mf_path_join(p, sizeof p, scene_dir, "gt"))) return rc;
     if ((rc = ds_object_write_textures(o, p))) return rc;
     if ((rc = mf_path_join(p, sizeof p, scene_dir, "mesh.obj"))) return rc;
-    return mf_obj_write(p, &o->mesh, "gt/kd.png");
+    if ((rc = mf_obj_write(p, &o->mesh, "gt/kd.png"))) return rc;
+    /* gt/object.json: what was generated (family, seed, per-part material class and parameters) */
+    static const char *pat_names[DS_PAT_COUNT] = {"plain", "fbm", "stripes", "checker", "label", "ticks"};
+    cJSON *root = cJSON_CreateObject(), *parts = cJSON_CreateArray();
+    char seedstr[32];
+    snprintf(seedstr, sizeof seedstr, "%llu", (unsigned long long)o->seed);
+    cJSON_AddStringToObject(root, "family", ds_family_name(o->family));
+    cJSON_AddStringToObject(root, "seed", seedstr);
+    cJSON_AddNumberToObject(root, "triangles", o->mesh.nt);
+    cJSON_AddNumberToObject(root, "texture_size", o->kd.w);
+    cJSON_AddItemToObject(root, "parts", parts);
+    for (int k = 0; k < o->nparts; ++k) {
+        const DsMaterial *m = &o->parts[k].mat;
+        cJSON *pj = cJSON_CreateObject();
+        const float base[3] = {m->base.x, m->base.y, m->base.z};
+        cJSON_AddStringToObject(pj, "name", o->parts[k].name);
+        cJSON_AddStringToObject(pj, "class", ds_mat_class_name(m->cls));
+        cJSON_AddStringToObject(pj, "pattern", pat_names[m->pattern]);
+        cJSON_AddItemToObject(pj, "base_color_linear", cJSON_CreateFloatArray(base, 3));
+        cJSON_AddNumberToObject(pj, "roughness", m->rough);
+        cJSON_AddNumberToObject(pj, "metallic", m->metallic);
+        cJSON_AddBoolToObject(pj, "metallic_mask", m->mask_metal);
+        cJSON_AddItemToArray(parts, pj);
+    }
+    if (!(rc = mf_path_join(p, sizeof p, scene_dir, "gt/object.json"))) rc = mf_json_save(p, root);
+    cJSON_Delete(root);
+    return rc;
 }

@@ -80,7 +80,9 @@ void ds_object_free(DsObject *o);
 int ds_object_write_textures(const DsObject *o, const char *dir);
 
 /* Writes the object's ground truth in the bvault layout (DESIGN.md "Contracts") under scene_dir:
- * mesh.obj (+ mesh.mtl: one material per part, map_Kd gt/kd.png), gt/kd.png, gt/orm.png. */
+ * mesh.obj (+ mesh.mtl: one material per part, map_Kd gt/kd.png), gt/kd.png, gt/orm.png, and
+ * gt/object.json (family, seed, per part: name, material class, pattern, base colour, roughness,
+ * metallic, whether a metallic mask is used). */
 int ds_object_write(const DsObject *o, const char *scene_dir);
 
 #endif

@@ -3,12 +3,14 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/wait.h>
 
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "datasets/ds_cameras.h"
 #include "datasets/ds_load.h"
 #include "datasets/ds_shapes.h"
+#include "io/mf_json.h"
 #include "io/mf_obj.h"
 #include "mf_test.h"
 
@@ -91,6 +93,17 @@ MF_TEST(ds_object_write_bvault_layout) {
     mf_mesh_bounds(&m, &lo, &hi);
     CHECK_NEAR(mf_maxc(mf_sub(hi, lo)), 1.0, 1e-5);
     mf_mesh_free(&m);
+    cJSON *oj = NULL;
+    snprintf(p, sizeof p, "%s/gt/object.json", dir);
+    CHECK_OK(mf_json_load(p, &oj));
+    if (oj) {
+        CHECK(!strcmp(cJSON_GetObjectItem(oj, "family")->valuestring, "clock"));
+        const cJSON *parts = cJSON_GetObjectItem(oj, "parts");
+        CHECK(cJSON_GetArraySize(parts) == o.nparts);
+        CHECK(!strcmp(cJSON_GetObjectItem(cJSON_GetArrayItem(parts, 1), "name")->valuestring, "face"));
+        CHECK(!strcmp(cJSON_GetObjectItem(cJSON_GetArrayItem(parts, 1), "pattern")->valuestring, "ticks"));
+    }
+    cJSON_Delete(oj);
     MfImage kd = {0}, orm = {0};
     snprintf(p, sizeof p, "%s/gt/kd.png", dir);
     CHECK_OK(mf_image_read(p, MF_ENC_SRGB, &kd));
@@ -216,4 +229,23 @@ MF_TEST(ds_load_bvault_gt_from_exr_layers) {
         if (v.views[i].orm.data) CHECK_NEAR(mf_image_px(&v.views[i].orm, 3, 2)[2], 0.01f * 11 + 0.3f * i, 1e-6);
     }
     ds_views_free(&v);
+}
+
+/* The `mf gen` command: writes the layout, exit code 2 on usage errors. */
+MF_TEST(ds_cli_gen) {
+    const char *bin = getenv("MF_BIN");
+    if (!bin || !mf_file_exists(bin)) MF_SKIP("MF_BIN not set (run through make test)");
+    const char *out = mf_test_path("cli_gen");
+    char cmd[3 * MF_PATH_MAX];
+    snprintf(cmd, sizeof cmd, "'%s' gen -o '%s' --family torus --seed 3 --tex-res 32 --train 3 --test 2 2>/dev/null", bin, out);
+    CHECK(system(cmd) == 0);
+    const char *files[] = {"mesh.obj", "gt/kd.png", "gt/orm.png", "transforms_train.json", "transforms_test.json"};
+    for (size_t f = 0; f < sizeof files / sizeof files[0]; ++f) {
+        char p[MF_PATH_MAX];
+        snprintf(p, sizeof p, "%s/%s", out, files[f]);
+        CHECK_MSG(mf_file_exists(p), "missing %s", p);
+    }
+    snprintf(cmd, sizeof cmd, "'%s' gen -o '%s' --family teapot 2>/dev/null", bin, out);
+    int st = system(cmd);
+    CHECK(WIFEXITED(st) && WEXITSTATUS(st) == 2);
 }

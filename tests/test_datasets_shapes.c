@@ -171,8 +171,18 @@ MF_TEST(ds_shapes_all_families_valid) {
             }
             for (int p = 0; p < o.nparts; ++p) CHECK_MSG(vol[p] > 0.0, "%s: part %s has volume %g", fn, o.parts[p].name, vol[p]);
             CHECK_MSG(disagree <= m->nt / 200, "%s: %d of %d faces disagree with vertex normals", fn, disagree, m->nt);
+            /* smooth normals are not averaged across sharp creases: vertex normals stay close to
+             * the faces around them */
+            int steep = 0;
+            for (int t = 0; t < m->nt; ++t) {
+                const uint32_t *f = m->tri + 3 * t;
+                MfVec3 fnrm = mf_norm(mf_cross(mf_sub(vpos(m, f[1]), vpos(m, f[0])), mf_sub(vpos(m, f[2]), vpos(m, f[0]))));
+                for (int k = 0; k < 3; ++k)
+                    steep += mf_dot(fnrm, mf_v3(m->nrm[3 * f[k]], m->nrm[3 * f[k] + 1], m->nrm[3 * f[k] + 2])) < 0.7071f;
+            }
+            CHECK_MSG(steep <= 3 * m->nt / 200, "%s: %d of %d triangle corners deviate > 45 deg from the vertex normal", fn, steep, 3 * m->nt);
             long cov = 0, over = uv_overlaps(m, 512, &cov);
-            CHECK_MSG(cov > 512 * 512 / 10 && over <= cov / 1000, "%s: UV overlap %ld of %ld covered texels", fn, over, cov);
+            CHECK_MSG(cov > 512 * 512 * 3 / 10 && over <= cov / 1000, "%s: UV overlap %ld of %ld covered texels", fn, over, cov);
             /* textures: finite, in range, R = 1 */
             int bad_tex = 0;
             for (size_t i = 0; i < (size_t)128 * 128 * 3; ++i) bad_tex += !(o.kd.data[i] >= 0.0f && o.kd.data[i] <= 1.0f);

@@ -54,8 +54,8 @@ static MfCamera front_camera(int w, int h, float dist) {
 
 /* White furnace, diffuse lobe: constant env L = 1, kd = 1, m = 0 on a convex sphere reflects
  * exactly 1. Estimator noise: n = 8 gives 64 + 64 MIS samples per pixel sample and 4 pixel
- * samples per pixel; the per-pixel standard deviation measured with these settings is about 0.01,
- * so 0.06 per pixel (6 sigma) and 0.01 on the mean over covered pixels. The tessellation
+ * samples per pixel; the per-pixel standard deviation measured with these settings is 0.007,
+ * so 0.06 per pixel (8 sigma) and 0.01 on the mean over covered pixels. The tessellation
  * (64 x 32) loses the directions between the shading and geometric tangent planes: < 0.5%. */
 MF_TEST(render_white_furnace_diffuse) {
     SphereScene s;

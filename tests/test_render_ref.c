@@ -63,13 +63,16 @@ static int which_sphere(MfVec3 o, MfVec3 d, const MfVec3 c[2], float r, float ma
 }
 
 /* Cycles (Principled BSDF, GGX, 1024 spp, direct light only, 96 x 96) vs our renderer, per
- * sphere mean colour over pixels well inside each sphere (3 views). Expected differences:
- * Principled diffuse (Disney, with retro-reflection at roughness 1) is not Lambert: brighter at
- * grazing view and darker facing, a few percent on the mean; Cycles' metallic Fresnel is not
- * Schlick with f90 = 1 and its GGX is sampled differently (same single-scattering BRDF, since
- * distribution = GGX, not multiscatter); the mesh is the same 128 x 64 UV sphere. Measured
- * per-sphere mean relative differences (see the test log) are within the 6% tolerance; the
- * per-pixel median relative error must stay below 12%. */
+ * sphere mean colour over pixels well inside each sphere (3 views), and per-pixel relative error.
+ * Expected differences: Principled diffuse (Disney, with retro-reflection at roughness 1) is not
+ * Lambert; Cycles' dielectric specular also differs (its Fresnel is not Schlick with f90 = 1)
+ * and its metallic Fresnel is not exactly Schlick(kd); the GGX lobe itself is the same
+ * single-scattering one (distribution = GGX, not multiscatter) with alpha = roughness^2; the
+ * mesh is the same 128 x 64 UV sphere. Measured (n = 4, 4 pixel samples): the rough dielectric
+ * sphere is 4-5% darker than Cycles in every channel (Disney diffuse), the metal sphere within
+ * 1%; per-pixel relative error median 0.04, 90th percentile 0.11 (MC noise of 16 + 16 samples
+ * dominates the tail). Tolerances: 8% on the dielectric's means, 3% on the metal's, median
+ * per-pixel relative error < 0.07. */
 MF_TEST(render_blender_spheres_sunset) {
     const char *shared = getenv("MF_SHARED");
     char dir[1024], p[1200];
@@ -118,7 +121,6 @@ MF_TEST(render_blender_spheres_sunset) {
         MfRenderOut out;
         o.seed = 5 + k;
         CHECK_OK(mf_render(&in, &cam, &o, &out, NULL));
-        int nrel_view = nrel;
         for (int y = 0; y < ref.h; ++y)
             for (int x = 0; x < ref.w; ++x) {
                 MfVec3 org, d;
@@ -134,7 +136,6 @@ MF_TEST(render_blender_spheres_sunset) {
                     if (rp[c] > 0.02f && nrel < 96 * 96 * 3) relerr[nrel++] = fabs(out.rgb[3 * i + c] - rp[c]) / rp[c];
                 }
             }
-        (void)nrel_view;
         mf_render_out_free(&out);
         mf_image_free(&ref);
     }
@@ -144,7 +145,8 @@ MF_TEST(render_blender_spheres_sunset) {
         for (int c = 0; c < 3; ++c) {
             double a = sum_ours[s][c] / npx[s], b = sum_ref[s][c] / npx[s];
             fprintf(stderr, "    sphere %d channel %d: ours %.4f cycles %.4f rel %+.3f\n", s, c, a, b, (a - b) / b);
-            CHECK_MSG(fabs(a - b) <= 0.06 * b, "sphere %d channel %d: ours %.4f vs Cycles %.4f", s, c, a, b);
+            double tol = s == 0 ? 0.08 : 0.03;
+            CHECK_MSG(fabs(a - b) <= tol * b, "sphere %d channel %d: ours %.4f vs Cycles %.4f (tolerance %.0f%%)", s, c, a, b, 100 * tol);
         }
     }
     /* median per-pixel relative error */
@@ -156,7 +158,7 @@ MF_TEST(render_blender_spheres_sunset) {
         }
     if (nrel > 0) {
         fprintf(stderr, "    per-pixel relative error: median %.4f, 90%% %.4f (%d values)\n", relerr[nrel / 2], relerr[nrel * 9 / 10], nrel);
-        CHECK_MSG(relerr[nrel / 2] < 0.12, "median per-pixel relative error %.4f", relerr[nrel / 2]);
+        CHECK_MSG(relerr[nrel / 2] < 0.07, "median per-pixel relative error %.4f", relerr[nrel / 2]);
     }
     free(relerr);
     cJSON_Delete(tj);

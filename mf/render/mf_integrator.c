@@ -153,10 +153,11 @@ static Shade shade(const MfRenderInput *in, const MfRenderOpts *opts, const MfHi
                 if (wi.z <= 0.0f) continue;
                 MfBrdfValue f = mf_brdf_eval(mat, wo, wi, lobes);
                 if (f.diffuse_demod <= 0.0f && mf_maxc(f.specular) <= 0.0f) continue;
+                /* visibility first: occluded samples need no MIS weight */
+                if (!visible(in, h, wi_w, INFINITY, log)) continue;
                 float pb = mf_brdf_pdf(mat, wo, wi, lobes);
                 float w = inv_N / (pl + pb);
                 if (!(w > 0.0f) || !isfinite(w)) continue;
-                if (!visible(in, h, wi_w, INFINITY, log)) continue;
                 s.diffuse = mf_madd(s.diffuse, L, f.diffuse_demod * w);
                 s.specular = mf_add(s.specular, mf_scale(mf_mul(L, f.specular), w));
             }
@@ -173,10 +174,10 @@ static Shade shade(const MfRenderInput *in, const MfRenderOpts *opts, const MfHi
                 if (mf_dot(wi_w, h->ng) <= 0.0f) continue;
                 MfBrdfValue f = mf_brdf_eval(mat, wo, wi, lobes);
                 if (f.diffuse_demod <= 0.0f && mf_maxc(f.specular) <= 0.0f) continue;
+                if (!visible(in, h, wi_w, INFINITY, log)) continue;
                 float pl = mf_env_pdf(in->env, wi_w);
                 float w = inv_N / (pl + pb);
                 if (!(w > 0.0f) || !isfinite(w)) continue;
-                if (!visible(in, h, wi_w, INFINITY, log)) continue;
                 MfVec3 L = mf_env_eval(in->env, wi_w);
                 s.diffuse = mf_madd(s.diffuse, L, f.diffuse_demod * w);
                 s.specular = mf_add(s.specular, mf_scale(mf_mul(L, f.specular), w));

@@ -53,6 +53,7 @@ int mf_rtscene_new(const MfMesh *mesh, MfRtScene **out) {
         }
     }
     if (s->scene) {
+        rtcSetSceneFlags(s->scene, RTC_SCENE_FLAG_ROBUST); /* watertight, no cracks between triangles */
         rtcSetSceneBuildQuality(s->scene, RTC_BUILD_QUALITY_HIGH);
         rtcCommitScene(s->scene);
     }

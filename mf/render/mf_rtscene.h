@@ -15,7 +15,8 @@
  *       toward the viewer just enough that dot(ns, -dir) >= 0.01.
  *   uv  interpolated texture coordinates ((0,0) when the mesh has none)
  *   mat material id (0 when the mesh has none)
- * Degenerate (zero-area) triangles are never reported as hits by Embree's watertight test;
+ * The scene is built with RTC_SCENE_FLAG_ROBUST (watertight: rays do not slip between adjacent
+ * triangles). Degenerate (zero-area) triangles are never reported as hits (zero determinant);
  * whenever a normal cannot be normalised the other one (or -dir) is used, so results stay
  * finite. */
 #ifndef MF_RTSCENE_H
