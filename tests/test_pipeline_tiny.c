@@ -26,7 +26,7 @@ static int sh(const char *fmt, ...) {
 MF_TEST(pipeline_tiny_baseline_beats_trivial) {
     const char *mf = getenv("MF_BIN");
     if (!mf || !mf_file_exists(mf)) MF_SKIP("MF_BIN not set (run through make test)");
-    const char *d = mf_test_path("tiny");
+    const char *d = mf_test_path("pipeline_tiny");
     CHECK(sh("%s gen --split tiny -o %s 2>/dev/null", mf, d) == 0);
     char scene[1024];
     snprintf(scene, sizeof scene, "%s/000_cup", d);
@@ -38,7 +38,7 @@ MF_TEST(pipeline_tiny_baseline_beats_trivial) {
     snprintf(res, sizeof res, "%s/results", d);
     snprintf(rep, sizeof rep, "%s/report", d);
     CHECK(sh("%s recon %s -o %s/nvdiffrecmc/000_cup --iters 200 --tex-res 64 --env-w 32 --env-h 16 2>/dev/null", mf, scene, res) == 0);
-    CHECK(sh("%s eval %s --results %s -o %s --trivial --no-curves 2>/dev/null", mf, scene, res, rep) == 0);
+    CHECK(sh("%s eval %s --results %s -o %s --dataset tiny --trivial --no-curves 2>/dev/null", mf, scene, res, rep) == 0);
     snprintf(csv, sizeof csv, "%s/scenes.csv", rep);
     EvTable t;
     ev_table_init(&t);
