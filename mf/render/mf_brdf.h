@@ -45,6 +45,13 @@ float mf_brdf_pdf(const MfMaterial *mat, MfVec3 wo, MfVec3 wi, int lobes);
  * (then *wi and *pdf are unspecified). */
 int mf_brdf_sample(const MfMaterial *mat, MfVec3 wo, float u0, float u1, float u2, int lobes, MfVec3 *wi, float *pdf);
 
+/* Adjoint of mf_brdf_eval with respect to the material (wo, wi and the sampling are constants):
+ * dmat->kd, ->roughness, ->metallic += gradient of <d_diffuse, diffuse> + <d_specular, specular>.
+ * Roughness outside [MF_MIN_ROUGHNESS, 1] and metallic outside [0, 1] are clamped in mf_brdf_eval
+ * and get no gradient (at the bounds themselves the inner derivative is passed). */
+void mf_brdf_eval_backward(const MfMaterial *mat, MfVec3 wo, MfVec3 wi, int lobes, MfVec3 d_diffuse, MfVec3 d_specular,
+                           MfMaterial *dmat);
+
 /* Building blocks, exposed for tests and the adjoint. alpha = roughness^2 (already clamped). */
 float mf_ggx_D(float alpha, float cos_h);
 float mf_smith_lambda(float alpha, float cos_theta);
