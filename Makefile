@@ -67,6 +67,7 @@ $(BUILD)/mf_tests: $(TEST_OBJ) $(BUILD)/libmf.a
 test: $(BUILD)/mf $(BUILD)/mf_tests
 	MF_BIN=$(abspath $(BUILD)/mf) MF_SHARED=$(abspath ../shared) OMP_NUM_THREADS=$${OMP_NUM_THREADS:-2} ./$(BUILD)/mf_tests $(T)
 
+asan: export LSAN_OPTIONS = suppressions=$(abspath tests/lsan.supp):print_suppressions=0
 asan:
 	$(MAKE) BUILD=build-asan OPT=-O1 SAN="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined" test
 

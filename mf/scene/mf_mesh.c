@@ -125,3 +125,32 @@ int mf_mesh_append(MfMesh *a, const MfMesh *b) {
     *a = r;
     return MF_OK;
 }
+
+int mf_mesh_uv_sphere(MfMesh *m, int nu, int nv, MfVec3 c, float r) {
+    if (nu < 3 || nv < 2) return mf_fail(MF_EARG, "uv sphere needs nu >= 3 and nv >= 2 (got %d, %d)", nu, nv);
+    MfMesh s;
+    int rc = mf_mesh_alloc(&s, (nu + 1) * (nv + 1), 2 * nu * (nv - 1), 1, 1);
+    if (rc) return rc;
+    for (int j = 0; j <= nv; ++j)
+        for (int i = 0; i <= nu; ++i) {
+            int k = j * (nu + 1) + i;
+            float th = MF_PI * (float)j / (float)nv, ph = 2.0f * MF_PI * (float)i / (float)nu;
+            MfVec3 n = mf_v3(sinf(th) * cosf(ph), sinf(th) * sinf(ph), cosf(th));
+            if (j == 0 || j == nv) n = mf_v3(0, 0, j == 0 ? 1.0f : -1.0f);
+            s.nrm[3 * k] = n.x, s.nrm[3 * k + 1] = n.y, s.nrm[3 * k + 2] = n.z;
+            s.pos[3 * k] = c.x + r * n.x, s.pos[3 * k + 1] = c.y + r * n.y, s.pos[3 * k + 2] = c.z + r * n.z;
+            s.uv[2 * k] = (float)i / (float)nu;
+            s.uv[2 * k + 1] = 1.0f - (float)j / (float)nv;
+        }
+    int t = 0;
+    for (int j = 0; j < nv; ++j)
+        for (int i = 0; i < nu; ++i) {
+            uint32_t a = (uint32_t)(j * (nu + 1) + i), b = a + 1, d = a + (uint32_t)(nu + 1), e = d + 1;
+            /* counter-clockwise seen from outside; skip the degenerate triangle at each pole */
+            if (j != 0) { s.tri[3 * t] = a; s.tri[3 * t + 1] = d; s.tri[3 * t + 2] = b; ++t; }
+            if (j != nv - 1) { s.tri[3 * t] = b; s.tri[3 * t + 1] = d; s.tri[3 * t + 2] = e; ++t; }
+        }
+    s.nt = t;
+    *m = s;
+    return MF_OK;
+}

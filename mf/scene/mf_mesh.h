@@ -32,6 +32,9 @@ void mf_mesh_bounds(const MfMesh *m, MfVec3 *lo, MfVec3 *hi);
 int mf_mesh_count_degenerate(const MfMesh *m, float eps);
 /* Centres at the origin and scales so the largest extent is `extent`. */
 void mf_mesh_normalize(MfMesh *m, float extent);
+/* A UV sphere (latitude-longitude tessellation) of nu x nv quads, centre c, radius r, with unit
+ * normals and UVs (u = longitude / 2pi, v = 1 - colatitude / pi, +Z pole at v = 1). */
+int mf_mesh_uv_sphere(MfMesh *m, int nu, int nv, MfVec3 c, float r);
 /* Appends b to a (material ids of b offset by a->nmat). */
 int mf_mesh_append(MfMesh *a, const MfMesh *b);
 

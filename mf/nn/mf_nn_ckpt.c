@@ -1,0 +1,217 @@
+/* mf_nn_ckpt: checkpoint writer and checked reader (format in mf_nn_ckpt.h). */
+#include "nn/mf_nn_ckpt.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/mf_error.h"
+#include "core/mf_fs.h"
+
+uint64_t mf_fnv1a64(uint64_t h, const void *data, size_t n) {
+    const unsigned char *p = data;
+    for (size_t i = 0; i < n; ++i) {
+        h ^= p[i];
+        h *= 0x100000001b3ull;
+    }
+    return h;
+}
+
+/* A FILE writer that hashes what it writes and remembers the first failure. */
+typedef struct {
+    FILE *f;
+    uint64_t h;
+    int bad;
+} HashWriter;
+
+static void hw_put(HashWriter *w, const void *p, size_t n) {
+    if (w->bad || n == 0) return;
+    if (fwrite(p, 1, n, w->f) != n) w->bad = 1;
+    w->h = mf_fnv1a64(w->h, p, n);
+}
+
+static void hw_u32(HashWriter *w, uint32_t v) { hw_put(w, &v, 4); }
+
+static void shape_str(char *buf, size_t cap, int ndim, const int *shape) {
+    size_t k = 0;
+    k += (size_t)snprintf(buf + k, cap - k, "(");
+    for (int i = 0; i < ndim && k < cap; ++i)
+        k += (size_t)snprintf(buf + k, cap - k, i ? ", %d" : "%d", shape[i]);
+    if (k < cap) snprintf(buf + k, cap - k, ")");
+}
+
+int mf_ckpt_save(const char *path, const MfTensorSpec *specs, int n, const float *data, const char *meta) {
+    char tmp[MF_PATH_MAX];
+    int rc = mf_tmp_path(path, tmp, sizeof tmp);
+    if (rc) return rc;
+    FILE *f = fopen(tmp, "wb");
+    if (!f) return mf_fail(MF_EIO, "%s: cannot write: %s", path, strerror(errno));
+    HashWriter w = {f, MF_FNV64_INIT, 0};
+    size_t mlen = meta ? strlen(meta) : 0;
+    hw_put(&w, "MFCK", 4);
+    hw_u32(&w, MF_CKPT_VERSION);
+    hw_u32(&w, (uint32_t)n);
+    hw_u32(&w, (uint32_t)mlen);
+    hw_put(&w, meta, mlen);
+    for (int i = 0; i < n; ++i) {
+        uint32_t nl = (uint32_t)strnlen(specs[i].name, MF_NN_NAME_MAX);
+        hw_u32(&w, nl);
+        hw_put(&w, specs[i].name, nl);
+        hw_u32(&w, (uint32_t)specs[i].ndim);
+        for (int k = 0; k < specs[i].ndim; ++k) hw_u32(&w, (uint32_t)specs[i].shape[k]);
+    }
+    hw_put(&w, data, mf_specs_numel(specs, n) * sizeof(float));
+    uint64_t h = w.h;
+    if (!w.bad && fwrite(&h, 1, 8, f) != 8) w.bad = 1;
+    if (fclose(f) != 0) w.bad = 1;
+    if (w.bad) {
+        mf_discard_file(tmp);
+        return mf_fail(MF_EIO, "%s: write failed", path);
+    }
+    return mf_commit_file(tmp, path);
+}
+
+/* A bounds-checked reader over the file's bytes. */
+typedef struct {
+    const unsigned char *p;
+    size_t len, pos;
+} Reader;
+
+static int rd(Reader *r, void *out, size_t n) {
+    if (r->len - r->pos < n) return 0;
+    memcpy(out, r->p + r->pos, n);
+    r->pos += n;
+    return 1;
+}
+
+int mf_ckpt_load(const char *path, const MfTensorSpec *specs, int n, float *data, char **meta) {
+    char *buf = NULL;
+    size_t len = 0;
+    int rc = mf_read_file(path, &buf, &len);
+    if (rc) return rc;
+    Reader r = {(const unsigned char *)buf, len, 0};
+    char magic[4];
+    uint32_t version, nt, mlen;
+    if (!rd(&r, magic, 4)) {
+        rc = mf_fail(MF_EFORMAT, "%s: truncated checkpoint (%zu bytes, no header)", path, len);
+        goto done;
+    }
+    if (memcmp(magic, "MFCK", 4) != 0) {
+        rc = mf_fail(MF_EFORMAT, "%s: not an MFCK checkpoint (bad magic)", path);
+        goto done;
+    }
+    if (!rd(&r, &version, 4) || !rd(&r, &nt, 4) || !rd(&r, &mlen, 4)) {
+        rc = mf_fail(MF_EFORMAT, "%s: truncated checkpoint header", path);
+        goto done;
+    }
+    if (version != MF_CKPT_VERSION) {
+        rc = mf_fail(MF_EFORMAT, "%s: unsupported version %u of checkpoint (this build reads %u)", path,
+                     version, MF_CKPT_VERSION);
+        goto done;
+    }
+    if (r.len - r.pos < mlen) {
+        rc = mf_fail(MF_EFORMAT, "%s: truncated checkpoint header (meta text)", path);
+        goto done;
+    }
+    size_t meta_pos = r.pos;
+    r.pos += mlen;
+    /* read the file's table: names and shapes, and the total number of floats */
+    if (nt > (r.len - r.pos) / 12) { /* each entry takes at least 12 bytes */
+        rc = mf_fail(MF_EFORMAT, "%s: truncated checkpoint (header lists %u tensors)", path, nt);
+        goto done;
+    }
+    MfTensorSpec *fs = calloc(nt ? nt : 1, sizeof *fs);
+    if (!fs) {
+        rc = mf_fail(MF_ENOMEM, "%s: out of memory", path);
+        goto done;
+    }
+    size_t total = 0;
+    for (uint32_t i = 0; i < nt; ++i) {
+        uint32_t nl, nd;
+        if (!rd(&r, &nl, 4) || nl >= MF_NN_NAME_MAX || !rd(&r, fs[i].name, nl) || !rd(&r, &nd, 4) ||
+            nd < 1 || nd > MF_NN_MAXDIM) {
+            free(fs);
+            rc = mf_fail(MF_EFORMAT, "%s: truncated or malformed tensor table at entry %u", path, i);
+            goto done;
+        }
+        fs[i].ndim = (int)nd;
+        for (uint32_t k = 0; k < nd; ++k) {
+            uint32_t s;
+            if (!rd(&r, &s, 4)) {
+                free(fs);
+                rc = mf_fail(MF_EFORMAT, "%s: truncated tensor table at entry %u", path, i);
+                goto done;
+            }
+            fs[i].shape[k] = (int)s;
+        }
+        size_t k = mf_tensor_numel(&fs[i]);
+        if (k > len / sizeof(float) || total > len / sizeof(float) - k) {
+            rc = mf_fail(MF_EFORMAT, "%s: truncated checkpoint (tensor '%s' needs more data than the file holds)",
+                         path, fs[i].name);
+            free(fs);
+            goto done;
+        }
+        total += k;
+    }
+    size_t need = r.pos + total * sizeof(float) + 8;
+    if (len < need) {
+        free(fs);
+        rc = mf_fail(MF_EFORMAT, "%s: truncated checkpoint (%zu bytes, header says %zu)", path, len, need);
+        goto done;
+    }
+    if (len > need) {
+        free(fs);
+        rc = mf_fail(MF_EFORMAT, "%s: %zu trailing bytes after the checkpoint (expected %zu bytes)", path,
+                     len - need, need);
+        goto done;
+    }
+    uint64_t stored, h = mf_fnv1a64(MF_FNV64_INIT, buf, need - 8);
+    memcpy(&stored, buf + need - 8, 8);
+    if (stored != h) {
+        free(fs);
+        rc = mf_fail(MF_EFORMAT, "%s: checksum mismatch (file corrupt): stored %016llx, computed %016llx",
+                     path, (unsigned long long)stored, (unsigned long long)h);
+        goto done;
+    }
+    if ((int)nt != n) {
+        free(fs);
+        rc = mf_fail(MF_EFORMAT, "%s: tensor count %u in the file, the model has %d", path, nt, n);
+        goto done;
+    }
+    for (int i = 0; i < n; ++i) {
+        if (strcmp(fs[i].name, specs[i].name) != 0) {
+            rc = mf_fail(MF_EFORMAT, "%s: name mismatch at tensor %d: file has '%s', model expects '%s'",
+                         path, i, fs[i].name, specs[i].name);
+            free(fs);
+            goto done;
+        }
+        int same = fs[i].ndim == specs[i].ndim;
+        for (int k = 0; same && k < fs[i].ndim; ++k) same = fs[i].shape[k] == specs[i].shape[k];
+        if (!same) {
+            char a[96], b[96];
+            shape_str(a, sizeof a, fs[i].ndim, fs[i].shape);
+            shape_str(b, sizeof b, specs[i].ndim, specs[i].shape);
+            rc = mf_fail(MF_EFORMAT, "%s: shape mismatch for tensor '%s': file has %s, model expects %s",
+                         path, specs[i].name, a, b);
+            free(fs);
+            goto done;
+        }
+    }
+    free(fs);
+    if (meta) {
+        char *m = malloc((size_t)mlen + 1);
+        if (!m) {
+            rc = mf_fail(MF_ENOMEM, "%s: out of memory", path);
+            goto done;
+        }
+        memcpy(m, buf + meta_pos, mlen);
+        m[mlen] = '\0';
+        *meta = m;
+    }
+    memcpy(data, buf + r.pos, total * sizeof(float));
+    rc = MF_OK;
+done:
+    free(buf);
+    return rc;
+}

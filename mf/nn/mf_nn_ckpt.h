@@ -1,0 +1,37 @@
+/* mf_nn_ckpt: checkpoint files of named float32 tensors (model weights, optimiser moments).
+ *
+ * Format (version 1, all integers little-endian):
+ *   "MFCK"  u32 version (1)  u32 ntensors  u32 meta_len  meta (meta_len bytes, free text, e.g.
+ *           JSON with the resolution / latent scale / data seed; not NUL-terminated)
+ *   per tensor: u32 name_len, name bytes, u32 ndim (1..4), u32 shape[ndim]
+ *   data: the tensors' float32 values, in table order, little-endian, no padding
+ *   u64 FNV-1a 64 checksum of every byte before it (header and data)
+ * Files are written atomically (temporary file + rename). Loading checks, in this order, and
+ * refuses with a message naming the file: short/truncated file ("truncated"), magic ("not an
+ * MFCK checkpoint"), version ("unsupported version"), checksum ("checksum mismatch"), tensor
+ * count, names and shapes against the model's table ("tensor count", "name mismatch",
+ * "shape mismatch"). Only little-endian hosts are supported (x86-64, arm64). */
+#ifndef MF_NN_CKPT_H
+#define MF_NN_CKPT_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "nn/mf_nn.h"
+
+#define MF_CKPT_VERSION 1u
+
+/* FNV-1a 64 of n bytes, continuing from h (start with MF_FNV64_INIT). */
+#define MF_FNV64_INIT 0xcbf29ce484222325ull
+uint64_t mf_fnv1a64(uint64_t h, const void *data, size_t n);
+
+/* Writes the n tensors of specs with their values data (mf_specs_numel(specs, n) floats, in
+ * table order) and meta (may be NULL) to path, atomically. */
+int mf_ckpt_save(const char *path, const MfTensorSpec *specs, int n, const float *data, const char *meta);
+
+/* Reads path into data (mf_specs_numel(specs, n) floats), after checking it matches the
+ * table exactly. If meta is not NULL, *meta receives a heap copy of the meta text (NUL-terminated,
+ * caller frees). data and *meta are untouched on failure. */
+int mf_ckpt_load(const char *path, const MfTensorSpec *specs, int n, float *data, char **meta);
+
+#endif

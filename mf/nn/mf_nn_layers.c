@@ -1,0 +1,581 @@
+/* mf_nn_layers: the layers of mf_nn.h (conv2d, upsample, group norm, SiLU, linear, token
+ * transposes, attention, timestep embedding, MSE) and the parameter-table helpers. */
+#include <cblas.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "core/mf_rng.h"
+#include "nn/mf_nn.h"
+
+/* ---- parameter tables ---------------------------------------------------------------- */
+
+size_t mf_tensor_numel(const MfTensorSpec *s) {
+    size_t n = 1;
+    for (int i = 0; i < s->ndim; ++i) n *= (size_t)s->shape[i];
+    return n;
+}
+
+size_t mf_specs_numel(const MfTensorSpec *specs, int n) {
+    size_t t = 0;
+    for (int i = 0; i < n; ++i) t += mf_tensor_numel(&specs[i]);
+    return t;
+}
+
+void mf_spec_set(MfTensorSpec *spec, const char *prefix, const char *leaf, int ndim, const int *shape) {
+    memset(spec, 0, sizeof *spec);
+    if (prefix && prefix[0])
+        snprintf(spec->name, sizeof spec->name, "%s.%s", prefix, leaf);
+    else
+        snprintf(spec->name, sizeof spec->name, "%s", leaf);
+    spec->ndim = ndim < MF_NN_MAXDIM ? ndim : MF_NN_MAXDIM;
+    for (int i = 0; i < spec->ndim; ++i) spec->shape[i] = shape[i];
+}
+
+void mf_params_bind(float **slots, const MfTensorSpec *specs, int n, float *mem) {
+    for (int i = 0; i < n; ++i) {
+        slots[i] = mem;
+        mem += mf_tensor_numel(&specs[i]);
+    }
+}
+
+void mf_nn_init_uniform(float *w, size_t n, float bound, unsigned long long seed) {
+    MfRng r;
+    mf_rng_seed(&r, seed, 0x6e6eu);
+    for (size_t i = 0; i < n; ++i) w[i] = (2.0f * mf_rng_float(&r) - 1.0f) * bound;
+}
+
+/* ---- conv2d ------------------------------------------------------------------------------ */
+
+int mf_conv2d_out_size(int H, int K, int stride) { return (H + 2 * (K / 2) - K) / stride + 1; }
+
+/* Batch items per GEMM: small images are grouped so the GEMM has N = nb*Ho*Wo >= ~1024 columns. */
+static int conv_chunk(int B, int P) {
+    int nb = P >= 1024 ? 1 : (1024 + P - 1) / P;
+    return nb < B ? nb : B;
+}
+
+size_t mf_conv2d_col_floats(int B, int Cin, int H, int W, int Cout, int K, int stride) {
+    int Ho = mf_conv2d_out_size(H, K, stride), Wo = mf_conv2d_out_size(W, K, stride);
+    size_t P = (size_t)Ho * Wo, CKK = (size_t)Cin * K * K;
+    int nb = conv_chunk(B, (int)P);
+    if (nb == 1) return (K == 1 && stride == 1) ? 0 : CKK * P;
+    return (CKK + (size_t)Cout) * nb * P;
+}
+
+/* Output columns ox whose input column ox*stride - pad + kj lies inside [0, W): [*lo, *hi). */
+static void valid_cols(int W, int Wo, int pad, int kj, int stride, int *lo, int *hi) {
+    int a = pad - kj, l = a > 0 ? (a + stride - 1) / stride : 0;
+    int h = (W + pad - kj + stride - 1) / stride;
+    *lo = l < Wo ? l : Wo;
+    *hi = h < Wo ? h : Wo;
+    if (*hi < *lo) *hi = *lo;
+}
+
+/* col (Cin*K*K, Ho*Wo; row stride ld) from in (Cin, H, W). */
+static void im2col(float *col, size_t ld, const float *in, int Cin, int H, int W, int K, int stride,
+                   int Ho, int Wo) {
+    int pad = K / 2;
+    for (int r = 0; r < Cin * K * K; ++r) {
+        int c = r / (K * K), ki = (r / K) % K, kj = r % K, lo, hi;
+        valid_cols(W, Wo, pad, kj, stride, &lo, &hi);
+        const float *src = in + (size_t)c * H * W;
+        float *dst = col + (size_t)r * ld;
+        for (int oy = 0; oy < Ho; ++oy) {
+            int iy = oy * stride - pad + ki;
+            float *d = dst + (size_t)oy * Wo;
+            if (iy < 0 || iy >= H) {
+                memset(d, 0, sizeof(float) * (size_t)Wo);
+                continue;
+            }
+            const float *s = src + (size_t)iy * W - pad + kj; /* s[ox*stride] is column ox's input */
+            for (int ox = 0; ox < lo; ++ox) d[ox] = 0.0f;
+            if (stride == 1)
+                memcpy(d + lo, s + lo, sizeof(float) * (size_t)(hi - lo));
+            else
+                for (int ox = lo; ox < hi; ++ox) d[ox] = s[ox * stride];
+            for (int ox = hi; ox < Wo; ++ox) d[ox] = 0.0f;
+        }
+    }
+}
+
+/* din (Cin, H, W) += col2im(col (Cin*K*K, Ho*Wo; row stride ld)). */
+static void col2im_add(float *din, const float *col, size_t ld, int Cin, int H, int W, int K,
+                       int stride, int Ho, int Wo) {
+    int pad = K / 2;
+    for (int c = 0; c < Cin; ++c) {
+        float *dst = din + (size_t)c * H * W;
+        for (int ki = 0; ki < K; ++ki)
+            for (int kj = 0; kj < K; ++kj) {
+                int lo, hi;
+                valid_cols(W, Wo, pad, kj, stride, &lo, &hi);
+                const float *src = col + ((size_t)(c * K + ki) * K + kj) * ld;
+                for (int oy = 0; oy < Ho; ++oy) {
+                    int iy = oy * stride - pad + ki;
+                    if (iy < 0 || iy >= H) continue;
+                    float *d = dst + (size_t)iy * W - pad + kj;
+                    const float *s = src + (size_t)oy * Wo;
+                    if (stride == 1)
+                        for (int ox = lo; ox < hi; ++ox) d[ox] += s[ox];
+                    else
+                        for (int ox = lo; ox < hi; ++ox) d[ox * stride] += s[ox];
+                }
+            }
+    }
+}
+
+static void add_bias_rows(float *out_b, const float *bias, int Cout, int P) {
+    if (!bias) return;
+    for (int o = 0; o < Cout; ++o) {
+        float bo = bias[o], *row = out_b + (size_t)o * P;
+        for (int p = 0; p < P; ++p) row[p] += bo;
+    }
+}
+
+void mf_conv2d_forward(float *out, float *col, const float *in, const float *w, const float *bias,
+                       int B, int Cin, int H, int W, int Cout, int K, int stride) {
+    int Ho = mf_conv2d_out_size(H, K, stride), Wo = mf_conv2d_out_size(W, K, stride);
+    int P = Ho * Wo, CKK = Cin * K * K, nb = conv_chunk(B, P);
+    size_t in_sz = (size_t)Cin * H * W, out_sz = (size_t)Cout * P;
+    if (!col && K == 1 && stride == 1) nb = 1; /* no scratch given: per-item direct GEMMs */
+    if (nb == 1) {
+        int direct = (K == 1 && stride == 1);
+        for (int b = 0; b < B; ++b) {
+            const float *in_b = in + b * in_sz, *colp = in_b;
+            float *out_b = out + b * out_sz;
+            if (!direct) {
+                im2col(col, (size_t)P, in_b, Cin, H, W, K, stride, Ho, Wo);
+                colp = col;
+            }
+            /* out_b (Cout, P) = w (Cout, CKK) . col (CKK, P) */
+            cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, Cout, P, CKK, 1.0f, w, CKK, colp, P,
+                        0.0f, out_b, P);
+            add_bias_rows(out_b, bias, Cout, P);
+        }
+        return;
+    }
+    /* grouped: col (CKK, n*P) holds n items side by side; tmp (Cout, n*P) is the GEMM result */
+    float *tmp = col + (size_t)CKK * nb * P;
+    for (int b0 = 0; b0 < B; b0 += nb) {
+        int n = B - b0 < nb ? B - b0 : nb, NP = n * P;
+        for (int i = 0; i < n; ++i)
+            im2col(col + (size_t)i * P, (size_t)NP, in + (b0 + i) * in_sz, Cin, H, W, K, stride, Ho, Wo);
+        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, Cout, NP, CKK, 1.0f, w, CKK, col, NP, 0.0f,
+                    tmp, NP);
+        for (int i = 0; i < n; ++i) {
+            float *out_b = out + (b0 + i) * out_sz;
+            for (int o = 0; o < Cout; ++o)
+                memcpy(out_b + (size_t)o * P, tmp + (size_t)o * NP + (size_t)i * P, sizeof(float) * (size_t)P);
+            add_bias_rows(out_b, bias, Cout, P);
+        }
+    }
+}
+
+static void bias_grad_rows(float *dbias, const float *dout_b, int Cout, int P) {
+    if (!dbias) return;
+    for (int o = 0; o < Cout; ++o) {
+        const float *row = dout_b + (size_t)o * P;
+        float s = 0.0f;
+        for (int p = 0; p < P; ++p) s += row[p];
+        dbias[o] += s;
+    }
+}
+
+void mf_conv2d_backward(float *din, float *dw, float *dbias, float *col, const float *dout,
+                        const float *in, const float *w, int B, int Cin, int H, int W, int Cout, int K,
+                        int stride) {
+    int Ho = mf_conv2d_out_size(H, K, stride), Wo = mf_conv2d_out_size(W, K, stride);
+    int P = Ho * Wo, CKK = Cin * K * K, nb = conv_chunk(B, P);
+    size_t in_sz = (size_t)Cin * H * W, out_sz = (size_t)Cout * P;
+    if (!col && K == 1 && stride == 1) nb = 1; /* no scratch given: per-item direct GEMMs */
+    if (nb == 1) {
+        int direct = (K == 1 && stride == 1);
+        for (int b = 0; b < B; ++b) {
+            const float *in_b = in + b * in_sz, *dout_b = dout + b * out_sz, *colp = in_b;
+            if (!direct) {
+                im2col(col, (size_t)P, in_b, Cin, H, W, K, stride, Ho, Wo);
+                colp = col;
+            }
+            /* dw (Cout, CKK) += dout_b (Cout, P) . col^T (P, CKK) */
+            cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, Cout, CKK, P, 1.0f, dout_b, P, colp, P,
+                        1.0f, dw, CKK);
+            bias_grad_rows(dbias, dout_b, Cout, P);
+            if (!din) continue;
+            float *din_b = din + b * in_sz;
+            if (direct) {
+                /* din_b (Cin, P) += w^T (Cin, Cout) . dout_b (Cout, P) */
+                cblas_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, Cin, P, Cout, 1.0f, w, Cin, dout_b, P,
+                            1.0f, din_b, P);
+            } else {
+                /* dcol (CKK, P) = w^T (CKK, Cout) . dout_b (Cout, P), then scatter-add */
+                cblas_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, CKK, P, Cout, 1.0f, w, CKK, dout_b, P,
+                            0.0f, col, P);
+                col2im_add(din_b, col, (size_t)P, Cin, H, W, K, stride, Ho, Wo);
+            }
+        }
+        return;
+    }
+    float *tmp = col + (size_t)CKK * nb * P; /* dout of the group as (Cout, n*P) */
+    for (int b0 = 0; b0 < B; b0 += nb) {
+        int n = B - b0 < nb ? B - b0 : nb, NP = n * P;
+        for (int i = 0; i < n; ++i) {
+            const float *dout_b = dout + (b0 + i) * out_sz;
+            im2col(col + (size_t)i * P, (size_t)NP, in + (b0 + i) * in_sz, Cin, H, W, K, stride, Ho, Wo);
+            for (int o = 0; o < Cout; ++o)
+                memcpy(tmp + (size_t)o * NP + (size_t)i * P, dout_b + (size_t)o * P, sizeof(float) * (size_t)P);
+            bias_grad_rows(dbias, dout_b, Cout, P);
+        }
+        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, Cout, CKK, NP, 1.0f, tmp, NP, col, NP, 1.0f, dw,
+                    CKK);
+        if (!din) continue;
+        cblas_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, CKK, NP, Cout, 1.0f, w, CKK, tmp, NP, 0.0f, col,
+                    NP);
+        for (int i = 0; i < n; ++i)
+            col2im_add(din + (b0 + i) * in_sz, col + (size_t)i * P, (size_t)NP, Cin, H, W, K, stride, Ho, Wo);
+    }
+}
+
+/* ---- upsample ------------------------------------------------------------------------------ */
+
+void mf_upsample2x_forward(float *out, const float *in, int B, int C, int H, int W) {
+    int W2 = 2 * W;
+    for (int bc = 0; bc < B * C; ++bc) {
+        const float *s = in + (size_t)bc * H * W;
+        float *d = out + (size_t)bc * 4 * H * W;
+        for (int y = 0; y < H; ++y) {
+            float *r0 = d + (size_t)(2 * y) * W2, *r1 = r0 + W2;
+            for (int x = 0; x < W; ++x) {
+                float v = s[(size_t)y * W + x];
+                r0[2 * x] = r0[2 * x + 1] = r1[2 * x] = r1[2 * x + 1] = v;
+            }
+        }
+    }
+}
+
+void mf_upsample2x_backward(float *din, const float *dout, int B, int C, int H, int W) {
+    int W2 = 2 * W;
+    for (int bc = 0; bc < B * C; ++bc) {
+        float *d = din + (size_t)bc * H * W;
+        const float *s = dout + (size_t)bc * 4 * H * W;
+        for (int y = 0; y < H; ++y) {
+            const float *r0 = s + (size_t)(2 * y) * W2, *r1 = r0 + W2;
+            for (int x = 0; x < W; ++x)
+                d[(size_t)y * W + x] += (r0[2 * x] + r0[2 * x + 1]) + (r1[2 * x] + r1[2 * x + 1]);
+        }
+    }
+}
+
+/* ---- group norm ------------------------------------------------------------------------------ */
+
+void mf_groupnorm_forward(float *out, float *mean, float *rstd, const float *in, const float *gamma,
+                          const float *beta, int B, int C, int HW, int G, float eps) {
+    int cpg = C / G;
+    size_t n = (size_t)cpg * HW;
+    for (int bg = 0; bg < B * G; ++bg) {
+        int b = bg / G, g = bg % G;
+        size_t off = ((size_t)b * C + (size_t)g * cpg) * HW;
+        const float *x = in + off;
+        double s = 0.0;
+        for (size_t i = 0; i < n; ++i) s += x[i];
+        double mu = s / (double)n, v = 0.0;
+        for (size_t i = 0; i < n; ++i) {
+            double d = x[i] - mu;
+            v += d * d;
+        }
+        float m = (float)mu, rs = (float)(1.0 / sqrt(v / (double)n + eps));
+        mean[bg] = m;
+        rstd[bg] = rs;
+        for (int cc = 0; cc < cpg; ++cc) {
+            int c = g * cpg + cc;
+            float ga = gamma[c] * rs, be = beta[c];
+            const float *xc = x + (size_t)cc * HW;
+            float *o = out + off + (size_t)cc * HW;
+            for (int p = 0; p < HW; ++p) o[p] = (xc[p] - m) * ga + be;
+        }
+    }
+}
+
+void mf_groupnorm_backward(float *din, float *dgamma, float *dbeta, const float *dout,
+                           const float *in, const float *mean, const float *rstd,
+                           const float *gamma, int B, int C, int HW, int G) {
+    int cpg = C / G;
+    size_t n = (size_t)cpg * HW;
+    /* parallel over groups: each owns its channels of dgamma/dbeta; batch items in order */
+    for (int g = 0; g < G; ++g) {
+        for (int b = 0; b < B; ++b) {
+            int bg = b * G + g;
+            size_t off = ((size_t)b * C + (size_t)g * cpg) * HW;
+            const float *x = in + off, *dy = dout + off;
+            float m = mean[bg], rs = rstd[bg];
+            /* mean of dxhat and of dxhat * xhat over the group */
+            double s1 = 0.0, s2 = 0.0;
+            for (int cc = 0; cc < cpg; ++cc) {
+                int c = g * cpg + cc;
+                double dgs = 0.0, dbs = 0.0;
+                for (int p = 0; p < HW; ++p) {
+                    size_t i = (size_t)cc * HW + p;
+                    float xh = (x[i] - m) * rs;
+                    dgs += (double)dy[i] * xh;
+                    dbs += dy[i];
+                }
+                dgamma[c] += (float)dgs;
+                dbeta[c] += (float)dbs;
+                s1 += dbs * gamma[c];
+                s2 += dgs * gamma[c];
+            }
+            float m1 = (float)(s1 / (double)n), m2 = (float)(s2 / (double)n);
+            if (!din) continue;
+            float *dx = din + off;
+            for (int cc = 0; cc < cpg; ++cc) {
+                float ga = gamma[g * cpg + cc];
+                for (int p = 0; p < HW; ++p) {
+                    size_t i = (size_t)cc * HW + p;
+                    float xh = (x[i] - m) * rs;
+                    dx[i] += rs * (dy[i] * ga - m1 - xh * m2);
+                }
+            }
+        }
+    }
+}
+
+/* ---- SiLU ------------------------------------------------------------------------------------ */
+
+void mf_silu_forward(float *out, const float *in, size_t n) {
+    for (size_t i = 0; i < n; ++i) {
+        float x = in[i];
+        out[i] = x / (1.0f + expf(-x));
+    }
+}
+
+void mf_silu_backward(float *din, const float *dout, const float *in, size_t n) {
+    for (size_t i = 0; i < n; ++i) {
+        float x = in[i], s = 1.0f / (1.0f + expf(-x));
+        din[i] += dout[i] * s * (1.0f + x * (1.0f - s));
+    }
+}
+
+/* ---- GELU ------------------------------------------------------------------------------------ */
+
+#define GELU_K 0.7978845608028654f /* sqrt(2/pi) */
+
+void mf_gelu_forward(float *out, const float *in, size_t n) {
+    for (size_t i = 0; i < n; ++i) {
+        float x = in[i];
+        out[i] = 0.5f * x * (1.0f + tanhf(GELU_K * (x + 0.044715f * x * x * x)));
+    }
+}
+
+void mf_gelu_backward(float *din, const float *dout, const float *in, size_t n) {
+    for (size_t i = 0; i < n; ++i) {
+        float x = in[i], u = GELU_K * (x + 0.044715f * x * x * x), t = tanhf(u);
+        float sech2 = 1.0f - t * t;
+        float g = 0.5f * (1.0f + t) + 0.5f * x * sech2 * GELU_K * (1.0f + 3.0f * 0.044715f * x * x);
+        din[i] += dout[i] * g;
+    }
+}
+
+/* ---- layer norm ------------------------------------------------------------------------------- */
+
+void mf_layernorm_forward(float *out, float *mean, float *rstd, const float *in, const float *w,
+                          const float *b, int N, int C, float eps) {
+    for (int i = 0; i < N; ++i) {
+        const float *x = in + (size_t)i * C;
+        double s = 0.0, v = 0.0;
+        for (int c = 0; c < C; ++c) s += x[c];
+        double mu = s / C;
+        for (int c = 0; c < C; ++c) v += (x[c] - mu) * (x[c] - mu);
+        float m = (float)mu, rs = (float)(1.0 / sqrt(v / C + eps));
+        float *o = out + (size_t)i * C;
+        for (int c = 0; c < C; ++c) o[c] = (x[c] - m) * rs * w[c] + b[c];
+        mean[i] = m;
+        rstd[i] = rs;
+    }
+}
+
+void mf_layernorm_backward(float *din, float *dw, float *db, const float *dout, const float *in,
+                           const float *mean, const float *rstd, const float *w, int N, int C) {
+    for (int i = 0; i < N; ++i) {
+        const float *x = in + (size_t)i * C, *dy = dout + (size_t)i * C;
+        float m = mean[i], rs = rstd[i];
+        double s1 = 0.0, s2 = 0.0;
+        for (int c = 0; c < C; ++c) {
+            float xh = (x[c] - m) * rs, dxh = dy[c] * w[c];
+            s1 += dxh;
+            s2 += (double)dxh * xh;
+            dw[c] += dy[c] * xh;
+            db[c] += dy[c];
+        }
+        float m1 = (float)(s1 / C), m2 = (float)(s2 / C);
+        if (!din) continue;
+        float *dx = din + (size_t)i * C;
+        for (int c = 0; c < C; ++c) {
+            float xh = (x[c] - m) * rs;
+            dx[c] += rs * (dy[c] * w[c] - m1 - xh * m2);
+        }
+    }
+}
+
+/* ---- linear ---------------------------------------------------------------------------------- */
+
+void mf_linear_forward(float *out, const float *in, const float *w, const float *bias, int N, int IC,
+                       int OC) {
+    cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, N, OC, IC, 1.0f, in, IC, w, IC, 0.0f, out, OC);
+    if (bias)
+        for (int i = 0; i < N; ++i)
+            for (int o = 0; o < OC; ++o) out[(size_t)i * OC + o] += bias[o];
+}
+
+void mf_linear_backward(float *din, float *dw, float *dbias, const float *dout, const float *in,
+                        const float *w, int N, int IC, int OC) {
+    if (din)
+        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, N, IC, OC, 1.0f, dout, OC, w, IC, 1.0f,
+                    din, IC);
+    cblas_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, OC, IC, N, 1.0f, dout, OC, in, IC, 1.0f, dw, IC);
+    if (dbias)
+        for (int o = 0; o < OC; ++o) {
+            float s = 0.0f;
+            for (int i = 0; i < N; ++i) s += dout[(size_t)i * OC + o];
+            dbias[o] += s;
+        }
+}
+
+/* ---- token layout -------------------------------------------------------------------------- */
+
+/* dst (B, R, S) (op)= transpose of src (B, S, R) */
+static void transpose_batched(float *dst, const float *src, int B, int S, int R, int accumulate) {
+    for (int b = 0; b < B; ++b) {
+        const float *s = src + (size_t)b * S * R;
+        float *d = dst + (size_t)b * S * R;
+        for (int i = 0; i < S; ++i)
+            for (int j = 0; j < R; ++j) {
+                if (accumulate)
+                    d[(size_t)j * S + i] += s[(size_t)i * R + j];
+                else
+                    d[(size_t)j * S + i] = s[(size_t)i * R + j];
+            }
+    }
+}
+
+void mf_nchw_to_tokens_forward(float *out, const float *in, int B, int C, int HW) {
+    transpose_batched(out, in, B, C, HW, 0);
+}
+void mf_nchw_to_tokens_backward(float *din, const float *dout, int B, int C, int HW) {
+    transpose_batched(din, dout, B, HW, C, 1);
+}
+void mf_tokens_to_nchw_forward(float *out, const float *in, int B, int C, int HW) {
+    transpose_batched(out, in, B, HW, C, 0);
+}
+void mf_tokens_to_nchw_backward(float *din, const float *dout, int B, int C, int HW) {
+    transpose_batched(din, dout, B, C, HW, 1);
+}
+
+/* ---- attention ------------------------------------------------------------------------------- */
+
+void mf_attention_forward(float *out, float *att, const float *qkv, int B, int T, int C, int NH) {
+    int hs = C / NH, C3 = 3 * C;
+    float scale = 1.0f / sqrtf((float)hs);
+    for (int b = 0; b < B; ++b)
+        for (int h = 0; h < NH; ++h) {
+            const float *q = qkv + (size_t)b * T * C3 + (size_t)h * hs;
+            const float *k = q + C, *v = q + 2 * C;
+            float *P = att + ((size_t)b * NH + h) * T * T;
+            /* P (T, T) = scale * q (T, hs) . k^T (hs, T) */
+            cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, T, T, hs, scale, q, C3, k, C3, 0.0f, P,
+                        T);
+            for (int i = 0; i < T; ++i) {
+                float *row = P + (size_t)i * T, mx = row[0];
+                for (int j = 1; j < T; ++j) mx = row[j] > mx ? row[j] : mx;
+                double s = 0.0;
+                for (int j = 0; j < T; ++j) {
+                    row[j] = expf(row[j] - mx);
+                    s += row[j];
+                }
+                float inv = (float)(1.0 / s);
+                for (int j = 0; j < T; ++j) row[j] *= inv;
+            }
+            /* out (T, hs; ld C) = P (T, T) . v (T, hs; ld 3C) */
+            float *o = out + (size_t)b * T * C + (size_t)h * hs;
+            cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, T, hs, T, 1.0f, P, T, v, C3, 0.0f, o, C);
+        }
+}
+
+void mf_attention_backward(float *dqkv, float *scratch, const float *dout, const float *att,
+                           const float *qkv, int B, int T, int C, int NH) {
+    int hs = C / NH, C3 = 3 * C;
+    float scale = 1.0f / sqrtf((float)hs);
+    for (int b = 0; b < B; ++b)
+        for (int h = 0; h < NH; ++h) {
+            size_t qoff = (size_t)b * T * C3 + (size_t)h * hs;
+            const float *q = qkv + qoff, *k = q + C, *v = q + 2 * C;
+            float *dq = dqkv + qoff, *dk = dq + C, *dv = dq + 2 * C;
+            const float *P = att + ((size_t)b * NH + h) * T * T;
+            const float *dO = dout + (size_t)b * T * C + (size_t)h * hs;
+            float *dP = scratch;
+            /* dv (T, hs) += P^T (T, T) . dO (T, hs) */
+            cblas_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, T, hs, T, 1.0f, P, T, dO, C, 1.0f, dv, C3);
+            /* dP (T, T) = dO (T, hs) . v^T (hs, T) */
+            cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, T, T, hs, 1.0f, dO, C, v, C3, 0.0f, dP, T);
+            /* softmax backward: dS = P * (dP - sum_j P dP), times the scale */
+            for (int i = 0; i < T; ++i) {
+                const float *pr = P + (size_t)i * T;
+                float *dr = dP + (size_t)i * T;
+                double s = 0.0;
+                for (int j = 0; j < T; ++j) s += (double)pr[j] * dr[j];
+                float sf = (float)s;
+                for (int j = 0; j < T; ++j) dr[j] = scale * pr[j] * (dr[j] - sf);
+            }
+            /* dq (T, hs) += dS (T, T) . k (T, hs);  dk (T, hs) += dS^T . q */
+            cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, T, hs, T, 1.0f, dP, T, k, C3, 1.0f, dq, C3);
+            cblas_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, T, hs, T, 1.0f, dP, T, q, C3, 1.0f, dk, C3);
+        }
+}
+
+size_t mf_mv_attention_att_floats(int BV, int V, int HW, int NH, int joint) {
+    if (joint) return (size_t)(BV / V) * NH * (size_t)(V * HW) * (size_t)(V * HW);
+    return (size_t)BV * NH * (size_t)HW * HW;
+}
+
+void mf_mv_attention_forward(float *out, float *att, const float *qkv, int BV, int V, int HW, int C,
+                             int NH, int joint) {
+    if (joint)
+        mf_attention_forward(out, att, qkv, BV / V, V * HW, C, NH);
+    else
+        mf_attention_forward(out, att, qkv, BV, HW, C, NH);
+}
+
+void mf_mv_attention_backward(float *dqkv, float *scratch, const float *dout, const float *att,
+                              const float *qkv, int BV, int V, int HW, int C, int NH, int joint) {
+    if (joint)
+        mf_attention_backward(dqkv, scratch, dout, att, qkv, BV / V, V * HW, C, NH);
+    else
+        mf_attention_backward(dqkv, scratch, dout, att, qkv, BV, HW, C, NH);
+}
+
+/* ---- timestep embedding ---------------------------------------------------------------------- */
+
+void mf_timestep_embedding(float *out, const float *t, int B, int dim, float max_period) {
+    int half = dim / 2;
+    for (int b = 0; b < B; ++b)
+        for (int i = 0; i < half; ++i) {
+            double f = exp(-log((double)max_period) * i / half);
+            double a = (double)t[b] * f;
+            out[(size_t)b * dim + i] = (float)cos(a);
+            out[(size_t)b * dim + half + i] = (float)sin(a);
+        }
+}
+
+/* ---- MSE ------------------------------------------------------------------------------------- */
+
+float mf_mse_forward(const float *pred, const float *target, size_t n) {
+    double s = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+        double d = (double)pred[i] - target[i];
+        s += d * d;
+    }
+    return n ? (float)(s / (double)n) : 0.0f;
+}
+
+void mf_mse_backward(float *dpred, const float *pred, const float *target, size_t n, float dloss) {
+    float k = n ? 2.0f * dloss / (float)n : 0.0f;
+    for (size_t i = 0; i < n; ++i) dpred[i] += k * (pred[i] - target[i]);
+}
