@@ -334,10 +334,19 @@ MF_TEST(env_load_and_errors) {
 }
 
 /* Cycles renders of the background along each pixel's centre ray. */
-static void blender_env_case(const char *shared, const char *set, const char *probe, float rot, double *mean_rel, double *max_rel) {
+static int cmp_double(const void *a, const void *b) {
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : (x > y ? 1 : 0);
+}
+
+/* mean, 99th percentile and max of the per-channel relative error |mine - ref| / max(ref, 1e-4) */
+static void blender_env_case(const char *shared, const char *set, const char *probe, float rot, double *mean_rel, double *p99_rel,
+                             double *max_rel) {
     char path[1024];
     MfEnvMap env;
-    *mean_rel = *max_rel = -1.0;
+    *mean_rel = *max_rel = *p99_rel = -1.0;
+    size_t cap = 0, nrel = 0;
+    double *rels = NULL;
     snprintf(path, sizeof path, "/usr/share/blender/datafiles/studiolights/world/%s", probe);
     if (mf_env_load(&env, path)) return;
     if (rot != 0.0f && mf_env_rotate_z(&env, rot)) return;
@@ -383,6 +392,13 @@ static void blender_env_case(const char *shared, const char *set, const char *pr
                     double rel = fabs(mine[c] - q[c]) / fmax(fabs(q[c]), 1e-4);
                     sum += rel;
                     worst = fmax(worst, rel);
+                    if (nrel == cap) {
+                        cap = cap ? 2 * cap : 1 << 16;
+                        double *nr = realloc(rels, cap * sizeof(double));
+                        if (!nr) break;
+                        rels = nr;
+                    }
+                    rels[nrel++] = rel;
                     ++count;
                 }
             }
@@ -394,6 +410,11 @@ static void blender_env_case(const char *shared, const char *set, const char *pr
         *mean_rel = sum / count;
         *max_rel = worst;
     }
+    if (nrel) {
+        qsort(rels, nrel, sizeof(double), cmp_double);
+        *p99_rel = rels[(size_t)(0.99 * (double)(nrel - 1))];
+    }
+    free(rels);
 }
 
 MF_TEST(env_matches_blender) {
@@ -409,20 +430,22 @@ MF_TEST(env_matches_blender) {
     fclose(f);
     const char *sets[2][2] = {{"env_studio", "studio.exr"}, {"env_city", "city.exr"}};
     for (int s = 0; s < 2; ++s) {
-        double mean, worst;
-        blender_env_case(shared, sets[s][0], sets[s][1], 0.0f, &mean, &worst);
-        /* Cycles stores the probe as half floats and filters in float: about 2e-4 mean; the
-         * worst pixel sits on a sharp edge of the probe where a ray-direction difference of
-         * ~1e-6 rad moves the bilinear weights. A half-texel offset or nearest lookup gives
-         * percent-level errors. */
+        double mean, p99, worst;
+        blender_env_case(shared, sets[s][0], sets[s][1], 0.0f, &mean, &p99, &worst);
+        /* Measured: mean 1.4e-4 (studio), 1.9e-4 (city); 99th percentile 1.1e-3 / 2.2e-3. The
+         * few worst pixels (max 0.33 / 0.12) are isolated: dark ones (radiance ~1e-3, absolute
+         * error ~5e-4) and high-contrast spots, where small differences in the ray direction
+         * or in Cycles' float filtering move the bilinear weights. A half-texel turn of the
+         * probe gives a mean of 5e-2 (checked below). */
         CHECK_MSG(mean >= 0.0 && mean < 1e-3, "%s: mean relative error %g", sets[s][0], mean);
-        fprintf(stderr, "    %s vs Cycles: mean relative error %.3g, max %.3g\n", sets[s][0], mean, worst);
+        CHECK_MSG(p99 >= 0.0 && p99 < 5e-3, "%s: 99th percentile of the relative error %g", sets[s][0], p99);
+        fprintf(stderr, "    %s vs Cycles: relative error mean %.3g, 99th percentile %.3g, max %.3g\n", sets[s][0], mean, p99, worst);
     }
     /* the comparison has power: the studio probe turned by half a texel is far off */
-    double mean, worst;
+    double mean, p99, worst;
     MfImage hdr = {0};
     CHECK_OK(mf_image_read("/usr/share/blender/datafiles/studiolights/world/studio.exr", MF_ENC_LINEAR, &hdr));
-    blender_env_case(shared, "env_studio", "studio.exr", MF_PI / (float)hdr.w, &mean, &worst);
+    blender_env_case(shared, "env_studio", "studio.exr", MF_PI / (float)hdr.w, &mean, &p99, &worst);
     CHECK_MSG(mean > 5e-3, "half-texel rotation not detected: mean relative error %g", mean);
     fprintf(stderr, "    env_studio turned by half a texel: mean relative error %.3g\n", mean);
     mf_image_free(&hdr);
