@@ -103,6 +103,14 @@ MF_TEST(brdf_building_blocks) {
     CHECK_NEAR(v.specular.z, F.z * k, 1e-5 * F.z * k);
     CHECK_NEAR(v.diffuse.y, 0.3 * 0.6 * wi.z / M_PI, 1e-7);
     CHECK_NEAR(v.diffuse_demod, wi.z / M_PI, 1e-7);
+    /* specular pdf = D_v(h) / (4 wo.h), D_v = G1(wo) max(0, wo.h) D(h) / cos_o (Heitz 2018) */
+    double G1 = 1.0 / (1.0 + mf_smith_lambda(alpha, wo.z));
+    double Dv = G1 * fmax(0.0, mf_dot(wo, h)) * mf_ggx_D(alpha, h.z) / wo.z;
+    CHECK_NEAR(mf_brdf_pdf(&m, wo, wi, MF_LOBE_SPECULAR), Dv / (4.0 * mf_dot(wo, h)), 1e-5 * Dv / (4.0 * mf_dot(wo, h)));
+    CHECK_NEAR(mf_brdf_pdf(&m, wo, wi, MF_LOBE_DIFFUSE), wi.z / M_PI, 1e-7);
+    float pdm = mf_brdf_p_diffuse(&m, wo, MF_LOBE_ALL);
+    CHECK_NEAR(mf_brdf_pdf(&m, wo, wi, MF_LOBE_ALL),
+               pdm * mf_brdf_pdf(&m, wo, wi, MF_LOBE_DIFFUSE) + (1 - pdm) * mf_brdf_pdf(&m, wo, wi, MF_LOBE_SPECULAR), 1e-6);
     /* lobe masks and the lobe probability */
     MfBrdfValue vd = mf_brdf_eval(&m, wo, wi, MF_LOBE_DIFFUSE);
     CHECK(vd.specular.x == 0.0f && vd.diffuse.x == v.diffuse.x);
