@@ -103,6 +103,14 @@ MF_TEST(brdf_building_blocks) {
     CHECK_NEAR(v.specular.z, F.z * k, 1e-5 * F.z * k);
     CHECK_NEAR(v.diffuse.y, 0.3 * 0.6 * wi.z / M_PI, 1e-7);
     CHECK_NEAR(v.diffuse_demod, wi.z / M_PI, 1e-7);
+    /* specular pdf = D_v(h) / (4 wo.h), D_v = G1(wo) max(0, wo.h) D(h) / cos_o (Heitz 2018) */
+    double G1 = 1.0 / (1.0 + mf_smith_lambda(alpha, wo.z));
+    double Dv = G1 * fmax(0.0, mf_dot(wo, h)) * mf_ggx_D(alpha, h.z) / wo.z;
+    CHECK_NEAR(mf_brdf_pdf(&m, wo, wi, MF_LOBE_SPECULAR), Dv / (4.0 * mf_dot(wo, h)), 1e-5 * Dv / (4.0 * mf_dot(wo, h)));
+    CHECK_NEAR(mf_brdf_pdf(&m, wo, wi, MF_LOBE_DIFFUSE), wi.z / M_PI, 1e-7);
+    float pdm = mf_brdf_p_diffuse(&m, wo, MF_LOBE_ALL);
+    CHECK_NEAR(mf_brdf_pdf(&m, wo, wi, MF_LOBE_ALL),
+               pdm * mf_brdf_pdf(&m, wo, wi, MF_LOBE_DIFFUSE) + (1 - pdm) * mf_brdf_pdf(&m, wo, wi, MF_LOBE_SPECULAR), 1e-6);
     /* lobe masks and the lobe probability */
     MfBrdfValue vd = mf_brdf_eval(&m, wo, wi, MF_LOBE_DIFFUSE);
     CHECK(vd.specular.x == 0.0f && vd.diffuse.x == v.diffuse.x);
@@ -374,4 +382,44 @@ MF_TEST(brdf_hard_cases) {
     CHECK(mf_brdf_sample(&bm, mf_v3(0, 0, 1), 0.5f, 0.3f, 0.3f, MF_LOBE_ALL, &wi, &pdf) == 1);
     /* invalid wo */
     CHECK(mf_brdf_sample(&bm, mf_v3(0, 0.6f, -0.8f), 0.5f, 0.3f, 0.3f, MF_LOBE_ALL, &wi, &pdf) == 0);
+}
+
+/* mf_brdf_eval_backward against central differences (double-precision steps on float code:
+ * step 1e-3, tolerance 2e-3 relative + absolute floor). */
+MF_TEST(brdf_eval_backward) {
+    MfRng rng;
+    mf_rng_seed(&rng, 2024, 9);
+    int bad = 0;
+    for (int it = 0; it < 300; ++it) {
+        MfMaterial m = mat3(mf_rng_float(&rng), mf_rng_float(&rng), mf_rng_float(&rng), 0.15f + 0.8f * mf_rng_float(&rng),
+                            0.05f + 0.9f * mf_rng_float(&rng));
+        MfVec3 wo = dir_from(0.2f + 0.8f * mf_rng_float(&rng), 2 * MF_PI * mf_rng_float(&rng));
+        MfVec3 wi = dir_from(0.2f + 0.8f * mf_rng_float(&rng), 2 * MF_PI * mf_rng_float(&rng));
+        MfVec3 gd = mf_v3(mf_rng_normal(&rng), mf_rng_normal(&rng), mf_rng_normal(&rng));
+        MfVec3 gs = mf_v3(mf_rng_normal(&rng), mf_rng_normal(&rng), mf_rng_normal(&rng));
+        int lobes = 1 + it % 3;
+        MfMaterial g = {mf_v3s(0), 0, 0};
+        mf_brdf_eval_backward(&m, wo, wi, lobes, gd, gs, &g);
+        float *params[5] = {&m.kd.x, &m.kd.y, &m.kd.z, &m.roughness, &m.metallic};
+        float grads[5] = {g.kd.x, g.kd.y, g.kd.z, g.roughness, g.metallic};
+        for (int k = 0; k < 5; ++k) {
+            float keep = *params[k], eps = 1e-3f;
+            double lv[2];
+            for (int sgn = 0; sgn < 2; ++sgn) {
+                *params[k] = keep + (sgn ? eps : -eps);
+                MfBrdfValue v = mf_brdf_eval(&m, wo, wi, lobes);
+                lv[sgn] = mf_dot(gd, v.diffuse) + (double)mf_dot(gs, v.specular);
+            }
+            *params[k] = keep;
+            double fd = (lv[1] - lv[0]) / (2.0 * eps);
+            if (!(fabs(fd - grads[k]) <= 2e-3 * fabs(fd) + 2e-3)) {
+                if (bad++ < 5) CHECK_MSG(0, "param %d (lobes %d, r %g): adjoint %g vs finite difference %g", k, lobes, m.roughness, grads[k], fd);
+            }
+        }
+    }
+    CHECK(bad == 0);
+    /* clamped parameters get no gradient; accumulation is += */
+    MfMaterial m = mat3(0.5f, 0.5f, 0.5f, 0.01f, 1.5f), g = {mf_v3s(1.0f), 1.0f, 1.0f};
+    mf_brdf_eval_backward(&m, dir_from(0.7f, 0), dir_from(0.6f, 3.0f), MF_LOBE_ALL, mf_v3s(1), mf_v3s(1), &g);
+    CHECK(g.roughness == 1.0f && g.metallic == 1.0f);
 }

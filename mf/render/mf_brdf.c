@@ -86,6 +86,43 @@ MfBrdfValue mf_brdf_eval(const MfMaterial *mat, MfVec3 wo, MfVec3 wi, int lobes)
     return v;
 }
 
+void mf_brdf_eval_backward(const MfMaterial *mat, MfVec3 wo, MfVec3 wi, int lobes, MfVec3 d_diffuse, MfVec3 d_specular,
+                           MfMaterial *dmat) {
+    if (!(wo.z > 0.0f) || !(wi.z > 0.0f)) return;
+    float co = fminf(wo.z, 1.0f), ci = fminf(wi.z, 1.0f);
+    float met = mat_metallic(mat);
+    int met_live = mat->metallic >= 0.0f && mat->metallic <= 1.0f;
+    if (lobes & MF_LOBE_DIFFUSE) {
+        float k = ci * MF_INV_PI;
+        dmat->kd = mf_add(dmat->kd, mf_scale(d_diffuse, (1.0f - met) * k));
+        if (met_live) dmat->metallic -= mf_dot(d_diffuse, mat->kd) * k;
+    }
+    if (lobes & MF_LOBE_SPECULAR) {
+        float r = clamp_roughness(mat->roughness), alpha = r * r, a2 = alpha * alpha;
+        MfVec3 h = mf_norm(mf_add(wo, wi));
+        float D = ggx_D_h(alpha, h);
+        float so = smith_s(a2, co), si = smith_s(a2, ci);
+        float Q = so * ci + si * co;
+        float K = D * ci / (2.0f * Q);
+        float cd = mf_clampf(mf_dot(wo, h), 0.0f, 1.0f);
+        float m1 = 1.0f - cd, m2 = m1 * m1, w = m2 * m2 * m1;
+        MfVec3 F = mf_fresnel_schlick(mat_f0(mat), cd);
+        /* F = F0 + (1 - F0) w, F0 = 0.04 (1 - m) + kd m */
+        float dF0 = (1.0f - w) * K;
+        dmat->kd = mf_add(dmat->kd, mf_scale(d_specular, dF0 * met));
+        if (met_live) dmat->metallic += dF0 * (mf_dot(d_specular, mat->kd) - 0.04f * (d_specular.x + d_specular.y + d_specular.z));
+        if (mat->roughness >= MF_MIN_ROUGHNESS && mat->roughness <= 1.0f && D > 0.0f) {
+            /* D = a2 / (pi d^2), d = c2 a2 + s2:  dD/da2 = D (1/a2 - 2 c2 / d) */
+            float c2 = h.z * h.z, dd = fmaf(c2, a2, h.x * h.x + h.y * h.y);
+            float dD = D * (1.0f / a2 - 2.0f * c2 / dd);
+            float dQ = ci * (1.0f - co * co) / (2.0f * so) + co * (1.0f - ci * ci) / (2.0f * si);
+            float dK = dD * ci / (2.0f * Q) - K * dQ / Q;
+            float da2 = 4.0f * r * r * r; /* a2 = r^4 */
+            dmat->roughness += mf_dot(d_specular, F) * dK * da2;
+        }
+    }
+}
+
 float mf_brdf_p_diffuse(const MfMaterial *mat, MfVec3 wo, int lobes) {
     if ((lobes & MF_LOBE_ALL) == MF_LOBE_DIFFUSE) return 1.0f;
     if (!(lobes & MF_LOBE_DIFFUSE)) return 0.0f;

@@ -36,11 +36,21 @@ typedef struct {
 MfBrdfValue mf_brdf_eval(const MfMaterial *mat, MfVec3 wo, MfVec3 wi, int lobes);
 /* Probability of choosing the diffuse lobe (1 or 0 when only one lobe is enabled). */
 float mf_brdf_p_diffuse(const MfMaterial *mat, MfVec3 wo, int lobes);
-/* Solid-angle pdf of mf_brdf_sample. */
+/* Solid-angle pdf of mf_brdf_sample: p_d cos_i / pi + (1 - p_d) D_v(h) / (4 dot(wo, h)), zero
+ * when wo.z <= 0 or wi.z <= 0. Specular samples reflected below the horizon are rejected by
+ * mf_brdf_sample, so at rough/grazing settings this integrates to (1 - P(rejection)) < 1 over
+ * the hemisphere; it is still exactly the density of the accepted samples (use it for MIS). */
 float mf_brdf_pdf(const MfMaterial *mat, MfVec3 wo, MfVec3 wi, int lobes);
 /* Samples wi from (u0 chooses the lobe, u1, u2 the direction); returns 0 if no valid direction
  * (then *wi and *pdf are unspecified). */
 int mf_brdf_sample(const MfMaterial *mat, MfVec3 wo, float u0, float u1, float u2, int lobes, MfVec3 *wi, float *pdf);
+
+/* Adjoint of mf_brdf_eval with respect to the material (wo, wi and the sampling are constants):
+ * dmat->kd, ->roughness, ->metallic += gradient of <d_diffuse, diffuse> + <d_specular, specular>.
+ * Roughness outside [MF_MIN_ROUGHNESS, 1] and metallic outside [0, 1] are clamped in mf_brdf_eval
+ * and get no gradient (at the bounds themselves the inner derivative is passed). */
+void mf_brdf_eval_backward(const MfMaterial *mat, MfVec3 wo, MfVec3 wi, int lobes, MfVec3 d_diffuse, MfVec3 d_specular,
+                           MfMaterial *dmat);
 
 /* Building blocks, exposed for tests and the adjoint. alpha = roughness^2 (already clamped). */
 float mf_ggx_D(float alpha, float cos_h);
