@@ -36,7 +36,10 @@ typedef struct {
 MfBrdfValue mf_brdf_eval(const MfMaterial *mat, MfVec3 wo, MfVec3 wi, int lobes);
 /* Probability of choosing the diffuse lobe (1 or 0 when only one lobe is enabled). */
 float mf_brdf_p_diffuse(const MfMaterial *mat, MfVec3 wo, int lobes);
-/* Solid-angle pdf of mf_brdf_sample. */
+/* Solid-angle pdf of mf_brdf_sample: p_d cos_i / pi + (1 - p_d) D_v(h) / (4 dot(wo, h)), zero
+ * when wo.z <= 0 or wi.z <= 0. Specular samples reflected below the horizon are rejected by
+ * mf_brdf_sample, so at rough/grazing settings this integrates to (1 - P(rejection)) < 1 over
+ * the hemisphere; it is still exactly the density of the accepted samples (use it for MIS). */
 float mf_brdf_pdf(const MfMaterial *mat, MfVec3 wo, MfVec3 wi, int lobes);
 /* Samples wi from (u0 chooses the lobe, u1, u2 the direction); returns 0 if no valid direction
  * (then *wi and *pdf are unspecified). */

@@ -7,7 +7,14 @@
  * Radiance is linear (W / (m^2 sr)), RGB.
  * Sampling (as nvdiffrecmc): piecewise-constant over texels with probability proportional to
  * max(R, G, B) * sin(theta) (theta = polar angle of the texel centre row); pdf returned in solid
- * angle. Rebuild the tables (mf_env_update) whenever texels change. */
+ * angle. Rebuild the tables (mf_env_update) whenever texels change.
+ * Details: texel (x, y) is the cell u in [x, x+1]/W, row band theta in [y, y+1] pi/H. Its weight
+ * gets a floor of 1e-4 * mean(max(R, G, B)) (all-black map: uniform), so every direction has
+ * pdf > 0 and light sampling alone is unbiased even where bilinear filtering bleeds light into
+ * black texels. Inside the texel the point is uniform in solid angle (uniform in u and in
+ * cos(theta)), so pdf = P(texel) / Omega(texel) is constant per texel and finite at the poles.
+ * P(texel) comes from the same float CDFs the sampler searches: mf_env_pdf(d) is exactly the
+ * density of mf_env_sample (up to rounding on texel borders). */
 #ifndef MF_ENVMAP_H
 #define MF_ENVMAP_H
 
