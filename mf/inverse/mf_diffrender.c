@@ -13,20 +13,6 @@
 #define SHADOW_EPS 0.001f
 #define MAX_PIXEL_SAMPLES 256
 
-double mf_spec_q(double a, double ch, double co, double ci) {
-    if (!(ch > 0.0) || !(co > 0.0) || !(ci > 0.0)) return 0.0;
-    double a2 = a * a, c2 = fmin(ch * ch, 1.0);
-    double d = c2 * (a2 - 1.0) + 1.0;
-    double D = a2 / (M_PI * d * d);
-    double so = sqrt(co * co + a2 * (1.0 - co * co)), si = sqrt(ci * ci + a2 * (1.0 - ci * ci));
-    return D * ci / (2.0 * (so * ci + si * co));
-}
-
-double mf_spec_q_dalpha(double a, double ch, double co, double ci) {
-    double h = 1e-6 * fmax(a, 1e-3);
-    return (mf_spec_q(a + h, ch, co, ci) - mf_spec_q(a - h, ch, co, ci)) / (2.0 * h);
-}
-
 typedef struct {
     const MfDiffScene *s;
     const MfCamera *cam;
@@ -73,21 +59,13 @@ static void contribute(Ctx *c, const MfHit *h, const Mat *mat, MfVec3 wo, MfVec3
     MfVec3 gL = mf_add(mf_mul(a->g, f_rgb), mf_add(mf_scale(a->gd, f.diffuse_demod), mf_mul(a->gs, f.specular)));
     gL = mf_scale(gL, w);
     if (c->denv) mf_env_eval_backward(c->s->env, wi_w, gL, c->denv);
-    /* material adjoint */
-    MfVec3 hv = mf_norm(mf_add(wo, wi));
-    float cd = mf_clampf(mf_dot(wo, hv), 0.0f, 1.0f);
-    float om = 1.0f - cd, om2 = om * om, wf = om2 * om2 * om; /* Schlick weight */
-    float r = fmaxf(mat->m.roughness, MF_MIN_ROUGHNESS), alpha = r * r;
-    double q = mf_spec_q(alpha, hv.z, wo.z, wi.z);
-    double dq = mat->m.roughness > MF_MIN_ROUGHNESS ? mf_spec_q_dalpha(alpha, hv.z, wo.z, wi.z) * 2.0 * r : 0.0;
-    MfVec3 gs_tot = mf_add(a->g, a->gs); /* specular radiance feeds rgb and the specular AOV */
-    for (int k = 0; k < 3; ++k) {
-        float Lk = (&L.x)[k] * w, kdk = (&kd.x)[k], gk = (&a->g.x)[k], gsk = (&gs_tot.x)[k];
-        float f0 = 0.04f * (1.0f - m) + kdk * m, F = f0 + (1.0f - f0) * wf;
-        (&dkd->x)[k] += Lk * (gk * (1.0f - m) * f.diffuse_demod + gsk * m * (1.0f - wf) * (float)q);
-        *dm += Lk * (-gk * kdk * f.diffuse_demod + gsk * (kdk - 0.04f) * (1.0f - wf) * (float)q);
-        *dr += Lk * gsk * F * (float)dq;
-    }
+    /* material adjoint: rgb gets L f_d w + L f_s w, the specular AOV L f_s w */
+    MfVec3 Lw = mf_scale(L, w);
+    MfMaterial dmat = {mf_v3s(0.0f), 0.0f, 0.0f};
+    mf_brdf_eval_backward(&mat->m, wo, wi, MF_LOBE_ALL, mf_mul(a->g, Lw), mf_mul(mf_add(a->g, a->gs), Lw), &dmat);
+    *dkd = mf_add(*dkd, dmat.kd);
+    *dr += dmat.roughness;
+    *dm += dmat.metallic;
 }
 
 static inline int visible(const MfDiffScene *s, const MfHit *h, MfVec3 wi) {

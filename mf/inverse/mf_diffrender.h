@@ -78,9 +78,4 @@ int mf_diff_aov_forward(const MfDiffScene *s, const MfCamera *cam, const MfDiffO
 int mf_diff_aov_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, const float *dalbedo,
                          const float *dorm, MfDiffGrads *g);
 
-/* The specular lobe's factor Q(alpha) = D(h) cos_i / (2 (s(cos_o) cos_i + s(cos_i) cos_o))
- * (spec * cos_i = F Q) and dQ/dalpha, in double (exposed for tests). */
-double mf_spec_q(double alpha, double cos_h, double cos_o, double cos_i);
-double mf_spec_q_dalpha(double alpha, double cos_h, double cos_o, double cos_i);
-
 #endif
