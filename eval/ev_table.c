@@ -2,13 +2,13 @@
 
 #include <gsl/gsl_cdf.h>
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
+#include "core/mf_strbuf.h"
 
 void ev_table_init(EvTable *t) { memset(t, 0, sizeof *t); }
 
@@ -65,45 +65,14 @@ EvStat ev_table_stat(const EvTable *t, const char *method, const char *dataset, 
     return s;
 }
 
-/* A growing string buffer. */
-typedef struct { char *s; size_t n, cap; int oom; } Buf;
-
-static void bprintf(Buf *b, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
-static void bprintf(Buf *b, const char *fmt, ...) {
-    if (b->oom) return;
-    for (;;) {
-        va_list ap;
-        va_start(ap, fmt);
-        int w = vsnprintf(b->s ? b->s + b->n : NULL, b->s ? b->cap - b->n : 0, fmt, ap);
-        va_end(ap);
-        if (w < 0) { b->oom = 1; return; }
-        if (b->s && b->n + (size_t)w < b->cap) { b->n += (size_t)w; return; }
-        size_t cap = (b->cap ? 2 * b->cap : 1024) + (size_t)w;
-        char *s = realloc(b->s, cap);
-        if (!s) { b->oom = 1; return; }
-        b->s = s;
-        b->cap = cap;
-    }
-}
-
-static int buf_commit(Buf *b, const char *path) {
-    if (b->oom) {
-        free(b->s);
-        return mf_fail(MF_ENOMEM, "%s: out of memory", path);
-    }
-    int rc = mf_write_file(path, b->s ? b->s : "", b->n);
-    free(b->s);
-    return rc;
-}
-
 int ev_table_write_csv(const EvTable *t, const char *path) {
-    Buf b = {0};
-    bprintf(&b, "method,dataset,scene,metric,value\n");
+    MfStrBuf b = {0};
+    mf_sb_printf(&b, "method,dataset,scene,metric,value\n");
     for (size_t i = 0; i < t->n; ++i) {
         const EvRecord *r = &t->rec[i];
-        bprintf(&b, "%s,%s,%s,%s,%.9g\n", r->method, r->dataset, r->scene, r->metric, r->value);
+        mf_sb_printf(&b, "%s,%s,%s,%s,%.9g\n", r->method, r->dataset, r->scene, r->metric, r->value);
     }
-    return buf_commit(&b, path);
+    return mf_sb_write(&b, path);
 }
 
 int ev_table_read_csv(EvTable *t, const char *path) {
@@ -140,7 +109,7 @@ int ev_table_read_csv(EvTable *t, const char *path) {
 
 /* Rank (0 best) of method mi in column (dataset, metric) among the methods with values; -1 when
  * the method has no value. Ties share the better rank. */
-static int rank_of(const EvTable *t, const char *const *methods, int nm, int mi, const char *dataset,
+int ev_table_rank(const EvTable *t, const char *const *methods, int nm, int mi, const char *dataset,
                    const char *metric) {
     EvStat me = ev_table_stat(t, methods[mi], dataset, metric);
     if (me.n == 0) return -1;
@@ -154,98 +123,97 @@ static int rank_of(const EvTable *t, const char *const *methods, int nm, int mi,
     return rank;
 }
 
-static int decimals(const char *metric) {
+int ev_metric_decimals(const char *metric) {
     if (!strncmp(metric, "psnr", 4)) return 2;
     if (!strncmp(metric, "time", 4) || !strncmp(metric, "mem", 3)) return 1;
     return 4;
 }
 
-static void markdown(Buf *b, const EvTable *t, const char *caption, const char *const *methods, int nm,
+static void markdown(MfStrBuf *b, const EvTable *t, const char *caption, const char *const *methods, int nm,
                      const char *const *datasets, int nd, const char *const *metrics, int nk) {
-    if (caption && caption[0]) bprintf(b, "%s\n\n", caption);
-    bprintf(b, "| method |");
+    if (caption && caption[0]) mf_sb_printf(b, "%s\n\n", caption);
+    mf_sb_printf(b, "| method |");
     for (int d = 0; d < nd; ++d)
-        for (int k = 0; k < nk; ++k) bprintf(b, " %s %s %s |", datasets[d], metrics[k], ev_metric_higher_better(metrics[k]) ? "↑" : "↓");
-    bprintf(b, "\n|---|");
-    for (int c = 0; c < nd * nk; ++c) bprintf(b, "---:|");
-    bprintf(b, "\n");
+        for (int k = 0; k < nk; ++k) mf_sb_printf(b, " %s %s %s |", datasets[d], metrics[k], ev_metric_higher_better(metrics[k]) ? "↑" : "↓");
+    mf_sb_printf(b, "\n|---|");
+    for (int c = 0; c < nd * nk; ++c) mf_sb_printf(b, "---:|");
+    mf_sb_printf(b, "\n");
     static const char *open[3] = {"**", "_", "<u>"}, *close[3] = {"**", "_", "</u>"};
     for (int m = 0; m < nm; ++m) {
-        bprintf(b, "| %s |", methods[m]);
+        mf_sb_printf(b, "| %s |", methods[m]);
         for (int d = 0; d < nd; ++d)
             for (int k = 0; k < nk; ++k) {
                 EvStat s = ev_table_stat(t, methods[m], datasets[d], metrics[k]);
-                if (s.n == 0) { bprintf(b, " – |"); continue; }
-                int r = nm > 1 ? rank_of(t, methods, nm, m, datasets[d], metrics[k]) : -1;
-                int dec = decimals(metrics[k]);
+                if (s.n == 0) { mf_sb_printf(b, " – |"); continue; }
+                int r = nm > 1 ? ev_table_rank(t, methods, nm, m, datasets[d], metrics[k]) : -1;
+                int dec = ev_metric_decimals(metrics[k]);
                 const char *o = (r >= 0 && r < 3) ? open[r] : "", *c = (r >= 0 && r < 3) ? close[r] : "";
-                if (s.n > 1) bprintf(b, " %s%.*f%s ± %.*f |", o, dec, s.mean, c, dec, s.ci95);
-                else bprintf(b, " %s%.*f%s |", o, dec, s.mean, c);
+                if (s.n > 1) mf_sb_printf(b, " %s%.*f%s ± %.*f |", o, dec, s.mean, c, dec, s.ci95);
+                else mf_sb_printf(b, " %s%.*f%s |", o, dec, s.mean, c);
             }
-        bprintf(b, "\n");
+        mf_sb_printf(b, "\n");
     }
-    bprintf(b, "\nMean over scenes ± 95%% confidence half-width (Student t). Best **bold**, second _italic_, "
+    mf_sb_printf(b, "\nMean over scenes ± 95%% confidence half-width (Student t). Best **bold**, second _italic_, "
                "third <u>underlined</u>. LPIPS is not reported: it needs pretrained network weights that cannot be "
                "obtained here; FLIP is the perceptual metric.\n");
 }
 
 char *ev_table_markdown_string(const EvTable *t, const char *caption, const char *const *methods, int nm,
                                const char *const *datasets, int nd, const char *const *metrics, int nk) {
-    Buf b = {0};
+    MfStrBuf b = {0};
     markdown(&b, t, caption, methods, nm, datasets, nd, metrics, nk);
-    if (b.oom) { free(b.s); return NULL; }
-    return b.s;
+    return mf_sb_take(&b);
 }
 
 int ev_table_write_markdown(const EvTable *t, const char *path, const char *caption, const char *const *methods,
                             int nm, const char *const *datasets, int nd, const char *const *metrics, int nk) {
-    Buf b = {0};
+    MfStrBuf b = {0};
     markdown(&b, t, caption, methods, nm, datasets, nd, metrics, nk);
-    return buf_commit(&b, path);
+    return mf_sb_write(&b, path);
 }
 
-static void latex_escape(Buf *b, const char *s) {
+static void latex_escape(MfStrBuf *b, const char *s) {
     for (; *s; ++s) {
-        if (*s == '_' || *s == '%' || *s == '&' || *s == '#') bprintf(b, "\\%c", *s);
-        else bprintf(b, "%c", *s);
+        if (*s == '_' || *s == '%' || *s == '&' || *s == '#') mf_sb_printf(b, "\\%c", *s);
+        else mf_sb_printf(b, "%c", *s);
     }
 }
 
 int ev_table_write_latex(const EvTable *t, const char *path, const char *caption, const char *const *methods, int nm,
                          const char *const *datasets, int nd, const char *const *metrics, int nk) {
-    Buf b = {0};
+    MfStrBuf b = {0};
     static const char *cell[3] = {"\\cellcolor{tabfirst}", "\\cellcolor{tabsecond}", "\\cellcolor{tabthird}"};
-    bprintf(&b, "%% generated by mf (eval/ev_table.c); needs \\usepackage[table]{xcolor} and the paper's\n"
+    mf_sb_printf(&b, "%% generated by mf (eval/ev_table.c); needs \\usepackage[table]{xcolor} and the paper's\n"
                 "%% \\definecolor{tabfirst}{rgb}{1,0.7,0.7} {tabsecond}{rgb}{1,0.85,0.7} {tabthird}{rgb}{1,1,0.7}\n");
-    bprintf(&b, "\\begin{table}[t]\n\\centering\n\\begin{tabular}{l");
-    for (int c = 0; c < nd * nk; ++c) bprintf(&b, "c");
-    bprintf(&b, "}\n\\toprule\n");
+    mf_sb_printf(&b, "\\begin{table}[t]\n\\centering\n\\begin{tabular}{l");
+    for (int c = 0; c < nd * nk; ++c) mf_sb_printf(&b, "c");
+    mf_sb_printf(&b, "}\n\\toprule\n");
     for (int d = 0; d < nd; ++d) {
-        bprintf(&b, " & \\multicolumn{%d}{c}{", nk);
+        mf_sb_printf(&b, " & \\multicolumn{%d}{c}{", nk);
         latex_escape(&b, datasets[d]);
-        bprintf(&b, "}");
+        mf_sb_printf(&b, "}");
     }
-    bprintf(&b, " \\\\\nMethod");
+    mf_sb_printf(&b, " \\\\\nMethod");
     for (int d = 0; d < nd; ++d)
         for (int k = 0; k < nk; ++k) {
-            bprintf(&b, " & ");
+            mf_sb_printf(&b, " & ");
             latex_escape(&b, metrics[k]);
-            bprintf(&b, ev_metric_higher_better(metrics[k]) ? " $\\uparrow$" : " $\\downarrow$");
+            mf_sb_printf(&b, ev_metric_higher_better(metrics[k]) ? " $\\uparrow$" : " $\\downarrow$");
         }
-    bprintf(&b, " \\\\\n\\midrule\n");
+    mf_sb_printf(&b, " \\\\\n\\midrule\n");
     for (int m = 0; m < nm; ++m) {
         latex_escape(&b, methods[m]);
         for (int d = 0; d < nd; ++d)
             for (int k = 0; k < nk; ++k) {
                 EvStat s = ev_table_stat(t, methods[m], datasets[d], metrics[k]);
-                if (s.n == 0) { bprintf(&b, " & --"); continue; }
-                int r = nm > 1 ? rank_of(t, methods, nm, m, datasets[d], metrics[k]) : -1;
-                bprintf(&b, " & %s%.*f", (r >= 0 && r < 3) ? cell[r] : "", decimals(metrics[k]), s.mean);
+                if (s.n == 0) { mf_sb_printf(&b, " & --"); continue; }
+                int r = nm > 1 ? ev_table_rank(t, methods, nm, m, datasets[d], metrics[k]) : -1;
+                mf_sb_printf(&b, " & %s%.*f", (r >= 0 && r < 3) ? cell[r] : "", ev_metric_decimals(metrics[k]), s.mean);
             }
-        bprintf(&b, " \\\\\n");
+        mf_sb_printf(&b, " \\\\\n");
     }
-    bprintf(&b, "\\bottomrule\n\\end{tabular}\n\\caption{");
+    mf_sb_printf(&b, "\\bottomrule\n\\end{tabular}\n\\caption{");
     latex_escape(&b, caption ? caption : "");
-    bprintf(&b, " Mean over scenes. LPIPS not reported (needs pretrained weights unavailable here).}\n\\end{table}\n");
-    return buf_commit(&b, path);
+    mf_sb_printf(&b, " Mean over scenes. LPIPS not reported (needs pretrained weights unavailable here).}\n\\end{table}\n");
+    return mf_sb_write(&b, path);
 }

@@ -39,6 +39,12 @@ int ev_table_read_csv(EvTable *t, const char *path);
 EvStat ev_table_stat(const EvTable *t, const char *method, const char *dataset, const char *metric);
 /* 1 when larger values of this metric are better. */
 int ev_metric_higher_better(const char *metric);
+/* Decimals printed for a metric (psnr 2, time/mem 1, others 4). */
+int ev_metric_decimals(const char *metric);
+/* Rank (0 = best) of methods[mi] in the column (dataset, metric) among the methods that have a
+ * value there; -1 when it has none. Ties share the better rank. */
+int ev_table_rank(const EvTable *t, const char *const *methods, int nm, int mi, const char *dataset,
+                  const char *metric);
 
 /* Writes every record: method,dataset,scene,metric,value (atomic). */
 int ev_table_write_csv(const EvTable *t, const char *path);

@@ -1,0 +1,132 @@
+#include "inverse/mf_loss.h"
+
+#include <math.h>
+
+static inline float sgn(float x) { return (float)((x > 0.0f) - (x < 0.0f)); }
+
+void mf_loss_composite(float *out, const float *rgb_premult, const float *alpha, const float *bg, size_t npx) {
+    for (size_t i = 0; i < npx; ++i)
+        for (int c = 0; c < 3; ++c) out[3 * i + c] = rgb_premult[3 * i + c] + (1.0f - alpha[i]) * bg[3 * i + c];
+}
+
+float mf_logsrgb(float x) {
+    float f = log1pf(fminf(fmaxf(x, 0.0f), 65535.0f));
+    return f > 0.0031308f ? 1.055f * powf(f, 1.0f / 2.4f) - 0.055f : 12.92f * f;
+}
+
+float mf_logsrgb_deriv(float x) {
+    if (!(x > 0.0f && x < 65535.0f)) return x == 0.0f ? 12.92f : 0.0f; /* one-sided at the clamp */
+    float f = log1pf(x);
+    float dt = f > 0.0031308f ? (1.055f / 2.4f) * powf(f, 1.0f / 2.4f - 1.0f) : 12.92f;
+    return dt / (x + 1.0f);
+}
+
+double mf_loss_logl1_fwd(const float *pred, const float *ref, size_t n) {
+    double s = 0.0;
+    for (size_t i = 0; i < n; ++i) s += fabsf(mf_logsrgb(pred[i]) - mf_logsrgb(ref[i]));
+    return n ? s / (double)n : 0.0;
+}
+
+void mf_loss_logl1_bwd(const float *pred, const float *ref, size_t n, float scale, float *dpred) {
+    if (!n) return;
+    float k = scale / (float)n;
+    for (size_t i = 0; i < n; ++i)
+        dpred[i] += k * sgn(mf_logsrgb(pred[i]) - mf_logsrgb(ref[i])) * mf_logsrgb_deriv(pred[i]);
+}
+
+double mf_loss_mse_fwd(const float *pred, const float *ref, size_t n) {
+    double s = 0.0;
+    for (size_t i = 0; i < n; ++i) s += (double)(pred[i] - ref[i]) * (pred[i] - ref[i]);
+    return n ? s / (double)n : 0.0;
+}
+
+void mf_loss_mse_bwd(const float *pred, const float *ref, size_t n, float scale, float *dpred) {
+    if (!n) return;
+    float k = 2.0f * scale / (float)n;
+    for (size_t i = 0; i < n; ++i) dpred[i] += k * (pred[i] - ref[i]);
+}
+
+/* Visits every regularised pair (p, q) of texels and channel; returns the pair count. */
+#define SMOOTH_PAIRS(BODY)                                                                  \
+    for (int y = 0; y < h; ++y)                                                             \
+        for (int x = 0; x < w; ++x) {                                                       \
+            size_t p = (size_t)y * w + x;                                                   \
+            if (mask && !(mask[p] > 0.0f)) continue;                                        \
+            for (int d = 0; d < 2; ++d) {                                                   \
+                int qx = x + (d == 0), qy = y + (d == 1);                                   \
+                if (qx >= w || qy >= h) continue;                                           \
+                size_t q = (size_t)qy * w + qx;                                             \
+                if (mask && !(mask[q] > 0.0f)) continue;                                    \
+                ++pairs;                                                                    \
+                for (int c = c0; c < c0 + nc; ++c) {                                        \
+                    size_t ip = p * ch + c, iq = q * ch + c;                                \
+                    BODY;                                                                   \
+                }                                                                           \
+            }                                                                               \
+        }
+
+double mf_reg_smooth_fwd(const float *tex, int w, int h, int ch, int c0, int nc, const float *mask) {
+    double s = 0.0;
+    size_t pairs = 0;
+    SMOOTH_PAIRS(s += fabsf(tex[ip] - tex[iq]))
+    return pairs ? s / ((double)pairs * nc) : 0.0;
+}
+
+void mf_reg_smooth_bwd(const float *tex, int w, int h, int ch, int c0, int nc, const float *mask, float scale,
+                       float *dtex) {
+    size_t pairs = 0;
+    SMOOTH_PAIRS((void)ip; (void)iq)
+    if (!pairs) return;
+    float k = scale / ((float)pairs * nc);
+    pairs = 0;
+    SMOOTH_PAIRS({
+        float g = k * sgn(tex[ip] - tex[iq]);
+        dtex[ip] += g;
+        dtex[iq] -= g;
+    })
+}
+
+static inline float luma3(const float *c) { return 0.2126f * c[0] + 0.7152f * c[1] + 0.0722f * c[2]; }
+static const float k_luma[3] = {0.2126f, 0.7152f, 0.0722f};
+
+double mf_reg_shading_fwd(const float *diffuse, const float *spec, const float *cover, size_t npx, float lambda_spec) {
+    double white = 0.0, sd = 0.0, ss = 0.0, cov = 0.0;
+    for (size_t i = 0; i < npx; ++i) {
+        const float *d = diffuse + 3 * i;
+        float l = luma3(d);
+        for (int c = 0; c < 3; ++c) {
+            white += cover[i] * fabsf(d[c] - l);
+            sd += cover[i] * d[c];
+            ss += cover[i] * spec[3 * i + c];
+        }
+        cov += cover[i];
+    }
+    if (cov <= 0.0) return 0.0;
+    double r = white / (3.0 * cov);
+    if (lambda_spec > 0.0f && sd > 0.0) r += lambda_spec * ss / sd;
+    return r;
+}
+
+void mf_reg_shading_bwd(const float *diffuse, const float *spec, const float *cover, size_t npx, float lambda_spec,
+                        float scale, float *ddiffuse, float *dspec) {
+    double sd = 0.0, ss = 0.0, cov = 0.0;
+    for (size_t i = 0; i < npx; ++i) {
+        cov += cover[i];
+        for (int c = 0; c < 3; ++c) sd += cover[i] * diffuse[3 * i + c], ss += cover[i] * spec[3 * i + c];
+    }
+    if (cov <= 0.0) return;
+    float kw = (float)(scale / (3.0 * cov));
+    int with_spec = lambda_spec > 0.0f && sd > 0.0;
+    float ks = with_spec ? (float)(scale * lambda_spec / sd) : 0.0f;
+    float kd = with_spec ? (float)(-scale * lambda_spec * ss / (sd * sd)) : 0.0f;
+    for (size_t i = 0; i < npx; ++i) {
+        const float *d = diffuse + 3 * i;
+        float l = luma3(d), s[3], sum = 0.0f;
+        for (int c = 0; c < 3; ++c) s[c] = sgn(d[c] - l), sum += s[c];
+        for (int c = 0; c < 3; ++c) {
+            /* d|d_c - l|/dd_j = s_c (delta_cj - luma_j) */
+            ddiffuse[3 * i + c] += cover[i] * (kw * (s[c] - sum * k_luma[c]) + kd);
+            dspec[3 * i + c] += cover[i] * ks;
+        }
+    }
+}

@@ -1,0 +1,45 @@
+/* mf_loss: image losses and regularisers of the inverse pipeline, as forward/backward pairs.
+ *
+ * Each *_fwd returns the loss value; each *_bwd accumulates scale * dLoss/dinput into the
+ * gradient buffers with += (so terms add up). Means are over the elements named in each
+ * comment. All arrays are float32 and interleaved.
+ *
+ * Image loss as nvdiffrecmc ("logl1"): l(x) = srgb(log(clamp(x, 0, 65535) + 1)) with srgb
+ * the exact piecewise curve, loss = mean |l(pred) - l(ref)| over (N, 3) colour elements,
+ * after both are composited over the same random background (mf_loss_composite).
+ * Alpha loss: mean (a_pred - a_ref)^2.
+ * Texture smoothness (our texel-space form of nvdiffrecmc's jittered-surface smoothness):
+ * mean over texel pairs (right and lower neighbours) of |t(p) - t(q)| for the listed channels,
+ * restricted to texels where the weight mask (texels the mesh uses) is > 0.
+ * Shading regulariser (nvdiffrecmc's "white light" prior): over covered pixels,
+ * mean |D_c - luma(D)| of the demodulated diffuse light D (pushes light toward white, so colour
+ * goes into albedo), plus lambda_spec * mean(spec) / mean(diffuse) over covered pixels. */
+#ifndef MF_LOSS_H
+#define MF_LOSS_H
+
+#include <stddef.h>
+
+/* out (N, 3) = rgb_premult (N, 3) + (1 - alpha (N,)) * bg (N, 3). */
+void mf_loss_composite(float *out, const float *rgb_premult, const float *alpha, const float *bg, size_t npx);
+
+/* The logl1 tone curve and its derivative (for tests and callers). */
+float mf_logsrgb(float x);
+float mf_logsrgb_deriv(float x);
+
+double mf_loss_logl1_fwd(const float *pred, const float *ref, size_t n);
+void mf_loss_logl1_bwd(const float *pred, const float *ref, size_t n, float scale, float *dpred);
+
+double mf_loss_mse_fwd(const float *pred, const float *ref, size_t n);
+void mf_loss_mse_bwd(const float *pred, const float *ref, size_t n, float scale, float *dpred);
+
+/* tex (h, w, ch); channels [c0, c0 + nc) are regularised; mask (h, w) or NULL (all texels). */
+double mf_reg_smooth_fwd(const float *tex, int w, int h, int ch, int c0, int nc, const float *mask);
+void mf_reg_smooth_bwd(const float *tex, int w, int h, int ch, int c0, int nc, const float *mask, float scale,
+                       float *dtex);
+
+/* diffuse (N, 3), spec (N, 3), cover (N,) in [0, 1]. */
+double mf_reg_shading_fwd(const float *diffuse, const float *spec, const float *cover, size_t npx, float lambda_spec);
+void mf_reg_shading_bwd(const float *diffuse, const float *spec, const float *cover, size_t npx, float lambda_spec,
+                        float scale, float *ddiffuse, float *dspec);
+
+#endif

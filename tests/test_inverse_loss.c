@@ -1,0 +1,164 @@
+/* Tests of mf/inverse: losses and regularisers (gradient checks against central differences),
+ * and the Adam optimiser (convergence, bounds, frozen channels, NaN refusal). */
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/mf_error.h"
+#include "core/mf_rng.h"
+#include "inverse/mf_loss.h"
+#include "inverse/mf_optim.h"
+#include "mf_test.h"
+
+typedef double (*LossFn)(const float *x, const void *ctx);
+
+/* Central differences of f around x (n,), compared with the analytic gradient g (n,):
+ * max |g - fd| / max(|fd|, floor). Differences taken in double on float inputs. */
+static double grad_check(LossFn f, float *x, size_t n, const float *g, const void *ctx, float eps, double floor) {
+    double worst = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+        float x0 = x[i];
+        x[i] = x0 + eps;
+        double fp = f(x, ctx);
+        x[i] = x0 - eps;
+        double fm = f(x, ctx);
+        x[i] = x0;
+        double fd = (fp - fm) / (2.0 * (double)eps);
+        double e = fabs(fd - g[i]) / fmax(fabs(fd), floor);
+        if (e > worst) worst = e;
+    }
+    return worst;
+}
+
+typedef struct { const float *ref; size_t n; } PairCtx;
+static double f_logl1(const float *x, const void *c) { const PairCtx *p = c; return mf_loss_logl1_fwd(x, p->ref, p->n); }
+static double f_mse(const float *x, const void *c) { const PairCtx *p = c; return mf_loss_mse_fwd(x, p->ref, p->n); }
+
+MF_TEST(inverse_loss_logl1_and_mse_gradients) {
+    enum { N = 60 };
+    float x[N], ref[N], g[N];
+    MfRng r;
+    mf_rng_seed(&r, 3, 0);
+    for (int i = 0; i < N; ++i) {
+        /* HDR range incl. very dark and very bright values; keep |x - ref| away from the kink */
+        float mag = powf(10.0f, -3.0f + 6.0f * mf_rng_float(&r));
+        x[i] = mag;
+        ref[i] = mag * (mf_rng_float(&r) < 0.5f ? 0.5f : 1.7f);
+    }
+    PairCtx c = {ref, N};
+    memset(g, 0, sizeof g);
+    mf_loss_logl1_bwd(x, ref, N, 1.0f, g);
+    /* relative step: values span 1e-3..1e3 */
+    double worst = 0;
+    for (int i = 0; i < N; ++i) {
+        float x0 = x[i], eps = 1e-3f * x0;
+        x[i] = x0 + eps; double fp = f_logl1(x, &c);
+        x[i] = x0 - eps; double fm = f_logl1(x, &c);
+        x[i] = x0;
+        double fd = (fp - fm) / (2.0 * eps);
+        worst = fmax(worst, fabs(fd - g[i]) / fmax(fabs(fd), 1e-4));
+    }
+    CHECK_MSG(worst < 2e-2, "logl1 gradient relative error %g", worst);
+    /* the tone curve: continuous at the sRGB knee, finite, monotone */
+    float prev = -1.0f;
+    for (int i = 0; i <= 2000; ++i) {
+        float v = powf(10.0f, -6.0f + 10.0f * i / 2000.0f); /* up to 1e4, below the 65535 clamp */
+        float t = mf_logsrgb(v);
+        CHECK(isfinite(t) && t > prev && isfinite(mf_logsrgb_deriv(v)));
+        prev = t;
+    }
+    CHECK(mf_logsrgb(-5.0f) == 0.0f && mf_logsrgb(1e30f) == mf_logsrgb(65535.0f));
+    memset(g, 0, sizeof g);
+    mf_loss_mse_bwd(x, ref, N, 2.0f, g);
+    for (int i = 0; i < N; ++i) x[i] = fminf(x[i], 10.0f), ref[i] = fminf(ref[i], 12.0f);
+    memset(g, 0, sizeof g);
+    mf_loss_mse_bwd(x, ref, N, 1.0f, g);
+    CHECK_MSG(grad_check(f_mse, x, N, g, &c, 1e-2f, 1e-3) < 1e-3, "mse gradient");
+}
+
+typedef struct { int w, h, ch, c0, nc; const float *mask; } SmoothCtx;
+static double f_smooth(const float *x, const void *c) {
+    const SmoothCtx *s = c;
+    return mf_reg_smooth_fwd(x, s->w, s->h, s->ch, s->c0, s->nc, s->mask);
+}
+
+MF_TEST(inverse_reg_smooth_gradient) {
+    enum { W = 7, H = 5, CH = 3 };
+    float tex[W * H * CH], g[W * H * CH], mask[W * H];
+    MfRng r;
+    mf_rng_seed(&r, 5, 0);
+    for (int i = 0; i < W * H * CH; ++i) tex[i] = mf_rng_float(&r);
+    for (int i = 0; i < W * H; ++i) mask[i] = (i % 5) ? 1.0f : 0.0f;
+    SmoothCtx c = {W, H, CH, 1, 2, mask};
+    memset(g, 0, sizeof g);
+    mf_reg_smooth_bwd(tex, W, H, CH, 1, 2, mask, 1.0f, g);
+    CHECK_MSG(grad_check(f_smooth, tex, W * H * CH, g, &c, 1e-4f, 1e-2) < 2e-2, "smooth gradient");
+    for (int i = 0; i < W * H; ++i) CHECK(g[i * CH] == 0.0f); /* channel 0 not regularised */
+    for (int i = 0; i < W * H; i += 5) CHECK(g[i * CH + 1] == 0.0f); /* masked-out texels untouched */
+    /* a constant texture has zero smoothness loss */
+    for (int i = 0; i < W * H * CH; ++i) tex[i] = 0.3f;
+    CHECK(mf_reg_smooth_fwd(tex, W, H, CH, 0, 3, NULL) == 0.0);
+}
+
+typedef struct { const float *spec, *cover; size_t n; float ls; } ShadeCtx;
+static double f_shade_d(const float *x, const void *c) {
+    const ShadeCtx *s = c;
+    return mf_reg_shading_fwd(x, s->spec, s->cover, s->n, s->ls);
+}
+static double f_shade_s(const float *x, const void *c);
+static const float *g_diffuse;
+static double f_shade_s(const float *x, const void *c) {
+    const ShadeCtx *s = c;
+    return mf_reg_shading_fwd(g_diffuse, x, s->cover, s->n, s->ls);
+}
+
+MF_TEST(inverse_reg_shading_gradient) {
+    enum { N = 20 };
+    float d[3 * N], s[3 * N], cov[N], gd[3 * N], gs[3 * N];
+    MfRng r;
+    mf_rng_seed(&r, 9, 0);
+    for (int i = 0; i < 3 * N; ++i) d[i] = 0.2f + mf_rng_float(&r), s[i] = 0.1f * mf_rng_float(&r);
+    for (int i = 0; i < N; ++i) cov[i] = (i % 4) ? 1.0f : 0.25f;
+    ShadeCtx c = {s, cov, N, 0.0025f};
+    memset(gd, 0, sizeof gd);
+    memset(gs, 0, sizeof gs);
+    mf_reg_shading_bwd(d, s, cov, N, 0.0025f, 1.0f, gd, gs);
+    CHECK_MSG(grad_check(f_shade_d, d, 3 * N, gd, &c, 1e-4f, 1e-3) < 2e-2, "shading d/ddiffuse");
+    g_diffuse = d;
+    CHECK_MSG(grad_check(f_shade_s, s, 3 * N, gs, &c, 1e-4f, 1e-5) < 2e-2, "shading d/dspec");
+    /* white light and no specular: zero loss */
+    for (int i = 0; i < 3 * N; ++i) d[i] = 0.7f, s[i] = 0.0f;
+    CHECK_NEAR(mf_reg_shading_fwd(d, s, cov, N, 0.0025f), 0.0, 1e-7);
+}
+
+MF_TEST(inverse_adam_converges_with_bounds) {
+    /* minimise sum (p - t)^2 with targets partly outside the bounds */
+    enum { N = 12 };
+    float target[N];
+    for (int i = 0; i < N; ++i) target[i] = -0.5f + 0.2f * i;
+    MfParamBlock b;
+    CHECK_OK(mf_param_init(&b, "orm", N, 3, NULL));
+    mf_param_set_bounds(&b, 0, 1.0f, 1.0f); /* frozen occlusion */
+    mf_param_set_bounds(&b, 1, 0.08f, 1.0f);
+    mf_param_set_bounds(&b, 2, 0.0f, 1.0f);
+    for (int i = 0; i < N; i += 3) b.p[i] = 1.0f;
+    MfAdam a;
+    mf_adam_init(&a, 0.05f);
+    for (int it = 0; it < 600; ++it) {
+        mf_param_zero_grad(&b);
+        for (int i = 0; i < N; ++i) b.g[i] = 2.0f * (b.p[i] - target[i]);
+        CHECK_OK(mf_adam_step(&a, &b, 1, mf_lr_schedule(0.05f, it)));
+    }
+    for (int i = 0; i < N; ++i) {
+        int c = i % 3;
+        float want = c == 0 ? 1.0f : fminf(fmaxf(target[i], c == 1 ? 0.08f : 0.0f), 1.0f);
+        CHECK_NEAR(b.p[i], want, 2e-3);
+    }
+    /* a NaN gradient is refused and nothing changes */
+    float before[N];
+    memcpy(before, b.p, sizeof before);
+    b.g[4] = NAN;
+    CHECK_ERR(mf_adam_step(&a, &b, 1, 0.05f), "orm: gradient of element 4");
+    CHECK(!memcmp(before, b.p, sizeof before));
+    CHECK_NEAR(mf_lr_schedule(0.03f, 5000), 0.003, 1e-6);
+    mf_param_free(&b);
+}
