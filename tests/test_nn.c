@@ -762,3 +762,66 @@ MF_TEST(nn_bench_cli_writes_report) {
     snprintf(cmd, sizeof cmd, "'%s' bench-nn --size 0 2> /dev/null", bin);
     CHECK(system(cmd) != 0);
 }
+
+/* ---- integration: a tiny network trained with AdamW, saved and reloaded ---------------------- */
+
+MF_TEST(nn_tiny_net_trains_and_reloads) {
+    /* net: resblock (2 -> 8 channels) -> 1x1 conv (8 -> 1); target: a fixed 3x3 filter of x */
+    enum { B = 4, CI = 2, CH = 8, H = 8, W = 8, HW = H * W };
+    MfResBlockDims d = {B, CI, CH, H, W, 0, 2, 1e-5f};
+    MfTensorSpec specs[MF_RESBLOCK_NPARAMS + 2];
+    int ns = mf_resblock_specs(specs, "res", &d);
+    int ow[4] = {1, CH, 1, 1}, ob[1] = {1};
+    mf_spec_set(&specs[ns++], "out", "w", 4, ow);
+    mf_spec_set(&specs[ns++], "out", "b", 1, ob);
+    size_t np = mf_specs_numel(specs, ns), nres = np - CH - 1;
+    float *params = fal(np), *grads = fal(np), *acts = fal(mf_resblock_acts_floats(&d));
+    MfResBlockW w, g;
+    MfResBlockActs a;
+    mf_resblock_bind(&w, &d, params);
+    mf_resblock_bind(&g, &d, grads);
+    mf_resblock_acts_bind(&a, &d, acts);
+    mf_resblock_init(&w, &d, 11);
+    float *out_w = params + nres, *out_b = out_w + CH, *gout_w = grads + nres, *gout_b = gout_w + CH;
+    mf_nn_init_uniform(out_w, CH, 1.0f / sqrtf(CH), 12);
+    float *x = fal(B * CI * HW), *y = fal(B * HW), *k = fal(CI * 9), *h = fal(B * CH * HW), *pred = fal(B * HW);
+    float *dpred = fal(B * HW), *dh = fal(B * CH * HW), *dx = fal(B * CI * HW);
+    float *col = fal(mf_conv2d_col_floats(B, CI, H, W, 1, 3, 1));
+    fill(x, B * CI * HW, -1, 1, 80);
+    fill(k, CI * 9, -0.5f, 0.5f, 81);
+    mf_conv2d_forward(y, col, x, k, NULL, B, CI, H, W, 1, 3, 1);
+    MfAdamW opt;
+    CHECK_OK(mf_adamw_init(&opt, np, 3e-3f, 0.9f, 0.999f, 1e-8f, 1e-4f));
+    float first = 0, loss = 0;
+    for (int it = 0; it < 300; ++it) {
+        mf_resblock_forward(h, &a, x, NULL, &w, &d);
+        mf_conv2d_forward(pred, NULL, h, out_w, out_b, B, CH, H, W, 1, 1, 1);
+        loss = mf_mse_forward(pred, y, B * HW);
+        if (it == 0) first = loss;
+        memset(grads, 0, np * sizeof(float));
+        memset(dpred, 0, B * HW * sizeof(float));
+        memset(dh, 0, B * CH * HW * sizeof(float));
+        memset(dx, 0, B * CI * HW * sizeof(float));
+        mf_mse_backward(dpred, pred, y, B * HW, 1.0f);
+        mf_conv2d_backward(dh, gout_w, gout_b, NULL, dpred, h, out_w, B, CH, H, W, 1, 1, 1);
+        mf_resblock_backward(dx, NULL, &g, &a, dh, x, NULL, &w, &d);
+        mf_adamw_step(&opt, params, grads);
+    }
+    if (getenv("NN_GC_VERBOSE")) fprintf(stderr, "  tiny net loss %g -> %g\n", first, loss);
+    CHECK_MSG(loss < 0.05f * first, "tiny net: loss %g from %g after 300 AdamW steps", loss, first);
+    /* save, reload into a fresh buffer, and get the same predictions bit for bit */
+    const char *path = mf_test_path("tiny_net.mfck");
+    CHECK_OK(mf_ckpt_save(path, specs, ns, params, "tiny"));
+    float *params2 = fal(np), *pred2 = fal(B * HW);
+    CHECK_OK(mf_ckpt_load(path, specs, ns, params2, NULL));
+    MfResBlockW w2;
+    mf_resblock_bind(&w2, &d, params2);
+    mf_resblock_forward(h, &a, x, NULL, &w, &d);
+    mf_conv2d_forward(pred, NULL, h, out_w, out_b, B, CH, H, W, 1, 1, 1);
+    mf_resblock_forward(h, &a, x, NULL, &w2, &d);
+    mf_conv2d_forward(pred2, NULL, h, params2 + nres, params2 + nres + CH, B, CH, H, W, 1, 1, 1);
+    CHECK(memcmp(pred, pred2, B * HW * sizeof(float)) == 0);
+    mf_adamw_free(&opt);
+    free(params), free(grads), free(acts), free(x), free(y), free(k), free(h), free(pred), free(dpred);
+    free(dh), free(dx), free(col), free(params2), free(pred2);
+}

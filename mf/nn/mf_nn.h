@@ -57,7 +57,8 @@ int mf_conv2d_out_size(int H, int K, int stride);
  * (Cin*K*K + Cout)*nb*Ho*Wo; otherwise one item at a time, Cin*K*K*Ho*Wo (0 for 1x1 stride 1). */
 size_t mf_conv2d_col_floats(int B, int Cin, int H, int W, int Cout, int K, int stride);
 /* out (B, Cout, Ho, Wo) = conv(in (B, Cin, H, W), w (Cout, Cin, K, K)) + bias (Cout, may be NULL).
- * col: scratch of mf_conv2d_col_floats floats (may be NULL when that is 0). */
+ * col: scratch of mf_conv2d_col_floats floats; for 1x1 stride 1 it may be NULL (then each item
+ * is one direct GEMM, no copies). */
 void mf_conv2d_forward(float *out, float *col, const float *in, const float *w, const float *bias,
                        int B, int Cin, int H, int W, int Cout, int K, int stride);
 /* din (B, Cin, H, W) += ..., dw (Cout, Cin, K, K) += ..., dbias (Cout) += ...; din and dbias may

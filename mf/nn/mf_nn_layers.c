@@ -137,6 +137,7 @@ void mf_conv2d_forward(float *out, float *col, const float *in, const float *w, 
     int Ho = mf_conv2d_out_size(H, K, stride), Wo = mf_conv2d_out_size(W, K, stride);
     int P = Ho * Wo, CKK = Cin * K * K, nb = conv_chunk(B, P);
     size_t in_sz = (size_t)Cin * H * W, out_sz = (size_t)Cout * P;
+    if (!col && K == 1 && stride == 1) nb = 1; /* no scratch given: per-item direct GEMMs */
     if (nb == 1) {
         int direct = (K == 1 && stride == 1);
         for (int b = 0; b < B; ++b) {
@@ -186,6 +187,7 @@ void mf_conv2d_backward(float *din, float *dw, float *dbias, float *col, const f
     int Ho = mf_conv2d_out_size(H, K, stride), Wo = mf_conv2d_out_size(W, K, stride);
     int P = Ho * Wo, CKK = Cin * K * K, nb = conv_chunk(B, P);
     size_t in_sz = (size_t)Cin * H * W, out_sz = (size_t)Cout * P;
+    if (!col && K == 1 && stride == 1) nb = 1; /* no scratch given: per-item direct GEMMs */
     if (nb == 1) {
         int direct = (K == 1 && stride == 1);
         for (int b = 0; b < B; ++b) {
