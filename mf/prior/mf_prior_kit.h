@@ -86,8 +86,6 @@ void mf_klinear_backward(const MfKLinear *l, const float *params, float *grads, 
 
 #define MF_KNORM_EPS 1e-5f
 
-#endif
-
 /* ---- sequential networks ---------------------------------------------------------------------
  * A chain of layers applied one after another (the autoencoder's encoder and decoder, the image
  * encoder): conv, residual block (no time embedding), nearest upsample x2, GN+SiLU, SiLU. */
@@ -139,3 +137,5 @@ float *mf_seq_forward(const MfSeq *s, const float *params, MfSeqWork *w, const f
 void mf_seq_backward(const MfSeq *s, const float *params, float *grads, MfSeqWork *w, const float *dout,
                      float *din);
 void mf_seq_work_free(MfSeqWork *w);
+
+#endif
