@@ -51,6 +51,7 @@ void mf_prior_free(MfPrior *p) {
     mf_ae_work_free(&p->aes);
     mf_denoiser_work_free(&p->dnw);
     free(p->scratch);
+    free(p->mat_in);
     free(p);
 }
 
@@ -263,6 +264,63 @@ static int decode_with(MfPrior *p, MfAeWork *w, const float *z, int B, float *im
 }
 
 int mf_prior_decode(MfPrior *p, const float *z, int B, float *img) { return decode_with(p, &p->aew, z, B, img); }
+
+int mf_prior_encode_materials(MfPrior *p, const float *albedo, const float *orm, int B, float *zmat) {
+    size_t ni = (size_t)3 * p->cfg.ae.res * p->cfg.ae.res, nz = (size_t)p->cfg.ae.zc * p->cfg.dn.h * p->cfg.dn.h;
+    size_t need = 2 * (size_t)B * (ni + nz);
+    if (need > p->mat_cap) {
+        float *m = realloc(p->mat_in, need * sizeof(float));
+        if (!m) return mf_fail(MF_ENOMEM, "prior: out of memory");
+        p->mat_in = m, p->mat_cap = need;
+    }
+    float *in = p->mat_in, *z = in + 2 * (size_t)B * ni;
+    memcpy(in, albedo, (size_t)B * ni * sizeof(float));
+    memcpy(in + (size_t)B * ni, orm, (size_t)B * ni * sizeof(float));
+    int rc = mf_prior_encode(p, in, 2 * B, z);
+    if (!rc)
+        for (int b = 0; b < B; ++b) {
+            memcpy(zmat + (size_t)b * 2 * nz, z + (size_t)b * nz, nz * sizeof(float));
+            memcpy(zmat + (size_t)b * 2 * nz + nz, z + (size_t)(B + b) * nz, nz * sizeof(float));
+        }
+    return rc;
+}
+
+int mf_prior_encode_materials_backward(MfPrior *p, const float *dzmat, float *dalbedo, float *dorm) {
+    int B2 = p->aew.enc.B, B = B2 / 2;
+    size_t ni = (size_t)3 * p->cfg.ae.res * p->cfg.ae.res, nz = (size_t)p->cfg.ae.zc * p->cfg.dn.h * p->cfg.dn.h;
+    float *buf = calloc((size_t)B2 * (nz + ni), sizeof(float));
+    if (!buf) return mf_fail(MF_ENOMEM, "prior: out of memory");
+    float *dz = buf, *din = buf + (size_t)B2 * nz;
+    for (int b = 0; b < B; ++b) {
+        memcpy(dz + (size_t)b * nz, dzmat + (size_t)b * 2 * nz, nz * sizeof(float));
+        memcpy(dz + (size_t)(B + b) * nz, dzmat + (size_t)b * 2 * nz + nz, nz * sizeof(float));
+    }
+    mf_prior_encode_backward(p, dz, din);
+    for (size_t i = 0; i < (size_t)B * ni; ++i) {
+        if (dalbedo) dalbedo[i] += din[i];
+        if (dorm) dorm[i] += din[(size_t)B * ni + i];
+    }
+    free(buf);
+    return MF_OK;
+}
+
+int mf_prior_decode_materials(MfPrior *p, const float *zmat, int B, float *albedo, float *orm) {
+    size_t ni = (size_t)3 * p->cfg.ae.res * p->cfg.ae.res, nz = (size_t)p->cfg.ae.zc * p->cfg.dn.h * p->cfg.dn.h;
+    float *buf = malloc(2 * (size_t)B * (nz + ni) * sizeof(float));
+    if (!buf) return mf_fail(MF_ENOMEM, "prior: out of memory");
+    float *z = buf, *img = buf + 2 * (size_t)B * nz;
+    for (int b = 0; b < B; ++b) {
+        memcpy(z + (size_t)b * nz, zmat + (size_t)b * 2 * nz, nz * sizeof(float));
+        memcpy(z + (size_t)(B + b) * nz, zmat + (size_t)b * 2 * nz + nz, nz * sizeof(float));
+    }
+    int rc = mf_prior_decode(p, z, 2 * B, img);
+    if (!rc) {
+        memcpy(albedo, img, (size_t)B * ni * sizeof(float));
+        memcpy(orm, img + (size_t)B * ni, (size_t)B * ni * sizeof(float));
+    }
+    free(buf);
+    return rc;
+}
 
 /* ---- guided denoising -------------------------------------------------------------------------- */
 

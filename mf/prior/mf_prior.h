@@ -14,7 +14,14 @@
  * "img.*") and JSON meta: {"format": "mf-prior", "version": 1, "resolution", "downsample": 4,
  * "latent_channels", "latent_scale", "encodings": {...}, "data_seed", "ae": {...}, "dn": {...}}.
  * Loading refuses missing, truncated, corrupt, wrong-version and wrong-shape files with a message
- * naming the file and the expected version. */
+ * naming the file and the expected version.
+ *
+ * SDS+ (MaterialFusion, REFERENCE.md) with this API: zmat = encode_materials(albedo, orm);
+ * zhat = sds_denoise(zmat, cond, t ~ U{20..980}); L_latent = MSE(zhat * a, zmat * a) with zhat treated
+ * as a constant target (classic SDS; the official code also lets zhat depend on z through the
+ * noising, which we do not), gradient dL/dzmat -> encode_materials_backward -> d maps;
+ * L_rgb = MSE(decode_materials(zhat) * a, maps) in pixel space (no gradient through the decoder).
+ * Not thread-safe: one MfPrior per thread. */
 #ifndef MF_PRIOR_H
 #define MF_PRIOR_H
 
@@ -51,6 +58,8 @@ typedef struct {
     MfDenoiserWork dnw; /* (owned) */
     float *scratch;    /* (scap) owned */
     size_t scap;
+    float *mat_in;     /* (2B, 3, R, R) owned: input of encode_materials, kept for its backward */
+    size_t mat_cap;
 } MfPrior;
 
 int mf_prior_new(MfPrior **out, const MfPriorConfig *cfg);
@@ -64,13 +73,23 @@ int mf_prior_load(const char *path, MfPrior **out);
 /* Reads only the JSON meta of an MFCK file (heap string, caller frees); checks magic and version. */
 int mf_prior_read_meta(const char *path, char **meta);
 
-/* z (B, zc, h, h) = latent_scale * Enc(img (B, 3, R, R)). Keeps what the backward needs. */
+/* z (B, zc, h, h) = latent_scale * Enc(img (B, 3, R, R)). Keeps what the backward needs; img must
+ * stay valid until mf_prior_encode_backward. */
 int mf_prior_encode(MfPrior *p, const float *img, int B, float *z);
 /* dimg (B, 3, R, R) += d/dimg of <dz, z> for the last mf_prior_encode (the encoder's own weight
  * gradients go to a scratch buffer and are ignored). */
 void mf_prior_encode_backward(MfPrior *p, const float *dz, float *dimg);
 /* img (B, 3, R, R) = Dec(z / latent_scale), z (B, zc, h, h) scaled. */
 int mf_prior_decode(MfPrior *p, const float *z, int B, float *img);
+
+/* Material maps <-> material latents, for the SDS+ term. albedo, orm (B, 3, R, R) in [-1, 1] x mask;
+ * zmat (B, 2zc, h, h) = [albedo latent | ORM latent] per item (scaled). Both maps are encoded as one
+ * batch of 2B images, so mf_prior_encode_materials_backward can follow (it adds to dalbedo and dorm,
+ * (B, 3, R, R) each, the gradient of <dzmat, zmat>; either may be NULL to skip it). These share the
+ * work buffers of mf_prior_encode / _decode: a backward refers to the latest encode call. */
+int mf_prior_encode_materials(MfPrior *p, const float *albedo, const float *orm, int B, float *zmat);
+int mf_prior_encode_materials_backward(MfPrior *p, const float *dzmat, float *dalbedo, float *dorm);
+int mf_prior_decode_materials(MfPrior *p, const float *zmat, int B, float *albedo, float *orm);
 
 /* Guided v (B, 2zc, h, h) for noisy material latents xt (B, 2zc, h, h) at timestep t, given the
  * scaled image latent zimg (B, zc, h, h) and the condition image rgb (B, 3, R, R). */
