@@ -620,7 +620,7 @@ MF_TEST(nn_adamw_fits_regression) {
         mf_mse_backward(dpred, pred, Y, N * OC, 1.0f);
         mf_linear_backward(NULL, grads, grads + OC * IC, dpred, X, params, N, IC, OC);
         if (it > 400) opt.lr = 0.005f;
-        mf_adamw_step(&opt, params, grads);
+        CHECK_OK(mf_adamw_step(&opt, params, grads));
     }
     CHECK_MSG(loss < 1e-4f * first, "loss %g from %g", loss, first);
     for (int i = 0; i < OC * IC; ++i) CHECK_NEAR(params[i], wt[i], 1e-2);
@@ -634,14 +634,14 @@ MF_TEST(nn_adamw_step_formula) {
     float p[2] = {1.0f, -2.0f}, g[2] = {0.5f, -3.0f};
     MfAdamW opt;
     CHECK_OK(mf_adamw_init(&opt, 2, 0.1f, 0.9f, 0.999f, 1e-8f, 0.01f));
-    mf_adamw_step(&opt, p, g);
+    CHECK_OK(mf_adamw_step(&opt, p, g));
     CHECK_NEAR(p[0], 1.0 - 0.1 * (1.0 + 0.01 * 1.0), 1e-6);
     CHECK_NEAR(p[1], -2.0 - 0.1 * (-1.0 + 0.01 * -2.0), 1e-6);
     /* decoupled decay with zero gradient: p shrinks by lr*wd*p exactly, no moment scaling */
     float q[1] = {3.0f}, z[1] = {0.0f};
     MfAdamW o2;
     CHECK_OK(mf_adamw_init(&o2, 1, 0.1f, 0.9f, 0.999f, 1e-8f, 0.5f));
-    mf_adamw_step(&o2, q, z);
+    CHECK_OK(mf_adamw_step(&o2, q, z));
     CHECK_NEAR(q[0], 3.0 - 0.1 * 0.5 * 3.0, 1e-6);
     /* minimises a quadratic sum_i c_i (p_i - t_i)^2 */
     float x[4] = {0}, t[4] = {1, -2, 3, 0.5f}, cc[4] = {1, 10, 0.1f, 100}, gx[4];
@@ -650,9 +650,18 @@ MF_TEST(nn_adamw_step_formula) {
     for (int it = 0; it < 2000; ++it) {
         for (int i = 0; i < 4; ++i) gx[i] = 2 * cc[i] * (x[i] - t[i]);
         if (it == 1500) o3.lr = 0.002f;
-        mf_adamw_step(&o3, x, gx);
+        CHECK_OK(mf_adamw_step(&o3, x, gx));
     }
     for (int i = 0; i < 4; ++i) CHECK_NEAR(x[i], t[i], 5e-3);
+    /* non-finite gradients are refused and change nothing */
+    float xs[4], ms[4];
+    memcpy(xs, x, sizeof xs);
+    memcpy(ms, o3.m, sizeof ms);
+    gx[2] = NAN;
+    CHECK_ERR(mf_adamw_step(&o3, x, gx), "gradient[2] is nan");
+    gx[2] = INFINITY;
+    CHECK_ERR(mf_adamw_step(&o3, x, gx), "gradient[2] is inf");
+    CHECK(memcmp(xs, x, sizeof xs) == 0 && memcmp(ms, o3.m, sizeof ms) == 0 && o3.t == 2000);
     mf_adamw_free(&opt);
     mf_adamw_free(&o2);
     mf_adamw_free(&o3);
@@ -723,6 +732,20 @@ MF_TEST(nn_checkpoint_roundtrip_and_refusals) {
     CHECK_ERR(mf_ckpt_load(p2, s, 3, back, NULL), "truncated");
     CHECK(write_bytes(p2, raw, 2) == 0);
     CHECK_ERR(mf_ckpt_load(p2, s, 3, back, NULL), "truncated");
+    memcpy(cp, raw, len);
+    cp[8] = (char)0xff, cp[9] = (char)0xff, cp[10] = (char)0xff, cp[11] = (char)0x7f; /* absurd tensor count */
+    CHECK(write_bytes(p2, cp, len) == 0);
+    CHECK_ERR(mf_ckpt_load(p2, s, 3, back, NULL), "truncated");
+    memcpy(cp, raw, len);
+    /* absurd first dimension of tensor 0: header is at 16 + meta (11 bytes); entry: len 5, "enc.w", ndim */
+    {
+        size_t off = 16 + 11 + 4 + 5 + 4;
+        uint32_t big = 0x7fffffffu;
+        memcpy(cp + off, &big, 4);
+        CHECK(write_bytes(p2, cp, len) == 0);
+        CHECK_ERR(mf_ckpt_load(p2, s, 3, back, NULL), "truncated");
+        CHECK_ERR(mf_ckpt_load(p2, s, 3, back, NULL), "enc.w");
+    }
     memcpy(cp, raw, len);
     cp[0] = 'X';
     CHECK(write_bytes(p2, cp, len) == 0);
@@ -805,7 +828,7 @@ MF_TEST(nn_tiny_net_trains_and_reloads) {
         mf_mse_backward(dpred, pred, y, B * HW, 1.0f);
         mf_conv2d_backward(dh, gout_w, gout_b, NULL, dpred, h, out_w, B, CH, H, W, 1, 1, 1);
         mf_resblock_backward(dx, NULL, &g, &a, dh, x, NULL, &w, &d);
-        mf_adamw_step(&opt, params, grads);
+        CHECK_OK(mf_adamw_step(&opt, params, grads));
     }
     if (getenv("NN_GC_VERBOSE")) fprintf(stderr, "  tiny net loss %g -> %g\n", first, loss);
     CHECK_MSG(loss < 0.05f * first, "tiny net: loss %g from %g after 300 AdamW steps", loss, first);

@@ -55,6 +55,20 @@ static void run_conv(void *p) {
     mf_conv2d_backward(c->din, c->dw, c->db, c->col, c->dout, c->in, c->w, c->B, c->C, c->S, c->S, c->C, 3, 1);
 }
 
+/* A residual block (C -> C, time embedding of 4C channels, 32 groups or fewer), forward+backward. */
+typedef struct {
+    MfResBlockDims d;
+    MfResBlockW w, g;
+    MfResBlockActs a;
+    float *pm, *gm, *am, *x, *temb, *out, *dx, *dtemb, *dout;
+} ResCtx;
+
+static void run_res(void *p) {
+    ResCtx *r = p;
+    mf_resblock_forward(r->out, &r->a, r->x, r->temb, &r->w, &r->d);
+    mf_resblock_backward(r->dx, r->dtemb, &r->g, &r->a, r->dout, r->x, r->temb, &r->w, &r->d);
+}
+
 static float *alloc_fill(size_t n, float v) {
     float *p = malloc(n * sizeof(float));
     if (p)
@@ -102,10 +116,28 @@ static int cmd_bench_nn(int argc, char **argv) {
         mf_fail(MF_ENOMEM, "bench-nn: out of memory");
         rc = MF_EXIT_FAIL;
     } else {
-        BenchFn fns[3] = {run_gemm, run_gemm, run_conv};
-        void *ctxs[3] = {&gsq, &gsh, &c};
-        double best[3];
-        best_times(3, fns, ctxs, reps, best);
+        ResCtx rs = {.d = {B, C, C, S, S, 4 * C, C % 32 == 0 ? 32 : (C % 8 == 0 ? 8 : 1), 1e-5f}};
+        MfTensorSpec specs[MF_RESBLOCK_NPARAMS];
+        size_t np = mf_specs_numel(specs, mf_resblock_specs(specs, "", &rs.d));
+        rs.pm = alloc_fill(np, 0), rs.gm = alloc_fill(np, 0), rs.am = alloc_fill(mf_resblock_acts_floats(&rs.d), 0);
+        rs.x = alloc_fill(nact, 1), rs.out = alloc_fill(nact, 0), rs.dx = alloc_fill(nact, 0), rs.dout = alloc_fill(nact, 0.01f);
+        rs.temb = alloc_fill((size_t)B * 4 * C, 1), rs.dtemb = alloc_fill((size_t)B * 4 * C, 0);
+        if (!rs.pm || !rs.gm || !rs.am || !rs.x || !rs.out || !rs.dx || !rs.dout || !rs.temb || !rs.dtemb) {
+            mf_fail(MF_ENOMEM, "bench-nn: out of memory");
+            rc = MF_EXIT_FAIL;
+            goto res_done;
+        }
+        mf_resblock_bind(&rs.w, &rs.d, rs.pm);
+        mf_resblock_bind(&rs.g, &rs.d, rs.gm);
+        mf_resblock_acts_bind(&rs.a, &rs.d, rs.am);
+        mf_resblock_init(&rs.w, &rs.d, 1);
+        BenchFn fns[4] = {run_gemm, run_gemm, run_conv, run_res};
+        void *ctxs[4] = {&gsq, &gsh, &c, &rs};
+        double best[4];
+        best_times(4, fns, ctxs, reps, best);
+        /* resblock FLOPs: its two 3x3 convs and the time projection, forward + both backward GEMMs */
+        double res_flops = 3.0 * (2.0 * 2.0 * B * C * (double)P * CKK + 2.0 * B * C * 4.0 * C);
+        double g_res = res_flops / best[3] * 1e-9;
         double g_sq = 2.0 * NG * NG * (double)NG / best[0] * 1e-9;
         double g_shape = 2.0 * C * (double)P * CKK / best[1] * 1e-9;
         double t = best[2];
@@ -119,12 +151,17 @@ static int cmd_bench_nn(int argc, char **argv) {
                  "| measurement | shape | GFLOP/s |\n|---|---|---|\n"
                  "| sgemm (reference) | %d x %d x %d | %.1f |\n"
                  "| sgemm at one image's GEMM shape | M=%d N=%d K=%d | %.1f |\n"
-                 "| conv2d 3x3 s1 forward+backward | B=%d C=%d->%d %dx%d (%.4f s) | %.1f |\n\n"
-                 "conv2d / sgemm ratio: **%.2f** (target >= 0.4); conv2d / sgemm at one image's GEMM shape: %.2f\n",
+                 "| conv2d 3x3 s1 forward+backward | B=%d C=%d->%d %dx%d (%.4f s) | %.1f |\n"
+                 "| residual block forward+backward (GEMM FLOPs only) | B=%d C=%d->%d %dx%d Ct=%d G=%d (%.4f s) | %.1f |\n\n"
+                 "conv2d / sgemm ratio: **%.2f** (target >= 0.4); conv2d / sgemm at one image's GEMM shape: %.2f\n\n"
+                 "residual block / sgemm ratio: **%.2f** (includes group norm, SiLU, bias and copies)\n",
                  blas_threads, omp_threads, reps, NG, NG, NG, g_sq, C, P, CKK, g_shape, B, C, C, S, S, t,
-                 g_conv, ratio, g_conv / g_shape);
+                 g_conv, B, C, C, S, S, 4 * C, rs.d.G, best[3], g_res, ratio, g_conv / g_shape, g_res / g_sq);
         printf("%s", md);
         if (out && (mf_mkdirs_for(out) || mf_write_file(out, md, strlen(md)))) rc = MF_EXIT_FAIL;
+    res_done:
+        free(rs.pm), free(rs.gm), free(rs.am), free(rs.x), free(rs.out), free(rs.dx), free(rs.dout);
+        free(rs.temb), free(rs.dtemb);
     }
     gemm_free(&gsq), gemm_free(&gsh);
     free(c.in), free(c.out), free(c.din), free(c.dout), free(c.w), free(c.dw), free(c.bias), free(c.db), free(c.col);

@@ -278,9 +278,14 @@ typedef struct {
 
 int mf_adamw_init(MfAdamW *opt, size_t n, float lr, float beta1, float beta2, float eps,
                   float weight_decay);
-/* One step: params (n) updated from grads (n). lr may be changed between steps (schedules). */
-void mf_adamw_step(MfAdamW *opt, float *params, const float *grads);
+/* One step: params (n) updated from grads (n). lr may be changed between steps (schedules).
+ * Refuses non-finite gradients (MF_ENAN, naming the first bad element) and then leaves params,
+ * moments and the step count untouched, so the caller can stop at the last good state. */
+int mf_adamw_step(MfAdamW *opt, float *params, const float *grads);
 void mf_adamw_free(MfAdamW *opt);
+
+/* MF_OK if all n values are finite, else MF_ENAN with "what[i] is nan|inf". */
+int mf_nn_check_finite(const float *x, size_t n, const char *what);
 
 /* Global L2 norm of grads (n), accumulated in double; if it exceeds max_norm > 0 the gradients
  * are scaled by max_norm / norm. Returns the norm before clipping. */

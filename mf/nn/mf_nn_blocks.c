@@ -291,7 +291,15 @@ int mf_adamw_init(MfAdamW *opt, size_t n, float lr, float beta1, float beta2, fl
     return MF_OK;
 }
 
-void mf_adamw_step(MfAdamW *opt, float *params, const float *grads) {
+int mf_nn_check_finite(const float *x, size_t n, const char *what) {
+    for (size_t i = 0; i < n; ++i)
+        if (!isfinite(x[i])) return mf_fail(MF_ENAN, "%s[%zu] is %s", what, i, isnan(x[i]) ? "nan" : "inf");
+    return MF_OK;
+}
+
+int mf_adamw_step(MfAdamW *opt, float *params, const float *grads) {
+    int rc = mf_nn_check_finite(grads, opt->n, "adamw: gradient");
+    if (rc) return rc;
     opt->t++;
     float b1 = opt->beta1, b2 = opt->beta2, lr = opt->lr, eps = opt->eps, wd = opt->weight_decay;
     float c1 = 1.0f - (float)pow(b1, (double)opt->t), c2 = 1.0f - (float)pow(b2, (double)opt->t);
@@ -306,6 +314,7 @@ void mf_adamw_step(MfAdamW *opt, float *params, const float *grads) {
         float mh = mi / c1, vh = vi / c2;
         params[i] -= lr * (mh / (sqrtf(vh) + eps) + wd * params[i]);
     }
+    return MF_OK;
 }
 
 void mf_adamw_free(MfAdamW *opt) {

@@ -117,6 +117,10 @@ int mf_ckpt_load(const char *path, const MfTensorSpec *specs, int n, float *data
     size_t meta_pos = r.pos;
     r.pos += mlen;
     /* read the file's table: names and shapes, and the total number of floats */
+    if (nt > (r.len - r.pos) / 12) { /* each entry takes at least 12 bytes */
+        rc = mf_fail(MF_EFORMAT, "%s: truncated checkpoint (header lists %u tensors)", path, nt);
+        goto done;
+    }
     MfTensorSpec *fs = calloc(nt ? nt : 1, sizeof *fs);
     if (!fs) {
         rc = mf_fail(MF_ENOMEM, "%s: out of memory", path);
@@ -141,7 +145,14 @@ int mf_ckpt_load(const char *path, const MfTensorSpec *specs, int n, float *data
             }
             fs[i].shape[k] = (int)s;
         }
-        total += mf_tensor_numel(&fs[i]);
+        size_t k = mf_tensor_numel(&fs[i]);
+        if (k > len / sizeof(float) || total > len / sizeof(float) - k) {
+            rc = mf_fail(MF_EFORMAT, "%s: truncated checkpoint (tensor '%s' needs more data than the file holds)",
+                         path, fs[i].name);
+            free(fs);
+            goto done;
+        }
+        total += k;
     }
     size_t need = r.pos + total * sizeof(float) + 8;
     if (len < need) {
