@@ -289,7 +289,11 @@ static int train_ae(Ctx *c, MfPrior *p, const Data *d, MfTrainPriorResult *res, 
         mf_ae_encode_backward(ae, &w, dz, NULL);
         mf_grad_clip_norm(ae->grads, np, 1.0f);
         opt.lr = lr_at(o->lr_ae, step, o->warmup);
-        mf_adamw_step(&opt, ae->params, ae->grads);
+        if (mf_adamw_step(&opt, ae->params, ae->grads)) {
+            rc = mf_fail_prefix(MF_ENAN, "train-prior: autoencoder step %d (stopped; the last good checkpoint is kept: %s)",
+                                step + 1, c->ae_state);
+            break;
+        }
         hist_add(&c->hist, "ae", step + 1, loss, opt.lr);
         mf_progress_add(&prog, 1);
         ++done_here, ++c->ran;
@@ -406,7 +410,11 @@ static int train_dn(Ctx *c, MfPrior *p, const Data *d, const float *lat, MfTrain
         mf_denoiser_backward(dn, &w, dv);
         mf_grad_clip_norm(dn->grads, np, 1.0f);
         opt.lr = lr_at(o->lr_dn, step, o->warmup);
-        mf_adamw_step(&opt, dn->params, dn->grads);
+        if (mf_adamw_step(&opt, dn->params, dn->grads)) {
+            rc = mf_fail_prefix(MF_ENAN, "train-prior: denoiser step %d (stopped; the last good checkpoint is kept: %s)",
+                                step + 1, c->dn_state);
+            break;
+        }
         hist_add(&c->hist, "dn", step + 1, loss, opt.lr);
         mf_progress_add(&prog, 1);
         ++done_here, ++c->ran;
