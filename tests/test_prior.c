@@ -597,6 +597,20 @@ MF_TEST(prior_cli_predicts_maps) {
         }
         mf_image_free(&r);
     }
+    /* mf train-prior end to end on the tiny model */
+    char ck[MF_PATH_MAX], lc[MF_PATH_MAX];
+    snprintf(ck, sizeof ck, "%s", mf_test_path("prior_cli_ck"));
+    snprintf(lc, sizeof lc, "%s", mf_test_path("prior_cli_loss.csv"));
+    snprintf(cmd, sizeof cmd, "'%s' train-prior '%s' -o '%s' --tiny --ae-steps 3 --steps 3 --batch 4 --loss-csv '%s' > /dev/null 2>&1",
+             bin, synth_dir(), ck, lc);
+    CHECK(system(cmd) == 0);
+    mf_path_join(f, sizeof f, ck, "prior.mfck");
+    MfPrior *t = NULL;
+    CHECK_OK(mf_prior_load(f, &t));
+    mf_prior_free(t);
+    CHECK(mf_file_exists(lc));
+    snprintf(cmd, sizeof cmd, "'%s' train-prior '%s' > /dev/null 2>&1", bin, synth_dir());
+    CHECK(system(cmd) != 0); /* no -o */
     /* missing weights: a clear message naming the file and the expected version */
     snprintf(cmd, sizeof cmd, "'%s' prior '%s' -o '%s' --weights '%s/nope.mfck' 2>&1 | grep -q 'nope.mfck.*MFCK version 1'",
              bin, img, out, out);

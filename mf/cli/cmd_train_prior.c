@@ -15,7 +15,9 @@
     "  Writes CKPT_DIR/prior.mfck (weights for `mf prior`), CKPT_DIR/{ae,dn}_state.mfck (resumable state,\n" \
     "  every --ckpt-every steps, default 200) and the loss curve CSV (default reports/prior/loss.csv).\n" \
     "  --resume continues from the state files exactly (same seed -> same result as one run).\n" \
-    "  Defaults: batch 16, seed 1, AdamW lr 5e-4 (AE) / 3e-4 (denoiser), wd 1e-2, warm-up 100 steps.\n"
+    "  Defaults: batch 16, seed 1, AdamW lr 5e-4 (AE) / 3e-4 (denoiser), wd 1e-2, warm-up 100 steps.\n" \
+    "  Model size: --ae-c1/--ae-c2 (AE channels, default 32/64), --unet-c1/--unet-c2 (default 64/128;\n" \
+    "  c1 multiple of 8, c2 >= c1 and a multiple of 8). --stop-after N stops (with a checkpoint) after N steps.\n"
 
 static int cmd_train_prior(int argc, char **argv) {
     MfTrainPriorOpts o;
@@ -30,7 +32,9 @@ static int cmd_train_prior(int argc, char **argv) {
             (r = mf_opt_int(argc, argv, &i, "--ckpt-every", &o.ckpt_every)) ||
             (r = mf_opt_float(argc, argv, &i, "--lr-ae", &o.lr_ae)) || (r = mf_opt_float(argc, argv, &i, "--lr", &o.lr_dn)) ||
             (r = mf_opt_int(argc, argv, &i, "--warmup", &o.warmup)) ||
-            (r = mf_opt_int(argc, argv, &i, "--stop-after", &o.stop_after))) {
+            (r = mf_opt_int(argc, argv, &i, "--stop-after", &o.stop_after)) ||
+            (r = mf_opt_int(argc, argv, &i, "--ae-c1", &o.ae_c1)) || (r = mf_opt_int(argc, argv, &i, "--ae-c2", &o.ae_c2)) ||
+            (r = mf_opt_int(argc, argv, &i, "--unet-c1", &o.dn_c1)) || (r = mf_opt_int(argc, argv, &i, "--unet-c2", &o.dn_c2))) {
             if (r < 0) return MF_EXIT_USAGE;
             continue;
         }

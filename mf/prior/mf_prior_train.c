@@ -447,6 +447,12 @@ int mf_train_prior(const MfTrainPriorOpts *o, MfTrainPriorResult *res) {
     MfPriorConfig cfg;
     if (o->tiny) mf_prior_config_tiny(&cfg);
     else mf_prior_config_default(&cfg, d.R);
+    if (!o->tiny) {
+        if (o->ae_c1 > 0) cfg.ae.c1 = o->ae_c1;
+        if (o->ae_c2 > 0) cfg.ae.c2 = o->ae_c2;
+        if (o->dn_c1 > 0) cfg.dn.c1 = o->dn_c1;
+        if (o->dn_c2 > 0) cfg.dn.c2 = o->dn_c2;
+    }
     if (cfg.ae.res != d.R) {
         free(d.px);
         return mf_fail(MF_EARG, "%s: resolution %d, the model expects %d", o->data_dir, d.R, cfg.ae.res);

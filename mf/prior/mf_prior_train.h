@@ -32,6 +32,7 @@ typedef struct {
     uint64_t seed;
     float lr_ae, lr_dn, weight_decay;
     int tiny;                       /* the tiny test model (resolution 16) */
+    int ae_c1, ae_c2, dn_c1, dn_c2; /* channel overrides of the default model (0 = default 32/64, 64/128) */
     int stop_after;                 /* test hook: checkpoint and stop after this many steps of this run (0 = off) */
     int nan_at;                     /* test hook: pretend the loss is NaN at this global step (0 = off) */
 } MfTrainPriorOpts;
