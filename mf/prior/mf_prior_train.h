@@ -12,7 +12,10 @@
  * Files in out_dir: ae_state.mfck, dn_state.mfck (weights + AdamW moments, written atomically every
  * ckpt_every steps and at phase ends), prior.mfck (the final weights, mf_prior.h format). The loss
  * CSV (phase,step,loss,lr) is rewritten atomically with every checkpoint. A non-finite loss stops
- * training with MF_ENAN and leaves the last good checkpoint in place. */
+ * training with MF_ENAN and leaves the last good checkpoint in place.
+ * Learning rates (defaults) were picked on synthetic 64 px data, same seed (same batches and noise):
+ * AE 120 steps: lr 5e-4 -> albedo PSNR 25.3 dB vs 20.4 dB at 2e-3; denoiser 200 steps, mean loss
+ * of steps 151-200: 0.483 (1e-4), 0.459 (3e-4), 0.464 (1e-3) -> 3e-4. */
 #ifndef MF_PRIOR_TRAIN_H
 #define MF_PRIOR_TRAIN_H
 
