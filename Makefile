@@ -16,7 +16,7 @@ CXX      ?= g++
 OPT      ?= -O2
 SAN      ?=
 WARN     := -Wall -Wextra -Wno-unused-parameter
-INCLUDES := -Imf -I. -I/usr/include/OpenEXR -I/usr/include/Imath -I/usr/include/cjson \
+INCLUDES := -Imf -I. -I$(BUILD)/gen -I/usr/include/OpenEXR -I/usr/include/Imath -I/usr/include/cjson \
             -I/usr/include/x86_64-linux-gnu/openblas-pthread
 CFLAGS   += -std=c17 $(OPT) -g $(WARN) -fopenmp -D_GNU_SOURCE $(SAN) $(INCLUDES) -MMD -MP
 CXXFLAGS += -std=c++17 $(OPT) -g $(WARN) $(SAN) $(INCLUDES) -MMD -MP
@@ -34,7 +34,7 @@ LIB_OBJ  := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
 CLI_OBJ  := $(CLI_C:%.c=$(BUILD)/obj/%.o)
 TEST_OBJ := $(TEST_C:%.c=$(BUILD)/obj/%.o)
 
-.PHONY: all deps test asan bench-render bench-baseline bench-prior bench-quick bench train-prior clean
+.PHONY: FORCE all deps test asan bench-render bench-baseline bench-prior bench-quick bench train-prior clean
 all: $(BUILD)/mf $(BUILD)/mf_tests
 
 deps:
@@ -52,6 +52,13 @@ $(BUILD)/obj/%.o: %.c
 $(BUILD)/obj/%.o: %.cpp
 	@mkdir -p $(dir $@)
 	$(CXX) $(CXXFLAGS) -c $< -o $@
+
+# The git revision, for run.json; rewritten only when it changes, so nothing rebuilds needlessly.
+$(BUILD)/gen/mf_build_info.h: FORCE
+	@mkdir -p $(dir $@)
+	@echo "#define MF_GIT_REV \"$$(git rev-parse --short HEAD 2>/dev/null || echo unknown)$$(git diff --quiet HEAD 2>/dev/null || echo -dirty)\"" > $@.tmp
+	@cmp -s $@.tmp $@ || mv $@.tmp $@; rm -f $@.tmp
+$(CLI_OBJ): $(BUILD)/gen/mf_build_info.h
 
 $(BUILD)/libmf.a: $(LIB_OBJ)
 	@rm -f $@
@@ -73,6 +80,43 @@ asan:
 
 bench-render: $(BUILD)/mf
 	./$(BUILD)/mf bench-render -o reports/perf/render.md
+
+# ---- data sets and benchmarks (generated data in $(DATA), method outputs in $(RESULTS)) ----
+DATA        ?= data
+RESULTS     ?= results
+BENCH_SPLIT ?= test-3d
+MF          := $(abspath $(BUILD)/mf)
+ifeq ($(BENCH_FULL),1)
+RECON_CONFIG ?= baselines/nvdiffrecmc_full.json
+else
+RECON_CONFIG ?= baselines/nvdiffrecmc.json
+endif
+
+# Renders every render_*.json of one generated scene into its folder; each output folder gets a
+# .done marker, so an interrupted run resumes where it stopped.
+define render_scene
+cd $(1) && for j in render_*.json; do n=$${j#render_}; n=$${n%.json}; \
+  case $$n in relight_*) o=relight/$${n#relight_};; *) o=$$n;; esac; \
+  [ -f $$o/.done ] || { $(MF) render $$j -o $$o --png && touch $$o/.done; } || exit 1; done
+endef
+
+# One command per split: generate the layout, then render it.
+$(DATA)/%/.rendered: | $(BUILD)/mf
+	$(MF) gen --split $* -o $(DATA)/$*
+	@for s in $(DATA)/$*/*/; do $(call render_scene,$$s) || exit 1; done
+	touch $@
+
+data-%: $(DATA)/%/.rendered ;
+
+# Per-scene reconstruction jobs: resumable (--resume), parallel with make -j.
+SCENES = $(notdir $(patsubst %/,%,$(dir $(wildcard $(DATA)/$(BENCH_SPLIT)/*/transforms_test.json))))
+recon-runs: $(foreach s,$(SCENES),$(RESULTS)/$(BENCH_SPLIT)/$(METHOD)/$(s)/run.json)
+$(RESULTS)/$(BENCH_SPLIT)/$(METHOD)/%/run.json: | $(BUILD)/mf
+	$(MF) recon $(DATA)/$(BENCH_SPLIT)/$* -o $(dir $@) --method $(METHOD) --config $(RECON_CONFIG) --resume
+
+bench-baseline: $(BUILD)/mf $(DATA)/$(BENCH_SPLIT)/.rendered
+	$(MAKE) --no-print-directory recon-runs METHOD=nvdiffrecmc
+	$(MF) eval $(DATA)/$(BENCH_SPLIT) --results $(RESULTS)/$(BENCH_SPLIT) --methods nvdiffrecmc --trivial -o reports/baseline
 
 clean:
 	rm -rf build build-asan build-*

@@ -40,7 +40,7 @@ int ev_table_add(EvTable *t, const char *method, const char *dataset, const char
     return MF_OK;
 }
 
-int ev_metric_higher_better(const char *metric) { return !strncmp(metric, "psnr", 4) || !strncmp(metric, "ssim", 4); }
+int ev_metric_higher_better(const char *metric) { return strstr(metric, "psnr") || strstr(metric, "ssim"); }
 
 EvStat ev_table_stat(const EvTable *t, const char *method, const char *dataset, const char *metric) {
     EvStat s = {0.0, 0.0, 0};
@@ -124,8 +124,8 @@ int ev_table_rank(const EvTable *t, const char *const *methods, int nm, int mi, 
 }
 
 int ev_metric_decimals(const char *metric) {
-    if (!strncmp(metric, "psnr", 4)) return 2;
-    if (!strncmp(metric, "time", 4) || !strncmp(metric, "mem", 3)) return 1;
+    if (strstr(metric, "psnr")) return 2;
+    if (strstr(metric, "time") || strstr(metric, "mem")) return 1;
     return 4;
 }
 

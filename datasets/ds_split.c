@@ -1,0 +1,182 @@
+#include "datasets/ds_split.h"
+
+#include <cJSON.h>
+#include <dirent.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/mf_error.h"
+#include "core/mf_fs.h"
+#include "core/mf_rng.h"
+#include "datasets/ds_cameras.h"
+#include "datasets/ds_shapes.h"
+#include "io/mf_json.h"
+
+int ds_split_spec(const char *name, DsSplitSpec *out) {
+    DsSplitSpec s = {{0}, 0, 0, 0, 0, 0, 0, 0, 1.5f, 2.0f};
+    if (!strcmp(name, "tiny")) { s.n_scenes = 3; s.width = 32; s.n_train = 8; s.n_test = 4; s.tex_res = 64; s.n_relight = 2; s.spp_sqrt = 4; }
+    else if (!strcmp(name, "small")) { s.n_scenes = 10; s.width = 128; s.n_train = 50; s.n_test = 20; s.tex_res = 256; s.n_relight = 3; s.spp_sqrt = 8; }
+    else if (!strcmp(name, "full")) { s.n_scenes = 30; s.width = 512; s.n_train = 100; s.n_test = 50; s.tex_res = 512; s.n_relight = 4; s.spp_sqrt = 16; }
+    else return mf_fail(MF_EARG, "unknown split '%s' (tiny, small, full)", name);
+    snprintf(s.name, sizeof s.name, "%s", name);
+    *out = s;
+    return MF_OK;
+}
+
+static int cmp_str(const void *a, const void *b) { return strcmp(*(char *const *)a, *(char *const *)b); }
+
+static int list_exr(const char *dir, char ***names, int *n) {
+    DIR *d = opendir(dir);
+    if (!d) return mf_fail(MF_EIO, "%s: cannot open the probe folder", dir);
+    char **v = NULL;
+    int cnt = 0, cap = 0;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        size_t l = strlen(e->d_name);
+        if (e->d_name[0] == '.' || l < 5 || strcmp(e->d_name + l - 4, ".exr")) continue;
+        if (cnt == cap) {
+            cap = cap ? 2 * cap : 16;
+            char **nv = realloc(v, sizeof(char *) * (size_t)cap);
+            if (!nv) break;
+            v = nv;
+        }
+        if ((v[cnt] = strdup(e->d_name))) ++cnt;
+    }
+    closedir(d);
+    if (cnt) qsort(v, (size_t)cnt, sizeof(char *), cmp_str);
+    *names = v;
+    *n = cnt;
+    return MF_OK;
+}
+
+static int copy_file(const char *from, const char *to) {
+    char *data = NULL;
+    size_t len = 0;
+    int rc = mf_read_file(from, &data, &len);
+    if (!rc) rc = mf_mkdirs_for(to);
+    if (!rc) rc = mf_write_file(to, data, len);
+    free(data);
+    return rc;
+}
+
+/* A scene JSON for `mf render` (mf_scene.h): paths relative to the scene folder. */
+static int write_render_json(const char *path, const char *env, const char *cameras, const DsSplitSpec *s, uint64_t seed) {
+    cJSON *r = cJSON_CreateObject(), *mat = cJSON_CreateObject(), *envo = cJSON_CreateObject(), *ren = cJSON_CreateObject();
+    cJSON_AddStringToObject(r, "mesh", "mesh.obj");
+    cJSON_AddStringToObject(mat, "kd", "gt/kd.png");
+    cJSON_AddStringToObject(mat, "orm", "gt/orm.png");
+    cJSON_AddItemToObject(r, "material", mat);
+    cJSON_AddStringToObject(envo, "file", env);
+    cJSON_AddNumberToObject(envo, "rotation_z_deg", 0);
+    cJSON_AddNumberToObject(envo, "strength", 1);
+    cJSON_AddItemToObject(r, "env", envo);
+    cJSON_AddStringToObject(r, "cameras", cameras);
+    cJSON_AddNumberToObject(r, "width", s->width);
+    cJSON_AddNumberToObject(r, "height", s->width);
+    cJSON_AddNumberToObject(ren, "spp_sqrt", s->spp_sqrt);
+    cJSON_AddNumberToObject(ren, "pixel_samples", 4);
+    cJSON_AddNumberToObject(ren, "seed", (double)(seed & 0xFFFFFFu));
+    cJSON_AddStringToObject(ren, "lobes", "all");
+    cJSON_AddItemToObject(r, "render", ren);
+    int rc = mf_json_save(path, r);
+    cJSON_Delete(r);
+    return rc;
+}
+
+static void strip_exr(char *s) {
+    size_t l = strlen(s);
+    if (l > 4 && !strcmp(s + l - 4, ".exr")) s[l - 4] = '\0';
+}
+
+int ds_write_split(const DsSplitSpec *s, const char *out_dir, const char *env_dir, uint64_t seed) {
+    if (!env_dir) env_dir = DS_DEFAULT_ENV_DIR;
+    char **probes = NULL;
+    int np = 0, rc;
+    if ((rc = list_exr(env_dir, &probes, &np))) return rc;
+    if (np < s->n_relight + 1) {
+        for (int i = 0; i < np; ++i) free(probes[i]);
+        free(probes);
+        return mf_fail(MF_EARG, "%s: %d probes, the split needs %d (1 training + %d relighting)", env_dir, np, s->n_relight + 1, s->n_relight);
+    }
+    cJSON *list = cJSON_CreateObject(), *scenes = cJSON_CreateArray();
+    cJSON_AddStringToObject(list, "split", s->name);
+    cJSON_AddNumberToObject(list, "seed", (double)seed);
+    cJSON_AddNumberToObject(list, "width", s->width);
+    cJSON_AddItemToObject(list, "scenes", scenes);
+    MfMat4 *c2w = malloc(sizeof(MfMat4) * (size_t)(s->n_train > s->n_test ? s->n_train : s->n_test));
+    int *perm = malloc(sizeof(int) * (size_t)np);
+    if (!c2w || !perm) rc = mf_fail(MF_ENOMEM, "out of memory");
+    if (!rc) rc = mf_mkdirs(out_dir);
+    for (int k = 0; k < s->n_scenes && !rc; ++k) {
+        DsFamily fam = (DsFamily)(k % DS_FAM_COUNT);
+        uint64_t oseed = mf_hash64(seed, (uint64_t)k);
+        char sdir[MF_PATH_MAX], p[MF_PATH_MAX], name[64];
+        snprintf(name, sizeof name, "%03d_%s", k, ds_family_name(fam));
+        if ((rc = mf_path_join(sdir, sizeof sdir, out_dir, name))) break;
+        DsObject o;
+        if ((rc = ds_object_generate(&o, fam, oseed, s->tex_res))) break;
+        rc = ds_object_write(&o, sdir);
+        ds_object_free(&o);
+        if (rc) break;
+        DsCamSampling cs = ds_cam_sampling_default();
+        cs.r_min = s->r_min;
+        cs.r_max = s->r_max;
+        if ((rc = ds_sample_cameras(&cs, s->n_train, oseed, 0, c2w)) || (rc = ds_write_transforms(sdir, "train", cs.camera_angle_x, c2w, s->n_train)))
+            break;
+        if ((rc = ds_sample_cameras(&cs, s->n_test, oseed, 1, c2w)) || (rc = ds_write_transforms(sdir, "test", cs.camera_angle_x, c2w, s->n_test)))
+            break;
+        /* probes: a seeded permutation; the first trains, the next n_relight relight */
+        MfRng rng;
+        mf_rng_seed(&rng, oseed, 0xE4F0u);
+        for (int i = 0; i < np; ++i) perm[i] = i;
+        for (int i = np - 1; i > 0; --i) {
+            int j = (int)mf_rng_below(&rng, (uint32_t)(i + 1)), t = perm[i];
+            perm[i] = perm[j];
+            perm[j] = t;
+        }
+        char src[MF_PATH_MAX];
+        if ((rc = mf_path_join(src, sizeof src, env_dir, probes[perm[0]])) || (rc = mf_path_join(p, sizeof p, sdir, "gt/env.exr")) ||
+            (rc = copy_file(src, p)))
+            break;
+        if ((rc = mf_path_join(p, sizeof p, sdir, "render_train.json")) || (rc = write_render_json(p, "gt/env.exr", "transforms_train.json", s, oseed)))
+            break;
+        if ((rc = mf_path_join(p, sizeof p, sdir, "render_test.json")) || (rc = write_render_json(p, "gt/env.exr", "transforms_test.json", s, oseed + 1)))
+            break;
+        cJSON *sc = cJSON_CreateObject(), *rl = cJSON_CreateArray();
+        char envname[256];
+        snprintf(envname, sizeof envname, "%s", probes[perm[0]]);
+        strip_exr(envname);
+        cJSON_AddStringToObject(sc, "name", name);
+        cJSON_AddStringToObject(sc, "family", ds_family_name(fam));
+        char seedstr[32];
+        snprintf(seedstr, sizeof seedstr, "%llu", (unsigned long long)oseed);
+        cJSON_AddStringToObject(sc, "object_seed", seedstr);
+        cJSON_AddStringToObject(sc, "train_env", envname);
+        cJSON_AddItemToObject(sc, "relight", rl);
+        cJSON_AddItemToArray(scenes, sc);
+        for (int r = 0; r < s->n_relight && !rc; ++r) {
+            char en[256], rel[MF_PATH_MAX + 300], jn[400];
+            snprintf(en, sizeof en, "%s", probes[perm[1 + r]]);
+            strip_exr(en);
+            cJSON_AddItemToArray(rl, cJSON_CreateString(en));
+            snprintf(rel, sizeof rel, "relight/%s.exr", en);
+            if ((rc = mf_path_join(src, sizeof src, env_dir, probes[perm[1 + r]])) || (rc = mf_path_join(p, sizeof p, sdir, rel)) ||
+                (rc = copy_file(src, p)))
+                break;
+            snprintf(jn, sizeof jn, "render_relight_%s.json", en);
+            if ((rc = mf_path_join(p, sizeof p, sdir, jn)) || (rc = write_render_json(p, rel, "transforms_test.json", s, oseed + 2 + (uint64_t)r)))
+                break;
+        }
+    }
+    if (!rc) {
+        char p[MF_PATH_MAX];
+        if (!(rc = mf_path_join(p, sizeof p, out_dir, "split.json"))) rc = mf_json_save(p, list);
+    }
+    cJSON_Delete(list);
+    free(c2w);
+    free(perm);
+    for (int i = 0; i < np; ++i) free(probes[i]);
+    free(probes);
+    return rc;
+}

@@ -1,0 +1,45 @@
+/* ds_split: writes the layout of a generated data set split (bvault, DESIGN.md "Contracts")
+ * without rendering it: per scene the ground-truth object, cameras, training light and
+ * relighting lights, plus scene JSONs for `mf render` (mf/scene/mf_scene.h format) that render
+ * the images into the same layout.
+ *
+ * For split spec s, out_dir/<NNN>_<family>/ gets:
+ *   mesh.obj (+ mesh.mtl), gt/kd.png, gt/orm.png        ds_object_write
+ *   transforms_train.json, transforms_test.json          ds_sample_cameras (streams 0 and 1)
+ *   gt/env.exr                                           training light (copied probe)
+ *   relight/<env>.exr                                    s.n_relight other probes (never the
+ *                                                        training light)
+ *   render_train.json, render_test.json,                 `mf render render_train.json -o
+ *   render_relight_<env>.json                            <scene>/train --png` etc. (width x width)
+ * and out_dir/split.json lists the scenes (name, family, seed, train env, relight envs).
+ * Probes come from env_dir (*.exr, sorted by name; Blender's studio lights by default:
+ * /usr/share/blender/datafiles/studiolights/world). Scene k uses family k mod DS_FAM_COUNT
+ * and object seed mf_hash64(seed, k); everything is deterministic from (spec, seed). */
+#ifndef DS_SPLIT_H
+#define DS_SPLIT_H
+
+#include <stdint.h>
+
+#define DS_DEFAULT_ENV_DIR "/usr/share/blender/datafiles/studiolights/world"
+
+typedef struct {
+    char name[32];
+    int n_scenes;
+    int width;      /* square image size */
+    int n_train, n_test;
+    int tex_res;
+    int n_relight;
+    int spp_sqrt;   /* written into the render JSONs */
+    float r_min, r_max; /* camera distance range (default 1.5-2.0 as specified; note: with
+                           camera_angle_x 0.6911 and extent-1 objects, 17% of such views crop
+                           the object at the frame border, 0% at 2.2-2.8) */
+} DsSplitSpec;
+
+/* Named specs: "tiny" (3 scenes, 32x32, 8 train, 4 test views, 64^2 textures, 2 relighting
+ * lights), "small" (10 scenes, 128x128, 50 / 20 views, 256^2, 3 lights), "full" (30 scenes,
+ * 512x512, 100 / 50 views, 512^2, 4 lights). MF_EARG for an unknown name. */
+int ds_split_spec(const char *name, DsSplitSpec *out);
+
+int ds_write_split(const DsSplitSpec *s, const char *out_dir, const char *env_dir, uint64_t seed);
+
+#endif

@@ -1,0 +1,248 @@
+#include "eval/ev_eval.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/mf_error.h"
+#include "core/mf_fs.h"
+#include "core/mf_log.h"
+#include "core/mf_rng.h"
+#include "datasets/ds_load.h"
+#include "eval/ev_metrics.h"
+#include "io/mf_obj.h"
+#include "render/mf_integrator.h"
+#include "render/mf_rtscene.h"
+
+int ev_result_load(const char *dir, const char *mesh_path, EvResult *out) {
+    EvResult r;
+    memset(&r, 0, sizeof r);
+    char p[MF_PATH_MAX];
+    int rc = mesh_path ? (snprintf(p, sizeof p, "%s", mesh_path), MF_OK) : mf_path_join(p, sizeof p, dir, "mesh.obj");
+    if (!rc) rc = mf_obj_read(p, &r.mesh);
+    if (!rc && !(rc = mf_path_join(p, sizeof p, dir, "albedo.png"))) rc = mf_image_read(p, MF_ENC_SRGB, &r.kd);
+    if (!rc && !(rc = mf_path_join(p, sizeof p, dir, "orm.png"))) rc = mf_image_read(p, MF_ENC_LINEAR, &r.orm);
+    if (!rc && !(rc = mf_path_join(p, sizeof p, dir, "env.exr")) && mf_file_exists(p)) {
+        rc = mf_env_load(&r.env, p);
+        r.has_env = !rc;
+    }
+    if (!rc && (r.kd.c < 3 || r.orm.c < 3)) rc = mf_fail(MF_EFORMAT, "%s: albedo.png and orm.png need 3 channels", dir);
+    if (rc) {
+        ev_result_free(&r);
+        return rc;
+    }
+    *out = r;
+    return MF_OK;
+}
+
+void ev_result_free(EvResult *r) {
+    if (!r) return;
+    mf_mesh_free(&r->mesh);
+    mf_image_free(&r->kd);
+    mf_image_free(&r->orm);
+    if (r->has_env) mf_env_free(&r->env);
+    memset(r, 0, sizeof *r);
+}
+
+EvEvalOpts ev_eval_opts_default(void) {
+    EvEvalOpts o = {4, 4, EV_ALIGN_MEAN, 0x5eedULL, 0, 0, NULL};
+    return o;
+}
+
+void ev_eval_csv_header(FILE *csv) {
+    fprintf(csv, "method,dataset,scene,view,kind,light,psnr,ssim,l1,flip,psnr_masked,ssim_masked,l1_masked\n");
+}
+
+/* Un-premultiplies a (h, w, 4) image in place. */
+static void unpremultiply(MfImage *im) {
+    for (size_t i = 0; i < (size_t)im->w * im->h; ++i) {
+        float a = im->data[4 * i + 3];
+        for (int c = 0; c < 3; ++c) im->data[4 * i + c] = a > 0.0f ? im->data[4 * i + c] / a : 0.0f;
+    }
+}
+
+/* (h, w, 4) image from a 3-channel AOV plus alpha. */
+static int aov_rgba(const float *rgb, const float *alpha, int w, int h, MfImage *out) {
+    int rc = mf_image_alloc(out, w, h, 4);
+    if (rc) return rc;
+    for (size_t i = 0; i < (size_t)w * h; ++i) {
+        for (int c = 0; c < 3; ++c) out->data[4 * i + c] = rgb[3 * i + c];
+        out->data[4 * i + 3] = alpha[i];
+    }
+    return MF_OK;
+}
+
+typedef struct { double v[7]; int n; } Acc; /* psnr ssim l1 flip psnr_m ssim_m l1_m */
+
+static void acc_add(Acc *a, const EvMetrics *m) {
+    double x[7] = {m->psnr, m->ssim, m->l1, m->flip, m->psnr_masked, m->ssim_masked, m->l1_masked};
+    for (int k = 0; k < 7; ++k) a->v[k] += x[k];
+    a->n++;
+}
+
+static void row(FILE *csv, const char *method, const char *dataset, const char *scene, const char *view, const char *kind,
+                const char *light, const EvMetrics *m) {
+    if (!csv) return;
+    fprintf(csv, "%s,%s,%s,%s,%s,%s,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f\n", method, dataset, scene, view, kind, light, m->psnr,
+            m->ssim, m->l1, m->has_flip ? m->flip : 0.0, m->psnr_masked, m->ssim_masked, m->l1_masked);
+}
+
+/* Scores one colour prediction (linear, straight alpha) against GT with the protocol. */
+static int score_color(const MfImage *pred, const MfImage *gt, EvAlign align, EvMetrics *m) {
+    MfImage po = {0}, go = {0};
+    int rc = ev_protocol_prepare(pred, gt, gt, align, &po, &go, NULL, NULL);
+    if (!rc) rc = ev_metrics_compute(&po, &go, gt, m);
+    mf_image_free(&po);
+    mf_image_free(&go);
+    return rc;
+}
+
+/* The GT of a bvault scene as a result (mesh.obj, gt/kd.png, gt/orm.png), or its grey version. */
+static int trivial_result(const char *scene_dir, int grey, EvResult *out) {
+    EvResult r;
+    memset(&r, 0, sizeof r);
+    char p[MF_PATH_MAX];
+    int rc = mf_path_join(p, sizeof p, scene_dir, "mesh.obj");
+    if (!rc) rc = mf_obj_read(p, &r.mesh);
+    if (!rc && grey) {
+        if (!(rc = mf_image_alloc(&r.kd, 1, 1, 3)) && !(rc = mf_image_alloc(&r.orm, 1, 1, 3))) {
+            r.kd.data[0] = r.kd.data[1] = r.kd.data[2] = 0.5f;
+            r.orm.data[0] = 1.0f, r.orm.data[1] = 0.5f, r.orm.data[2] = 0.0f;
+        }
+    } else if (!rc) {
+        if (!(rc = mf_path_join(p, sizeof p, scene_dir, "gt/kd.png"))) rc = mf_image_read(p, MF_ENC_SRGB, &r.kd);
+        if (!rc && !(rc = mf_path_join(p, sizeof p, scene_dir, "gt/orm.png"))) rc = mf_image_read(p, MF_ENC_LINEAR, &r.orm);
+    }
+    if (rc) {
+        ev_result_free(&r);
+        return rc;
+    }
+    *out = r;
+    return MF_OK;
+}
+
+int ev_eval_scene(const char *scene_dir, const char *result_dir, const char *method, const char *dataset,
+                  const char *scene, const EvEvalOpts *o, EvTable *t, FILE *csv, int *excluded) {
+    EvResult res;
+    int flat = !strcmp(result_dir, EV_TRIVIAL_FLAT_DIR), grey = !strcmp(result_dir, EV_TRIVIAL_GREY_DIR);
+    int rc = (flat || grey) ? trivial_result(scene_dir, grey, &res) : ev_result_load(result_dir, o->mesh_path, &res);
+    if (rc) return rc;
+    DsViews dv;
+    DsLoadOptions lo = {1, o->max_views, 1, 0};
+    if ((rc = ds_load(scene_dir, "test", &lo, &dv))) {
+        ev_result_free(&res);
+        return rc;
+    }
+    MfRtScene *rt = NULL;
+    if ((rc = mf_rtscene_new(&res.mesh, &rt))) goto out;
+    MfTexMaterial mat = {&res.kd, &res.orm, mf_v3s(0.5f), mf_v3(1, 0.5f, 0)};
+    MfRenderOpts ro = {o->spp_sqrt, o->pixel_samples, o->seed, MF_LOBE_ALL};
+    Acc relit = {{0}, 0}, alb = {{0}, 0}, orm = {{0}, 0};
+    double orm3 = 0.0;
+    int bad = 0;
+    /* relighting */
+    int nl = o->max_lights > 0 && o->max_lights < dv.n_relight ? o->max_lights : dv.n_relight;
+    for (int k = 0; k < nl && !rc; ++k) {
+        if (!dv.relight_env[k][0]) continue;
+        MfEnvMap env;
+        if ((rc = flat ? mf_env_init_constant(&env, 8, 4, mf_v3s(1.0f)) : mf_env_load(&env, dv.relight_env[k]))) break;
+        MfRenderInput in = {rt, &res.mesh, &mat, 1, &env, NULL, 0};
+        for (int i = 0; i < dv.n && !rc; ++i) {
+            MfImage gt = {0}, pred = {0};
+            MfRenderOut out = {0};
+            if ((rc = ds_load_relit(&dv, i, k, &gt))) break;
+            rc = mf_render(&in, &dv.views[i].cam, &ro, &out, NULL);
+            if (!rc) rc = aov_rgba(out.rgb, out.alpha, out.w, out.h, &pred);
+            if (!rc) {
+                if (gt.w != pred.w || gt.h != pred.h) rc = mf_fail(MF_EFORMAT, "%s: relit GT of %s is %dx%d, the camera %dx%d", scene_dir, dv.views[i].name, gt.w, gt.h, pred.w, pred.h);
+            }
+            if (!rc) {
+                unpremultiply(&gt);
+                unpremultiply(&pred);
+                EvMetrics m;
+                if (score_color(&pred, &gt, o->align, &m) == MF_OK) {
+                    acc_add(&relit, &m);
+                    row(csv, method, dataset, scene, dv.views[i].name, "relit", dv.relight_name[k], &m);
+                } else {
+                    mf_log_warn("%s/%s under %s excluded: %s", scene, dv.views[i].name, dv.relight_name[k], mf_error());
+                    ++bad;
+                }
+            }
+            mf_render_out_free(&out);
+            mf_image_free(&gt);
+            mf_image_free(&pred);
+        }
+        mf_env_free(&env);
+    }
+    /* albedo and ORM AOVs (light-independent: any light renders them; none is needed) */
+    MfRenderOpts ao = ro;
+    ao.spp_sqrt = 1;
+    MfRenderInput ain = {rt, &res.mesh, &mat, 1, NULL, NULL, 0};
+    for (int i = 0; i < dv.n && !rc && !flat && !grey; ++i) { /* trivial guesses: relighting only */
+        const DsView *v = &dv.views[i];
+        if (!v->albedo.data && !v->orm.data) continue;
+        MfRenderOut out;
+        if ((rc = mf_render(&ain, &v->cam, &ao, &out, NULL))) break;
+        /* GT mask: the view's alpha */
+        MfImage mask = {0};
+        if (!(rc = mf_image_alloc(&mask, out.w, out.h, 1)))
+            for (size_t p = 0; p < (size_t)out.w * out.h; ++p) mask.data[p] = v->rgba.data[4 * p + 3];
+        if (!rc && v->albedo.data) {
+            MfImage pred = {0}, gt = {0};
+            EvMetrics m;
+            rc = aov_rgba(out.albedo, out.alpha, out.w, out.h, &pred);
+            if (!rc) rc = aov_rgba(v->albedo.data, mask.data, out.w, out.h, &gt); /* GT with its mask as alpha */
+            if (!rc) {
+                if (score_color(&pred, &gt, o->align, &m) == MF_OK) {
+                    acc_add(&alb, &m);
+                    row(csv, method, dataset, scene, v->name, "albedo", "-", &m);
+                } else {
+                    ++bad;
+                }
+            }
+            mf_image_free(&pred);
+            mf_image_free(&gt);
+        }
+        if (!rc && v->orm.data) {
+            MfImage pred = {0}, gt = {0}, po = {0}, go = {0};
+            EvMetrics m;
+            rc = aov_rgba(out.orm, out.alpha, out.w, out.h, &pred);
+            if (!rc) rc = aov_rgba(v->orm.data, mask.data, out.w, out.h, &gt);
+            if (!rc) {
+                if (ev_protocol_prepare_orm(&pred, &gt, &mask, &po, &go) == MF_OK &&
+                    ev_metrics_compute(&po, &go, &mask, &m) == MF_OK) {
+                    acc_add(&orm, &m);
+                    /* constant R = 1 in both: MSE over 3 channels is 2/3 of the (G, B) MSE */
+                    orm3 += m.psnr + 10.0 * log10(1.5);
+                    row(csv, method, dataset, scene, v->name, "orm", "-", &m);
+                } else {
+                    ++bad;
+                }
+            }
+            mf_image_free(&pred), mf_image_free(&gt), mf_image_free(&po), mf_image_free(&go);
+        }
+        mf_image_free(&mask);
+        mf_render_out_free(&out);
+    }
+    if (!rc) {
+        static const char *names[7] = {"psnr", "ssim", "l1", "flip", "psnr_masked", "ssim_masked", "l1_masked"};
+        const Acc *accs[3] = {&relit, &alb, &orm};
+        static const char *kinds[3] = {"relit", "albedo", "orm"};
+        for (int a = 0; a < 3 && !rc; ++a) {
+            if (!accs[a]->n) continue;
+            for (int k = 0; k < 7 && !rc; ++k) {
+                if (a == 2 && (k == 1 || k == 3 || k == 5)) continue; /* ORM: PSNR and L1 as the paper */
+                char name[32];
+                snprintf(name, sizeof name, "%s_%s", kinds[a], names[k]);
+                rc = ev_table_add(t, method, dataset, scene, name, accs[a]->v[k] / accs[a]->n);
+            }
+        }
+        if (!rc && orm.n) rc = ev_table_add(t, method, dataset, scene, "orm3_psnr", orm3 / orm.n);
+    }
+    if (excluded) *excluded += bad;
+out:
+    mf_rtscene_free(rt);
+    ds_views_free(&dv);
+    ev_result_free(&res);
+    return rc;
+}

@@ -1,0 +1,70 @@
+/* ev_eval: scores a method's result folder against a generated (bvault) or loaded scene.
+ *
+ * A result folder (DESIGN.md "Contracts": results/<method>/<scene>/) holds mesh.obj, albedo.png
+ * (sRGB), orm.png (linear) and env.exr. Scoring, for every test view of the scene:
+ *   relit   the result rendered under each relighting light of the scene (relight/<env>.exr)
+ *           with the project's renderer, against the data set's relit view; both are linear and
+ *           premultiplied by coverage: they are un-premultiplied, then the protocol of
+ *           ev_align.h (per-channel scale inside the GT mask, default ratio of means; sRGB; clip;
+ *           composite on black) and the metrics of ev_metrics.h, full-frame and masked;
+ *   albedo  the result's albedo AOV (kd at the primary hits) against the view's GT albedo, with
+ *           the same protocol;
+ *   orm     the ORM AOV against GT ORM on roughness and metallic (G, B), no alignment; orm3
+ *           repeats PSNR over all three channels with a constant R (as the paper's numbers
+ *           behave: +1.76 dB).
+ * Per-view rows go to a CSV; per-scene means become EvTable records (metric names:
+ * relit_psnr, relit_ssim, relit_l1, relit_flip, relit_psnr_masked, albedo_psnr, albedo_ssim,
+ * albedo_l1, orm_psnr, orm_l1, orm3_psnr). A view whose score cannot be computed (e.g. an
+ * empty mask) is excluded and counted, never turned into a NaN. */
+#ifndef EV_EVAL_H
+#define EV_EVAL_H
+
+#include <stdio.h>
+
+#include "eval/ev_align.h"
+#include "eval/ev_table.h"
+#include "io/mf_image.h"
+#include "scene/mf_envmap.h"
+#include "scene/mf_mesh.h"
+
+typedef struct {
+    MfMesh mesh; /* owned */
+    MfImage kd;  /* owned; (h, w, 3) linear */
+    MfImage orm; /* owned; (h, w, 3) linear */
+    int has_env;
+    MfEnvMap env; /* owned when has_env */
+} EvResult;
+
+/* mesh_path NULL: dir/mesh.obj (a snapshot folder passes its run's mesh). */
+int ev_result_load(const char *dir, const char *mesh_path, EvResult *out);
+void ev_result_free(EvResult *r);
+
+typedef struct {
+    int spp_sqrt, pixel_samples; /* relighting render quality */
+    EvAlign align;
+    unsigned long long seed;
+    int max_views; /* 0: all test views */
+    int max_lights; /* 0: all relighting lights */
+    const char *mesh_path; /* NULL: the result folder's mesh.obj */
+} EvEvalOpts;
+
+/* Trivial guesses that every method must beat (pass as result_dir, with the scene's GT):
+ *   EV_TRIVIAL_GREY_DIR   mid-grey albedo 0.5, roughness 0.5, metallic 0 on the GT mesh, relit
+ *                         under the true relighting light;
+ *   EV_TRIVIAL_FLAT_DIR   the true albedo and ORM on the GT mesh, but rendered under a constant
+ *                         white light instead of the relighting light (lighting ignored).
+ * Both go through the same protocol (so their scale is aligned like every method's) and are
+ * scored on relighting only (their materials are not estimates). */
+#define EV_TRIVIAL_GREY_DIR ":trivial-grey"
+#define EV_TRIVIAL_FLAT_DIR ":trivial-flat-light"
+
+EvEvalOpts ev_eval_opts_default(void);
+
+/* Scores result_dir against scene_dir's test split; adds per-scene records to t and per-view rows
+ * to csv (may be NULL; header written by the caller: ev_eval_csv_header). Returns MF_OK even when
+ * some views are excluded (*excluded counts them). */
+int ev_eval_scene(const char *scene_dir, const char *result_dir, const char *method, const char *dataset,
+                  const char *scene, const EvEvalOpts *o, EvTable *t, FILE *csv, int *excluded);
+void ev_eval_csv_header(FILE *csv);
+
+#endif

@@ -1,0 +1,346 @@
+#include "inverse/mf_diffrender.h"
+
+#include <math.h>
+#include <omp.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/mf_error.h"
+#include "core/mf_rng.h"
+#include "render/mf_brdf.h"
+#include "scene/mf_texture.h"
+
+#define SHADOW_EPS 0.001f
+#define MAX_PIXEL_SAMPLES 256
+
+double mf_spec_q(double a, double ch, double co, double ci) {
+    if (!(ch > 0.0) || !(co > 0.0) || !(ci > 0.0)) return 0.0;
+    double a2 = a * a, c2 = fmin(ch * ch, 1.0);
+    double d = c2 * (a2 - 1.0) + 1.0;
+    double D = a2 / (M_PI * d * d);
+    double so = sqrt(co * co + a2 * (1.0 - co * co)), si = sqrt(ci * ci + a2 * (1.0 - ci * ci));
+    return D * ci / (2.0 * (so * ci + si * co));
+}
+
+double mf_spec_q_dalpha(double a, double ch, double co, double ci) {
+    double h = 1e-6 * fmax(a, 1e-3);
+    return (mf_spec_q(a + h, ch, co, ci) - mf_spec_q(a - h, ch, co, ci)) / (2.0 * h);
+}
+
+typedef struct {
+    const MfDiffScene *s;
+    const MfCamera *cam;
+    const MfDiffOpts *o;
+    const MfDiffAdjoint *adj; /* NULL in the forward pass */
+    float *dkd, *dorm, *denv; /* this thread's accumulators (adjoint only) */
+} Ctx;
+
+typedef struct {
+    MfMaterial m;
+    MfVec3 orm;
+} Mat;
+
+static Mat lookup(const MfImage *kd, const MfImage *orm, MfVec2 uv) {
+    Mat r;
+    float b[4];
+    mf_tex_sample(kd, uv.x, uv.y, MF_WRAP_REPEAT, b);
+    r.m.kd = mf_v3(b[0], b[1], b[2]);
+    mf_tex_sample(orm, uv.x, uv.y, MF_WRAP_REPEAT, b);
+    r.orm = mf_v3(b[0], b[1], b[2]);
+    r.m.roughness = mf_clampf(r.orm.y, 0.0f, 1.0f);
+    r.m.metallic = mf_clampf(r.orm.z, 0.0f, 1.0f);
+    return r;
+}
+
+/* Adjoint weights of one pixel sample: dLoss/d(rgb, diffuse, specular) of this sample. */
+typedef struct { MfVec3 g, gd, gs; } Adj;
+
+/* One light-transport sample: direction wi (local and world), MIS weight w, visible. Adds its
+ * contribution to the sample's diffuse/specular (forward) or its adjoint to the gradients. */
+static void contribute(Ctx *c, const MfHit *h, const Mat *mat, MfVec3 wo, MfVec3 wi, MfVec3 wi_w, float w,
+                       MfVec3 *dif, MfVec3 *spec, const Adj *a, MfVec3 *dkd, float *dr, float *dm) {
+    MfVec3 L = mf_env_eval(c->s->env, wi_w);
+    MfBrdfValue f = mf_brdf_eval(&mat->m, wo, wi, MF_LOBE_ALL);
+    if (!c->adj) {
+        *dif = mf_madd(*dif, L, f.diffuse_demod * w);
+        *spec = mf_add(*spec, mf_scale(mf_mul(L, f.specular), w));
+        return;
+    }
+    float m = mat->m.metallic;
+    MfVec3 kd = mat->m.kd;
+    /* radiance adjoint: rgb = kd (1-m) D + S, D = sum L cos/pi w, S = sum L f_s w */
+    MfVec3 f_rgb = mf_add(mf_scale(kd, (1.0f - m) * f.diffuse_demod), f.specular);
+    MfVec3 gL = mf_add(mf_mul(a->g, f_rgb), mf_add(mf_scale(a->gd, f.diffuse_demod), mf_mul(a->gs, f.specular)));
+    gL = mf_scale(gL, w);
+    if (c->denv) mf_env_eval_backward(c->s->env, wi_w, gL, c->denv);
+    /* material adjoint */
+    MfVec3 hv = mf_norm(mf_add(wo, wi));
+    float cd = mf_clampf(mf_dot(wo, hv), 0.0f, 1.0f);
+    float om = 1.0f - cd, om2 = om * om, wf = om2 * om2 * om; /* Schlick weight */
+    float r = fmaxf(mat->m.roughness, MF_MIN_ROUGHNESS), alpha = r * r;
+    double q = mf_spec_q(alpha, hv.z, wo.z, wi.z);
+    double dq = mat->m.roughness > MF_MIN_ROUGHNESS ? mf_spec_q_dalpha(alpha, hv.z, wo.z, wi.z) * 2.0 * r : 0.0;
+    MfVec3 gs_tot = mf_add(a->g, a->gs); /* specular radiance feeds rgb and the specular AOV */
+    for (int k = 0; k < 3; ++k) {
+        float Lk = (&L.x)[k] * w, kdk = (&kd.x)[k], gk = (&a->g.x)[k], gsk = (&gs_tot.x)[k];
+        float f0 = 0.04f * (1.0f - m) + kdk * m, F = f0 + (1.0f - f0) * wf;
+        (&dkd->x)[k] += Lk * (gk * (1.0f - m) * f.diffuse_demod + gsk * m * (1.0f - wf) * (float)q);
+        *dm += Lk * (-gk * kdk * f.diffuse_demod + gsk * (kdk - 0.04f) * (1.0f - wf) * (float)q);
+        *dr += Lk * gsk * F * (float)dq;
+    }
+}
+
+static inline int visible(const MfDiffScene *s, const MfHit *h, MfVec3 wi) {
+    MfVec3 o = mf_madd(h->p, h->ng, mf_dot(h->ng, wi) >= 0.0f ? SHADOW_EPS : -SHADOW_EPS);
+    return !mf_rtscene_occluded(s->rt, o, wi, 0.0f, INFINITY);
+}
+
+/* Shades one hit: forward fills dif/spec; adjoint accumulates into the thread's gradients. */
+static void shade(Ctx *c, const MfHit *h, MfVec3 wo_w, MfRng *rng, MfVec3 *dif, MfVec3 *spec, const Adj *a) {
+    const MfDiffScene *s = c->s;
+    Mat mat = lookup(s->kd, s->orm, h->uv);
+    Mat mat_s = (s->kd_s || s->orm_s) ? lookup(s->kd_s ? s->kd_s : s->kd, s->orm_s ? s->orm_s : s->orm, h->uv) : mat;
+    const MfEnvMap *env_s = s->env_s ? s->env_s : s->env;
+    MfFrame fr = mf_frame(h->ns);
+    MfVec3 wo = mf_to_local(&fr, wo_w);
+    *dif = *spec = mf_v3s(0.0f);
+    if (wo.z <= 0.0f) return;
+    MfVec3 dkd = mf_v3s(0.0f);
+    float dr = 0.0f, dm = 0.0f;
+    int n = c->o->spp_sqrt;
+    float inv_n = 1.0f / (float)n, inv_N = 1.0f / (float)(n * n);
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) {
+            float u1 = ((float)i + mf_rng_float(rng)) * inv_n, u2 = ((float)j + mf_rng_float(rng)) * inv_n;
+            MfVec3 wi_w;
+            float pl;
+            mf_env_sample(env_s, u1, u2, &wi_w, &pl);
+            if (!(pl > 0.0f) || mf_dot(wi_w, h->ng) <= 0.0f) continue;
+            MfVec3 wi = mf_to_local(&fr, wi_w);
+            if (wi.z <= 0.0f) continue;
+            float w = inv_N / (pl + mf_brdf_pdf(&mat_s.m, wo, wi, MF_LOBE_ALL));
+            if (!(w > 0.0f) || !isfinite(w) || !visible(s, h, wi_w)) continue;
+            contribute(c, h, &mat, wo, wi, wi_w, w, dif, spec, a, &dkd, &dr, &dm);
+        }
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) {
+            float u0 = mf_rng_float(rng);
+            float u1 = ((float)i + mf_rng_float(rng)) * inv_n, u2 = ((float)j + mf_rng_float(rng)) * inv_n;
+            MfVec3 wi;
+            float pb;
+            if (!mf_brdf_sample(&mat_s.m, wo, u0, u1, u2, MF_LOBE_ALL, &wi, &pb)) continue;
+            if (!(pb > 0.0f) || wi.z <= 0.0f) continue;
+            MfVec3 wi_w = mf_to_world(&fr, wi);
+            if (mf_dot(wi_w, h->ng) <= 0.0f) continue;
+            float w = inv_N / (mf_env_pdf(env_s, wi_w) + pb);
+            if (!(w > 0.0f) || !isfinite(w) || !visible(s, h, wi_w)) continue;
+            contribute(c, h, &mat, wo, wi, wi_w, w, dif, spec, a, &dkd, &dr, &dm);
+        }
+    if (c->adj) {
+        float gkd[3] = {dkd.x, dkd.y, dkd.z};
+        float gorm[3] = {0.0f, mat.orm.y >= 0.0f && mat.orm.y <= 1.0f ? dr : 0.0f,
+                         mat.orm.z >= 0.0f && mat.orm.z <= 1.0f ? dm : 0.0f};
+        if (c->dkd) mf_tex_sample_backward(s->kd, h->uv.x, h->uv.y, MF_WRAP_REPEAT, gkd, c->dkd);
+        if (c->dorm) mf_tex_sample_backward(s->orm, h->uv.x, h->uv.y, MF_WRAP_REPEAT, gorm, c->dorm);
+    }
+}
+
+/* A random permutation pairing the x and y strata of the pixel samples (N-rooks). */
+static void stratified_perm(MfRng *rng, int ps, int *perm) {
+    for (int k = 0; k < ps; ++k) perm[k] = k;
+    for (int k = ps - 1; k > 0; --k) {
+        int r = (int)mf_rng_below(rng, (uint32_t)(k + 1)), t = perm[k];
+        perm[k] = perm[r];
+        perm[r] = t;
+    }
+}
+
+static inline int is_zero3(MfVec3 v) { return v.x == 0.0f && v.y == 0.0f && v.z == 0.0f; }
+
+static void pixel(Ctx *c, int x, int y, MfRenderOut *out) {
+    const MfCamera *cam = c->cam;
+    MfRng rng;
+    mf_rng_seed(&rng, c->o->seed, (uint64_t)y * (uint64_t)cam->w + (uint64_t)x);
+    int ps = c->o->pixel_samples;
+    int perm[MAX_PIXEL_SAMPLES];
+    stratified_perm(&rng, ps, perm);
+    size_t i = (size_t)y * cam->w + x;
+    float inv_ps = 1.0f / (float)ps;
+    Adj a;
+    if (c->adj) {
+        const float *g = c->adj->drgb, *gd = c->adj->ddiffuse, *gs = c->adj->dspecular;
+        a.g = g ? mf_v3(g[3 * i] * inv_ps, g[3 * i + 1] * inv_ps, g[3 * i + 2] * inv_ps) : mf_v3s(0.0f);
+        a.gd = gd ? mf_v3(gd[3 * i] * inv_ps, gd[3 * i + 1] * inv_ps, gd[3 * i + 2] * inv_ps) : mf_v3s(0.0f);
+        a.gs = gs ? mf_v3(gs[3 * i] * inv_ps, gs[3 * i + 1] * inv_ps, gs[3 * i + 2] * inv_ps) : mf_v3s(0.0f);
+        if (is_zero3(a.g) && is_zero3(a.gd) && is_zero3(a.gs)) return; /* no adjoint here: nothing to trace */
+    }
+    MfVec3 rgb = mf_v3s(0), dif = mf_v3s(0), spec = mf_v3s(0), alb = mf_v3s(0), orm = mf_v3s(0);
+    int hits = 0;
+    for (int k = 0; k < ps; ++k) {
+        float px = (float)x + ((float)k + mf_rng_float(&rng)) * inv_ps;
+        float py = (float)y + ((float)perm[k] + mf_rng_float(&rng)) * inv_ps;
+        MfVec3 org, dir;
+        mf_camera_ray(cam, px, py, &org, &dir);
+        MfHit h;
+        if (!mf_rtscene_intersect(c->s->rt, org, dir, 0.0f, INFINITY, &h)) continue;
+        ++hits;
+        MfVec3 d, sp;
+        shade(c, &h, mf_neg(dir), &rng, &d, &sp, c->adj ? &a : NULL);
+        if (c->adj) continue;
+        Mat m = lookup(c->s->kd, c->s->orm, h.uv);
+        rgb = mf_add(rgb, mf_add(mf_mul(mf_scale(m.m.kd, 1.0f - m.m.metallic), d), sp));
+        dif = mf_add(dif, d);
+        spec = mf_add(spec, sp);
+        alb = mf_add(alb, m.m.kd);
+        orm = mf_add(orm, m.orm);
+    }
+    if (c->adj) return;
+    out->alpha[i] = (float)hits * inv_ps;
+    float inv_h = hits ? 1.0f / (float)hits : 0.0f;
+    const MfVec3 v[5] = {mf_scale(rgb, inv_ps), mf_scale(dif, inv_ps), mf_scale(spec, inv_ps), mf_scale(alb, inv_h),
+                         mf_scale(orm, inv_h)};
+    float *dst[5] = {out->rgb, out->diffuse, out->specular, out->albedo, out->orm};
+    for (int k = 0; k < 5; ++k) {
+        dst[k][3 * i] = v[k].x;
+        dst[k][3 * i + 1] = v[k].y;
+        dst[k][3 * i + 2] = v[k].z;
+    }
+}
+
+static int check(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o) {
+    if (!s || !s->rt || !s->kd || !s->orm || !s->env) return mf_fail(MF_EARG, "diffrender: incomplete scene");
+    if (s->kd->c < 3 || s->orm->c < 3) return mf_fail(MF_EARG, "diffrender: kd and ORM textures need 3 channels");
+    if (o->spp_sqrt < 1 || o->spp_sqrt > 64) return mf_fail(MF_EARG, "diffrender: spp_sqrt %d outside [1, 64]", o->spp_sqrt);
+    if (o->pixel_samples < 1 || o->pixel_samples > MAX_PIXEL_SAMPLES)
+        return mf_fail(MF_EARG, "diffrender: pixel_samples %d outside [1, %d]", o->pixel_samples, MAX_PIXEL_SAMPLES);
+    if (cam->w <= 0 || cam->h <= 0) return mf_fail(MF_EARG, "diffrender: camera size %dx%d", cam->w, cam->h);
+    return MF_OK;
+}
+
+int mf_diff_forward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, MfRenderOut *out) {
+    int rc = check(s, cam, o);
+    if (rc) return rc;
+    if (out->w != cam->w || out->h != cam->h) return mf_fail(MF_EARG, "diffrender: output size does not match the camera");
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int y = 0; y < cam->h; ++y) {
+        Ctx c = {s, cam, o, NULL, NULL, NULL, NULL};
+        for (int x = 0; x < cam->w; ++x) pixel(&c, x, y, out);
+    }
+    return MF_OK;
+}
+
+int mf_diff_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, const MfDiffAdjoint *adj,
+                     MfDiffGrads *g) {
+    int rc = check(s, cam, o);
+    if (rc) return rc;
+    size_t nkd = g->dkd ? (size_t)s->kd->w * s->kd->h * 3 : 0;
+    size_t norm = g->dorm ? (size_t)s->orm->w * s->orm->h * 3 : 0;
+    size_t nenv = g->denv ? (size_t)s->env->img.w * s->env->img.h * 3 : 0;
+    size_t per = nkd + norm + nenv;
+    int nt = omp_get_max_threads();
+    float *buf = calloc((size_t)nt * per + 1, sizeof(float));
+    if (!buf) return mf_fail(MF_ENOMEM, "diffrender: out of memory for %d gradient buffers of %zu floats", nt, per);
+#pragma omp parallel num_threads(nt)
+    {
+        int t = omp_get_thread_num();
+        float *b = buf + (size_t)t * per;
+        Ctx c = {s, cam, o, adj, nkd ? b : NULL, norm ? b + nkd : NULL, nenv ? b + nkd + norm : NULL};
+        /* static schedule: the rows a thread handles, and so the summation order, are fixed */
+#pragma omp for schedule(static, 1)
+        for (int y = 0; y < cam->h; ++y)
+            for (int x = 0; x < cam->w; ++x) pixel(&c, x, y, NULL);
+    }
+    for (int t = 0; t < nt; ++t) {
+        const float *b = buf + (size_t)t * per;
+        for (size_t i = 0; i < nkd; ++i) g->dkd[i] += b[i];
+        for (size_t i = 0; i < norm; ++i) g->dorm[i] += b[nkd + i];
+        for (size_t i = 0; i < nenv; ++i) g->denv[i] += b[nkd + norm + i];
+    }
+    free(buf);
+    return MF_OK;
+}
+
+/* ---- material AOVs ---- */
+
+/* Primary hits of pixel (x, y) with the forward pass's pixel sampling; returns their count. */
+static int pixel_hits(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, int x, int y, MfHit *hits) {
+    MfRng rng;
+    mf_rng_seed(&rng, o->seed, (uint64_t)y * (uint64_t)cam->w + (uint64_t)x);
+    int ps = o->pixel_samples, perm[MAX_PIXEL_SAMPLES], n = 0;
+    stratified_perm(&rng, ps, perm);
+    float inv_ps = 1.0f / (float)ps;
+    for (int k = 0; k < ps; ++k) {
+        float px = (float)x + ((float)k + mf_rng_float(&rng)) * inv_ps;
+        float py = (float)y + ((float)perm[k] + mf_rng_float(&rng)) * inv_ps;
+        MfVec3 org, dir;
+        mf_camera_ray(cam, px, py, &org, &dir);
+        if (mf_rtscene_intersect(s->rt, org, dir, 0.0f, INFINITY, &hits[n])) ++n;
+    }
+    return n;
+}
+
+int mf_diff_aov_forward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, float *albedo, float *orm,
+                        float *alpha) {
+    int rc = check(s, cam, o);
+    if (rc) return rc;
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int y = 0; y < cam->h; ++y) {
+        MfHit hits[MAX_PIXEL_SAMPLES];
+        for (int x = 0; x < cam->w; ++x) {
+            size_t i = (size_t)y * cam->w + x;
+            int n = pixel_hits(s, cam, o, x, y, hits);
+            float a[3] = {0, 0, 0}, m[3] = {0, 0, 0}, b[4];
+            for (int k = 0; k < n; ++k) {
+                mf_tex_sample(s->kd, hits[k].uv.x, hits[k].uv.y, MF_WRAP_REPEAT, b);
+                for (int c = 0; c < 3; ++c) a[c] += b[c] / (float)n;
+                mf_tex_sample(s->orm, hits[k].uv.x, hits[k].uv.y, MF_WRAP_REPEAT, b);
+                for (int c = 0; c < 3; ++c) m[c] += b[c] / (float)n;
+            }
+            for (int c = 0; c < 3; ++c) {
+                if (albedo) albedo[3 * i + c] = a[c];
+                if (orm) orm[3 * i + c] = m[c];
+            }
+            if (alpha) alpha[i] = (float)n / (float)o->pixel_samples;
+        }
+    }
+    return MF_OK;
+}
+
+int mf_diff_aov_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, const float *dalbedo,
+                         const float *dorm, MfDiffGrads *g) {
+    int rc = check(s, cam, o);
+    if (rc) return rc;
+    size_t nkd = (g->dkd && dalbedo) ? (size_t)s->kd->w * s->kd->h * 3 : 0;
+    size_t norm = (g->dorm && dorm) ? (size_t)s->orm->w * s->orm->h * 3 : 0;
+    size_t per = nkd + norm;
+    int nt = omp_get_max_threads();
+    float *buf = calloc((size_t)nt * per + 1, sizeof(float));
+    if (!buf) return mf_fail(MF_ENOMEM, "diffrender: out of memory for AOV gradient buffers");
+#pragma omp parallel num_threads(nt)
+    {
+        float *b = buf + (size_t)omp_get_thread_num() * per;
+        MfHit hits[MAX_PIXEL_SAMPLES];
+#pragma omp for schedule(static, 1)
+        for (int y = 0; y < cam->h; ++y)
+            for (int x = 0; x < cam->w; ++x) {
+                size_t i = (size_t)y * cam->w + x;
+                int n = pixel_hits(s, cam, o, x, y, hits);
+                for (int k = 0; k < n; ++k) {
+                    float ga[3], gm[3];
+                    for (int c = 0; c < 3; ++c) {
+                        ga[c] = nkd ? dalbedo[3 * i + c] / (float)n : 0.0f;
+                        gm[c] = norm ? dorm[3 * i + c] / (float)n : 0.0f;
+                    }
+                    if (nkd) mf_tex_sample_backward(s->kd, hits[k].uv.x, hits[k].uv.y, MF_WRAP_REPEAT, ga, b);
+                    if (norm) mf_tex_sample_backward(s->orm, hits[k].uv.x, hits[k].uv.y, MF_WRAP_REPEAT, gm, b + nkd);
+                }
+            }
+    }
+    for (int t = 0; t < nt; ++t) {
+        const float *b = buf + (size_t)t * per;
+        for (size_t i = 0; i < nkd; ++i) g->dkd[i] += b[i];
+        for (size_t i = 0; i < norm; ++i) g->dorm[i] += b[nkd + i];
+    }
+    free(buf);
+    return MF_OK;
+}

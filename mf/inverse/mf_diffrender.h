@@ -1,0 +1,86 @@
+/* mf_diffrender: the differentiable renderer of the inverse pipeline (forward + adjoint).
+ *
+ * The estimator is the forward integrator's (render/mf_integrator.h): per pixel, `pixel_samples`
+ * stratified primary rays; at each hit n^2 env-map light samples and n^2 BSDF samples combined
+ * with the balance heuristic, shadow rays offset 0.001 along the geometric normal, direct
+ * environment light only. It is re-implemented here (rather than called) because the adjoint
+ * needs two things the forward renderer does not have:
+ *  - separate parameters for SAMPLING (where directions are drawn, their pdfs and MIS weights)
+ *    and for EVALUATION (the BRDF values and the radiance that are differentiated). Gradients are
+ *    taken with sampling detached, as nvdiffrecmc does: d/dθ E[f L / p] = E[d(f L)/dθ / p]
+ *    for samples drawn from p, so the sampler itself needs no derivative. A gradient check
+ *    freezes sampling parameters and varies evaluation parameters, making the estimator a
+ *    smooth function of them with common random numbers;
+ *  - per-sample accumulation of the adjoint into texels (bilinear lookup of kd/ORM at the hit's
+ *    UV, repeat wrap) and env-map texels (bilinear lookup along each sample direction).
+ * The visibility boundary's gradient is ignored (geometry is fixed here), as in nvdiffrecmc.
+ *
+ * Outputs of the forward pass use MfRenderOut's arrays rgb, alpha, diffuse, specular (all
+ * premultiplied by coverage, as the forward renderer's). Given dLoss/d(rgb, diffuse, specular)
+ * the backward pass accumulates (+=) dLoss/d(kd texels, ORM texels, env texels). Memory does
+ * not grow with samples: each thread owns one gradient buffer, reduced in thread order
+ * (deterministic for a given seed and thread count). Decorrelation: the caller passes a
+ * different seed to the backward pass than to the forward pass whose image produced dLoss/drgb
+ * (the primal and adjoint samples are then independent, which removes the bias of
+ * correlated estimates in non-linear losses). */
+#ifndef MF_DIFFRENDER_H
+#define MF_DIFFRENDER_H
+
+#include <stdint.h>
+
+#include "io/mf_image.h"
+#include "render/mf_integrator.h"
+#include "render/mf_rtscene.h"
+#include "scene/mf_camera.h"
+#include "scene/mf_envmap.h"
+
+typedef struct {
+    const MfRtScene *rt;  /* borrowed; the (fixed) geometry, with UVs */
+    const MfImage *kd;    /* borrowed; (th, tw, 3) linear base colour, evaluated */
+    const MfImage *orm;   /* borrowed; (th, tw, 3) linear (occlusion, roughness, metallic), evaluated */
+    const MfEnvMap *env;  /* borrowed; radiance, evaluated */
+    const MfImage *kd_s;  /* borrowed; sampling copies, NULL = the evaluated ones */
+    const MfImage *orm_s;
+    const MfEnvMap *env_s;
+} MfDiffScene;
+
+typedef struct {
+    int spp_sqrt;      /* n: n^2 light + n^2 BSDF samples per pixel sample */
+    int pixel_samples; /* primary rays per pixel */
+    uint64_t seed;
+} MfDiffOpts;
+
+typedef struct {
+    const float *drgb;      /* (h, w, 3) dLoss/d rgb, or NULL */
+    const float *ddiffuse;  /* (h, w, 3) dLoss/d diffuse light, or NULL */
+    const float *dspecular; /* (h, w, 3) dLoss/d specular radiance, or NULL */
+} MfDiffAdjoint;
+
+typedef struct {
+    float *dkd;  /* (th, tw, 3) +=, or NULL */
+    float *dorm; /* (th, tw, 3) +=, or NULL (channel R never receives gradient) */
+    float *denv; /* (eh, ew, 3) +=, or NULL */
+} MfDiffGrads;
+
+/* out must be allocated for cam->w x cam->h (mf_render_out_alloc); fills rgb, alpha, diffuse,
+ * specular, albedo and orm (albedo/orm averaged over hit samples, as the forward renderer). */
+int mf_diff_forward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, MfRenderOut *out);
+int mf_diff_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, const MfDiffAdjoint *adj,
+                     MfDiffGrads *g);
+
+/* Material AOVs for the prior term: per pixel, the mean over its primary-ray hits of kd (albedo)
+ * and ORM at the hit's UV, and the coverage. Samples are stratified like the forward pass
+ * (seed o->seed); lighting is not evaluated. albedo, orm (h, w, 3), alpha (h, w). */
+int mf_diff_aov_forward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, float *albedo, float *orm,
+                        float *alpha);
+/* Adjoint of mf_diff_aov_forward (same seed: same hits): g->dkd += from dalbedo (h, w, 3),
+ * g->dorm += from dorm (h, w, 3) (either may be NULL). Deterministic (per-thread buffers). */
+int mf_diff_aov_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, const float *dalbedo,
+                         const float *dorm, MfDiffGrads *g);
+
+/* The specular lobe's factor Q(alpha) = D(h) cos_i / (2 (s(cos_o) cos_i + s(cos_i) cos_o))
+ * (spec * cos_i = F Q) and dQ/dalpha, in double (exposed for tests). */
+double mf_spec_q(double alpha, double cos_h, double cos_o, double cos_i);
+double mf_spec_q_dalpha(double alpha, double cos_h, double cos_o, double cos_i);
+
+#endif

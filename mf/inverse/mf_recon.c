@@ -1,0 +1,427 @@
+#include "inverse/mf_recon.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+
+#include "core/mf_error.h"
+#include "core/mf_fs.h"
+#include "core/mf_log.h"
+#include "core/mf_rng.h"
+#include "inverse/mf_diffrender.h"
+#include "inverse/mf_loss.h"
+#include "io/mf_exr.h"
+#include "io/mf_gltf.h"
+#include "io/mf_obj.h"
+#include "nn/mf_nn_ckpt.h"
+#include "render/mf_rtscene.h"
+
+struct MfRecon {
+    const MfMesh *mesh;         /* borrowed */
+    MfRtScene *rt;              /* owned */
+    MfReconView *views;         /* owned; (nviews,) with owned refs */
+    int nviews;
+    MfReconOpts o;
+    MfParamBlock blocks[MF_NBLOCKS];
+    MfAdam adam;
+    MfEnvMap env;               /* owned; texels copied from blocks[ENV] before each use */
+    float *uv_mask;             /* owned; (tex_res, tex_res) 1 where the mesh's UVs reach */
+    int it;                     /* iterations done */
+    double wall_offset;         /* wall seconds of earlier (resumed) runs */
+    double t_forward, t_adjoint; /* seconds in the primal and adjoint renders (this process) */
+};
+
+MfReconOpts mf_recon_opts_default(void) {
+    MfReconOpts o;
+    memset(&o, 0, sizeof o);
+    o.iters = 400;
+    o.batch = 2;
+    o.spp_sqrt = 2;
+    o.pixel_samples = 1;
+    o.tex_res = 256;
+    o.env_w = 64;
+    o.env_h = 32;
+    o.lr = 0.02f;
+    o.light_lr_scale = 3.0f;
+    o.w_kd_smooth = 0.1f;
+    o.w_orm_smooth = 0.05f;
+    o.w_shading = 0.15f;
+    o.w_spec_ratio = 0.0025f;
+    o.init_kd = 0.5f;
+    o.init_rough = 0.5f;
+    o.init_metal = 0.25f;
+    o.init_light = 0.5f;
+    o.snapshot_every = 50;
+    o.checkpoint_every = 50;
+    o.seed = 1;
+    return o;
+}
+
+long mf_peak_rss_bytes(void) {
+    struct rusage ru;
+    if (getrusage(RUSAGE_SELF, &ru) != 0) return 0;
+    return ru.ru_maxrss * 1024L;
+}
+
+/* Marks texels whose centres fall inside (or within one texel of) a UV triangle. */
+static void uv_mask_build(const MfMesh *m, int res, float *mask) {
+    memset(mask, 0, (size_t)res * res * sizeof(float));
+    for (int t = 0; t < m->nt; ++t) {
+        float x[3], y[3];
+        for (int k = 0; k < 3; ++k) {
+            uint32_t v = m->tri[3 * t + k];
+            x[k] = m->uv[2 * v] * res - 0.5f;
+            y[k] = (1.0f - m->uv[2 * v + 1]) * res - 0.5f;
+        }
+        int x0 = (int)floorf(fminf(x[0], fminf(x[1], x[2]))) - 1, x1 = (int)ceilf(fmaxf(x[0], fmaxf(x[1], x[2]))) + 1;
+        int y0 = (int)floorf(fminf(y[0], fminf(y[1], y[2]))) - 1, y1 = (int)ceilf(fmaxf(y[0], fmaxf(y[1], y[2]))) + 1;
+        float area = (x[1] - x[0]) * (y[2] - y[0]) - (x[2] - x[0]) * (y[1] - y[0]);
+        for (int py = y0; py <= y1; ++py)
+            for (int px = x0; px <= x1; ++px) {
+                int inside = 0;
+                /* a texel counts when its centre or any neighbour within 1 texel is inside */
+                for (int dy = -1; dy <= 1 && !inside; ++dy)
+                    for (int dx = -1; dx <= 1 && !inside; ++dx) {
+                        float cx = (float)(px + dx), cy = (float)(py + dy);
+                        float w0 = (x[1] - cx) * (y[2] - cy) - (x[2] - cx) * (y[1] - cy);
+                        float w1 = (x[2] - cx) * (y[0] - cy) - (x[0] - cx) * (y[2] - cy);
+                        float w2 = (x[0] - cx) * (y[1] - cy) - (x[1] - cx) * (y[0] - cy);
+                        if (area > 0 ? (w0 >= 0 && w1 >= 0 && w2 >= 0) : (w0 <= 0 && w1 <= 0 && w2 <= 0)) inside = 1;
+                    }
+                if (!inside) continue;
+                int wx = ((px % res) + res) % res, wy = ((py % res) + res) % res; /* repeat wrap */
+                mask[(size_t)wy * res + wx] = 1.0f;
+            }
+    }
+}
+
+int mf_recon_new(const MfMesh *mesh, MfReconView *views, int nviews, const MfReconOpts *opts, MfRecon **out) {
+    if (!mesh->uv) return mf_fail(MF_EARG, "the mesh has no UVs: reconstruction needs a UV-mapped mesh (unwrap it first, e.g. in Blender)");
+    if (nviews < 1) return mf_fail(MF_EARG, "no training views");
+    if (opts->iters < 0 || opts->batch < 1 || opts->tex_res < 4 || opts->env_w < 4 || opts->env_h < 2)
+        return mf_fail(MF_EARG, "invalid reconstruction options (iters %d, batch %d, tex %d, env %dx%d)", opts->iters,
+                       opts->batch, opts->tex_res, opts->env_w, opts->env_h);
+    MfRecon *r = calloc(1, sizeof *r);
+    if (!r) return mf_fail(MF_ENOMEM, "out of memory");
+    r->mesh = mesh;
+    r->o = *opts;
+    int T = opts->tex_res;
+    size_t ntex = (size_t)T * T * 3, nenv = (size_t)opts->env_w * opts->env_h * 3;
+    int rc = mf_rtscene_new(mesh, &r->rt);
+    if (!rc) rc = mf_param_init(&r->blocks[MF_BLOCK_KD], "kd", ntex, 3, NULL);
+    if (!rc) rc = mf_param_init(&r->blocks[MF_BLOCK_ORM], "orm", ntex, 3, NULL);
+    if (!rc) rc = mf_param_init(&r->blocks[MF_BLOCK_ENV], "env", nenv, 3, NULL);
+    if (!rc) rc = mf_env_init_constant(&r->env, opts->env_w, opts->env_h, mf_v3s(opts->init_light));
+    if (!rc && !(r->uv_mask = malloc((size_t)T * T * sizeof(float)))) rc = mf_fail(MF_ENOMEM, "out of memory");
+    if (!rc && !(r->views = malloc((size_t)nviews * sizeof *views))) rc = mf_fail(MF_ENOMEM, "out of memory");
+    if (rc) {
+        mf_recon_free(r);
+        return rc;
+    }
+    MfParamBlock *kd = &r->blocks[MF_BLOCK_KD], *orm = &r->blocks[MF_BLOCK_ORM], *env = &r->blocks[MF_BLOCK_ENV];
+    for (size_t i = 0; i < ntex; i += 3) {
+        kd->p[i] = kd->p[i + 1] = kd->p[i + 2] = opts->init_kd;
+        orm->p[i] = 1.0f;
+        orm->p[i + 1] = opts->init_rough;
+        orm->p[i + 2] = opts->init_metal;
+    }
+    for (size_t i = 0; i < nenv; ++i) env->p[i] = opts->init_light;
+    for (int c = 0; c < 3; ++c) mf_param_set_bounds(kd, c, 0.0f, 1.0f), mf_param_set_bounds(env, c, 0.01f, INFINITY);
+    mf_param_set_bounds(orm, 0, 1.0f, 1.0f);
+    mf_param_set_bounds(orm, 1, MF_MIN_ROUGHNESS, 1.0f);
+    mf_param_set_bounds(orm, 2, 0.0f, 1.0f);
+    env->lr_scale = opts->light_lr_scale;
+    mf_param_project(orm);
+    mf_adam_init(&r->adam, opts->lr);
+    uv_mask_build(mesh, T, r->uv_mask);
+    for (int i = 0; i < nviews; ++i) {
+        r->views[i] = views[i];
+        memset(&views[i].ref, 0, sizeof views[i].ref);
+    }
+    r->nviews = nviews;
+    *out = r;
+    return MF_OK;
+}
+
+void mf_recon_free(MfRecon *r) {
+    if (!r) return;
+    mf_rtscene_free(r->rt);
+    for (int b = 0; b < MF_NBLOCKS; ++b) mf_param_free(&r->blocks[b]);
+    mf_env_free(&r->env);
+    for (int i = 0; r->views && i < r->nviews; ++i) mf_image_free(&r->views[i].ref);
+    free(r->views);
+    free(r->uv_mask);
+    free(r);
+}
+
+int mf_recon_iteration(const MfRecon *r) { return r->it; }
+MfParamBlock *mf_recon_block(MfRecon *r, MfBlockId id) { return &r->blocks[id]; }
+const MfReconOpts *mf_recon_opts(const MfRecon *r) { return &r->o; }
+const MfReconView *mf_recon_view(const MfRecon *r, int i) { return &r->views[i]; }
+int mf_recon_nviews(const MfRecon *r) { return r->nviews; }
+const MfMesh *mf_recon_mesh(const MfRecon *r) { return r->mesh; }
+const MfRtScene *mf_recon_rtscene(const MfRecon *r) { return r->rt; }
+const MfEnvMap *mf_recon_env(const MfRecon *r) { return &r->env; }
+void mf_recon_timing(const MfRecon *r, double *forward_s, double *adjoint_s) {
+    *forward_s = r->t_forward;
+    *adjoint_s = r->t_adjoint;
+}
+
+static MfImage block_image(const MfParamBlock *b, int w, int h) {
+    MfImage im = {w, h, 3, b->p};
+    return im;
+}
+MfImage mf_recon_kd_image(const MfRecon *r) { return block_image(&r->blocks[MF_BLOCK_KD], r->o.tex_res, r->o.tex_res); }
+MfImage mf_recon_orm_image(const MfRecon *r) { return block_image(&r->blocks[MF_BLOCK_ORM], r->o.tex_res, r->o.tex_res); }
+
+/* Copies the env block into the env map and rebuilds its sampling tables. */
+static int sync_env(MfRecon *r) {
+    memcpy(r->env.img.data, r->blocks[MF_BLOCK_ENV].p, r->blocks[MF_BLOCK_ENV].n * sizeof(float));
+    return mf_env_update(&r->env);
+}
+
+/* ---- checkpoints: every block's values and Adam moments, plus the iteration ---- */
+
+static void ckpt_specs(const MfRecon *r, MfTensorSpec *specs) {
+    static const char *part[3] = {"p", "m", "v"};
+    for (int b = 0; b < MF_NBLOCKS; ++b)
+        for (int k = 0; k < 3; ++k) {
+            int shape[1] = {(int)r->blocks[b].n};
+            mf_spec_set(&specs[b * 3 + k], r->blocks[b].name, part[k], 1, shape);
+        }
+}
+
+static int save_checkpoint(const MfRecon *r, const char *path, double wall) {
+    MfTensorSpec specs[MF_NBLOCKS * 3];
+    ckpt_specs(r, specs);
+    size_t total = mf_specs_numel(specs, MF_NBLOCKS * 3), off = 0;
+    float *buf = malloc(total * sizeof(float) + 1);
+    if (!buf) return mf_fail(MF_ENOMEM, "%s: out of memory", path);
+    for (int b = 0; b < MF_NBLOCKS; ++b) {
+        const MfParamBlock *pb = &r->blocks[b];
+        memcpy(buf + off, pb->p, pb->n * sizeof(float)), off += pb->n;
+        memcpy(buf + off, pb->m, pb->n * sizeof(float)), off += pb->n;
+        memcpy(buf + off, pb->v, pb->n * sizeof(float)), off += pb->n;
+    }
+    char meta[256];
+    snprintf(meta, sizeof meta, "{\"kind\":\"mf-recon\",\"iteration\":%d,\"adam_t\":%ld,\"wall_s\":%.17g,\"tex_res\":%d,\"env_w\":%d,\"env_h\":%d}",
+             r->it, r->adam.t, wall, r->o.tex_res, r->o.env_w, r->o.env_h);
+    int rc = mf_ckpt_save(path, specs, MF_NBLOCKS * 3, buf, meta);
+    free(buf);
+    return rc;
+}
+
+int mf_recon_load_checkpoint(MfRecon *r, const char *path) {
+    MfTensorSpec specs[MF_NBLOCKS * 3];
+    ckpt_specs(r, specs);
+    size_t total = mf_specs_numel(specs, MF_NBLOCKS * 3), off = 0;
+    float *buf = malloc(total * sizeof(float) + 1);
+    char *meta = NULL;
+    if (!buf) return mf_fail(MF_ENOMEM, "%s: out of memory", path);
+    int rc = mf_ckpt_load(path, specs, MF_NBLOCKS * 3, buf, &meta);
+    if (rc) {
+        free(buf);
+        return mf_fail_prefix(rc, "resume (were texture/env sizes changed?)");
+    }
+    int it = -1;
+    long t = -1;
+    double wall = 0.0;
+    const char *pi = meta ? strstr(meta, "\"iteration\":") : NULL, *pt = meta ? strstr(meta, "\"adam_t\":") : NULL;
+    const char *pw = meta ? strstr(meta, "\"wall_s\":") : NULL;
+    if (!pi || !pt || sscanf(pi, "\"iteration\":%d", &it) != 1 || sscanf(pt, "\"adam_t\":%ld", &t) != 1 || it < 0) {
+        free(buf);
+        free(meta);
+        return mf_fail(MF_EFORMAT, "%s: not a reconstruction checkpoint (no iteration in its header)", path);
+    }
+    if (pw) sscanf(pw, "\"wall_s\":%lf", &wall);
+    for (int b = 0; b < MF_NBLOCKS; ++b) {
+        MfParamBlock *pb = &r->blocks[b];
+        memcpy(pb->p, buf + off, pb->n * sizeof(float)), off += pb->n;
+        memcpy(pb->m, buf + off, pb->n * sizeof(float)), off += pb->n;
+        memcpy(pb->v, buf + off, pb->n * sizeof(float)), off += pb->n;
+    }
+    r->it = it;
+    r->adam.t = t;
+    r->wall_offset = wall;
+    free(buf);
+    free(meta);
+    return MF_OK;
+}
+
+/* ---- one iteration ---- */
+
+typedef struct { double image, alpha, reg, sds, psnr; } IterStats;
+
+static int view_step(MfRecon *r, int vi, uint64_t vseed, float scale, IterStats *st) {
+    const MfReconView *v = &r->views[vi];
+    int w = v->cam.w, h = v->cam.h;
+    size_t npx = (size_t)w * h;
+    MfImage kd = mf_recon_kd_image(r), orm = mf_recon_orm_image(r);
+    MfDiffScene s = {r->rt, &kd, &orm, &r->env, NULL, NULL, NULL};
+    MfDiffOpts fo = {r->o.spp_sqrt, r->o.pixel_samples, mf_hash64(vseed, 1)};
+    MfRenderOut out;
+    int rc = mf_render_out_alloc(&out, w, h);
+    if (rc) return rc;
+    float *bg = malloc(npx * 3 * sizeof(float)), *cp = malloc(npx * 3 * sizeof(float));
+    float *cr = malloc(npx * 3 * sizeof(float)), *ra = malloc(npx * sizeof(float));
+    float *drgb = calloc(npx * 3, sizeof(float)), *dd = calloc(npx * 3, sizeof(float)), *ds = calloc(npx * 3, sizeof(float));
+    float *rrgb = malloc(npx * 3 * sizeof(float));
+    if (!bg || !cp || !cr || !ra || !drgb || !dd || !ds || !rrgb) {
+        rc = mf_fail(MF_ENOMEM, "out of memory for a %dx%d view", w, h);
+        goto done;
+    }
+    double t0 = mf_now();
+    if ((rc = mf_diff_forward(&s, &v->cam, &fo, &out))) goto done;
+    r->t_forward += mf_now() - t0;
+    MfRng rng;
+    mf_rng_seed(&rng, mf_hash64(vseed, 2), 0);
+    for (size_t i = 0; i < npx * 3; ++i) bg[i] = mf_rng_float(&rng);
+    for (size_t i = 0; i < npx; ++i) {
+        ra[i] = v->ref.data[4 * i + 3];
+        for (int c = 0; c < 3; ++c) rrgb[3 * i + c] = v->ref.data[4 * i + c];
+    }
+    mf_loss_composite(cp, out.rgb, out.alpha, bg, npx);
+    mf_loss_composite(cr, rrgb, ra, bg, npx);
+    st->image += mf_loss_logl1_fwd(cp, cr, npx * 3) * scale;
+    st->alpha += mf_loss_mse_fwd(out.alpha, ra, npx) * scale;
+    mf_loss_logl1_bwd(cp, cr, npx * 3, scale, drgb); /* d composite / d rgb_premult = 1 */
+    if (r->o.w_shading > 0.0f) {
+        st->reg += r->o.w_shading * mf_reg_shading_fwd(out.diffuse, out.specular, out.alpha, npx, r->o.w_spec_ratio) * scale;
+        mf_reg_shading_bwd(out.diffuse, out.specular, out.alpha, npx, r->o.w_spec_ratio, r->o.w_shading * scale, dd, ds);
+    }
+    double se = 0.0;
+    for (size_t i = 0; i < npx * 3; ++i) {
+        float a = mf_clampf(mf_linear_to_srgb(cp[i]), 0.0f, 1.0f), b = mf_clampf(mf_linear_to_srgb(cr[i]), 0.0f, 1.0f);
+        se += (double)(a - b) * (a - b);
+    }
+    st->psnr += 10.0 * log10(1.0 / fmax(se / (double)(npx * 3), 1e-10)) * scale;
+    MfDiffOpts bo = fo;
+    bo.seed = mf_hash64(vseed, 3); /* decorrelated from the primal samples */
+    MfDiffAdjoint adj = {drgb, dd, ds};
+    MfDiffGrads g = {r->blocks[MF_BLOCK_KD].g, r->blocks[MF_BLOCK_ORM].g, r->blocks[MF_BLOCK_ENV].g};
+    t0 = mf_now();
+    rc = mf_diff_backward(&s, &v->cam, &bo, &adj, &g);
+    r->t_adjoint += mf_now() - t0;
+done:
+    mf_render_out_free(&out);
+    free(bg), free(cp), free(cr), free(ra), free(drgb), free(dd), free(ds), free(rrgb);
+    return rc;
+}
+
+static int write_textures(const MfRecon *r, const char *dir) {
+    char p[MF_PATH_MAX];
+    int T = r->o.tex_res, rc = mf_mkdirs(dir);
+    if (rc) return rc;
+    MfImage kd = mf_recon_kd_image(r), orm = mf_recon_orm_image(r);
+    MfImage env = block_image(&r->blocks[MF_BLOCK_ENV], r->o.env_w, r->o.env_h);
+    (void)T;
+    if ((rc = mf_path_join(p, sizeof p, dir, "albedo.png")) || (rc = mf_image_write(p, &kd, MF_ENC_SRGB, 8))) return rc;
+    if ((rc = mf_path_join(p, sizeof p, dir, "orm.png")) || (rc = mf_image_write(p, &orm, MF_ENC_LINEAR, 8))) return rc;
+    if ((rc = mf_path_join(p, sizeof p, dir, "env.exr")) || (rc = mf_image_write(p, &env, MF_ENC_LINEAR, 32))) return rc;
+    return MF_OK;
+}
+
+int mf_recon_write_result(const MfRecon *r, const char *dir) {
+    char p[MF_PATH_MAX], a[MF_PATH_MAX], o[MF_PATH_MAX];
+    int rc = write_textures(r, dir);
+    if (rc) return rc;
+    if ((rc = mf_path_join(p, sizeof p, dir, "mesh.obj")) || (rc = mf_obj_write(p, r->mesh, "albedo.png"))) return rc;
+    if ((rc = mf_path_join(p, sizeof p, dir, "scene.glb")) || (rc = mf_path_join(a, sizeof a, dir, "albedo.png")) ||
+        (rc = mf_path_join(o, sizeof o, dir, "orm.png")))
+        return rc;
+    MfGltfMaterial gm = mf_gltf_material_default();
+    gm.albedo_png = a;
+    gm.orm_png = o;
+    return mf_gltf_write_glb(p, r->mesh, &gm);
+}
+
+int mf_recon_run(MfRecon *r, const MfReconHook *hook, const char *out_dir) {
+    char logp[MF_PATH_MAX], ckpt[MF_PATH_MAX];
+    int rc = mf_mkdirs(out_dir);
+    if (rc || (rc = mf_path_join(logp, sizeof logp, out_dir, "log.csv")) ||
+        (rc = mf_path_join(ckpt, sizeof ckpt, out_dir, "checkpoint.mfck")))
+        return rc;
+    /* log.csv: rewritten from scratch on a fresh run; on resume, rows past the checkpoint's
+     * iteration are dropped so the log matches an uninterrupted run. */
+    FILE *log = NULL;
+    if (r->it == 0) {
+        log = fopen(logp, "w");
+        if (log) fprintf(log, "iter,wall_s,loss_total,loss_image,loss_reg,loss_sds,train_psnr\n");
+    } else {
+        char *old = NULL;
+        size_t len = 0;
+        if (mf_read_file(logp, &old, &len) != MF_OK) return mf_fail(MF_EIO, "%s: resume needs the run's log.csv", logp);
+        log = fopen(logp, "w");
+        if (log) {
+            char *save = NULL;
+            for (char *ln = strtok_r(old, "\n", &save); ln; ln = strtok_r(NULL, "\n", &save)) {
+                int it;
+                if (sscanf(ln, "%d,", &it) == 1 && it > r->it) break;
+                fprintf(log, "%s\n", ln);
+            }
+        }
+        free(old);
+    }
+    if (!log) return mf_fail(MF_EIO, "%s: cannot write", logp);
+    MfProgress prog;
+    mf_progress_begin(&prog, "recon", (size_t)(r->o.iters - r->it));
+    double t0 = mf_now();
+    int nb = r->o.batch < r->nviews ? r->o.batch : r->nviews;
+    int *perm = malloc((size_t)r->nviews * sizeof(int));
+    if (!perm) { fclose(log); return mf_fail(MF_ENOMEM, "out of memory"); }
+    while (r->it < r->o.iters && rc == MF_OK) {
+        int it = r->it;
+        /* views of this iteration: epoch-wise permutation derived from (seed, epoch) */
+        int per_epoch = (r->nviews + nb - 1) / nb, epoch = it / per_epoch, slot = it % per_epoch;
+        MfRng prng;
+        mf_rng_seed(&prng, mf_hash64(r->o.seed, 0x7065726dULL), (uint64_t)epoch);
+        for (int i = 0; i < r->nviews; ++i) perm[i] = i;
+        for (int i = r->nviews - 1; i > 0; --i) {
+            int j = (int)mf_rng_below(&prng, (uint32_t)(i + 1)), t = perm[i];
+            perm[i] = perm[j], perm[j] = t;
+        }
+        int batch[64], n = 0;
+        for (int k = 0; k < nb && n < 64; ++k) batch[n++] = perm[(slot * nb + k) % r->nviews];
+        for (int b = 0; b < MF_NBLOCKS; ++b) mf_param_zero_grad(&r->blocks[b]);
+        if ((rc = sync_env(r))) break;
+        IterStats st = {0};
+        for (int k = 0; k < n && !rc; ++k)
+            rc = view_step(r, batch[k], mf_hash64(mf_hash64(r->o.seed, (uint64_t)it), (uint64_t)batch[k]), 1.0f / n, &st);
+        if (rc) break;
+        MfParamBlock *kd = &r->blocks[MF_BLOCK_KD], *orm = &r->blocks[MF_BLOCK_ORM];
+        int T = r->o.tex_res;
+        if (r->o.w_kd_smooth > 0.0f) {
+            st.reg += r->o.w_kd_smooth * mf_reg_smooth_fwd(kd->p, T, T, 3, 0, 3, r->uv_mask);
+            mf_reg_smooth_bwd(kd->p, T, T, 3, 0, 3, r->uv_mask, r->o.w_kd_smooth, kd->g);
+        }
+        if (r->o.w_orm_smooth > 0.0f) {
+            st.reg += r->o.w_orm_smooth * mf_reg_smooth_fwd(orm->p, T, T, 3, 1, 2, r->uv_mask);
+            mf_reg_smooth_bwd(orm->p, T, T, 3, 1, 2, r->uv_mask, r->o.w_orm_smooth, orm->g);
+        }
+        if (hook && hook->fn && (rc = hook->fn(hook->ctx, r, it, batch, n, &st.sds))) break;
+        if ((rc = mf_adam_step(&r->adam, r->blocks, MF_NBLOCKS, mf_lr_schedule(r->o.lr, it)))) {
+            mf_fail_prefix(rc, "iteration %d: stopping; the last good checkpoint is %s", it, ckpt);
+            break;
+        }
+        r->it = it + 1;
+        double wall = r->wall_offset + mf_now() - t0;
+        fprintf(log, "%d,%.3f,%.6g,%.6g,%.6g,%.6g,%.4f\n", r->it, wall, st.image + st.reg + st.sds, st.image, st.reg,
+                st.sds, st.psnr);
+        fflush(log);
+        if (r->o.snapshot_every > 0 && r->it % r->o.snapshot_every == 0) {
+            char d[MF_PATH_MAX], name[32];
+            snprintf(name, sizeof name, "snapshots/iter_%05d", r->it);
+            if ((rc = mf_path_join(d, sizeof d, out_dir, name)) || (rc = write_textures(r, d))) break;
+        }
+        if ((r->o.checkpoint_every > 0 && r->it % r->o.checkpoint_every == 0) || r->it == r->o.iters)
+            if ((rc = save_checkpoint(r, ckpt, wall))) break;
+        mf_progress_add(&prog, 1);
+    }
+    mf_progress_end(&prog);
+    free(perm);
+    fclose(log);
+    if (rc) return rc;
+    return mf_recon_write_result(r, out_dir);
+}

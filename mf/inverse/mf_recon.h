@@ -1,0 +1,107 @@
+/* mf_recon: the shared inverse-rendering loop (nvdiffrecmc's second pass on a given mesh).
+ *
+ * Recovers, for a fixed triangle mesh with UVs, an albedo texture kd (th, tw, 3), an ORM
+ * texture (th, tw, 3) and an HDR environment map (eh, ew, 3, Blender mapping) from posed RGBA
+ * views under one unknown light. Each iteration:
+ *   1. lr = lr0 * 10^(-0.0002 it) (light: x light_lr_scale);
+ *   2. a batch of views (a per-epoch random permutation, seeded);
+ *   3. per view: forward render (mf_diff_forward, seed A) at the view's resolution, composite
+ *      render and reference over the same uniform-noise background, image loss = logl1 (+ alpha
+ *      MSE, reported: with a fixed mesh it has no material gradient), shading regulariser on the
+ *      demodulated light; adjoint render (seed B != A: decorrelated) accumulates the gradients;
+ *   4. texel smoothness regularisers on kd and ORM (G, B) over the texels the mesh's UVs use;
+ *   5. the method hook (MaterialFusion's SDS+ term) may add loss and gradients;
+ *   6. Adam step with bounds: kd in [0,1], ORM R = 1 (frozen), G in [0.08,1], B in [0,1],
+ *      light >= 0.01. A non-finite gradient stops the run (MF_ENAN) with the last good
+ *      checkpoint kept and no texture written from the bad state.
+ * Parameter blocks are kept in an array (MF_BLOCK_*) so a geometry block can join later
+ * without changing the loop. Determinism: every random choice derives from (seed, iteration,
+ * view), so a run resumed from a checkpoint reaches the same bytes as an uninterrupted run
+ * (same build and thread count).
+ *
+ * Outputs (mf_recon_run / mf_recon_write_result) follow DESIGN.md's result folder: albedo.png
+ * (sRGB), orm.png (linear, R = 1), env.exr, mesh.obj (+ mesh.mtl), scene.glb, log.csv
+ * (iter, wall_s, loss_total, loss_image, loss_reg, loss_sds, train_psnr), snapshots/iter_NNNNN/
+ * (albedo.png, orm.png, env.exr every snapshot_every iterations) and checkpoint.mfck. */
+#ifndef MF_RECON_H
+#define MF_RECON_H
+
+#include <stdint.h>
+
+#include "inverse/mf_optim.h"
+#include "io/mf_image.h"
+#include "render/mf_integrator.h"
+#include "scene/mf_camera.h"
+#include "scene/mf_envmap.h"
+#include "scene/mf_mesh.h"
+
+typedef enum { MF_BLOCK_KD = 0, MF_BLOCK_ORM = 1, MF_BLOCK_ENV = 2, MF_NBLOCKS = 3 } MfBlockId;
+
+typedef struct {
+    MfCamera cam; /* at the resolution of ref */
+    MfImage ref;  /* owned; (h, w, 4) linear: rgb premultiplied by alpha, then alpha */
+} MfReconView;
+
+typedef struct {
+    int iters;            /* total iterations */
+    int batch;            /* views per iteration */
+    int spp_sqrt;         /* n: n^2 light + n^2 BSDF samples per pixel sample */
+    int pixel_samples;    /* primary rays per pixel */
+    int tex_res;          /* kd / ORM texture side */
+    int env_w, env_h;     /* env map size */
+    float lr;             /* textures' learning rate (nvdiffrecmc pass 2: 0.005; see defaults) */
+    float light_lr_scale; /* x lr for the env map (nvdiffrecmc: 3) */
+    float w_kd_smooth;    /* albedo smoothness weight */
+    float w_orm_smooth;   /* ORM smoothness weight */
+    float w_shading;      /* white-light shading regulariser weight */
+    float w_spec_ratio;   /* mean(spec) / mean(diffuse) weight inside the shading term */
+    float init_kd, init_rough, init_metal, init_light;
+    int snapshot_every;   /* 0: none */
+    int checkpoint_every; /* 0: only at the end */
+    uint64_t seed;
+} MfReconOpts;
+
+MfReconOpts mf_recon_opts_default(void);
+
+typedef struct MfRecon MfRecon;
+
+/* Method hook (MaterialFusion): called once per iteration after the image terms; adds its
+ * gradients into the blocks' g arrays and returns its loss in *loss. */
+typedef struct {
+    int (*fn)(void *ctx, MfRecon *r, int it, const int *batch, int nb, double *loss);
+    void *ctx;
+} MfReconHook;
+
+/* On success takes the views' reference images (views[i].ref is moved: the caller's copy is
+ * zeroed; the views array itself stays the caller's); on failure views are untouched. Borrows
+ * mesh (must have UVs; must outlive r). */
+int mf_recon_new(const MfMesh *mesh, MfReconView *views, int nviews, const MfReconOpts *opts, MfRecon **out);
+void mf_recon_free(MfRecon *r);
+
+/* Restores parameters, Adam state and the iteration count from a checkpoint written by a run
+ * with the same options (texture/env sizes are checked). */
+int mf_recon_load_checkpoint(MfRecon *r, const char *path);
+/* Runs iterations from the current one to opts.iters, writing log.csv / snapshots /
+ * checkpoints under out_dir (appending to log.csv when resuming). prog may be NULL. */
+int mf_recon_run(MfRecon *r, const MfReconHook *hook, const char *out_dir);
+/* Writes albedo.png, orm.png, env.exr, mesh.obj (+mtl), scene.glb into dir. */
+int mf_recon_write_result(const MfRecon *r, const char *dir);
+
+/* Accessors for hooks and tests. */
+int mf_recon_iteration(const MfRecon *r);
+MfParamBlock *mf_recon_block(MfRecon *r, MfBlockId id);
+const MfReconOpts *mf_recon_opts(const MfRecon *r);
+const MfReconView *mf_recon_view(const MfRecon *r, int i);
+int mf_recon_nviews(const MfRecon *r);
+const MfMesh *mf_recon_mesh(const MfRecon *r);
+const MfRtScene *mf_recon_rtscene(const MfRecon *r);
+/* Texture images viewing the current parameters (borrowed; valid until the next step). */
+MfImage mf_recon_kd_image(const MfRecon *r);
+MfImage mf_recon_orm_image(const MfRecon *r);
+const MfEnvMap *mf_recon_env(const MfRecon *r);
+/* Seconds spent in the primal (forward) and adjoint renders by this process. */
+void mf_recon_timing(const MfRecon *r, double *forward_s, double *adjoint_s);
+/* Peak resident set size of this process in bytes (from getrusage). */
+long mf_peak_rss_bytes(void);
+
+#endif

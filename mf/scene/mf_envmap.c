@@ -1,0 +1,289 @@
+/* mf_envmap: equirectangular env light, Blender mapping, importance sampling (see mf_envmap.h).
+ *
+ * Sampling tables. Texel (x, y) covers u in [x/W, (x+1)/W] and the row band y in
+ * [y/H, (y+1)/H] of 1 - v, i.e. z = cos(theta) in [cos(pi (y+1)/H), cos(pi y/H)]. Its weight is
+ * (max(R, G, B) + floor) * sin(theta_c) with theta_c = pi (y + 0.5) / H; floor = 1e-4 * mean of
+ * max(R, G, B) (or 1 for an all-black map) keeps every direction reachable, so light sampling
+ * alone is unbiased even where the bilinear lookup bleeds into a black texel. A texel is chosen
+ * from the CDFs, then a point uniform in solid angle inside it (uniform in u and in z), so the
+ * density is constant per texel:  pdf = P(texel) / Omega(texel),
+ *   Omega(texel) = (2 pi / W) (cos(pi y/H) - cos(pi (y+1)/H))
+ * and is finite everywhere, poles included. P(texel) is read back from the same float CDFs the
+ * sampler searches, so mf_env_pdf is exactly the density mf_env_sample draws with. */
+#include "scene/mf_envmap.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/mf_error.h"
+
+#define ENV_FLOOR_REL 1e-4
+
+void mf_env_dir_to_uv(MfVec3 d, float *u, float *v) {
+    float uu = 0.5f - atan2f(d.y, d.x) * MF_INV_2PI;
+    if (uu >= 1.0f) uu -= 1.0f;
+    if (uu < 0.0f) uu += 1.0f;
+    *u = uu;
+    *v = 0.5f + asinf(mf_clampf(d.z, -1.0f, 1.0f)) * MF_INV_PI;
+}
+
+MfVec3 mf_env_uv_to_dir(float u, float v) {
+    float phi = MF_PI - 2.0f * MF_PI * u;
+    float lat = MF_PI * (v - 0.5f);
+    float r = cosf(lat);
+    return mf_v3(r * cosf(phi), r * sinf(phi), sinf(lat));
+}
+
+/* Bilinear footprint of direction d: 4 texel indices (into h*w) and weights. */
+static void env_footprint(const MfEnvMap *env, MfVec3 d, size_t idx[4], float wt[4]) {
+    int W = env->img.w, H = env->img.h;
+    float u, v;
+    mf_env_dir_to_uv(d, &u, &v);
+    float x = u * (float)W - 0.5f, y = (1.0f - v) * (float)H - 0.5f;
+    if (!isfinite(x)) x = 0.0f;
+    if (!isfinite(y)) y = 0.0f;
+    float fx = floorf(x), fy = floorf(y);
+    float tx = x - fx, ty = y - fy;
+    int x0 = (int)fx, y0 = (int)fy;
+    int x1 = x0 + 1, y1 = y0 + 1;
+    x0 %= W;
+    if (x0 < 0) x0 += W;
+    x1 %= W;
+    if (x1 < 0) x1 += W;
+    y0 = y0 < 0 ? 0 : (y0 >= H ? H - 1 : y0);
+    y1 = y1 < 0 ? 0 : (y1 >= H ? H - 1 : y1);
+    idx[0] = (size_t)y0 * W + x0;
+    idx[1] = (size_t)y0 * W + x1;
+    idx[2] = (size_t)y1 * W + x0;
+    idx[3] = (size_t)y1 * W + x1;
+    wt[0] = (1.0f - tx) * (1.0f - ty);
+    wt[1] = tx * (1.0f - ty);
+    wt[2] = (1.0f - tx) * ty;
+    wt[3] = tx * ty;
+}
+
+MfVec3 mf_env_eval(const MfEnvMap *env, MfVec3 d) {
+    size_t idx[4];
+    float wt[4];
+    env_footprint(env, d, idx, wt);
+    const float *p = env->img.data;
+    MfVec3 r = mf_v3s(0.0f);
+    for (int k = 0; k < 4; ++k) r = mf_add(r, mf_scale(mf_v3(p[idx[k] * 3], p[idx[k] * 3 + 1], p[idx[k] * 3 + 2]), wt[k]));
+    return r;
+}
+
+void mf_env_eval_backward(const MfEnvMap *env, MfVec3 d, MfVec3 dL, float *dimg) {
+    size_t idx[4];
+    float wt[4];
+    env_footprint(env, d, idx, wt);
+    for (int k = 0; k < 4; ++k) {
+        float *g = dimg + idx[k] * 3;
+        g[0] += wt[k] * dL.x;
+        g[1] += wt[k] * dL.y;
+        g[2] += wt[k] * dL.z;
+    }
+}
+
+/* Solid angle of one texel of row y divided by (2 pi / W): cos(pi y/H) - cos(pi (y+1)/H). */
+static double row_dz(int y, int H) { return 2.0 * sin(M_PI * (2.0 * y + 1.0) / (2.0 * H)) * sin(M_PI / (2.0 * H)); }
+
+int mf_env_update(MfEnvMap *env) {
+    int W = env->img.w, H = env->img.h;
+    const float *p = env->img.data;
+    size_t n = (size_t)W * H;
+    double mean = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+        float m = fmaxf(p[3 * i], fmaxf(p[3 * i + 1], p[3 * i + 2]));
+        if (!isfinite(m)) return mf_fail(MF_ENAN, "env map: texel %zu is not finite", i);
+        mean += m > 0.0f ? m : 0.0f;
+    }
+    mean /= (double)n;
+    double floor_w = mean > 0.0 ? ENV_FLOOR_REL * mean : 1.0;
+    double *roww = malloc(sizeof(double) * (size_t)(W > H ? W : H));
+    if (!roww) return mf_fail(MF_ENOMEM, "env map: out of memory for sampling tables");
+    double total = 0.0;
+    env->marg_cdf[0] = 0.0f;
+    double *rowsum = malloc(sizeof(double) * (size_t)H);
+    if (!rowsum) {
+        free(roww);
+        return mf_fail(MF_ENOMEM, "env map: out of memory for sampling tables");
+    }
+    for (int y = 0; y < H; ++y) {
+        double st = sin(M_PI * (y + 0.5) / H);
+        double acc = 0.0;
+        float *cdf = env->cond_cdf + (size_t)y * (W + 1);
+        for (int x = 0; x < W; ++x) {
+            const float *t = p + ((size_t)y * W + x) * 3;
+            double m = fmax(fmax(t[0], t[1]), t[2]);
+            if (m < 0.0) m = 0.0;
+            roww[x] = (m + floor_w) * st;
+            acc += roww[x];
+        }
+        rowsum[y] = acc;
+        total += acc;
+        double c = 0.0;
+        cdf[0] = 0.0f;
+        for (int x = 0; x < W; ++x) {
+            c += roww[x];
+            cdf[x + 1] = (float)(c / acc);
+        }
+        cdf[W] = 1.0f;
+    }
+    double c = 0.0;
+    for (int y = 0; y < H; ++y) {
+        c += rowsum[y];
+        env->marg_cdf[y + 1] = (float)(c / total);
+    }
+    env->marg_cdf[H] = 1.0f;
+    env->total = total;
+    free(rowsum);
+    free(roww);
+    return MF_OK;
+}
+
+int mf_env_init(MfEnvMap *env, MfImage *img) {
+    MfEnvMap e;
+    memset(&e, 0, sizeof e);
+    if (!img->data || img->w <= 0 || img->h <= 0 || img->c < 3) {
+        int c = img->c;
+        mf_image_free(img);
+        return mf_fail(MF_EARG, "env map: need an image with at least 3 channels (got %d)", c);
+    }
+    int W = img->w, H = img->h, C = img->c;
+    size_t n = (size_t)W * H;
+    for (size_t i = 0; i < n; ++i)
+        for (int k = 0; k < 3; ++k)
+            if (!isfinite(img->data[i * C + k])) {
+                mf_image_free(img);
+                return mf_fail(MF_ENAN, "env map: texel (%zu, %zu) is not finite", i % W, i / W);
+            }
+    if (C != 3) { /* compact to RGB in place */
+        for (size_t i = 0; i < n; ++i)
+            for (int k = 0; k < 3; ++k) img->data[i * 3 + k] = img->data[i * C + k];
+        float *shrunk = realloc(img->data, sizeof(float) * n * 3);
+        if (shrunk) img->data = shrunk;
+        img->c = 3;
+    }
+    e.img = *img;
+    memset(img, 0, sizeof *img);
+    e.marg_cdf = malloc(sizeof(float) * (size_t)(H + 1));
+    e.cond_cdf = malloc(sizeof(float) * (size_t)H * (W + 1));
+    if (!e.marg_cdf || !e.cond_cdf) {
+        mf_env_free(&e);
+        return mf_fail(MF_ENOMEM, "env map: out of memory (%dx%d)", W, H);
+    }
+    int rc = mf_env_update(&e);
+    if (rc) {
+        mf_env_free(&e);
+        return rc;
+    }
+    *env = e;
+    return MF_OK;
+}
+
+int mf_env_init_constant(MfEnvMap *env, int w, int h, MfVec3 radiance) {
+    MfImage img = {0};
+    if (w <= 0 || h <= 0) return mf_fail(MF_EARG, "env map: size %dx%d is invalid", w, h);
+    int rc = mf_image_alloc(&img, w, h, 3);
+    if (rc) return rc;
+    for (size_t i = 0; i < (size_t)w * h; ++i) {
+        img.data[3 * i] = radiance.x;
+        img.data[3 * i + 1] = radiance.y;
+        img.data[3 * i + 2] = radiance.z;
+    }
+    return mf_env_init(env, &img);
+}
+
+int mf_env_load(MfEnvMap *env, const char *path) {
+    MfImage img = {0};
+    int rc = mf_image_read(path, MF_ENC_LINEAR, &img);
+    if (rc) return rc;
+    rc = mf_env_init(env, &img);
+    if (rc) return mf_fail_prefix(rc, "%s", path);
+    return MF_OK;
+}
+
+void mf_env_free(MfEnvMap *env) {
+    if (!env) return;
+    mf_image_free(&env->img);
+    free(env->marg_cdf);
+    free(env->cond_cdf);
+    memset(env, 0, sizeof *env);
+}
+
+int mf_env_rotate_z(MfEnvMap *env, float angle) {
+    int W = env->img.w, H = env->img.h;
+    size_t n = (size_t)W * H * 3;
+    float *old = malloc(sizeof(float) * n);
+    if (!old) return mf_fail(MF_ENOMEM, "env map: out of memory for rotation");
+    memcpy(old, env->img.data, sizeof(float) * n);
+    /* new(x) = old(x + angle W / (2 pi)) in texel-centre coordinates, linear in u, wrapped. */
+    double shift = (double)angle * W / (2.0 * M_PI);
+    shift -= floor(shift / W) * W;
+    int s0 = (int)floor(shift);
+    float t = (float)(shift - s0);
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) {
+            int a = (x + s0) % W, b = (x + s0 + 1) % W;
+            const float *pa = old + ((size_t)y * W + a) * 3, *pb = old + ((size_t)y * W + b) * 3;
+            float *q = env->img.data + ((size_t)y * W + x) * 3;
+            for (int k = 0; k < 3; ++k) q[k] = (1.0f - t) * pa[k] + t * pb[k];
+        }
+    free(old);
+    return mf_env_update(env);
+}
+
+/* Index i with cdf[i] <= u < cdf[i+1] (never a zero-width interval), cdf of n+1 entries. */
+static int cdf_find(const float *cdf, int n, float u) {
+    int lo = 0, hi = n; /* invariant: cdf[lo] <= u < cdf[hi] (cdf[n] = 1 > u) */
+    while (hi - lo > 1) {
+        int mid = (lo + hi) >> 1;
+        if (cdf[mid] <= u) lo = mid;
+        else hi = mid;
+    }
+    return lo;
+}
+
+/* Texel probability from the CDFs, divided by the texel's solid angle. */
+static float texel_pdf(const MfEnvMap *env, int x, int y) {
+    int W = env->img.w, H = env->img.h;
+    const float *cc = env->cond_cdf + (size_t)y * (W + 1);
+    double p = ((double)env->marg_cdf[y + 1] - env->marg_cdf[y]) * ((double)cc[x + 1] - cc[x]);
+    return (float)(p * W / (2.0 * M_PI * row_dz(y, H)));
+}
+
+MfVec3 mf_env_sample(const MfEnvMap *env, float u1, float u2, MfVec3 *dir, float *pdf) {
+    int W = env->img.w, H = env->img.h;
+    u1 = mf_clampf(u1, 0.0f, 0x1.fffffep-1f);
+    u2 = mf_clampf(u2, 0.0f, 0x1.fffffep-1f);
+    int y = cdf_find(env->marg_cdf, H, u1);
+    const float *cc = env->cond_cdf + (size_t)y * (W + 1);
+    int x = cdf_find(cc, W, u2);
+    double ty = ((double)u1 - env->marg_cdf[y]) / ((double)env->marg_cdf[y + 1] - env->marg_cdf[y]);
+    double tx = ((double)u2 - cc[x]) / ((double)cc[x + 1] - cc[x]);
+    ty = ty < 0.0 ? 0.0 : (ty > 1.0 ? 1.0 : ty);
+    tx = tx < 0.0 ? 0.0 : (tx > 1.0 ? 1.0 : tx);
+    /* uniform in z = cos(theta) within the row band, uniform in u within the column */
+    double ztop = cos(M_PI * y / H);
+    double z = ztop - ty * row_dz(y, H);
+    if (z > 1.0) z = 1.0;
+    if (z < -1.0) z = -1.0;
+    double u = (x + tx) / W;
+    double phi = M_PI - 2.0 * M_PI * u;
+    double r = sqrt(fmax(0.0, 1.0 - z * z));
+    MfVec3 d = mf_v3((float)(r * cos(phi)), (float)(r * sin(phi)), (float)z);
+    *dir = d;
+    *pdf = texel_pdf(env, x, y);
+    return mf_env_eval(env, d);
+}
+
+float mf_env_pdf(const MfEnvMap *env, MfVec3 d) {
+    int W = env->img.w, H = env->img.h;
+    float u, v;
+    mf_env_dir_to_uv(d, &u, &v);
+    int x = (int)floorf(u * (float)W), y = (int)floorf((1.0f - v) * (float)H);
+    x = x < 0 ? 0 : (x >= W ? W - 1 : x);
+    y = y < 0 ? 0 : (y >= H ? H - 1 : y);
+    return texel_pdf(env, x, y);
+}

@@ -1,0 +1,188 @@
+/* End-to-end tests of the inverse loop (mf/inverse/mf_recon): recovery of a known constant
+ * albedo and a known environment map on a sphere, checkpoint/resume equivalence, and the
+ * result folder's files. Ground truth is rendered by the forward renderer (mf_render). */
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/mf_error.h"
+#include "core/mf_fs.h"
+#include "inverse/mf_recon.h"
+#include "mf_test.h"
+#include "render/mf_rtscene.h"
+#include "scene/mf_shapes.h"
+
+enum { RES = 32, NV = 8, EW = 16, EH = 8 };
+static const float GT_KD[3] = {0.6f, 0.4f, 0.2f};
+
+/* A bright sky above, a dim ground, and a brighter patch; neutral in colour, because colour
+ * shared by albedo and light is ambiguous and the shading regulariser (nvdiffrecmc's)
+ * resolves it toward white light. */
+static void gt_env(MfImage *e) {
+    mf_image_alloc(e, EW, EH, 3);
+    for (int y = 0; y < EH; ++y)
+        for (int x = 0; x < EW; ++x) {
+            float *p = mf_image_px(e, x, y);
+            int up = y < EH / 2;
+            p[0] = p[1] = p[2] = up ? 1.0f : 0.3f;
+            if (y == 2 && (x == 3 || x == 4)) p[0] = p[1] = p[2] = 6.0f;
+        }
+}
+
+static int make_views(const MfMesh *mesh, MfReconView *views) {
+    MfRtScene *rt = NULL;
+    int rc = mf_rtscene_new(mesh, &rt);
+    if (rc) return rc;
+    MfImage e;
+    gt_env(&e);
+    MfEnvMap env;
+    if ((rc = mf_env_init(&env, &e))) return rc;
+    MfTexMaterial mat = {NULL, NULL, mf_v3(GT_KD[0], GT_KD[1], GT_KD[2]), mf_v3(1.0f, 0.7f, 0.0f)};
+    MfRenderInput in = {rt, mesh, &mat, 1, &env, NULL, 0};
+    MfRenderOpts ro = {8, 4, 99, MF_LOBE_ALL};
+    for (int v = 0; v < NV && !rc; ++v) {
+        float az = 2.0f * MF_PI * v / NV, el = (v % 2 ? 0.6f : -0.6f); /* both hemispheres observed */
+        MfVec3 eye = mf_v3(1.8f * cosf(az) * cosf(el), 1.8f * sinf(az) * cosf(el), 1.8f * sinf(el));
+        MfMat4 c2w = mf_mat4_look_at(eye, mf_v3(0, 0, 0), mf_v3(0, 0, 1));
+        double m[16];
+        for (int i = 0; i < 16; ++i) m[i] = c2w.m[i];
+        if ((rc = mf_camera_init(&views[v].cam, RES, RES, 0.6911, m, "view"))) break;
+        MfRenderOut out;
+        if ((rc = mf_render(&in, &views[v].cam, &ro, &out, NULL))) break;
+        mf_image_alloc(&views[v].ref, RES, RES, 4);
+        for (int i = 0; i < RES * RES; ++i) {
+            for (int c = 0; c < 3; ++c) views[v].ref.data[4 * i + c] = out.rgb[3 * i + c];
+            views[v].ref.data[4 * i + 3] = out.alpha[i];
+        }
+        mf_render_out_free(&out);
+    }
+    mf_env_free(&env);
+    mf_rtscene_free(rt);
+    return rc;
+}
+
+static MfReconOpts small_opts(void) {
+    MfReconOpts o = mf_recon_opts_default();
+    o.iters = 160;
+    o.batch = 2;
+    o.tex_res = 8;
+    o.env_w = EW;
+    o.env_h = EH;
+    o.lr = 0.03f;
+    o.snapshot_every = 80;
+    o.checkpoint_every = 40;
+    return o;
+}
+
+MF_TEST(inverse_recon_recovers_albedo_and_light) {
+    MfMesh mesh;
+    CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 24, 12));
+    MfReconView views[NV];
+    memset(views, 0, sizeof views);
+    CHECK_OK(make_views(&mesh, views));
+    MfReconOpts o = small_opts();
+    MfRecon *r = NULL;
+    CHECK_OK(mf_recon_new(&mesh, views, NV, &o, &r));
+    if (!r) return;
+    const char *dir = mf_test_path("recon");
+    CHECK_OK(mf_recon_run(r, NULL, dir));
+    /* albedo and light are determined only up to a common scale: fit it on the albedo */
+    MfImage kd = mf_recon_kd_image(r);
+    double mean[3] = {0, 0, 0};
+    for (int i = 0; i < kd.w * kd.h; ++i)
+        for (int c = 0; c < 3; ++c) mean[c] += kd.data[3 * i + c] / (kd.w * kd.h);
+    double s = (mean[0] * GT_KD[0] + mean[1] * GT_KD[1] + mean[2] * GT_KD[2]) /
+               (mean[0] * mean[0] + mean[1] * mean[1] + mean[2] * mean[2]);
+    double kerr = 0;
+    for (int c = 0; c < 3; ++c) kerr = fmax(kerr, fabs(s * mean[c] - GT_KD[c]) / GT_KD[c]);
+    MfImage ge;
+    gt_env(&ge);
+    const MfParamBlock *env = mf_recon_block(r, MF_BLOCK_ENV);
+    /* env: compare the upper and lower hemispheres' mean radiance (what a diffuse sphere sees) */
+    double up[3] = {0}, lo[3] = {0}, gup[3] = {0}, glo[3] = {0};
+    for (int y = 0; y < EH; ++y)
+        for (int x = 0; x < EW; ++x)
+            for (int c = 0; c < 3; ++c) {
+                double v = env->p[(y * EW + x) * 3 + c] / s, g = mf_image_px(&ge, x, y)[c];
+                if (y < EH / 2) up[c] += v, gup[c] += g;
+                else lo[c] += v, glo[c] += g;
+            }
+    double eup = 0, elo = 0;
+    for (int c = 0; c < 3; ++c) eup = fmax(eup, fabs(up[c] - gup[c]) / gup[c]), elo = fmax(elo, fabs(lo[c] - glo[c]) / glo[c]);
+    if (getenv("MF_TEST_VERBOSE"))
+        printf("    albedo scale %.3f, albedo rel err %.4f, env upper %.3f, lower %.3f\n", s, kerr, eup, elo);
+    /* Measured (160 iterations): albedo 1%, upper hemisphere 0-5%, lower hemisphere 20-25%.
+     * The ground is seen only by the sphere's lower half at grazing angles from the cameras
+     * below, so its texels stay partly at their initial value: a limit of these views, not of
+     * the optimiser (the upper hemisphere, well observed, converges). */
+    CHECK_MSG(kerr < 0.05, "albedo relative error %.3f (scale-aligned)", kerr);
+    CHECK_MSG(eup < 0.10, "upper-hemisphere env relative error %.3f", eup);
+    CHECK_MSG(elo < 0.40, "lower-hemisphere env relative error %.3f", elo);
+    const char *files[] = {"albedo.png", "orm.png", "env.exr", "mesh.obj", "scene.glb", "log.csv", "checkpoint.mfck",
+                           "snapshots/iter_00080/albedo.png"};
+    for (size_t i = 0; i < sizeof files / sizeof files[0]; ++i) {
+        char p[1024];
+        snprintf(p, sizeof p, "%s/%s", dir, files[i]);
+        CHECK_MSG(mf_file_exists(p), "missing %s", files[i]);
+    }
+    mf_image_free(&ge);
+    mf_recon_free(r);
+    mf_mesh_free(&mesh);
+}
+
+MF_TEST(inverse_recon_resume_is_exact) {
+    MfMesh mesh;
+    CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
+    MfReconOpts o = small_opts();
+    o.iters = 12;
+    o.checkpoint_every = 0;
+    o.snapshot_every = 0;
+    MfRecon *full = NULL, *half = NULL;
+    MfReconView v1[NV], v2[NV];
+    memset(v1, 0, sizeof v1);
+    memset(v2, 0, sizeof v2);
+    CHECK_OK(make_views(&mesh, v1));
+    CHECK_OK(make_views(&mesh, v2));
+    CHECK_OK(mf_recon_new(&mesh, v1, NV, &o, &full));
+    CHECK_OK(mf_recon_run(full, NULL, mf_test_path("full")));
+    MfReconOpts oh = o;
+    oh.iters = 5;
+    CHECK_OK(mf_recon_new(&mesh, v2, NV, &oh, &half));
+    CHECK_OK(mf_recon_run(half, NULL, mf_test_path("half")));
+    mf_recon_free(half);
+    half = NULL;
+    /* a new process would start here: fresh state, then the checkpoint */
+    MfReconView v3[NV];
+    memset(v3, 0, sizeof v3);
+    CHECK_OK(make_views(&mesh, v3));
+    CHECK_OK(mf_recon_new(&mesh, v3, NV, &o, &half));
+    char ck[1024];
+    snprintf(ck, sizeof ck, "%s/checkpoint.mfck", mf_test_path("half"));
+    CHECK_OK(mf_recon_load_checkpoint(half, ck));
+    CHECK(mf_recon_iteration(half) == 5);
+    CHECK_OK(mf_recon_run(half, NULL, mf_test_path("half")));
+    for (int b = 0; full && half && b < MF_NBLOCKS; ++b) {
+        const MfParamBlock *x = mf_recon_block(full, b), *y = mf_recon_block(half, b);
+        CHECK_MSG(x->n == y->n && !memcmp(x->p, y->p, x->n * sizeof(float)), "block %s differs after resume", x->name);
+    }
+    /* the resumed log has one row per iteration, 1..12 */
+    char lp[1024], *log = NULL;
+    snprintf(lp, sizeof lp, "%s/log.csv", mf_test_path("half"));
+    CHECK_OK(mf_read_file(lp, &log, NULL));
+    int rows = 0;
+    for (char *c = log; c && *c; ++c) rows += *c == '\n';
+    CHECK(rows == 13);
+    free(log);
+    /* a checkpoint from other sizes is refused */
+    MfReconOpts ob = o;
+    ob.tex_res = 16;
+    MfRecon *bad = NULL;
+    MfReconView v4[NV];
+    memset(v4, 0, sizeof v4);
+    CHECK_OK(make_views(&mesh, v4));
+    CHECK_OK(mf_recon_new(&mesh, v4, NV, &ob, &bad));
+    CHECK_ERR(mf_recon_load_checkpoint(bad, ck), "shape mismatch");
+    mf_recon_free(bad);
+    mf_recon_free(full);
+    mf_recon_free(half);
+    mf_mesh_free(&mesh);
+}

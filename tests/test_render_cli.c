@@ -1,0 +1,157 @@
+/* Tests of `mf render` through the binary ($MF_BIN): a small scene renders to multi-layer EXR and
+ * PNG; bad inputs (missing file, garbage JSON, non-rigid camera, OBJ index out of range) exit
+ * non-zero with a message naming the file and leave no output files. */
+#include <dirent.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+
+#include "core/mf_error.h"
+#include "core/mf_fs.h"
+#include "io/mf_exr.h"
+#include "mf_test.h"
+
+static void put(const char *path, const char *text) {
+    FILE *f = fopen(path, "w");
+    if (f) {
+        fputs(text, f);
+        fclose(f);
+    }
+}
+
+/* Number of entries (other than . and ..) in dir; 0 if it does not exist. */
+static int count_files(const char *dir) {
+    DIR *d = opendir(dir);
+    if (!d) return 0;
+    int n = 0;
+    for (struct dirent *e; (e = readdir(d));)
+        if (strcmp(e->d_name, ".") && strcmp(e->d_name, "..")) ++n;
+    closedir(d);
+    return n;
+}
+
+/* Runs `$MF_BIN args` with stderr captured into *err (static buffer); returns the exit code. */
+static int run_mf(const char *args, char *err, size_t cap) {
+    const char *bin = getenv("MF_BIN");
+    char cmd[4096], errf[1024];
+    snprintf(errf, sizeof errf, "%s", mf_test_path("cli_stderr.txt"));
+    snprintf(cmd, sizeof cmd, "%s %s >/dev/null 2>%s", bin, args, errf);
+    int st = system(cmd);
+    err[0] = 0;
+    FILE *f = fopen(errf, "r");
+    if (f) {
+        size_t n = fread(err, 1, cap - 1, f);
+        err[n] = 0;
+        fclose(f);
+    }
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+static const char *k_obj =
+    "v -0.5 -0.5 0\nv 0.5 -0.5 0\nv 0.5 0.5 0\nv -0.5 0.5 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+    "f 1/1 2/2 3/3\nf 1/1 3/3 4/4\n";
+static const char *k_cams =
+    "{\"camera_angle_x\": 0.6911, \"frames\": [{\"file_path\": \"./r_0\", \"transform_matrix\": "
+    "[[1,0,0,0],[0,1,0,0],[0,0,1,2.5],[0,0,0,1]]}]}";
+static const char *k_cams_scaled =
+    "{\"camera_angle_x\": 0.6911, \"frames\": [{\"file_path\": \"./r_0\", \"transform_matrix\": "
+    "[[1,0,0,0],[0,1,0,0],[0,0,1,2.5],[0,0,0,1]]}, {\"file_path\": \"./r_1\", \"transform_matrix\": "
+    "[[2,0,0,0],[0,1,0,0],[0,0,1,2.5],[0,0,0,1]]}]}";
+static const char *k_scene =
+    "{\"mesh\": \"%s\", \"material\": {\"kd\": [0.5, 0.4, 0.3], \"orm\": [0, 0.6, 0]},\n"
+    " \"lights\": [{\"type\": \"sun\", \"dir\": [0, 0.3, 1], \"strength\": 2}],\n"
+    " \"env\": null, \"cameras\": \"%s\", \"width\": 16, \"height\": 12,\n"
+    " \"render\": {\"spp_sqrt\": 1, \"pixel_samples\": 2}}\n";
+
+MF_TEST(render_cli_ok) {
+    if (!getenv("MF_BIN")) MF_SKIP("MF_BIN not set");
+    char dir[512], scene[1024], out[768], buf[4096], args[4096];
+    snprintf(dir, sizeof dir, "%s", mf_test_path("cli_ok"));
+    CHECK_OK(mf_mkdirs(dir));
+    snprintf(scene, sizeof scene, "%s/quad.obj", dir);
+    put(scene, k_obj);
+    snprintf(scene, sizeof scene, "%s/transforms.json", dir);
+    put(scene, k_cams);
+    snprintf(buf, sizeof buf, k_scene, "quad.obj", "transforms.json");
+    snprintf(scene, sizeof scene, "%s/scene.json", dir);
+    put(scene, buf);
+    snprintf(out, sizeof out, "%s/out", dir);
+    snprintf(args, sizeof args, "render %s -o %s --png --width 20 --height 10", scene, out);
+    int rc = run_mf(args, buf, sizeof buf);
+    CHECK_MSG(rc == 0, "mf render failed (%d): %s", rc, buf);
+    CHECK(count_files(out) == 2);
+    snprintf(scene, sizeof scene, "%s/r_0.exr", out);
+    MfImage img = {0};
+    CHECK_OK(mf_exr_read_layer(scene, "", "RGBA", &img));
+    CHECK(img.w == 20 && img.h == 10);
+    if (img.data) {
+        /* The quad fills the view centre: covered and lit there. */
+        float *p = mf_image_px(&img, 10, 5);
+        CHECK(p[3] == 1.0f);
+        CHECK(p[0] > 0.0f && p[1] > 0.0f);
+    }
+    mf_image_free(&img);
+    const char *layers[4] = {"albedo", "orm", "diffuse", "specular"};
+    for (int k = 0; k < 4; ++k) {
+        CHECK_OK(mf_exr_read_layer(scene, layers[k], "RGB", &img));
+        mf_image_free(&img);
+    }
+    CHECK_OK(mf_exr_read_layer(scene, "normal", "XYZ", &img));
+    mf_image_free(&img);
+    CHECK_OK(mf_exr_read_layer(scene, "depth", "Z", &img));
+    if (img.data) CHECK_NEAR(mf_image_px(&img, 10, 5)[0], 2.5, 1e-3);
+    mf_image_free(&img);
+}
+
+/* Runs a failing render and checks exit code, message and the absence of outputs. */
+static void expect_failure(const char *scene, const char *outdir, const char *needle) {
+    char args[4096], err[4096];
+    snprintf(args, sizeof args, "render %s -o %s", scene, outdir);
+    int rc = run_mf(args, err, sizeof err);
+    CHECK_MSG(rc == 1, "%s: exit code %d, expected 1", scene, rc);
+    CHECK_MSG(strstr(err, needle) != NULL, "message '%s' lacks '%s'", err, needle);
+    CHECK_MSG(count_files(outdir) == 0, "%s: output files left in %s", scene, outdir);
+}
+
+MF_TEST(render_cli_bad_inputs) {
+    if (!getenv("MF_BIN")) MF_SKIP("MF_BIN not set");
+    char dir[512], p[1024], buf[4096], out[1024];
+    snprintf(dir, sizeof dir, "%s", mf_test_path("cli_bad"));
+    CHECK_OK(mf_mkdirs(dir));
+    snprintf(out, sizeof out, "%s/out", dir);
+    /* missing scene file */
+    snprintf(p, sizeof p, "%s/missing_scene.json", dir);
+    expect_failure(p, out, "missing_scene.json");
+    /* garbage JSON */
+    snprintf(p, sizeof p, "%s/garbage.json", dir);
+    put(p, "{\"mesh\": \"quad.obj\",\n \"cameras\": [1, 2,,}\n");
+    expect_failure(p, out, "garbage.json");
+    /* non-rigid camera (second frame scaled) */
+    snprintf(p, sizeof p, "%s/quad.obj", dir);
+    put(p, k_obj);
+    snprintf(p, sizeof p, "%s/scaled.json", dir);
+    put(p, k_cams_scaled);
+    snprintf(buf, sizeof buf, k_scene, "quad.obj", "scaled.json");
+    snprintf(p, sizeof p, "%s/nonrigid.json", dir);
+    put(p, buf);
+    expect_failure(p, out, "scaled.json: frames[1]");
+    expect_failure(p, out, "rigid");
+    /* OBJ with a face index out of range */
+    snprintf(p, sizeof p, "%s/transforms.json", dir);
+    put(p, k_cams);
+    snprintf(p, sizeof p, "%s/badidx.obj", dir);
+    put(p, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
+    snprintf(buf, sizeof buf, k_scene, "badidx.obj", "transforms.json");
+    snprintf(p, sizeof p, "%s/badobj.json", dir);
+    put(p, buf);
+    expect_failure(p, out, "badidx.obj");
+    /* a bad JSON value names the JSON path */
+    snprintf(buf, sizeof buf, k_scene, "quad.obj", "transforms.json");
+    char *m = strstr(buf, "[0, 0.3, 1]");
+    if (m) memcpy(m, "[0, 0.3]   ", 11);
+    snprintf(p, sizeof p, "%s/badlight.json", dir);
+    put(p, buf);
+    expect_failure(p, out, "lights[0].dir");
+}
