@@ -1,0 +1,73 @@
+/* mf_ae: see mf_ae.h. */
+#include "prior/mf_ae.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/mf_error.h"
+
+int mf_ae_new(MfAe **out, const MfAeConfig *cfg) {
+    const MfAeConfig *c = cfg;
+    if (c->res < 8 || c->res % 4 || c->c1 < 1 || c->c2 < 1 || c->zc < 1 || c->groups < 1 || c->c1 % c->groups ||
+        c->c2 % c->groups)
+        return mf_fail(MF_EARG, "autoencoder: bad configuration (res %d, c1 %d, c2 %d, zc %d, groups %d)", c->res,
+                       c->c1, c->c2, c->zc, c->groups);
+    MfAe *ae = calloc(1, sizeof *ae);
+    if (!ae) return mf_fail(MF_ENOMEM, "autoencoder: out of memory");
+    ae->cfg = *c;
+    MfSpecTab *t = &ae->tab;
+    int ok = 1;
+    MfSeq *e = &ae->enc, *d = &ae->dec;
+    mf_seq_begin(e, 3, c->res, c->res, c->groups);
+    ok = ok && mf_seq_conv(e, t, "ae.enc", c->c1, 3, 1, 0) && mf_seq_res(e, t, "ae.enc", c->c1);
+    ok = ok && mf_seq_conv(e, t, "ae.enc", c->c2, 3, 2, 0) && mf_seq_res(e, t, "ae.enc", c->c2);
+    ok = ok && mf_seq_conv(e, t, "ae.enc", c->c2, 3, 2, 0) && mf_seq_res(e, t, "ae.enc", c->c2);
+    ok = ok && mf_seq_norm(e, t, "ae.enc") && mf_seq_conv(e, t, "ae.enc", c->zc, 3, 1, 0);
+    mf_seq_begin(d, c->zc, c->res / 4, c->res / 4, c->groups);
+    ok = ok && mf_seq_conv(d, t, "ae.dec", c->c2, 3, 1, 0) && mf_seq_res(d, t, "ae.dec", c->c2);
+    ok = ok && mf_seq_up(d) && mf_seq_conv(d, t, "ae.dec", c->c2, 3, 1, 0) && mf_seq_res(d, t, "ae.dec", c->c2);
+    ok = ok && mf_seq_up(d) && mf_seq_conv(d, t, "ae.dec", c->c1, 3, 1, 0) && mf_seq_res(d, t, "ae.dec", c->c1);
+    ok = ok && mf_seq_norm(d, t, "ae.dec") && mf_seq_conv(d, t, "ae.dec", 3, 3, 1, 0);
+    if (ok) {
+        ae->params = calloc(t->numel, sizeof(float));
+        ae->grads = calloc(t->numel, sizeof(float));
+    }
+    if (!ok || !ae->params || !ae->grads) {
+        mf_ae_free(ae);
+        return mf_fail(MF_ENOMEM, "autoencoder: out of memory");
+    }
+    *out = ae;
+    return MF_OK;
+}
+
+void mf_ae_free(MfAe *ae) {
+    if (!ae) return;
+    mf_spectab_free(&ae->tab);
+    free(ae->params), free(ae->grads), free(ae);
+}
+
+void mf_ae_init_weights(MfAe *ae, unsigned long long seed) {
+    mf_seq_init(&ae->enc, ae->params, seed * 2 + 1);
+    mf_seq_init(&ae->dec, ae->params, seed * 2 + 2);
+}
+
+float *mf_ae_encode(MfAe *ae, MfAeWork *w, const float *img, int B) {
+    return mf_seq_forward(&ae->enc, ae->params, &w->enc, img, B);
+}
+
+void mf_ae_encode_backward(MfAe *ae, MfAeWork *w, const float *dz, float *dimg) {
+    mf_seq_backward(&ae->enc, ae->params, ae->grads, &w->enc, dz, dimg);
+}
+
+float *mf_ae_decode(MfAe *ae, MfAeWork *w, const float *z, int B) {
+    return mf_seq_forward(&ae->dec, ae->params, &w->dec, z, B);
+}
+
+void mf_ae_decode_backward(MfAe *ae, MfAeWork *w, const float *dimg, float *dz) {
+    mf_seq_backward(&ae->dec, ae->params, ae->grads, &w->dec, dimg, dz);
+}
+
+void mf_ae_work_free(MfAeWork *w) {
+    mf_seq_work_free(&w->enc);
+    mf_seq_work_free(&w->dec);
+}

@@ -1,0 +1,111 @@
+/* mf_prior: StableMaterial in C — the whole prior (autoencoder + conditional v-prediction denoiser +
+ * image encoder), its weights file, sampling and the pieces of MaterialFusion's SDS+ term.
+ *
+ * Inputs (DESIGN.md "Contracts"): images at the prior's resolution R (default 64), NCHW (B, 3, R, R):
+ *   albedo = base colour kd in sRGB, ORM linear, condition = the RGB view in sRGB, each mapped to
+ *   [-1, 1] and multiplied by the mask (alpha): x = (2 v - 1) * alpha.
+ * Latents (B, 4, R/4, R/4) are the autoencoder's latents times the stored latent scale (about unit
+ * variance over the training data). A material latent is (B, 8, h, h) = [albedo 4 | ORM 4].
+ * Denoising: v-prediction, DDIM (eta 0), classifier-free guidance (3.0; unconditional = zero image
+ * embedding and zero image latent). Multi-view (StableMaterialMV, inference only): B = objects * V
+ * images with V consecutive views per object; joint = 1 lets the V views attend jointly.
+ *
+ * Weights file: an MFCK checkpoint (mf_nn_ckpt.h, version 1) holding every tensor ("ae.*", "dn.*",
+ * "img.*") and JSON meta: {"format": "mf-prior", "version": 1, "resolution", "downsample": 4,
+ * "latent_channels", "latent_scale", "encodings": {...}, "data_seed", "ae": {...}, "dn": {...}}.
+ * Loading refuses missing, truncated, corrupt, wrong-version and wrong-shape files with a message
+ * naming the file and the expected version.
+ *
+ * SDS+ (MaterialFusion, REFERENCE.md) with this API: zmat = encode_materials(albedo, orm);
+ * zhat = sds_denoise(zmat, cond, t ~ U{20..980}); L_latent = MSE(zhat * a, zmat * a) with zhat treated
+ * as a constant target (classic SDS; the official code also lets zhat depend on z through the
+ * noising, which we do not), gradient dL/dzmat -> encode_materials_backward -> d maps;
+ * L_rgb = MSE(decode_materials(zhat) * a, maps) in pixel space (no gradient through the decoder).
+ * Not thread-safe: one MfPrior per thread. */
+#ifndef MF_PRIOR_H
+#define MF_PRIOR_H
+
+#include <stdint.h>
+
+#include "prior/mf_ae.h"
+#include "prior/mf_denoiser.h"
+#include "prior/mf_diffusion.h"
+
+#define MF_PRIOR_FORMAT_VERSION 1
+#define MF_PRIOR_ENC_ALBEDO "sRGB kd in [-1,1] x mask"
+#define MF_PRIOR_ENC_ORM "linear in [-1,1] x mask"
+#define MF_PRIOR_ENC_COND "sRGB RGB in [-1,1] x mask"
+
+typedef struct {
+    MfAeConfig ae;
+    MfDenoiserConfig dn;
+} MfPriorConfig;
+
+/* The default model at resolution res (64): AE 32/64 channels, UNet 64/128, about 1.7 M params. */
+void mf_prior_config_default(MfPriorConfig *c, int res);
+/* A very small model at resolution 16 for tests. */
+void mf_prior_config_tiny(MfPriorConfig *c);
+
+typedef struct {
+    MfPriorConfig cfg;
+    MfAe *ae;          // owned
+    MfDenoiser *dn;    // owned
+    float latent_scale;
+    uint64_t data_seed;
+    MfDiffusion diff;
+    MfAeWork aew;      /* work of mf_prior_encode / _backward / _decode (owned) */
+    MfAeWork aes;      /* work of the sampler (owned) */
+    MfDenoiserWork dnw; /* (owned) */
+    float *scratch;    /* (scap) owned */
+    size_t scap;
+    float *mat_in;     /* (2B, 3, R, R) owned: input of encode_materials, kept for its backward */
+    size_t mat_cap;
+} MfPrior;
+
+int mf_prior_new(MfPrior **out, const MfPriorConfig *cfg);
+void mf_prior_free(MfPrior *p);
+/* Total parameter count (AE + denoiser + image encoder). */
+size_t mf_prior_num_params(const MfPrior *p);
+/* Writes the weights file atomically; extra (may be NULL) is a JSON object whose members are added
+ * to the meta (e.g. training facts). */
+int mf_prior_save(const MfPrior *p, const char *path, const char *extra_json);
+int mf_prior_load(const char *path, MfPrior **out);
+/* Reads only the JSON meta of an MFCK file (heap string, caller frees); checks magic and version. */
+int mf_prior_read_meta(const char *path, char **meta);
+
+/* z (B, zc, h, h) = latent_scale * Enc(img (B, 3, R, R)). Keeps what the backward needs; img must
+ * stay valid until mf_prior_encode_backward. */
+int mf_prior_encode(MfPrior *p, const float *img, int B, float *z);
+/* dimg (B, 3, R, R) += d/dimg of <dz, z> for the last mf_prior_encode (the encoder's own weight
+ * gradients go to a scratch buffer and are ignored). */
+void mf_prior_encode_backward(MfPrior *p, const float *dz, float *dimg);
+/* img (B, 3, R, R) = Dec(z / latent_scale), z (B, zc, h, h) scaled. */
+int mf_prior_decode(MfPrior *p, const float *z, int B, float *img);
+
+/* Material maps <-> material latents, for the SDS+ term. albedo, orm (B, 3, R, R) in [-1, 1] x mask;
+ * zmat (B, 2zc, h, h) = [albedo latent | ORM latent] per item (scaled). Both maps are encoded as one
+ * batch of 2B images, so mf_prior_encode_materials_backward can follow (it adds to dalbedo and dorm,
+ * (B, 3, R, R) each, the gradient of <dzmat, zmat>; either may be NULL to skip it). These share the
+ * work buffers of mf_prior_encode / _decode: a backward refers to the latest encode call. */
+int mf_prior_encode_materials(MfPrior *p, const float *albedo, const float *orm, int B, float *zmat);
+int mf_prior_encode_materials_backward(MfPrior *p, const float *dzmat, float *dalbedo, float *dorm);
+int mf_prior_decode_materials(MfPrior *p, const float *zmat, int B, float *albedo, float *orm);
+
+/* Guided v (B, 2zc, h, h) for noisy material latents xt (B, 2zc, h, h) at timestep t, given the
+ * scaled image latent zimg (B, zc, h, h) and the condition image rgb (B, 3, R, R). */
+int mf_prior_guided_v(MfPrior *p, const float *zimg, const float *rgb, const float *xt, int t, int B, int V,
+                      int joint, float guidance, float *v);
+/* One sample per item: DDIM from pure noise (seeded) over nsteps with guidance; zmat (B, 2zc, h, h). */
+int mf_prior_sample(MfPrior *p, const float *rgb, int B, int V, int joint, int nsteps, float guidance,
+                    uint64_t seed, float *zmat);
+/* SDS+ denoise (MaterialFusion): noise zmat (B, 2zc, h, h) to timestep t with seeded noise, run the
+ * guided DDIM steps [t, .8t, .6t, .4t, .2t] and then x0; zhat (B, 2zc, h, h). */
+int mf_prior_sds_denoise(MfPrior *p, const float *zmat, const float *rgb, int B, int V, int joint, int t,
+                         float guidance, uint64_t seed, float *zhat);
+
+/* Maps an RGBA image (h, w, 4) with raw channel values in [0, 1] (the file's own encoding) to
+ * out (3, R, R) = (2 v - 1) * alpha after box-filtering (area averaging of v*alpha and alpha) to
+ * R x R; mask (R, R) receives the filtered alpha (may be NULL). */
+void mf_prior_prepare_image(const float *rgba, int w, int h, int R, float *out, float *mask);
+
+#endif
