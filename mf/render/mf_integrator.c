@@ -147,7 +147,7 @@ static Shade shade(const MfRenderInput *in, const MfRenderOpts *opts, const MfHi
                 float u1 = ((float)i + mf_rng_float(rng)) * inv_n, u2 = ((float)j + mf_rng_float(rng)) * inv_n;
                 MfVec3 wi_w;
                 float pl;
-                MfVec3 L = mf_env_sample(in->env, u1, u2, &wi_w, &pl);
+                mf_env_sample_dir(in->env, u1, u2, &wi_w, &pl); /* radiance only once visible */
                 if (!(pl > 0.0f) || mf_dot(wi_w, h->ng) <= 0.0f) continue;
                 MfVec3 wi = mf_to_local(&fr, wi_w);
                 if (wi.z <= 0.0f) continue;
@@ -158,6 +158,7 @@ static Shade shade(const MfRenderInput *in, const MfRenderOpts *opts, const MfHi
                 float pb = mf_brdf_pdf(mat, wo, wi, lobes);
                 float w = inv_N / (pl + pb);
                 if (!(w > 0.0f) || !isfinite(w)) continue;
+                MfVec3 L = mf_env_eval(in->env, wi_w);
                 s.diffuse = mf_madd(s.diffuse, L, f.diffuse_demod * w);
                 s.specular = mf_add(s.specular, mf_scale(mf_mul(L, f.specular), w));
             }
@@ -175,10 +176,10 @@ static Shade shade(const MfRenderInput *in, const MfRenderOpts *opts, const MfHi
                 MfBrdfValue f = mf_brdf_eval(mat, wo, wi, lobes);
                 if (f.diffuse_demod <= 0.0f && mf_maxc(f.specular) <= 0.0f) continue;
                 if (!visible(in, h, wi_w, INFINITY, log)) continue;
-                float pl = mf_env_pdf(in->env, wi_w);
+                float pl;
+                MfVec3 L = mf_env_eval_pdf(in->env, wi_w, &pl);
                 float w = inv_N / (pl + pb);
                 if (!(w > 0.0f) || !isfinite(w)) continue;
-                MfVec3 L = mf_env_eval(in->env, wi_w);
                 s.diffuse = mf_madd(s.diffuse, L, f.diffuse_demod * w);
                 s.specular = mf_add(s.specular, mf_scale(mf_mul(L, f.specular), w));
             }
