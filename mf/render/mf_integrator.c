@@ -155,16 +155,18 @@ static Shade shade(const MfRenderInput *in, const MfRenderOpts *opts, const MfHi
         int n = opts->spp_sqrt, N = n * n;
         float inv_n = 1.0f / (float)n, inv_N = 1.0f / (float)(n * n);
         MfVec3 dir[SHADE_BATCH];
-        float pdf[SHADE_BATCH];
+        float pdf[SHADE_BATCH], us1[SHADE_BATCH], us2[SHADE_BATCH];
+        MfVec3 Ls[SHADE_BATCH];
         Accepted acc[SHADE_BATCH];
         /* Light samples: acc[].p = MIS weight. */
         for (int b0 = 0; b0 < N; b0 += SHADE_BATCH) {
             int nb = N - b0 < SHADE_BATCH ? N - b0 : SHADE_BATCH, na = 0;
             for (int t = 0; t < nb; ++t) {
                 int i = (b0 + t) / n, j = (b0 + t) % n;
-                float u1 = ((float)i + mf_rng_float(rng)) * inv_n, u2 = ((float)j + mf_rng_float(rng)) * inv_n;
-                mf_env_sample_dir(in->env, u1, u2, &dir[t], &pdf[t]);
+                us1[t] = ((float)i + mf_rng_float(rng)) * inv_n;
+                us2[t] = ((float)j + mf_rng_float(rng)) * inv_n;
             }
+            mf_env_sample_dir_n(in->env, nb, us1, us2, dir, pdf);
             for (int t = 0; t < nb; ++t) {
                 MfVec3 wi_w = dir[t];
                 float pl = pdf[t];
@@ -180,8 +182,10 @@ static Shade shade(const MfRenderInput *in, const MfRenderOpts *opts, const MfHi
                 if (!(w > 0.0f) || !isfinite(w)) continue;
                 acc[na++] = (Accepted){wi_w, f.specular, f.diffuse_demod, w};
             }
+            for (int a = 0; a < na; ++a) dir[a] = acc[a].wi_w;
+            mf_env_eval_pdf_n(in->env, na, dir, Ls, NULL);
             for (int a = 0; a < na; ++a) {
-                MfVec3 L = mf_env_eval(in->env, acc[a].wi_w);
+                MfVec3 L = Ls[a];
                 float w = acc[a].p;
                 s.diffuse = mf_madd(s.diffuse, L, acc[a].fd * w);
                 s.specular = mf_add(s.specular, mf_scale(mf_mul(L, acc[a].fs), w));
@@ -205,10 +209,11 @@ static Shade shade(const MfRenderInput *in, const MfRenderOpts *opts, const MfHi
                 if (!visible(in, h, wi_w, INFINITY, log)) continue;
                 acc[na++] = (Accepted){wi_w, f.specular, f.diffuse_demod, pb};
             }
+            for (int a = 0; a < na; ++a) dir[a] = acc[a].wi_w;
+            mf_env_eval_pdf_n(in->env, na, dir, Ls, pdf);
             for (int a = 0; a < na; ++a) {
-                float pl;
-                MfVec3 L = mf_env_eval_pdf(in->env, acc[a].wi_w, &pl);
-                float w = inv_N / (pl + acc[a].p);
+                MfVec3 L = Ls[a];
+                float w = inv_N / (pdf[a] + acc[a].p);
                 if (!(w > 0.0f) || !isfinite(w)) continue;
                 s.diffuse = mf_madd(s.diffuse, L, acc[a].fd * w);
                 s.specular = mf_add(s.specular, mf_scale(mf_mul(L, acc[a].fs), w));

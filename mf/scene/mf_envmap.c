@@ -317,13 +317,10 @@ static inline float texel_pdf(const MfEnvMap *env, int x, int y) {
     return (float)(p * W / (2.0 * M_PI * env->row_tab[2 * y + 1]));
 }
 
-void mf_env_sample_dir(const MfEnvMap *env, float u1, float u2, MfVec3 *dir, float *pdf) {
+/* Direction and pdf of texel (x, y) with cdf row cc at (u1, u2) (the tail of mf_env_sample). */
+static inline void sample_finish(const MfEnvMap *env, const float *cc, int x, int y, float u1, float u2, MfVec3 *dir,
+                                 float *pdf) {
     int W = env->img.w;
-    u1 = mf_clampf(u1, 0.0f, 0x1.fffffep-1f);
-    u2 = mf_clampf(u2, 0.0f, 0x1.fffffep-1f);
-    int y = cdf_find_guided(env->marg_cdf, env->marg_guide, env->marg_k, u1);
-    const float *cc = env->cond_cdf + (size_t)y * (W + 1);
-    int x = cdf_find_guided(cc, env->cond_guide + (size_t)y * (env->cond_k + 1), env->cond_k, u2);
     double ty = ((double)u1 - env->marg_cdf[y]) / ((double)env->marg_cdf[y + 1] - env->marg_cdf[y]);
     double tx = ((double)u2 - cc[x]) / ((double)cc[x + 1] - cc[x]);
     ty = ty < 0.0 ? 0.0 : (ty > 1.0 ? 1.0 : ty);
@@ -340,6 +337,62 @@ void mf_env_sample_dir(const MfEnvMap *env, float u1, float u2, MfVec3 *dir, flo
     sincos(phi, &sp, &cp);
     *dir = mf_v3((float)(r * cp), (float)(r * sp), (float)z);
     *pdf = texel_pdf(env, x, y);
+}
+
+void mf_env_sample_dir(const MfEnvMap *env, float u1, float u2, MfVec3 *dir, float *pdf) {
+    int W = env->img.w;
+    u1 = mf_clampf(u1, 0.0f, 0x1.fffffep-1f);
+    u2 = mf_clampf(u2, 0.0f, 0x1.fffffep-1f);
+    int y = cdf_find_guided(env->marg_cdf, env->marg_guide, env->marg_k, u1);
+    const float *cc = env->cond_cdf + (size_t)y * (W + 1);
+    int x = cdf_find_guided(cc, env->cond_guide + (size_t)y * (env->cond_k + 1), env->cond_k, u2);
+    sample_finish(env, cc, x, y, u1, u2, dir, pdf);
+}
+
+#define ENV_BATCH 64
+
+void mf_env_sample_dir_n(const MfEnvMap *env, int n, const float *u1, const float *u2, MfVec3 *dir, float *pdf) {
+    int W = env->img.w, K = env->cond_k;
+    for (int b0 = 0; b0 < n; b0 += ENV_BATCH) {
+        int nb = n - b0 < ENV_BATCH ? n - b0 : ENV_BATCH;
+        int ys[ENV_BATCH], lo[ENV_BATCH], hi[ENV_BATCH];
+        float a[ENV_BATCH], b[ENV_BATCH];
+        const uint32_t *g[ENV_BATCH];
+        /* 1: rows (marginal tables are small and hot), prefetch the guide entries */
+        for (int t = 0; t < nb; ++t) {
+            a[t] = mf_clampf(u1[b0 + t], 0.0f, 0x1.fffffep-1f);
+            b[t] = mf_clampf(u2[b0 + t], 0.0f, 0x1.fffffep-1f);
+            ys[t] = cdf_find_guided(env->marg_cdf, env->marg_guide, env->marg_k, a[t]);
+            int k = b[t] >= 0.0f ? (int)(b[t] * (float)K) : 0;
+            g[t] = env->cond_guide + (size_t)ys[t] * (K + 1) + k;
+            __builtin_prefetch(g[t]);
+        }
+        /* 2: search ranges, prefetch the CDF entries they span */
+        for (int t = 0; t < nb; ++t) {
+            lo[t] = (int)g[t][0];
+            hi[t] = (int)g[t][1] + 1;
+            const float *cc = env->cond_cdf + (size_t)ys[t] * (W + 1);
+            __builtin_prefetch(cc + lo[t]);
+            __builtin_prefetch(cc + hi[t]);
+        }
+        /* 3: finish (the same search as cdf_find_guided, from the same range) */
+        for (int t = 0; t < nb; ++t) {
+            const float *cc = env->cond_cdf + (size_t)ys[t] * (W + 1);
+            int x;
+            if (!(b[t] >= 0.0f)) {
+                x = 0;
+            } else {
+                int l = lo[t], h = hi[t];
+                while (h - l > 1) {
+                    int mid = (l + h) >> 1;
+                    if (cc[mid] <= b[t]) l = mid;
+                    else h = mid;
+                }
+                x = l;
+            }
+            sample_finish(env, cc, x, ys[t], a[t], b[t], &dir[b0 + t], &pdf[b0 + t]);
+        }
+    }
 }
 
 MfVec3 mf_env_sample(const MfEnvMap *env, float u1, float u2, MfVec3 *dir, float *pdf) {
@@ -370,4 +423,30 @@ MfVec3 mf_env_eval_pdf(const MfEnvMap *env, MfVec3 d, float *pdf) {
     env_footprint_uv(env, u, v, idx, wt);
     *pdf = pdf_uv(env, u, v);
     return env_lookup(env, idx, wt);
+}
+
+void mf_env_eval_pdf_n(const MfEnvMap *env, int n, const MfVec3 *d, MfVec3 *L, float *pdf) {
+    int W = env->img.w, H = env->img.h;
+    for (int b0 = 0; b0 < n; b0 += ENV_BATCH) {
+        int nb = n - b0 < ENV_BATCH ? n - b0 : ENV_BATCH;
+        size_t idx[ENV_BATCH][4];
+        float wt[ENV_BATCH][4];
+        int px[ENV_BATCH], py[ENV_BATCH];
+        for (int t = 0; t < nb; ++t) {
+            float u, v;
+            mf_env_dir_to_uv(d[b0 + t], &u, &v);
+            env_footprint_uv(env, u, v, idx[t], wt[t]);
+            for (int k = 0; k < 4; ++k) __builtin_prefetch(env->img.data + idx[t][k] * 3);
+            if (pdf) { /* the texel of pdf_uv */
+                int x = (int)floorf(u * (float)W), y = (int)floorf((1.0f - v) * (float)H);
+                px[t] = x < 0 ? 0 : (x >= W ? W - 1 : x);
+                py[t] = y < 0 ? 0 : (y >= H ? H - 1 : y);
+                __builtin_prefetch(env->cond_cdf + (size_t)py[t] * (W + 1) + px[t]);
+            }
+        }
+        for (int t = 0; t < nb; ++t) {
+            L[b0 + t] = env_lookup(env, idx[t], wt[t]);
+            if (pdf) pdf[b0 + t] = texel_pdf(env, px[t], py[t]);
+        }
+    }
 }

@@ -66,5 +66,10 @@ void mf_env_sample_dir(const MfEnvMap *env, float u1, float u2, MfVec3 *dir, flo
 /* mf_env_eval and mf_env_pdf of the same direction from one direction -> (u, v) conversion
  * (identical values). */
 MfVec3 mf_env_eval_pdf(const MfEnvMap *env, MfVec3 d, float *pdf);
+/* Batched forms (n >= 0 items, same values as the single calls): memory loads of all items are
+ * issued (prefetched) before any is used, so their cache misses overlap. pdf may be NULL in
+ * mf_env_eval_pdf_n (then only radiance). */
+void mf_env_sample_dir_n(const MfEnvMap *env, int n, const float *u1, const float *u2, MfVec3 *dir, float *pdf);
+void mf_env_eval_pdf_n(const MfEnvMap *env, int n, const MfVec3 *d, MfVec3 *L, float *pdf);
 
 #endif
