@@ -391,6 +391,11 @@ void mf_env_sample_dir_n(const MfEnvMap *env, int n, const float *u1, const floa
                 x = l;
             }
             sample_finish(env, cc, x, ys[t], a[t], b[t], &dir[b0 + t], &pdf[b0 + t]);
+            /* the radiance lookup of this sample (if it is kept) reads rows y and y +- 1 */
+            const float *px = env->img.data + ((size_t)ys[t] * W + x) * 3;
+            __builtin_prefetch(px);
+            if (ys[t] > 0) __builtin_prefetch(px - (size_t)W * 3);
+            if (ys[t] + 1 < env->img.h) __builtin_prefetch(px + (size_t)W * 3);
         }
     }
 }
