@@ -19,7 +19,7 @@
 static const char usage[] =
     "usage: mf eval DATA_DIR --results RESULTS_DIR -o REPORT_DIR [--methods a,b,...] [--dataset NAME]\n"
     "               [--align mean|lsq|none] [--spp N] [--pixel-samples P] [--max-views N] [--no-curves]\n"
-    "               [--trivial]\n"
+    "               [--trivial] [--scenes a,b,...]\n"
     "Scores RESULTS_DIR/<method>/<scene>/ against DATA_DIR (a split folder of bvault scenes, or one\n"
     "scene) with the protocol stated in the README: relit views (every relighting light, test\n"
     "cameras; per-channel scale inside the GT mask (mean: ratio of means, default; lsq: least\n"
@@ -113,12 +113,13 @@ static int snapshot_curve(const char *scene_dir, const char *result_dir, const E
 
 static int cmd_eval(int argc, char **argv) {
     const char *data = NULL, *results = NULL, *out = NULL, *methods_s = NULL, *dataset = NULL, *align_s = "mean";
+    const char *scenes_s = NULL;
     int curves = 1, trivial = 0;
     EvEvalOpts o = ev_eval_opts_default();
     for (int i = 1; i < argc; ++i) {
         int r;
         if ((r = mf_opt_str(argc, argv, &i, "-o", &out)) || (r = mf_opt_str(argc, argv, &i, "--results", &results)) ||
-            (r = mf_opt_str(argc, argv, &i, "--methods", &methods_s)) || (r = mf_opt_str(argc, argv, &i, "--dataset", &dataset)) ||
+            (r = mf_opt_str(argc, argv, &i, "--methods", &methods_s)) || (r = mf_opt_str(argc, argv, &i, "--scenes", &scenes_s)) || (r = mf_opt_str(argc, argv, &i, "--dataset", &dataset)) ||
             (r = mf_opt_str(argc, argv, &i, "--align", &align_s)) || (r = mf_opt_int(argc, argv, &i, "--spp", &o.spp_sqrt)) ||
             (r = mf_opt_int(argc, argv, &i, "--pixel-samples", &o.pixel_samples)) ||
             (r = mf_opt_int(argc, argv, &i, "--max-views", &o.max_views))) {
@@ -146,6 +147,17 @@ static int cmd_eval(int argc, char **argv) {
     } else {
         snprintf(scene_root, sizeof scene_root, "%s", data);
         nsc = list_dirs(data, scenes, MAX_ITEMS, 1);
+    }
+    if (scenes_s && nsc > 1) { /* keep only the listed scenes */
+        int k = 0;
+        for (int i = 0; i < nsc; ++i) {
+            char list[4096];
+            snprintf(list, sizeof list, ",%s,", scenes_s);
+            char key[70];
+            snprintf(key, sizeof key, ",%.63s,", scenes[i]);
+            if (strstr(list, key)) memmove(scenes[k++], scenes[i], 64);
+        }
+        nsc = k;
     }
     if (nsc <= 0) { mf_fail(MF_EIO, "%s: no scene with transforms_test.json", data); return MF_EXIT_FAIL; }
     int nm = 0;
