@@ -107,6 +107,7 @@ $(DATA)/%/.rendered: | $(BUILD)/mf
 	@for s in $(DATA)/$*/*/; do $(call render_scene,$$s) || exit 1; done
 	touch $@
 
+.PRECIOUS: $(DATA)/%/.rendered
 data-%: $(DATA)/%/.rendered ;
 
 # Per-scene reconstruction jobs: resumable (--resume), parallel with make -j. A method is the
