@@ -86,11 +86,12 @@ MF_TEST(fusion_sds_chain_gradient) {
     for (size_t i = 0; i < kd->n; ++i) kd->p[i] = 0.2f + 0.6f * (float)((i * 37) % 11) / 10.0f;
     for (size_t i = 0; i < orm->n; i += 3) orm->p[i + 1] = 0.3f + 0.05f * (float)(i % 7), orm->p[i + 2] = 0.2f + 0.04f * (float)(i % 5);
     MfSdsTargets t;
-    CHECK_OK(mf_sds_targets(s, r, 1, 0, &t));
+    int views[2] = {1, 2};
+    CHECK_OK(mf_sds_targets(s, r, views, 2, 0, &t));
     mf_param_zero_grad(kd);
     mf_param_zero_grad(orm);
     double l0;
-    CHECK_OK(mf_sds_view_loss(s, r, &t, 1.0f, 1, &l0));
+    CHECK_OK(mf_sds_loss(s, r, &t, 1.0f, 1, &l0));
     CHECK(l0 > 0.0);
     double worst = 0.0, gmax = 0.0;
     int checked = 0;
@@ -104,9 +105,9 @@ MF_TEST(fusion_sds_chain_gradient) {
             float p0 = blocks[b]->p[i], eps = 2e-3f;
             double lp, lm;
             blocks[b]->p[i] = p0 + eps;
-            mf_sds_view_loss(s, r, &t, 1.0f, 0, &lp);
+            mf_sds_loss(s, r, &t, 1.0f, 0, &lp);
             blocks[b]->p[i] = p0 - eps;
-            mf_sds_view_loss(s, r, &t, 1.0f, 0, &lm);
+            mf_sds_loss(s, r, &t, 1.0f, 0, &lm);
             blocks[b]->p[i] = p0;
             double fd = (lp - lm) / (2.0 * eps);
             worst = fmax(worst, fabs(fd - g) / (fabs(fd) + 0.05 * gmax));

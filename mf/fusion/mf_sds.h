@@ -9,7 +9,8 @@
  *      reference image in sRGB, box-filtered to R, (2v - 1) x mask. Note: the official code feeds
  *      sRGB(kd (1 - m)), a quirk (the prior was trained on the undarkened base colour); we feed kd
  *      in both training and SDS;
- *   3. z = Enc(maps); t ~ U{t_min..t_max}; zhat = guided DDIM from t over [t, .8t, .6t, .4t, .2t]
+ *   3. z = Enc(maps); t ~ U{t_min..t_max} (one t per batch: the K views go through the prior as
+ *      one batch); zhat = guided DDIM from t over [t, .8t, .6t, .4t, .2t]
  *      (guidance 3.0) — the TARGETS;
  *   4. loss = gamma_i (lambda_latent mean((a (z - zhat))^2) + lambda_rgb mean((a D(zhat) - maps)^2)),
  *      means over elements; a = the mask at the matching resolution; gamma_i = 1 - (i/N)^p (or 1
@@ -48,21 +49,25 @@ void mf_sds_free(MfSds *s);
 /* The hook for mf_recon_run: ctx is an MfSds. */
 int mf_sds_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double *loss);
 
-/* Pieces, exposed for the chain's gradient check. Targets of one view: zhat (2zc, h, h) and
- * D(zhat) maps (2, 3, R, R); prepared condition and mask are computed from the view. */
+/* Pieces, exposed for the chain's gradient check. The K views of an iteration are processed as one
+ * batch through the prior (one timestep t per batch, drawn from U{t_min..t_max}). Targets: zhat
+ * and D(zhat) held fixed; condition and mask come from the views' reference images. */
+#define MF_SDS_MAX_VIEWS 16
 typedef struct {
-    float *zhat;  /* (2zc, h, h) owned */
-    float *dhat;  /* (2, 3, R, R) owned: decoded albedo and ORM maps */
-    float *cond;  /* (3, R, R) owned */
-    float *mask;  /* (R, R) owned */
-    MfCamera cam; /* the view's camera at R x R */
-    uint64_t aov_seed; /* seed of the AOV render (the loss re-renders with the same primary hits) */
+    int n;           /* views */
+    int t;           /* timestep of the batch */
+    float *zhat;     /* (n, 2zc, h, h) owned */
+    float *dhat;     /* (2, n, 3, R, R) owned: decoded albedo maps, then ORM maps */
+    float *cond;     /* (n, 3, R, R) owned */
+    float *mask;     /* (n, R, R) owned */
+    MfCamera cam[MF_SDS_MAX_VIEWS];     /* the views' cameras at R x R */
+    uint64_t aov_seed[MF_SDS_MAX_VIEWS]; /* seeds of the AOV renders (the loss re-renders the same hits) */
 } MfSdsTargets;
 
-int mf_sds_targets(MfSds *s, MfRecon *r, int view, int it, MfSdsTargets *t);
+int mf_sds_targets(MfSds *s, MfRecon *r, const int *views, int n, int it, MfSdsTargets *t);
 void mf_sds_targets_free(MfSdsTargets *t);
-/* Loss of one view against fixed targets (without gamma); when grads is non-zero, adds
- * scale * dLoss/d(texels) into the kd and ORM blocks' gradients. */
-int mf_sds_view_loss(MfSds *s, MfRecon *r, const MfSdsTargets *t, float scale, int grads, double *loss);
+/* Loss against fixed targets (without gamma; means over all elements of the batch); when grads is
+ * non-zero, adds scale * dLoss/d(texels) into the kd and ORM blocks' gradients. */
+int mf_sds_loss(MfSds *s, MfRecon *r, const MfSdsTargets *t, float scale, int grads, double *loss);
 
 #endif
