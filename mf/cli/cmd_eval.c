@@ -269,13 +269,54 @@ static int cmd_eval(int argc, char **argv) {
         if ((rc = ev_plot_png(p, "Relit PSNR vs wall time (first scene)", "wall time [s]", "relit PSNR [dB]", series, nm, 0)) == MF_OK)
             mf_sb_printf(&curves_html, "<h2>Speed vs error</h2><img src=\"speed_error.png\">\n");
     }
+    /* image grids: ground truth and each method, first test view, first novel light */
+    MfStrBuf grids = {0};
+    for (int sc = 0; sc < nsc && sc < 6 && !rc; ++sc) {
+        enum { MAXR = 9 };
+        MfImage cells[MAXR][EV_GRID_COLS];
+        const MfImage *ptr[MAXR * EV_GRID_COLS];
+        char labels[1024] = "ground truth";
+        int rows = 0;
+        char sd[MF_PATH_MAX];
+        if (mf_path_join(sd, sizeof sd, scene_root, scenes[sc])) break;
+        if (ev_eval_grid_row(sd, NULL, &o, cells[rows]) == MF_OK) ++rows;
+        for (int m = 0; m < nm && rows < MAXR; ++m) {
+            char md[MF_PATH_MAX], rd[MF_PATH_MAX];
+            if (mf_path_join(md, sizeof md, results, methods[m]) || mf_path_join(rd, sizeof rd, md, scenes[sc]) || !mf_file_exists(rd)) continue;
+            if (ev_eval_grid_row(sd, rd, &o, cells[rows]) != MF_OK) continue;
+            size_t l = strlen(labels);
+            snprintf(labels + l, sizeof labels - l, ", %.63s", methods[m]);
+            ++rows;
+        }
+        if (rows < 2) {
+            for (int r = 0; r < rows; ++r)
+                for (int k = 0; k < EV_GRID_COLS; ++k) mf_image_free(&cells[r][k]);
+            continue;
+        }
+        for (int r = 0; r < rows; ++r)
+            for (int k = 0; k < EV_GRID_COLS; ++k) ptr[r * EV_GRID_COLS + k] = cells[r][k].data ? &cells[r][k] : NULL;
+        char name[128];
+        snprintf(name, sizeof name, "grid_%.60s.png", scenes[sc]);
+        snprintf(p, sizeof p, "%s/%s", out, name);
+        rc = ev_grid_png(p, ptr, rows, EV_GRID_COLS, 128, 128, 1);
+        for (int r = 0; r < rows; ++r)
+            for (int k = 0; k < EV_GRID_COLS; ++k) mf_image_free(&cells[r][k]);
+        if (!rc) {
+            mf_sb_printf(&grids, "<h3>%s</h3><p>Rows: ", scenes[sc]);
+            mf_sb_html(&grids, labels);
+            mf_sb_printf(&grids, ". Columns: relit view (first test view, first novel light), albedo, roughness, "
+                                 "metallic, env map (tonemapped x/(1+x)).</p><img src=\"%s\">\n", name);
+        }
+    }
     if (!rc) {
+        if (grids.s) mf_sb_printf(&curves_html, "<h2>Images</h2>\n%s", grids.s);
         const char *blocks[2] = {page.s ? page.s : "", curves_html.s ? curves_html.s : ""};
         snprintf(p, sizeof p, "%s/index.html", out);
         rc = ev_html_write(p, "MaterialFusion evaluation", blocks, 2);
     }
     mf_sb_free(&page);
     mf_sb_free(&curves_html);
+    mf_sb_free(&grids);
     ev_table_free(&t);
     if (rc) return MF_EXIT_FAIL;
     mf_log_info("eval: %d runs scored, %d view scores excluded -> %s", evaluated, excluded, out);
