@@ -660,3 +660,42 @@ MF_TEST(prior_material_latents_and_backward) {
     free(alb), free(orm), free(zm), free(wz), free(da), free(dor), free(z1buf), free(ra), free(ro), free(d1);
     mf_prior_free(p);
 }
+
+MF_TEST(prior_train_partial_folder_and_default_weights) {
+    /* a folder still being generated: no manifest, samples 0..5 and 7 (6 missing) -> 6 samples */
+    char dir[MF_PATH_MAX], out[MF_PATH_MAX], path[MF_PATH_MAX], w[MF_PATH_MAX];
+    snprintf(dir, sizeof dir, "%s", mf_test_path("prior_partial"));
+    write_synth(dir, 8, 16, 3);
+    mf_path_join(path, sizeof path, dir, "manifest.json");
+    remove(path);
+    mf_path_join(path, sizeof path, dir, "orm/000006.png");
+    remove(path);
+    snprintf(out, sizeof out, "%s", mf_test_path("prior_partial_out"));
+    MfTrainPriorOpts o;
+    MfTrainPriorResult r;
+    tiny_opts(&o, out, mf_test_path("prior_partial.csv"));
+    o.data_dir = dir, o.ae_steps = 3, o.steps = 3, o.ckpt_every = 2;
+    CHECK_OK(mf_train_prior(&o, &r));
+    mf_path_join(w, sizeof w, out, "prior.mfck");
+    char *meta = NULL;
+    CHECK_OK(mf_prior_read_meta(w, &meta));
+    CHECK_MSG(meta && strstr(meta, "\"samples\":6") && strstr(meta, "\"dn_steps\":3"), "meta %s", meta ? meta : "");
+    free(meta);
+    /* an empty folder is refused */
+    CHECK_ERR((o.data_dir = out, mf_train_prior(&o, &r)), "no complete sample");
+    /* the default weights path follows $MF_PRIOR_WEIGHTS (a file or a folder) */
+    char got[MF_PATH_MAX];
+    setenv(MF_PRIOR_WEIGHTS_ENV, out, 1);
+    mf_prior_default_weights(got, sizeof got);
+    CHECK(!strcmp(got, w));
+    MfPrior *p = NULL;
+    CHECK_OK(mf_prior_load_path(NULL, &p));
+    CHECK(p && p->cfg.ae.res == 16);
+    mf_prior_free(p);
+    setenv(MF_PRIOR_WEIGHTS_ENV, w, 1);
+    mf_prior_default_weights(got, sizeof got);
+    CHECK(!strcmp(got, w));
+    unsetenv(MF_PRIOR_WEIGHTS_ENV);
+    mf_prior_default_weights(got, sizeof got);
+    CHECK(strstr(got, MF_PRIOR_WEIGHTS_DEFAULT) != NULL);
+}

@@ -30,25 +30,46 @@ typedef struct {
 
 static const char *KIND_DIR[3] = {"albedo", "orm", "rgb"};
 
+/* Sample i is complete when its three files exist. */
+static int sample_complete(const char *dir, int i) {
+    for (int k = 0; k < 3; ++k) {
+        char rel[64], path[MF_PATH_MAX];
+        snprintf(rel, sizeof rel, "%s/%06d.png", KIND_DIR[k], i);
+        mf_path_join(path, sizeof path, dir, rel);
+        if (!mf_file_exists(path)) return 0;
+    }
+    return 1;
+}
+
+/* Reads manifest.json when present (count, resolution, seed). A folder still being generated
+ * (no manifest yet, or fewer files than the manifest's count) is accepted: the samples
+ * 0..n-1 whose three files all exist are used, with a warning; the resolution then comes from
+ * the first image. */
 static int data_load(const char *dir, Data *d) {
     char path[MF_PATH_MAX], *txt = NULL;
     size_t len;
+    int rc, want = -1;
+    d->R = 0, d->seed = 0;
     mf_path_join(path, sizeof path, dir, "manifest.json");
-    int rc = mf_read_file(path, &txt, &len);
-    if (rc) return rc;
-    cJSON *m = cJSON_Parse(txt);
-    free(txt);
-    const cJSON *cn = cJSON_GetObjectItemCaseSensitive(m, "count"),
-                *cr = cJSON_GetObjectItemCaseSensitive(m, "resolution"), *cs = cJSON_GetObjectItemCaseSensitive(m, "seed");
-    if (!cJSON_IsNumber(cn) || !cJSON_IsNumber(cr) || cn->valueint < 1 || cr->valueint < 8) {
+    if (mf_file_exists(path)) {
+        if ((rc = mf_read_file(path, &txt, &len))) return rc;
+        cJSON *m = cJSON_Parse(txt);
+        free(txt);
+        const cJSON *cn = cJSON_GetObjectItemCaseSensitive(m, "count"),
+                    *cr = cJSON_GetObjectItemCaseSensitive(m, "resolution"), *cs = cJSON_GetObjectItemCaseSensitive(m, "seed");
+        if (!cJSON_IsNumber(cn) || !cJSON_IsNumber(cr) || cn->valueint < 1 || cr->valueint < 8) {
+            cJSON_Delete(m);
+            return mf_fail(MF_EFORMAT, "%s: expected \"count\" >= 1 and \"resolution\" >= 8", path);
+        }
+        want = cn->valueint, d->R = cr->valueint, d->seed = cJSON_IsNumber(cs) ? (uint64_t)cs->valuedouble : 0;
         cJSON_Delete(m);
-        return mf_fail(MF_EFORMAT, "%s: expected \"count\" >= 1 and \"resolution\" >= 8", path);
     }
-    d->n = cn->valueint, d->R = cr->valueint, d->seed = cJSON_IsNumber(cs) ? (uint64_t)cs->valuedouble : 0;
-    cJSON_Delete(m);
-    size_t per = (size_t)d->R * d->R * 4;
-    d->px = malloc((size_t)d->n * 3 * per);
-    if (!d->px) return mf_fail(MF_ENOMEM, "%s: out of memory for %d samples", dir, d->n);
+    int n = 0;
+    while ((want < 0 || n < want) && sample_complete(dir, n)) ++n;
+    if (n == 0) return mf_fail(MF_EIO, "%s: no complete sample (rgb/, albedo/, orm/000000.png)", dir);
+    if (want < 0) mf_log_warn("%s: no manifest.json; using the %d complete samples present", dir, n);
+    else if (n < want) mf_log_warn("%s: manifest says %d samples, using the first %d complete ones", dir, want, n);
+    d->n = n;
     for (int i = 0; i < d->n; ++i)
         for (int k = 0; k < 3; ++k) {
             char rel[64];
@@ -56,12 +77,21 @@ static int data_load(const char *dir, Data *d) {
             mf_path_join(path, sizeof path, dir, rel);
             MfImage img = {0};
             if ((rc = mf_image_read(path, MF_ENC_LINEAR, &img))) goto fail;
+            if (!d->R && img.w >= 8) d->R = img.w;
+            if (!d->px) {
+                d->px = malloc((size_t)d->n * 3 * d->R * d->R * 4);
+                if (!d->px) {
+                    mf_image_free(&img);
+                    return mf_fail(MF_ENOMEM, "%s: out of memory for %d samples", dir, d->n);
+                }
+            }
             if (img.w != d->R || img.h != d->R || img.c != 4) {
                 rc = mf_fail(MF_EFORMAT, "%s: expected %dx%d RGBA, got %dx%d with %d channels", path, d->R, d->R, img.w,
                              img.h, img.c);
                 mf_image_free(&img);
                 goto fail;
             }
+            size_t per = (size_t)d->R * d->R * 4;
             unsigned char *dst = d->px + ((size_t)i * 3 + k) * per;
             for (size_t j = 0; j < per; ++j) {
                 float v = img.data[j] * 255.0f + 0.5f;
@@ -353,6 +383,18 @@ static int encode_all(MfPrior *p, const Data *d, float *lat, MfTrainPriorResult 
     return rc;
 }
 
+/* Writes out_dir/prior.mfck with the current weights; dn_step = denoiser steps done so far. */
+static int save_weights(Ctx *c, const MfPrior *p, const Data *d, const MfTrainPriorResult *res, int dn_step) {
+    const MfTrainPriorOpts *o = c->o;
+    char extra[512];
+    snprintf(extra, sizeof extra,
+             "{\"train\":{\"ae_steps\":%d,\"dn_steps\":%d,\"dn_steps_planned\":%d,\"batch\":%d,\"seed\":%llu,"
+             "\"samples\":%d,\"psnr_albedo\":%.3f,\"psnr_orm\":%.3f,\"psnr_rgb\":%.3f}}",
+             o->ae_steps, dn_step, o->steps, o->batch, (unsigned long long)o->seed, d->n, res->psnr[0], res->psnr[1],
+             res->psnr[2]);
+    return mf_prior_save(p, c->final, extra);
+}
+
 static int train_dn(Ctx *c, MfPrior *p, const Data *d, const float *lat, MfTrainPriorResult *res, int *stop) {
     const MfTrainPriorOpts *o = c->o;
     MfDenoiser *dn = p->dn;
@@ -419,8 +461,10 @@ static int train_dn(Ctx *c, MfPrior *p, const Data *d, const float *lat, MfTrain
         mf_progress_add(&prog, 1);
         ++done_here, ++c->ran;
         int last = step + 1 == o->steps, halt = o->stop_after && c->ran >= o->stop_after;
-        if ((o->ckpt_every > 0 && (step + 1) % o->ckpt_every == 0) || last || halt)
+        if ((o->ckpt_every > 0 && (step + 1) % o->ckpt_every == 0) || last || halt) {
             rc = checkpoint(c, "dn", &dn->tab, dn->params, &opt, step + 1);
+            if (!rc) rc = save_weights(c, p, d, res, step + 1); /* a partial run is usable */
+        }
         if (halt) {
             *stop = 1;
             break;
@@ -509,12 +553,7 @@ int mf_train_prior(const MfTrainPriorOpts *o, MfTrainPriorResult *res) {
     mf_log_info("train-prior: autoencoder PSNR albedo %.2f dB, ORM %.2f dB, RGB %.2f dB; latent scale %.4f",
                 res->psnr[0], res->psnr[1], res->psnr[2], p->latent_scale);
     if ((rc = train_dn(&c, p, &d, lat, res, &stop)) || stop) goto out;
-    char extra[512];
-    snprintf(extra, sizeof extra,
-             "{\"train\":{\"ae_steps\":%d,\"dn_steps\":%d,\"batch\":%d,\"seed\":%llu,\"samples\":%d,"
-             "\"psnr_albedo\":%.3f,\"psnr_orm\":%.3f,\"psnr_rgb\":%.3f}}",
-             o->ae_steps, o->steps, o->batch, (unsigned long long)o->seed, d.n, res->psnr[0], res->psnr[1], res->psnr[2]);
-    rc = mf_prior_save(p, c.final, extra);
+    rc = save_weights(&c, p, &d, res, o->steps);
     if (!rc) rc = hist_write(&c.hist, c.csv);
 out:
     res->stopped = stop;
