@@ -676,12 +676,12 @@ MF_TEST(prior_train_partial_folder_and_default_weights) {
     MfTrainPriorOpts o;
     MfTrainPriorResult r;
     tiny_opts(&o, out, mf_test_path("prior_partial.csv"));
-    o.data_dir = dir, o.ae_steps = 3, o.steps = 3, o.ckpt_every = 2;
+    o.data_dir = dir, o.ae_steps = 3, o.steps = 3, o.ckpt_every = 2, o.dn_samples = 4;
     CHECK_OK(mf_train_prior(&o, &r));
     mf_path_join(w, sizeof w, out, "prior.mfck");
     char *meta = NULL;
     CHECK_OK(mf_prior_read_meta(w, &meta));
-    CHECK_MSG(meta && strstr(meta, "\"samples\":6") && strstr(meta, "\"dn_steps\":3"), "meta %s", meta ? meta : "");
+    CHECK_MSG(meta && strstr(meta, "\"samples\":6") && strstr(meta, "\"dn_samples\":4") && strstr(meta, "\"dn_steps\":3"), "meta %s", meta ? meta : "");
     free(meta);
     /* an empty folder is refused */
     CHECK_ERR((o.data_dir = out, mf_train_prior(&o, &r)), "no complete sample");

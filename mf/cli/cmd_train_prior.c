@@ -9,12 +9,14 @@
 
 #define USAGE_TRAIN_PRIOR \
     "usage: mf train-prior DATA_DIR -o CKPT_DIR [--steps N] [--ae-steps N] [--batch B] [--seed S]\n" \
-    "                      [--resume] [--loss-csv PATH] [--ckpt-every K] [--lr-ae X] [--lr X] [--warmup N]\n" \
+    "                      [--dn-samples N] [--resume] [--loss-csv PATH] [--ckpt-every K] [--lr-ae X] [--lr X] [--warmup N]\n" \
     "  Trains the autoencoder (--ae-steps, default 1000), freezes it, then the denoiser + image encoder\n" \
     "  (--steps, default 2000) on DATA_DIR (prior-train layout: manifest.json, rgb/ albedo/ orm/ PNGs).\n" \
     "  Writes CKPT_DIR/prior.mfck (weights for `mf prior`), CKPT_DIR/{ae,dn}_state.mfck (resumable state,\n" \
     "  every --ckpt-every steps, default 200) and the loss curve CSV (default reports/prior/loss.csv).\n" \
     "  --resume continues from the state files exactly (same seed -> same result as one run).\n" \
+    "  --dn-samples N: the denoiser trains on N samples spread evenly over the split (their latents are\n" \
+    "  encoded once; default all); the autoencoder always uses every sample.\n" \
     "  Defaults: batch 16, seed 1, AdamW lr 5e-4 (AE) / 3e-4 (denoiser), wd 1e-2, warm-up 100 steps.\n" \
     "  Model size: --ae-c1/--ae-c2 (AE channels, default 32/64), --unet-c1/--unet-c2 (default 64/128;\n" \
     "  c1 multiple of 8, c2 >= c1 and a multiple of 8). --stop-after N stops (with a checkpoint) after N steps.\n"
@@ -32,6 +34,7 @@ static int cmd_train_prior(int argc, char **argv) {
             (r = mf_opt_int(argc, argv, &i, "--ckpt-every", &o.ckpt_every)) ||
             (r = mf_opt_float(argc, argv, &i, "--lr-ae", &o.lr_ae)) || (r = mf_opt_float(argc, argv, &i, "--lr", &o.lr_dn)) ||
             (r = mf_opt_int(argc, argv, &i, "--warmup", &o.warmup)) ||
+            (r = mf_opt_int(argc, argv, &i, "--dn-samples", &o.dn_samples)) ||
             (r = mf_opt_int(argc, argv, &i, "--stop-after", &o.stop_after)) ||
             (r = mf_opt_int(argc, argv, &i, "--ae-c1", &o.ae_c1)) || (r = mf_opt_int(argc, argv, &i, "--ae-c2", &o.ae_c2)) ||
             (r = mf_opt_int(argc, argv, &i, "--unet-c1", &o.dn_c1)) || (r = mf_opt_int(argc, argv, &i, "--unet-c2", &o.dn_c2))) {

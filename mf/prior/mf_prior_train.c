@@ -26,6 +26,8 @@ typedef struct {
     int n, R;
     uint64_t seed;
     unsigned char *px; // (n, 3 kinds, R, R, 4) raw 8-bit values (kinds: albedo, orm, rgb)
+    int m;             /* samples the denoiser trains on (latents cached): sel[0..m-1] */
+    int *sel;          // (m,) sample indices, spread evenly over 0..n-1
 } Data;
 
 static const char *KIND_DIR[3] = {"albedo", "orm", "rgb"};
@@ -347,7 +349,8 @@ done:
     return rc;
 }
 
-/* Encodes every sample's three kinds (unscaled) into lat (n, 3, zc, h, h); PSNR of the first 64. */
+/* Encodes the three kinds of the m selected samples (unscaled) into lat (m, 3, zc, h, h); PSNR of
+ * the first 64. */
 static int encode_all(MfPrior *p, const Data *d, float *lat, MfTrainPriorResult *res) {
     int R = p->cfg.ae.res, zc = p->cfg.ae.zc, h = R / 4, CH = 16;
     size_t isz = (size_t)3 * R * R, zsz = (size_t)zc * h * h;
@@ -358,9 +361,9 @@ static int encode_all(MfPrior *p, const Data *d, float *lat, MfTrainPriorResult 
     size_t cnt[3] = {0, 0, 0};
     int rc = MF_OK;
     for (int k = 0; k < 3 && !rc; ++k)
-        for (int i0 = 0; i0 < d->n; i0 += CH) {
-            int nb = d->n - i0 < CH ? d->n - i0 : CH;
-            for (int b = 0; b < nb; ++b) data_get(d, i0 + b, k, x + (size_t)b * isz);
+        for (int i0 = 0; i0 < d->m; i0 += CH) {
+            int nb = d->m - i0 < CH ? d->m - i0 : CH;
+            for (int b = 0; b < nb; ++b) data_get(d, d->sel[i0 + b], k, x + (size_t)b * isz);
             float *z = mf_ae_encode(p->ae, &w, x, nb);
             if (!z) {
                 rc = mf_fail(MF_ENOMEM, "train-prior: out of memory");
@@ -389,8 +392,8 @@ static int save_weights(Ctx *c, const MfPrior *p, const Data *d, const MfTrainPr
     char extra[512];
     snprintf(extra, sizeof extra,
              "{\"train\":{\"ae_steps\":%d,\"dn_steps\":%d,\"dn_steps_planned\":%d,\"batch\":%d,\"seed\":%llu,"
-             "\"samples\":%d,\"psnr_albedo\":%.3f,\"psnr_orm\":%.3f,\"psnr_rgb\":%.3f}}",
-             o->ae_steps, dn_step, o->steps, o->batch, (unsigned long long)o->seed, d->n, res->psnr[0], res->psnr[1],
+             "\"samples\":%d,\"dn_samples\":%d,\"psnr_albedo\":%.3f,\"psnr_orm\":%.3f,\"psnr_rgb\":%.3f}}",
+             o->ae_steps, dn_step, o->steps, o->batch, (unsigned long long)o->seed, d->n, d->m, res->psnr[0], res->psnr[1],
              res->psnr[2]);
     return mf_prior_save(p, c->final, extra);
 }
@@ -422,11 +425,11 @@ static int train_dn(Ctx *c, MfPrior *p, const Data *d, const float *lat, MfTrain
         MfRng r;
         mf_rng_seed(&r, o->seed, 0x200000000ull + (uint64_t)step);
         for (int b = 0; b < B; ++b) {
-            int i = (int)mf_rng_below(&r, (uint32_t)d->n), t = (int)mf_rng_below(&r, MF_DIFF_T);
+            int j = (int)mf_rng_below(&r, (uint32_t)d->m), i = d->sel[j], t = (int)mf_rng_below(&r, MF_DIFF_T);
             float u = mf_rng_float(&r);
             int drop_emb = u < 0.10f, drop_lat = u >= 0.05f && u < 0.15f; /* 5% emb, 5% both, 5% latent */
             for (size_t j = 0; j < 2 * zsz; ++j) eps[j] = mf_rng_normal(&r);
-            const float *li = lat + (size_t)i * 3 * zsz; /* albedo, orm, rgb (scaled) */
+            const float *li = lat + (size_t)j * 3 * zsz; /* albedo, orm, rgb (scaled) */
             float *xb = x + (size_t)b * 3 * zsz;
             for (size_t j = 0; j < zsz; ++j) xb[j] = drop_lat ? 0.0f : li[2 * zsz + j];
             mf_diffusion_q_sample(&p->diff, xb + zsz, li, eps, t, 2 * zsz);
@@ -538,7 +541,15 @@ int mf_train_prior(const MfTrainPriorOpts *o, MfTrainPriorResult *res) {
     mf_log_info("train-prior: %d samples at %d px, %zu parameters, batch %d, %d AE + %d denoiser steps", d.n, d.R,
                 res->params, o->batch, o->ae_steps, o->steps);
     if ((rc = train_ae(&c, p, &d, res, &stop)) || stop) goto out;
-    size_t zsz = (size_t)cfg.ae.zc * (d.R / 4) * (d.R / 4), nl = (size_t)d.n * 3 * zsz;
+    d.m = o->dn_samples > 0 && o->dn_samples < d.n ? o->dn_samples : d.n;
+    d.sel = malloc((size_t)d.m * sizeof(int));
+    if (!d.sel) {
+        rc = mf_fail(MF_ENOMEM, "train-prior: out of memory");
+        goto out;
+    }
+    for (int j = 0; j < d.m; ++j) d.sel[j] = (int)((long long)j * d.n / d.m);
+    if (d.m < d.n) mf_log_info("train-prior: the denoiser trains on %d of the %d samples (evenly spread)", d.m, d.n);
+    size_t zsz = (size_t)cfg.ae.zc * (d.R / 4) * (d.R / 4), nl = (size_t)d.m * 3 * zsz;
     lat = malloc(nl * sizeof(float));
     if (!lat) {
         rc = mf_fail(MF_ENOMEM, "train-prior: out of memory for latents");
@@ -557,7 +568,7 @@ int mf_train_prior(const MfTrainPriorOpts *o, MfTrainPriorResult *res) {
     if (!rc) rc = hist_write(&c.hist, c.csv);
 out:
     res->stopped = stop;
-    free(lat), free(d.px), free(c.hist.r);
+    free(lat), free(d.px), free(d.sel), free(c.hist.r);
     mf_prior_free(p);
     return rc;
 }
