@@ -34,7 +34,7 @@ LIB_OBJ  := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
 CLI_OBJ  := $(CLI_C:%.c=$(BUILD)/obj/%.o)
 TEST_OBJ := $(TEST_C:%.c=$(BUILD)/obj/%.o)
 
-.PHONY: FORCE all deps test asan bench-render bench-baseline bench-prior bench-quick bench train-prior clean
+.PHONY: FORCE all deps test asan bench-render bench-baseline bench-prior bench-quick bench train-prior eval-prior clean
 all: $(BUILD)/mf $(BUILD)/mf_tests
 
 deps:
@@ -117,6 +117,26 @@ $(RESULTS)/$(BENCH_SPLIT)/$(METHOD)/%/run.json: | $(BUILD)/mf
 bench-baseline: $(BUILD)/mf $(DATA)/$(BENCH_SPLIT)/.rendered
 	$(MAKE) --no-print-directory recon-runs METHOD=nvdiffrecmc
 	$(MF) eval $(DATA)/$(BENCH_SPLIT) --results $(RESULTS)/$(BENCH_SPLIT) --methods nvdiffrecmc --trivial -o reports/baseline
+
+# ---- the material prior: training data, training (resumable), 2D table, speed ----
+# train-prior reproduces the committed weights (reports/prior/README.md) and copies them to
+# PRIOR_WEIGHTS, the default path `mf prior` and the library load.
+PRIOR_DATA       ?= $(DATA)/prior-train
+PRIOR_CKPT       ?= $(DATA)/prior-ckpt
+PRIOR_WEIGHTS    ?= mf/prior/weights/prior.mfck
+PRIOR_GEN_ARGS   ?=
+PRIOR_TRAIN_ARGS ?= --ae-steps 500 --steps 4000 --batch 16 --seed 1 --dn-samples 6000
+$(PRIOR_DATA)/manifest.json: | $(BUILD)/mf
+	$(MF) gen --split prior-train -o $(PRIOR_DATA) $(PRIOR_GEN_ARGS)
+train-prior: $(BUILD)/mf $(PRIOR_DATA)/manifest.json
+	$(MF) train-prior $(PRIOR_DATA) -o $(PRIOR_CKPT) $(PRIOR_TRAIN_ARGS) --loss-csv reports/prior/loss.csv --resume
+	@mkdir -p $(dir $(PRIOR_WEIGHTS)) && cp $(PRIOR_CKPT)/prior.mfck $(PRIOR_WEIGHTS)
+$(DATA)/test-2d/manifest.json: | $(BUILD)/mf
+	$(MF) gen --split test-2d -o $(DATA)/test-2d
+eval-prior: $(BUILD)/mf $(DATA)/test-2d/manifest.json $(PRIOR_DATA)/manifest.json
+	$(MF) eval-prior $(DATA)/test-2d --train $(PRIOR_DATA) -o reports/prior
+bench-prior: $(BUILD)/mf
+	$(MF) bench-prior -o reports/perf/prior.md
 
 clean:
 	rm -rf build build-asan build-*
