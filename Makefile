@@ -37,7 +37,7 @@ LIB_OBJ  := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
 CLI_OBJ  := $(CLI_C:%.c=$(BUILD)/obj/%.o)
 TEST_OBJ := $(TEST_C:%.c=$(BUILD)/obj/%.o)
 
-.PHONY: FORCE all deps test asan bench-render bench-baseline bench-prior bench-quick bench bench-split bench-external recon-runs train-prior clean
+.PHONY: FORCE all deps test asan bench-render bench-baseline bench-prior bench-quick bench bench-split bench-external recon-runs train-prior eval-prior clean
 all: $(BUILD)/mf $(BUILD)/mf_tests
 
 deps:
@@ -142,6 +142,7 @@ bench: $(BUILD)/mf
 	$(MAKE) --no-print-directory bench-split BENCH_SPLIT=test-3d REPORT=reports/bench/test-3d
 	$(MAKE) --no-print-directory bench-split BENCH_SPLIT=test-3d-diffuse REPORT=reports/bench/test-3d-diffuse
 	$(MAKE) --no-print-directory bench-external REPORT=reports/bench
+	$(MAKE) --no-print-directory eval-prior
 
 # The same tables on a reduced setting (3 scenes, 64 px training, 100 iterations).
 bench-quick: $(BUILD)/mf
@@ -161,6 +162,26 @@ bench-external:
 	  else for s in $$d/*/; do n=$$(basename $$s); \
 	    $(foreach m,$(BENCH_METHODS),{ [ -f $(RESULTS)/$$v/$(m)/$$n/run.json ] || $(MF) recon $$s -o $(RESULTS)/$$v/$(m)/$$n $(FLAGS_$(m)) --config $(RECON_CONFIG) --resume || exit 1; };) \
 	  done; $(MF) eval $$d --results $(RESULTS)/$$v --dataset $$v -o $(REPORT)/$$v || exit 1; fi; done
+
+# ---- the material prior: training data, training (resumable), 2D table, speed ----
+# train-prior reproduces the committed weights (reports/prior/README.md) and copies them to
+# PRIOR_WEIGHTS, the default path `mf prior` and the library load.
+PRIOR_DATA       ?= $(DATA)/prior-train
+PRIOR_CKPT       ?= $(DATA)/prior-ckpt
+PRIOR_WEIGHTS    ?= mf/prior/weights/prior.mfck
+PRIOR_GEN_ARGS   ?=
+PRIOR_TRAIN_ARGS ?= --ae-steps 500 --steps 4000 --batch 16 --seed 1 --dn-samples 6000
+$(PRIOR_DATA)/manifest.json: | $(BUILD)/mf
+	$(MF) gen --split prior-train -o $(PRIOR_DATA) $(PRIOR_GEN_ARGS)
+train-prior: $(BUILD)/mf $(PRIOR_DATA)/manifest.json
+	$(MF) train-prior $(PRIOR_DATA) -o $(PRIOR_CKPT) $(PRIOR_TRAIN_ARGS) --loss-csv reports/prior/loss.csv --resume
+	@mkdir -p $(dir $(PRIOR_WEIGHTS)) && cp $(PRIOR_CKPT)/prior.mfck $(PRIOR_WEIGHTS)
+$(DATA)/test-2d/manifest.json: | $(BUILD)/mf
+	$(MF) gen --split test-2d -o $(DATA)/test-2d
+eval-prior: $(BUILD)/mf $(DATA)/test-2d/manifest.json $(PRIOR_DATA)/manifest.json
+	$(MF) eval-prior $(DATA)/test-2d --train $(PRIOR_DATA) -o reports/prior
+bench-prior: $(BUILD)/mf
+	$(MF) bench-prior -o reports/perf/prior.md
 
 clean:
 	rm -rf build build-asan build-*

@@ -6,9 +6,11 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "baselines/bl_prior2d.h"
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "core/mf_rng.h"
+#include "eval/ev_table.h"
 #include "io/mf_image.h"
 #include "nn/mf_nn_ckpt.h"
 #include "prior/mf_prior.h"
@@ -659,4 +661,120 @@ MF_TEST(prior_material_latents_and_backward) {
     CHECK(e < 1e-5);
     free(alb), free(orm), free(zm), free(wz), free(da), free(dor), free(z1buf), free(ra), free(ro), free(d1);
     mf_prior_free(p);
+}
+
+MF_TEST(prior_train_partial_folder_and_default_weights) {
+    /* a folder still being generated: no manifest, samples 0..5 and 7 (6 missing) -> 6 samples */
+    char dir[MF_PATH_MAX], out[MF_PATH_MAX], path[MF_PATH_MAX], w[MF_PATH_MAX];
+    snprintf(dir, sizeof dir, "%s", mf_test_path("prior_partial"));
+    write_synth(dir, 8, 16, 3);
+    mf_path_join(path, sizeof path, dir, "manifest.json");
+    remove(path);
+    mf_path_join(path, sizeof path, dir, "orm/000006.png");
+    remove(path);
+    snprintf(out, sizeof out, "%s", mf_test_path("prior_partial_out"));
+    MfTrainPriorOpts o;
+    MfTrainPriorResult r;
+    tiny_opts(&o, out, mf_test_path("prior_partial.csv"));
+    o.data_dir = dir, o.ae_steps = 3, o.steps = 3, o.ckpt_every = 2, o.dn_samples = 4;
+    CHECK_OK(mf_train_prior(&o, &r));
+    mf_path_join(w, sizeof w, out, "prior.mfck");
+    char *meta = NULL;
+    CHECK_OK(mf_prior_read_meta(w, &meta));
+    CHECK_MSG(meta && strstr(meta, "\"samples\":6") && strstr(meta, "\"dn_samples\":4") && strstr(meta, "\"dn_steps\":3"), "meta %s", meta ? meta : "");
+    free(meta);
+    /* an empty folder is refused */
+    CHECK_ERR((o.data_dir = out, mf_train_prior(&o, &r)), "no complete sample");
+    /* the default weights path follows $MF_PRIOR_WEIGHTS (a file or a folder) */
+    char got[MF_PATH_MAX];
+    setenv(MF_PRIOR_WEIGHTS_ENV, out, 1);
+    mf_prior_default_weights(got, sizeof got);
+    CHECK(!strcmp(got, w));
+    MfPrior *p = NULL;
+    CHECK_OK(mf_prior_load_path(NULL, &p));
+    CHECK(p && p->cfg.ae.res == 16);
+    mf_prior_free(p);
+    setenv(MF_PRIOR_WEIGHTS_ENV, w, 1);
+    mf_prior_default_weights(got, sizeof got);
+    CHECK(!strcmp(got, w));
+    unsetenv(MF_PRIOR_WEIGHTS_ENV);
+    mf_prior_default_weights(got, sizeof got);
+    CHECK(strstr(got, MF_PRIOR_WEIGHTS_DEFAULT) != NULL);
+}
+
+MF_TEST(prior_eval_cli_writes_table) {
+    const char *bin = getenv("MF_BIN");
+    if (!bin) MF_SKIP("MF_BIN not set (run through make test)");
+    MfPrior *p;
+    tiny_prior(&p);
+    char w[MF_PATH_MAX], dir[MF_PATH_MAX], out[MF_PATH_MAX], f[MF_PATH_MAX], cmd[6 * MF_PATH_MAX];
+    snprintf(w, sizeof w, "%s", mf_test_path("prior_eval.mfck"));
+    CHECK_OK(mf_prior_save(p, w, NULL));
+    mf_prior_free(p);
+    /* a test-2d-like split: 2 objects x 2 views */
+    snprintf(dir, sizeof dir, "%s", mf_test_path("prior_eval_t2d"));
+    write_synth(dir, 4, 16, 9);
+    const char *man = "{\"split\":\"test-2d\",\"resolution\":16,\"count\":4,\"seed\":9,\"objects\":2,\"views_per_object\":2}";
+    mf_path_join(f, sizeof f, dir, "manifest.json");
+    CHECK_OK(mf_write_file(f, man, strlen(man)));
+    snprintf(out, sizeof out, "%s", mf_test_path("prior_eval_out"));
+    snprintf(cmd, sizeof cmd, "'%s' eval-prior '%s' -o '%s' --weights '%s' --train '%s' --samples 2 --steps 3 > /dev/null 2>&1",
+             bin, dir, out, w, synth_dir());
+    CHECK(system(cmd) == 0);
+    mf_path_join(f, sizeof f, out, "table2d.md");
+    char *txt = NULL;
+    size_t len = 0;
+    CHECK_OK(mf_read_file(f, &txt, &len));
+    CHECK(txt && strstr(txt, "StableMaterialMV") && strstr(txt, "Retinex") && strstr(txt, "Train-mean ORM") &&
+          strstr(txt, "2 objects x 2 views"));
+    free(txt);
+    EvTable t;
+    ev_table_init(&t);
+    mf_path_join(f, sizeof f, out, "table2d.csv");
+    CHECK_OK(ev_table_read_csv(&t, f));
+    /* 4 views: SM and MV 5 metrics each, input and Retinex 3 (albedo), mean ORM 2 */
+    CHECK_MSG(t.n == 4 * (5 + 5 + 3 + 3 + 2), "%zu records", t.n);
+    EvStat a = ev_table_stat(&t, "Input image", "test-2d", "albedo_psnr");
+    CHECK(a.n == 4 && a.mean > 5);
+    ev_table_free(&t);
+    /* a wrong resolution is refused with a message */
+    snprintf(dir, sizeof dir, "%s", mf_test_path("prior_eval_t2d_12"));
+    write_synth(dir, 4, 12, 9);
+    mf_path_join(f, sizeof f, dir, "manifest.json");
+    CHECK_OK(mf_write_file(f, man, strlen(man)));
+    snprintf(cmd, sizeof cmd, "'%s' eval-prior '%s' -o '%s' --weights '%s' --train '%s' 2>&1 | grep -q 'prior works at 16'",
+             bin, dir, out, w, synth_dir());
+    CHECK(system(cmd) == 0);
+}
+
+MF_TEST(prior_2d_baselines) {
+    MfImage rgb = {0}, a = {0}, r = {0}, o = {0};
+    mf_image_alloc(&rgb, 24, 24, 4);
+    /* albedo (0.6, 0.4, 0.2) under a smooth left-to-right shading ramp */
+    for (int y = 4; y < 20; ++y)
+        for (int x = 4; x < 20; ++x) {
+            float *px = mf_image_px(&rgb, x, y), s = 0.3f + 0.7f * x / 24.0f;
+            px[0] = 0.6f * s, px[1] = 0.4f * s, px[2] = 0.2f * s, px[3] = 1.0f;
+        }
+    CHECK_OK(bl_albedo_input(&rgb, &a));
+    CHECK(a.data[(12 * 24 + 12) * 4 + 1] == rgb.data[(12 * 24 + 12) * 4 + 1]);
+    CHECK_OK(bl_albedo_retinex(&rgb, 3.0f, &r));
+    /* shading removed: the ratio between the right and left inside columns is far closer to 1 than the input's */
+    float in_ratio = mf_image_px(&rgb, 18, 12)[0] / mf_image_px(&rgb, 5, 12)[0];
+    float rx_ratio = mf_image_px(&r, 18, 12)[0] / mf_image_px(&r, 5, 12)[0];
+    CHECK_MSG(fabsf(rx_ratio - 1) < 0.5f * fabsf(in_ratio - 1), "input %g, retinex %g", in_ratio, rx_ratio);
+    CHECK_NEAR(mf_image_px(&r, 12, 12)[1] / mf_image_px(&r, 12, 12)[0], 0.4f / 0.6f, 1e-4); /* chroma kept */
+    CHECK(mf_image_px(&r, 0, 0)[0] == 0.0f && mf_image_px(&r, 0, 0)[3] == 0.0f);
+    CHECK_OK(bl_orm_constant(&rgb, 0.25f, 0.75f, &o));
+    CHECK(mf_image_px(&o, 12, 12)[0] == 1.0f && mf_image_px(&o, 12, 12)[1] == 0.25f && mf_image_px(&o, 12, 12)[2] == 0.75f);
+    float rr, mm;
+    const MfImage *one = &o;
+    CHECK_OK(bl_orm_mean(&one, 1, &rr, &mm));
+    CHECK_NEAR(rr, 0.25f, 1e-6);
+    CHECK_NEAR(mm, 0.75f, 1e-6);
+    MfImage empty = {0};
+    mf_image_alloc(&empty, 4, 4, 4);
+    one = &empty;
+    CHECK_ERR(bl_orm_mean(&one, 1, &rr, &mm), "no pixel inside");
+    mf_image_free(&rgb), mf_image_free(&a), mf_image_free(&r), mf_image_free(&o), mf_image_free(&empty);
 }

@@ -18,7 +18,8 @@
     "  IMAGE: RGBA (sRGB colour, alpha = mask), box-filtered to the prior's resolution (64 px).\n" \
     "  Writes DIR/albedo.png (sRGB) and DIR/orm.png (linear, R = 1), alpha = the input mask: the mean of\n" \
     "  N samples (default 10) of S DDIM steps (default 50) with classifier-free guidance G (default 3).\n" \
-    "  --weights: a prior.mfck file or the folder holding it (default data/prior/prior.mfck).\n" \
+    "  --weights: a prior.mfck file or the folder holding it (default: $MF_PRIOR_WEIGHTS, else the committed\n" \
+    "  mf/prior/weights/prior.mfck of the current directory or of the repository holding this mf binary).\n" \
     "  --mv: three more views of the object, denoised jointly; their maps go to DIR/albedo_K.png, orm_K.png.\n"
 
 static int read_input(const char *path, int R, float *rgb, float *mask) {
@@ -67,7 +68,7 @@ static int write_map(const char *dir, const char *name, int view, const float *m
 }
 
 static int cmd_prior(int argc, char **argv) {
-    const char *image = NULL, *out = NULL, *weights = "data/prior/prior.mfck", *mv[3] = {NULL, NULL, NULL};
+    const char *image = NULL, *out = NULL, *weights = NULL, *mv[3] = {NULL, NULL, NULL};
     int samples = 10, steps = 50, seed = 0, V = 1;
     float guidance = MF_PRIOR_GUIDANCE;
     for (int i = 1; i < argc; ++i) {
@@ -95,12 +96,8 @@ static int cmd_prior(int argc, char **argv) {
         mf_fail(MF_EARG, "prior: need IMAGE, -o DIR, --samples >= 1 and --steps in 1..%d", MF_DIFF_T);
         return MF_EXIT_USAGE;
     }
-    char wpath[MF_PATH_MAX];
-    snprintf(wpath, sizeof wpath, "%s", weights);
-    size_t wl = strlen(weights);
-    if (wl < 5 || strcmp(weights + wl - 5, ".mfck")) mf_path_join(wpath, sizeof wpath, weights, "prior.mfck");
     MfPrior *p = NULL;
-    if (mf_prior_load(wpath, &p)) return MF_EXIT_FAIL;
+    if (mf_prior_load_path(weights, &p)) return MF_EXIT_FAIL;
     int R = p->cfg.ae.res, zc = p->cfg.ae.zc, h = p->cfg.dn.h, B = samples * V, rc = MF_OK;
     size_t isz = (size_t)3 * R * R, hw = (size_t)R * R, zsz = (size_t)zc * h * h;
     float *rgb = malloc((size_t)B * isz * sizeof(float)), *mask = malloc((size_t)V * hw * sizeof(float));

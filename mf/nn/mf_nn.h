@@ -291,4 +291,9 @@ int mf_nn_check_finite(const float *x, size_t n, const char *what);
  * are scaled by max_norm / norm. Returns the norm before clipping. */
 float mf_grad_clip_norm(float *grads, size_t n, float max_norm);
 
+/* FLOPs (2*M*N*K per product) of the sgemm calls made by the layers since the last reset: a
+ * process-wide counter for benchmarks (not thread-safe; the layers are called from one thread). */
+unsigned long long mf_nn_gemm_flops(void);
+void mf_nn_gemm_flops_reset(void);
+
 #endif

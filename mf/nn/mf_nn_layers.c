@@ -8,6 +8,16 @@
 #include "core/mf_rng.h"
 #include "nn/mf_nn.h"
 
+/* Every matrix product of this module goes through here, so benchmarks can count FLOPs. */
+static unsigned long long g_gemm_flops;
+unsigned long long mf_nn_gemm_flops(void) { return g_gemm_flops; }
+void mf_nn_gemm_flops_reset(void) { g_gemm_flops = 0; }
+static void nn_sgemm(enum CBLAS_ORDER o, enum CBLAS_TRANSPOSE ta, enum CBLAS_TRANSPOSE tb, int M, int N, int K,
+                     float alpha, const float *A, int lda, const float *B, int ldb, float beta, float *C, int ldc) {
+    g_gemm_flops += 2ull * (unsigned long long)M * (unsigned long long)N * (unsigned long long)K;
+    cblas_sgemm(o, ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc);
+}
+
 /* ---- parameter tables ---------------------------------------------------------------- */
 
 size_t mf_tensor_numel(const MfTensorSpec *s) {
@@ -148,7 +158,7 @@ void mf_conv2d_forward(float *out, float *col, const float *in, const float *w, 
                 colp = col;
             }
             /* out_b (Cout, P) = w (Cout, CKK) . col (CKK, P) */
-            cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, Cout, P, CKK, 1.0f, w, CKK, colp, P,
+            nn_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, Cout, P, CKK, 1.0f, w, CKK, colp, P,
                         0.0f, out_b, P);
             add_bias_rows(out_b, bias, Cout, P);
         }
@@ -160,7 +170,7 @@ void mf_conv2d_forward(float *out, float *col, const float *in, const float *w, 
         int n = B - b0 < nb ? B - b0 : nb, NP = n * P;
         for (int i = 0; i < n; ++i)
             im2col(col + (size_t)i * P, (size_t)NP, in + (b0 + i) * in_sz, Cin, H, W, K, stride, Ho, Wo);
-        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, Cout, NP, CKK, 1.0f, w, CKK, col, NP, 0.0f,
+        nn_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, Cout, NP, CKK, 1.0f, w, CKK, col, NP, 0.0f,
                     tmp, NP);
         for (int i = 0; i < n; ++i) {
             float *out_b = out + (b0 + i) * out_sz;
@@ -197,18 +207,18 @@ void mf_conv2d_backward(float *din, float *dw, float *dbias, float *col, const f
                 colp = col;
             }
             /* dw (Cout, CKK) += dout_b (Cout, P) . col^T (P, CKK) */
-            cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, Cout, CKK, P, 1.0f, dout_b, P, colp, P,
+            nn_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, Cout, CKK, P, 1.0f, dout_b, P, colp, P,
                         1.0f, dw, CKK);
             bias_grad_rows(dbias, dout_b, Cout, P);
             if (!din) continue;
             float *din_b = din + b * in_sz;
             if (direct) {
                 /* din_b (Cin, P) += w^T (Cin, Cout) . dout_b (Cout, P) */
-                cblas_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, Cin, P, Cout, 1.0f, w, Cin, dout_b, P,
+                nn_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, Cin, P, Cout, 1.0f, w, Cin, dout_b, P,
                             1.0f, din_b, P);
             } else {
                 /* dcol (CKK, P) = w^T (CKK, Cout) . dout_b (Cout, P), then scatter-add */
-                cblas_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, CKK, P, Cout, 1.0f, w, CKK, dout_b, P,
+                nn_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, CKK, P, Cout, 1.0f, w, CKK, dout_b, P,
                             0.0f, col, P);
                 col2im_add(din_b, col, (size_t)P, Cin, H, W, K, stride, Ho, Wo);
             }
@@ -225,10 +235,10 @@ void mf_conv2d_backward(float *din, float *dw, float *dbias, float *col, const f
                 memcpy(tmp + (size_t)o * NP + (size_t)i * P, dout_b + (size_t)o * P, sizeof(float) * (size_t)P);
             bias_grad_rows(dbias, dout_b, Cout, P);
         }
-        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, Cout, CKK, NP, 1.0f, tmp, NP, col, NP, 1.0f, dw,
+        nn_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, Cout, CKK, NP, 1.0f, tmp, NP, col, NP, 1.0f, dw,
                     CKK);
         if (!din) continue;
-        cblas_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, CKK, NP, Cout, 1.0f, w, CKK, tmp, NP, 0.0f, col,
+        nn_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, CKK, NP, Cout, 1.0f, w, CKK, tmp, NP, 0.0f, col,
                     NP);
         for (int i = 0; i < n; ++i)
             col2im_add(din + (b0 + i) * in_sz, col + (size_t)i * P, (size_t)NP, Cin, H, W, K, stride, Ho, Wo);
@@ -419,7 +429,7 @@ void mf_layernorm_backward(float *din, float *dw, float *db, const float *dout, 
 
 void mf_linear_forward(float *out, const float *in, const float *w, const float *bias, int N, int IC,
                        int OC) {
-    cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, N, OC, IC, 1.0f, in, IC, w, IC, 0.0f, out, OC);
+    nn_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, N, OC, IC, 1.0f, in, IC, w, IC, 0.0f, out, OC);
     if (bias)
         for (int i = 0; i < N; ++i)
             for (int o = 0; o < OC; ++o) out[(size_t)i * OC + o] += bias[o];
@@ -428,9 +438,9 @@ void mf_linear_forward(float *out, const float *in, const float *w, const float 
 void mf_linear_backward(float *din, float *dw, float *dbias, const float *dout, const float *in,
                         const float *w, int N, int IC, int OC) {
     if (din)
-        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, N, IC, OC, 1.0f, dout, OC, w, IC, 1.0f,
+        nn_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, N, IC, OC, 1.0f, dout, OC, w, IC, 1.0f,
                     din, IC);
-    cblas_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, OC, IC, N, 1.0f, dout, OC, in, IC, 1.0f, dw, IC);
+    nn_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, OC, IC, N, 1.0f, dout, OC, in, IC, 1.0f, dw, IC);
     if (dbias)
         for (int o = 0; o < OC; ++o) {
             float s = 0.0f;
@@ -480,7 +490,7 @@ void mf_attention_forward(float *out, float *att, const float *qkv, int B, int T
             const float *k = q + C, *v = q + 2 * C;
             float *P = att + ((size_t)b * NH + h) * T * T;
             /* P (T, T) = scale * q (T, hs) . k^T (hs, T) */
-            cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, T, T, hs, scale, q, C3, k, C3, 0.0f, P,
+            nn_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, T, T, hs, scale, q, C3, k, C3, 0.0f, P,
                         T);
             for (int i = 0; i < T; ++i) {
                 float *row = P + (size_t)i * T, mx = row[0];
@@ -495,7 +505,7 @@ void mf_attention_forward(float *out, float *att, const float *qkv, int B, int T
             }
             /* out (T, hs; ld C) = P (T, T) . v (T, hs; ld 3C) */
             float *o = out + (size_t)b * T * C + (size_t)h * hs;
-            cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, T, hs, T, 1.0f, P, T, v, C3, 0.0f, o, C);
+            nn_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, T, hs, T, 1.0f, P, T, v, C3, 0.0f, o, C);
         }
 }
 
@@ -512,9 +522,9 @@ void mf_attention_backward(float *dqkv, float *scratch, const float *dout, const
             const float *dO = dout + (size_t)b * T * C + (size_t)h * hs;
             float *dP = scratch;
             /* dv (T, hs) += P^T (T, T) . dO (T, hs) */
-            cblas_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, T, hs, T, 1.0f, P, T, dO, C, 1.0f, dv, C3);
+            nn_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, T, hs, T, 1.0f, P, T, dO, C, 1.0f, dv, C3);
             /* dP (T, T) = dO (T, hs) . v^T (hs, T) */
-            cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, T, T, hs, 1.0f, dO, C, v, C3, 0.0f, dP, T);
+            nn_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, T, T, hs, 1.0f, dO, C, v, C3, 0.0f, dP, T);
             /* softmax backward: dS = P * (dP - sum_j P dP), times the scale */
             for (int i = 0; i < T; ++i) {
                 const float *pr = P + (size_t)i * T;
@@ -525,8 +535,8 @@ void mf_attention_backward(float *dqkv, float *scratch, const float *dout, const
                 for (int j = 0; j < T; ++j) dr[j] = scale * pr[j] * (dr[j] - sf);
             }
             /* dq (T, hs) += dS (T, T) . k (T, hs);  dk (T, hs) += dS^T . q */
-            cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, T, hs, T, 1.0f, dP, T, k, C3, 1.0f, dq, C3);
-            cblas_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, T, hs, T, 1.0f, dP, T, q, C3, 1.0f, dk, C3);
+            nn_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, T, hs, T, 1.0f, dP, T, k, C3, 1.0f, dq, C3);
+            nn_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, T, hs, T, 1.0f, dP, T, q, C3, 1.0f, dk, C3);
         }
 }
 

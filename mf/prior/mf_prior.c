@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
@@ -434,4 +435,38 @@ void mf_prior_prepare_image(const float *rgba, int w, int h, int R, float *out, 
             for (int c = 0; c < 3; ++c) out[((size_t)c * R + y) * R + x] = (float)(2.0 * acc[c] / wsum - a);
             if (mask) mask[(size_t)y * R + x] = (float)a;
         }
+}
+
+/* "x.mfck" stays; anything else is taken as a folder holding prior.mfck. */
+static void weights_file(char *buf, size_t n, const char *path) {
+    size_t l = strlen(path);
+    if (l >= 5 && !strcmp(path + l - 5, ".mfck")) snprintf(buf, n, "%s", path);
+    else mf_path_join(buf, n, path, "prior.mfck");
+}
+
+void mf_prior_default_weights(char *buf, size_t n) {
+    const char *env = getenv(MF_PRIOR_WEIGHTS_ENV);
+    if (env && *env) {
+        weights_file(buf, n, env);
+        return;
+    }
+    snprintf(buf, n, "%s", MF_PRIOR_WEIGHTS_DEFAULT);
+    if (mf_file_exists(buf)) return;
+    char exe[MF_PATH_MAX];
+    ssize_t l = readlink("/proc/self/exe", exe, sizeof exe - 1);
+    if (l <= 0) return;
+    exe[l] = 0;
+    char *slash = strrchr(exe, '/');
+    if (!slash) return;
+    *slash = 0; /* exe dir, e.g. <repo>/build */
+    char cand[MF_PATH_MAX];
+    if (snprintf(cand, sizeof cand, "%s/../%s", exe, MF_PRIOR_WEIGHTS_DEFAULT) < (int)sizeof cand && mf_file_exists(cand))
+        snprintf(buf, n, "%s", cand);
+}
+
+int mf_prior_load_path(const char *path, MfPrior **out) {
+    char file[MF_PATH_MAX];
+    if (path) weights_file(file, sizeof file, path);
+    else mf_prior_default_weights(file, sizeof file);
+    return mf_prior_load(file, out);
 }

@@ -26,29 +26,52 @@ typedef struct {
     int n, R;
     uint64_t seed;
     unsigned char *px; // (n, 3 kinds, R, R, 4) raw 8-bit values (kinds: albedo, orm, rgb)
+    int m;             /* samples the denoiser trains on (latents cached): sel[0..m-1] */
+    int *sel;          // (m,) sample indices, spread evenly over 0..n-1
 } Data;
 
 static const char *KIND_DIR[3] = {"albedo", "orm", "rgb"};
 
+/* Sample i is complete when its three files exist. */
+static int sample_complete(const char *dir, int i) {
+    for (int k = 0; k < 3; ++k) {
+        char rel[64], path[MF_PATH_MAX];
+        snprintf(rel, sizeof rel, "%s/%06d.png", KIND_DIR[k], i);
+        mf_path_join(path, sizeof path, dir, rel);
+        if (!mf_file_exists(path)) return 0;
+    }
+    return 1;
+}
+
+/* Reads manifest.json when present (count, resolution, seed). A folder still being generated
+ * (no manifest yet, or fewer files than the manifest's count) is accepted: the samples
+ * 0..n-1 whose three files all exist are used, with a warning; the resolution then comes from
+ * the first image. */
 static int data_load(const char *dir, Data *d) {
     char path[MF_PATH_MAX], *txt = NULL;
     size_t len;
+    int rc, want = -1;
+    d->R = 0, d->seed = 0;
     mf_path_join(path, sizeof path, dir, "manifest.json");
-    int rc = mf_read_file(path, &txt, &len);
-    if (rc) return rc;
-    cJSON *m = cJSON_Parse(txt);
-    free(txt);
-    const cJSON *cn = cJSON_GetObjectItemCaseSensitive(m, "count"),
-                *cr = cJSON_GetObjectItemCaseSensitive(m, "resolution"), *cs = cJSON_GetObjectItemCaseSensitive(m, "seed");
-    if (!cJSON_IsNumber(cn) || !cJSON_IsNumber(cr) || cn->valueint < 1 || cr->valueint < 8) {
+    if (mf_file_exists(path)) {
+        if ((rc = mf_read_file(path, &txt, &len))) return rc;
+        cJSON *m = cJSON_Parse(txt);
+        free(txt);
+        const cJSON *cn = cJSON_GetObjectItemCaseSensitive(m, "count"),
+                    *cr = cJSON_GetObjectItemCaseSensitive(m, "resolution"), *cs = cJSON_GetObjectItemCaseSensitive(m, "seed");
+        if (!cJSON_IsNumber(cn) || !cJSON_IsNumber(cr) || cn->valueint < 1 || cr->valueint < 8) {
+            cJSON_Delete(m);
+            return mf_fail(MF_EFORMAT, "%s: expected \"count\" >= 1 and \"resolution\" >= 8", path);
+        }
+        want = cn->valueint, d->R = cr->valueint, d->seed = cJSON_IsNumber(cs) ? (uint64_t)cs->valuedouble : 0;
         cJSON_Delete(m);
-        return mf_fail(MF_EFORMAT, "%s: expected \"count\" >= 1 and \"resolution\" >= 8", path);
     }
-    d->n = cn->valueint, d->R = cr->valueint, d->seed = cJSON_IsNumber(cs) ? (uint64_t)cs->valuedouble : 0;
-    cJSON_Delete(m);
-    size_t per = (size_t)d->R * d->R * 4;
-    d->px = malloc((size_t)d->n * 3 * per);
-    if (!d->px) return mf_fail(MF_ENOMEM, "%s: out of memory for %d samples", dir, d->n);
+    int n = 0;
+    while ((want < 0 || n < want) && sample_complete(dir, n)) ++n;
+    if (n == 0) return mf_fail(MF_EIO, "%s: no complete sample (rgb/, albedo/, orm/000000.png)", dir);
+    if (want < 0) mf_log_warn("%s: no manifest.json; using the %d complete samples present", dir, n);
+    else if (n < want) mf_log_warn("%s: manifest says %d samples, using the first %d complete ones", dir, want, n);
+    d->n = n;
     for (int i = 0; i < d->n; ++i)
         for (int k = 0; k < 3; ++k) {
             char rel[64];
@@ -56,12 +79,21 @@ static int data_load(const char *dir, Data *d) {
             mf_path_join(path, sizeof path, dir, rel);
             MfImage img = {0};
             if ((rc = mf_image_read(path, MF_ENC_LINEAR, &img))) goto fail;
+            if (!d->R && img.w >= 8) d->R = img.w;
+            if (!d->px) {
+                d->px = malloc((size_t)d->n * 3 * d->R * d->R * 4);
+                if (!d->px) {
+                    mf_image_free(&img);
+                    return mf_fail(MF_ENOMEM, "%s: out of memory for %d samples", dir, d->n);
+                }
+            }
             if (img.w != d->R || img.h != d->R || img.c != 4) {
                 rc = mf_fail(MF_EFORMAT, "%s: expected %dx%d RGBA, got %dx%d with %d channels", path, d->R, d->R, img.w,
                              img.h, img.c);
                 mf_image_free(&img);
                 goto fail;
             }
+            size_t per = (size_t)d->R * d->R * 4;
             unsigned char *dst = d->px + ((size_t)i * 3 + k) * per;
             for (size_t j = 0; j < per; ++j) {
                 float v = img.data[j] * 255.0f + 0.5f;
@@ -317,7 +349,8 @@ done:
     return rc;
 }
 
-/* Encodes every sample's three kinds (unscaled) into lat (n, 3, zc, h, h); PSNR of the first 64. */
+/* Encodes the three kinds of the m selected samples (unscaled) into lat (m, 3, zc, h, h); PSNR of
+ * the first 64. */
 static int encode_all(MfPrior *p, const Data *d, float *lat, MfTrainPriorResult *res) {
     int R = p->cfg.ae.res, zc = p->cfg.ae.zc, h = R / 4, CH = 16;
     size_t isz = (size_t)3 * R * R, zsz = (size_t)zc * h * h;
@@ -328,9 +361,9 @@ static int encode_all(MfPrior *p, const Data *d, float *lat, MfTrainPriorResult 
     size_t cnt[3] = {0, 0, 0};
     int rc = MF_OK;
     for (int k = 0; k < 3 && !rc; ++k)
-        for (int i0 = 0; i0 < d->n; i0 += CH) {
-            int nb = d->n - i0 < CH ? d->n - i0 : CH;
-            for (int b = 0; b < nb; ++b) data_get(d, i0 + b, k, x + (size_t)b * isz);
+        for (int i0 = 0; i0 < d->m; i0 += CH) {
+            int nb = d->m - i0 < CH ? d->m - i0 : CH;
+            for (int b = 0; b < nb; ++b) data_get(d, d->sel[i0 + b], k, x + (size_t)b * isz);
             float *z = mf_ae_encode(p->ae, &w, x, nb);
             if (!z) {
                 rc = mf_fail(MF_ENOMEM, "train-prior: out of memory");
@@ -351,6 +384,18 @@ static int encode_all(MfPrior *p, const Data *d, float *lat, MfTrainPriorResult 
     free(x);
     mf_ae_work_free(&w);
     return rc;
+}
+
+/* Writes out_dir/prior.mfck with the current weights; dn_step = denoiser steps done so far. */
+static int save_weights(Ctx *c, const MfPrior *p, const Data *d, const MfTrainPriorResult *res, int dn_step) {
+    const MfTrainPriorOpts *o = c->o;
+    char extra[512];
+    snprintf(extra, sizeof extra,
+             "{\"train\":{\"ae_steps\":%d,\"dn_steps\":%d,\"dn_steps_planned\":%d,\"batch\":%d,\"seed\":%llu,"
+             "\"samples\":%d,\"dn_samples\":%d,\"psnr_albedo\":%.3f,\"psnr_orm\":%.3f,\"psnr_rgb\":%.3f}}",
+             o->ae_steps, dn_step, o->steps, o->batch, (unsigned long long)o->seed, d->n, d->m, res->psnr[0], res->psnr[1],
+             res->psnr[2]);
+    return mf_prior_save(p, c->final, extra);
 }
 
 static int train_dn(Ctx *c, MfPrior *p, const Data *d, const float *lat, MfTrainPriorResult *res, int *stop) {
@@ -380,11 +425,11 @@ static int train_dn(Ctx *c, MfPrior *p, const Data *d, const float *lat, MfTrain
         MfRng r;
         mf_rng_seed(&r, o->seed, 0x200000000ull + (uint64_t)step);
         for (int b = 0; b < B; ++b) {
-            int i = (int)mf_rng_below(&r, (uint32_t)d->n), t = (int)mf_rng_below(&r, MF_DIFF_T);
+            int j = (int)mf_rng_below(&r, (uint32_t)d->m), i = d->sel[j], t = (int)mf_rng_below(&r, MF_DIFF_T);
             float u = mf_rng_float(&r);
             int drop_emb = u < 0.10f, drop_lat = u >= 0.05f && u < 0.15f; /* 5% emb, 5% both, 5% latent */
             for (size_t j = 0; j < 2 * zsz; ++j) eps[j] = mf_rng_normal(&r);
-            const float *li = lat + (size_t)i * 3 * zsz; /* albedo, orm, rgb (scaled) */
+            const float *li = lat + (size_t)j * 3 * zsz; /* albedo, orm, rgb (scaled) */
             float *xb = x + (size_t)b * 3 * zsz;
             for (size_t j = 0; j < zsz; ++j) xb[j] = drop_lat ? 0.0f : li[2 * zsz + j];
             mf_diffusion_q_sample(&p->diff, xb + zsz, li, eps, t, 2 * zsz);
@@ -419,8 +464,10 @@ static int train_dn(Ctx *c, MfPrior *p, const Data *d, const float *lat, MfTrain
         mf_progress_add(&prog, 1);
         ++done_here, ++c->ran;
         int last = step + 1 == o->steps, halt = o->stop_after && c->ran >= o->stop_after;
-        if ((o->ckpt_every > 0 && (step + 1) % o->ckpt_every == 0) || last || halt)
+        if ((o->ckpt_every > 0 && (step + 1) % o->ckpt_every == 0) || last || halt) {
             rc = checkpoint(c, "dn", &dn->tab, dn->params, &opt, step + 1);
+            if (!rc) rc = save_weights(c, p, d, res, step + 1); /* a partial run is usable */
+        }
         if (halt) {
             *stop = 1;
             break;
@@ -494,7 +541,15 @@ int mf_train_prior(const MfTrainPriorOpts *o, MfTrainPriorResult *res) {
     mf_log_info("train-prior: %d samples at %d px, %zu parameters, batch %d, %d AE + %d denoiser steps", d.n, d.R,
                 res->params, o->batch, o->ae_steps, o->steps);
     if ((rc = train_ae(&c, p, &d, res, &stop)) || stop) goto out;
-    size_t zsz = (size_t)cfg.ae.zc * (d.R / 4) * (d.R / 4), nl = (size_t)d.n * 3 * zsz;
+    d.m = o->dn_samples > 0 && o->dn_samples < d.n ? o->dn_samples : d.n;
+    d.sel = malloc((size_t)d.m * sizeof(int));
+    if (!d.sel) {
+        rc = mf_fail(MF_ENOMEM, "train-prior: out of memory");
+        goto out;
+    }
+    for (int j = 0; j < d.m; ++j) d.sel[j] = (int)((long long)j * d.n / d.m);
+    if (d.m < d.n) mf_log_info("train-prior: the denoiser trains on %d of the %d samples (evenly spread)", d.m, d.n);
+    size_t zsz = (size_t)cfg.ae.zc * (d.R / 4) * (d.R / 4), nl = (size_t)d.m * 3 * zsz;
     lat = malloc(nl * sizeof(float));
     if (!lat) {
         rc = mf_fail(MF_ENOMEM, "train-prior: out of memory for latents");
@@ -509,16 +564,11 @@ int mf_train_prior(const MfTrainPriorOpts *o, MfTrainPriorResult *res) {
     mf_log_info("train-prior: autoencoder PSNR albedo %.2f dB, ORM %.2f dB, RGB %.2f dB; latent scale %.4f",
                 res->psnr[0], res->psnr[1], res->psnr[2], p->latent_scale);
     if ((rc = train_dn(&c, p, &d, lat, res, &stop)) || stop) goto out;
-    char extra[512];
-    snprintf(extra, sizeof extra,
-             "{\"train\":{\"ae_steps\":%d,\"dn_steps\":%d,\"batch\":%d,\"seed\":%llu,\"samples\":%d,"
-             "\"psnr_albedo\":%.3f,\"psnr_orm\":%.3f,\"psnr_rgb\":%.3f}}",
-             o->ae_steps, o->steps, o->batch, (unsigned long long)o->seed, d.n, res->psnr[0], res->psnr[1], res->psnr[2]);
-    rc = mf_prior_save(p, c.final, extra);
+    rc = save_weights(&c, p, &d, res, o->steps);
     if (!rc) rc = hist_write(&c.hist, c.csv);
 out:
     res->stopped = stop;
-    free(lat), free(d.px), free(c.hist.r);
+    free(lat), free(d.px), free(d.sel), free(c.hist.r);
     mf_prior_free(p);
     return rc;
 }

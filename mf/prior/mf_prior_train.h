@@ -28,6 +28,8 @@ typedef struct {
     const char *loss_csv;           /* borrowed; NULL = reports/prior/loss.csv */
     int steps;                      /* denoiser steps */
     int ae_steps;                   /* autoencoder steps */
+    int dn_samples;                 /* samples the denoiser trains on (their latents are cached), evenly
+                                       spread over the split; 0 = all. The autoencoder uses all. */
     int batch;
     int ckpt_every;
     int warmup;
