@@ -8,6 +8,7 @@
 #include "core/mf_error.h"
 #include "core/mf_log.h"
 #include "datasets/ds_cameras.h"
+#include "datasets/ds_gen.h"
 #include "datasets/ds_shapes.h"
 #include "datasets/ds_split.h"
 
@@ -25,11 +26,17 @@
     "       mf gen --split tiny|small|full -o DIR [--seed N] [--env-dir DIR]\n" \
     "  Writes a whole split: DIR/NNN_<family>/ scenes as above plus gt/env.exr (training light),\n" \
     "  relight/<env>.exr and render_{train,test,relight_<env>}.json for `mf render`, and\n" \
-    "  DIR/split.json. Probes: *.exr of --env-dir (default Blender's studio lights).\n"
+    "  DIR/split.json. Probes: *.exr of --env-dir (default Blender's studio lights).\n" \
+    "       mf gen --split prior-train -o DIR [--count N] [--time-budget SECONDS] [--res 64] [--seed N]\n" \
+    "              [--views 12] [--tex-res 128] [--spp 2] [--pixel-samples 4] [--threads N] [--env-dir DIR]\n" \
+    "  Renders material-prior training triplets DIR/{rgb,albedo,orm}/NNNNNN.png (RGBA 8-bit; rgb and\n" \
+    "  albedo sRGB, orm linear, alpha = coverage) and DIR/manifest.json; stops after N samples (whole\n" \
+    "  objects) or the time budget; rerunning the same command resumes (done/ markers).\n"
 
 static int cmd_gen(int argc, char **argv) {
     const char *out = NULL, *fam_name = NULL, *split = NULL, *env_dir = NULL;
-    int seed = 1, res = DS_DEFAULT_TEX_RES, ntrain = 100, ntest = 200;
+    int seed = 1, res = -1, ntrain = 100, ntest = 200, count = 0, img_res = 64, views = 12, spp = 2, pxs = 4, threads = 0;
+    float budget = 0;
     float r_min = 1.5f, r_max = 2.0f;
     for (int i = 1; i < argc; ++i) {
         int r;
@@ -37,7 +44,11 @@ static int cmd_gen(int argc, char **argv) {
             (r = mf_opt_int(argc, argv, &i, "--seed", &seed)) || (r = mf_opt_int(argc, argv, &i, "--tex-res", &res)) ||
             (r = mf_opt_int(argc, argv, &i, "--train", &ntrain)) || (r = mf_opt_int(argc, argv, &i, "--test", &ntest)) ||
             (r = mf_opt_str(argc, argv, &i, "--split", &split)) || (r = mf_opt_str(argc, argv, &i, "--env-dir", &env_dir)) ||
-            (r = mf_opt_float(argc, argv, &i, "--r-min", &r_min)) || (r = mf_opt_float(argc, argv, &i, "--r-max", &r_max))) {
+            (r = mf_opt_float(argc, argv, &i, "--r-min", &r_min)) || (r = mf_opt_float(argc, argv, &i, "--r-max", &r_max)) ||
+            (r = mf_opt_int(argc, argv, &i, "--count", &count)) || (r = mf_opt_int(argc, argv, &i, "--res", &img_res)) ||
+            (r = mf_opt_int(argc, argv, &i, "--views", &views)) || (r = mf_opt_int(argc, argv, &i, "--spp", &spp)) ||
+            (r = mf_opt_int(argc, argv, &i, "--pixel-samples", &pxs)) || (r = mf_opt_int(argc, argv, &i, "--threads", &threads)) ||
+            (r = mf_opt_float(argc, argv, &i, "--time-budget", &budget))) {
             if (r < 0) return MF_EXIT_USAGE;
             continue;
         }
@@ -45,6 +56,26 @@ static int cmd_gen(int argc, char **argv) {
         return MF_EXIT_USAGE;
     }
     if (!out) { mf_fail(MF_EARG, "missing -o DIR"); return MF_EXIT_USAGE; }
+    if (split && !strcmp(split, "prior-train")) {
+        DsPriorTrainOpts po = ds_prior_train_defaults();
+        po.count = count;
+        po.time_budget_s = budget;
+        po.res = img_res;
+        po.seed = (uint64_t)seed;
+        po.views_per_object = views;
+        if (res > 0) po.tex_res = res;
+        po.spp_sqrt = spp;
+        po.pixel_samples = pxs;
+        po.env_dir = env_dir;
+        po.threads = threads;
+        if (count <= 0 && budget <= 0) { mf_fail(MF_EARG, "prior-train: give --count N or --time-budget SECONDS"); return MF_EXIT_USAGE; }
+        DsGenStats st;
+        if (ds_gen_prior_train(&po, out, &st)) return MF_EXIT_FAIL;
+        mf_log_info("mf gen: prior-train %d samples (%d objects) at %d px -> %s; this run %d views in %.1f s (%.2f views/s)", st.count,
+                    st.objects, po.res, out, st.rendered_views, st.wall_s, st.wall_s > 0 ? st.rendered_views / st.wall_s : 0.0);
+        return MF_EXIT_OK;
+    }
+    if (res < 0) res = DS_DEFAULT_TEX_RES;
     if (split) {
         DsSplitSpec spec;
         if (ds_split_spec(split, &spec)) return MF_EXIT_USAGE;
