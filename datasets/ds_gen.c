@@ -233,6 +233,12 @@ int ds_gen_prior_train(const DsPriorTrainOpts *o, const char *out_dir, DsGenStat
     if (o->count <= 0 && o->time_budget_s <= 0) return mf_fail(MF_EARG, "prior-train: give a count or a time budget");
     double t0 = mf_now();
     const char *env_dir = o->env_dir ? o->env_dir : DS_DEFAULT_ENV_DIR;
+    static const char *const subs[4] = {"rgb", "albedo", "orm", "done"};
+    for (int j = 0; j < 4; ++j) {
+        char p[MF_PATH_MAX];
+        int r = mf_path_join(p, sizeof p, out_dir, subs[j]);
+        if (r || (r = mf_mkdirs(p))) return r;
+    }
     ProbeSet ps = {0};
     int rc = ds_list_probes(env_dir, &ps.names, &ps.np);
     if (rc) return rc;
@@ -241,11 +247,6 @@ int ds_gen_prior_train(const DsPriorTrainOpts *o, const char *out_dir, DsGenStat
     for (int i = 0; i < ps.np && !rc; ++i) {
         char p[MF_PATH_MAX];
         if (!(rc = mf_path_join(p, sizeof p, env_dir, ps.names[i]))) rc = mf_env_load(&ps.probes[i], p);
-    }
-    static const char *const subs[4] = {"rgb", "albedo", "orm", "done"};
-    for (int j = 0; j < 4 && !rc; ++j) {
-        char p[MF_PATH_MAX];
-        if (!(rc = mf_path_join(p, sizeof p, out_dir, subs[j]))) rc = mf_mkdirs(p);
     }
     int max_obj = o->count > 0 ? (o->count + o->views_per_object - 1) / o->views_per_object : 1 << 20;
     int first_err = 0, views_total = 0, stop = 0;

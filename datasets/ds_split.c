@@ -10,6 +10,7 @@
 #include "core/mf_fs.h"
 #include "core/mf_rng.h"
 #include "datasets/ds_cameras.h"
+#include "datasets/ds_gen.h"
 #include "datasets/ds_shapes.h"
 #include "io/mf_json.h"
 
@@ -110,7 +111,7 @@ int ds_write_split(const DsSplitSpec *s, const char *out_dir, const char *env_di
     if (!rc) rc = mf_mkdirs(out_dir);
     for (int k = 0; k < s->n_scenes && !rc; ++k) {
         DsFamily fam = (DsFamily)(k % DS_FAM_COUNT);
-        uint64_t oseed = mf_hash64(seed, (uint64_t)k);
+        uint64_t oseed = ds_object_seed(DS_STREAM_TEST, seed, (uint64_t)k);
         char sdir[MF_PATH_MAX], p[MF_PATH_MAX], name[64];
         snprintf(name, sizeof name, "%03d_%s", k, ds_family_name(fam));
         if ((rc = mf_path_join(sdir, sizeof sdir, out_dir, name))) break;

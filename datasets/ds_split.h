@@ -14,7 +14,7 @@
  * and out_dir/split.json lists the scenes (name, family, seed, train env, relight envs).
  * Probes come from env_dir (*.exr, sorted by name; Blender's studio lights by default:
  * /usr/share/blender/datafiles/studiolights/world). Scene k uses family k mod DS_FAM_COUNT
- * and object seed mf_hash64(seed, k); everything is deterministic from (spec, seed). */
+ * and object seed ds_object_seed(DS_STREAM_TEST, seed, k) (ds_gen.h); everything is deterministic from (spec, seed). */
 #ifndef DS_SPLIT_H
 #define DS_SPLIT_H
 
