@@ -25,7 +25,12 @@ uint64_t ds_object_seed(DsSeedStream stream, uint64_t seed, uint64_t k) {
 }
 
 DsPriorTrainOpts ds_prior_train_defaults(void) {
-    DsPriorTrainOpts o = {0, 64, 1, 0.0, 12, 128, 2, 4, NULL, 0};
+    DsPriorTrainOpts o = {0, 64, 1, 0.0, 12, 128, 2, 4, NULL, 0, DS_STREAM_PRIOR, "prior-train"};
+    return o;
+}
+
+DsPriorTrainOpts ds_test2d_defaults(void) {
+    DsPriorTrainOpts o = {32, 64, 1, 0.0, 4, 128, 4, 4, NULL, 0, DS_STREAM_TEST2D, "test-2d"};
     return o;
 }
 
@@ -89,7 +94,7 @@ typedef struct {
 /* Renders object k completely and writes its marker. Runs in one thread. */
 static int render_object(const DsPriorTrainOpts *o, const char *out, const ProbeSet *ps, int k, int *nviews) {
     DsFamily fam = (DsFamily)(k % DS_FAM_COUNT);
-    uint64_t oseed = ds_object_seed(DS_STREAM_PRIOR, o->seed, (uint64_t)k);
+    uint64_t oseed = ds_object_seed(o->stream, o->seed, (uint64_t)k);
     DsObject obj;
     int rc = ds_object_generate(&obj, fam, oseed, o->tex_res);
     if (rc) return rc;
@@ -185,7 +190,8 @@ static int marker_path(const char *out, int k, char *p, size_t cap) {
 static int write_manifest(const DsPriorTrainOpts *o, const char *out, const ProbeSet *ps, const DsGenStats *st) {
     cJSON *r = cJSON_CreateObject(), *files = cJSON_CreateObject(), *pr = cJSON_CreateArray();
     char buf[64];
-    cJSON_AddStringToObject(r, "split", "prior-train");
+    cJSON_AddStringToObject(r, "split", o->split ? o->split : "prior-train");
+    cJSON_AddNumberToObject(r, "seed_stream", o->stream);
     cJSON_AddNumberToObject(r, "resolution", o->res);
     cJSON_AddNumberToObject(r, "count", st->count);
     cJSON_AddNumberToObject(r, "seed", (double)o->seed);
@@ -252,7 +258,7 @@ int ds_gen_prior_train(const DsPriorTrainOpts *o, const char *out_dir, DsGenStat
     int first_err = 0, views_total = 0, stop = 0;
     char errmsg[1024] = "";
     MfProgress prog;
-    mf_progress_begin(&prog, "prior-train", o->count > 0 ? (size_t)max_obj : 0);
+    mf_progress_begin(&prog, o->split ? o->split : "prior-train", o->count > 0 ? (size_t)max_obj : 0);
     int nthreads = o->threads > 0 ? o->threads : omp_get_max_threads();
     if (!rc) {
 #pragma omp parallel for schedule(dynamic, 1) num_threads(nthreads) reduction(+ : views_total)

@@ -53,9 +53,14 @@ typedef struct {
     int pixel_samples;    /* 4 */
     const char *env_dir;  /* NULL: DS_DEFAULT_ENV_DIR */
     int threads;          /* objects in parallel (<= 0: OpenMP default) */
+    DsSeedStream stream;  /* DS_STREAM_PRIOR (test-2d: DS_STREAM_TEST2D) */
+    const char *split;    /* name written into the manifest ("prior-train", "test-2d") */
 } DsPriorTrainOpts;
 
 DsPriorTrainOpts ds_prior_train_defaults(void);
+/* test-2d (the paper's 2D table): 8 held-out objects x 4 views, the prior-train layout and
+ * lights, object seeds from DS_STREAM_TEST2D. */
+DsPriorTrainOpts ds_test2d_defaults(void);
 
 typedef struct {
     int objects;          /* complete objects on disk (prefix 0..objects-1) */

@@ -30,6 +30,9 @@ typedef struct {
     int tex_res;
     int n_relight;
     int spp_sqrt;   /* written into the render JSONs */
+    int pixel_samples;  /* primary rays per pixel when rendered (0: 4) */
+    int diffuse;    /* 1: objects made diffuse-dominant (metallic 0, roughness >= 0.6) */
+    int povray;     /* 1: --render makes the lit views (train, test, relit) with POV-Ray */
     float r_min, r_max; /* camera distance range (default 1.5-2.0 as specified; note: with
                            camera_angle_x 0.6911 and extent-1 objects, 17% of such views crop
                            the object at the frame border, 0% at 2.2-2.8) */
@@ -37,9 +40,29 @@ typedef struct {
 
 /* Named specs: "tiny" (3 scenes, 32x32, 8 train, 4 test views, 64^2 textures, 2 relighting
  * lights), "small" (10 scenes, 128x128, 50 / 20 views, 256^2, 3 lights), "full" (30 scenes,
- * 512x512, 100 / 50 views, 512^2, 4 lights). MF_EARG for an unknown name. */
+ * 512x512, 100 / 50 views, 512^2, 4 lights), "test-3d" (9 scenes, 128x128, 64 train / 8 test
+ * views, 256^2, 3 relighting lights, spp_sqrt 3), "test-3d-diffuse" (test-3d with diffuse
+ * objects, lit views by POV-Ray). MF_EARG for an unknown name. */
 int ds_split_spec(const char *name, DsSplitSpec *out);
 
 int ds_write_split(const DsSplitSpec *s, const char *out_dir, const char *env_dir, uint64_t seed);
+
+/* Renders a split written by ds_write_split (reads out_dir/split.json and the scene files) into
+ *   <scene>/train/r_NNN.png           training views under gt/env.exr (RGBA 8-bit sRGB, straight
+ *                                     alpha = coverage)
+ *   <scene>/test/r_NNN.png            test views under gt/env.exr
+ *   <scene>/gt/albedo/r_NNN.png, gt/orm/r_NNN.png   GT AOVs of the test views (sRGB / linear)
+ *   <scene>/relight/<env>/r_NNN.exr   test views under each relighting light (linear RGBA float,
+ *                                     colour premultiplied by alpha)
+ * with mf_render (s->spp_sqrt, s->pixel_samples; per-view seeds from the object seed) or, when
+ * s->povray, POV-Ray for the lit views (ds_povray.h; scratch in <scene>/.povray/). Resumable:
+ * views whose file exists are skipped (all writes are atomic), a scene is marked complete by
+ * <scene>/.rendered. *rendered (may be NULL) = views rendered by this call. */
+int ds_render_split(const DsSplitSpec *s, const char *out_dir, int *rendered);
+
+/* Writes out_dir/manifest.json: split, seed, counts, render settings, wall time and views/s of
+ * this run, and "files": {"<relative path>": "<FNV-1a 64 hex>"} for every file under out_dir
+ * (sorted; names starting with '.' and manifest.json itself excluded). */
+int ds_split_manifest(const DsSplitSpec *s, const char *out_dir, uint64_t seed, int rendered, int views_rendered, double wall_s);
 
 #endif

@@ -206,3 +206,125 @@ MF_TEST(ds_gen_bad_input) {
     st = system(cmd);
     CHECK(WIFEXITED(st) && WEXITSTATUS(st) == 1);
 }
+
+/* ---- rendered bvault splits (ds_render_split) ---- */
+#include "datasets/ds_load.h"
+#include "datasets/ds_povray.h"
+
+static DsSplitSpec mini_spec(void) {
+    DsSplitSpec s;
+    ds_split_spec("tiny", &s);
+    s.n_scenes = 1;
+    s.width = 16;
+    s.n_train = 3;
+    s.n_test = 2;
+    s.tex_res = 32;
+    s.n_relight = 2;
+    s.spp_sqrt = 1;
+    s.pixel_samples = 1;
+    return s;
+}
+
+static cJSON *manifest_files(const char *dir) {
+    char p[MF_PATH_MAX];
+    snprintf(p, sizeof p, "%s/manifest.json", dir);
+    cJSON *m = NULL;
+    if (mf_json_load(p, &m)) return NULL;
+    cJSON *f = cJSON_DetachItemFromObject(m, "files");
+    cJSON_Delete(m);
+    return f;
+}
+
+MF_TEST(ds_render_split_layout_and_resume) {
+    DsSplitSpec s = mini_spec();
+    const char *a = mf_test_path("rs_a"), *b = mf_test_path("rs_b");
+    int nv = 0;
+    CHECK_OK(ds_write_split(&s, a, gen_probes(), 3));
+    CHECK_OK(ds_render_split(&s, a, &nv));
+    CHECK(nv == 3 + 2 + 2 * 2);
+    CHECK_OK(ds_split_manifest(&s, a, 3, 1, nv, 1.0));
+    /* the bvault loader reads it back, with GT and relighting */
+    char scene[MF_PATH_MAX];
+    snprintf(scene, sizeof scene, "%s/000_cup", a);
+    CHECK(ds_detect_format(scene) == DS_FMT_BVAULT);
+    DsLoadOptions lo = {1, 0, 1, 0};
+    DsViews v;
+    CHECK_OK(ds_load_bvault(scene, "test", &lo, &v));
+    if (!mf_test_failed_now()) {
+        CHECK(v.n == 2 && v.w == 16 && v.n_relight == 2);
+        CHECK(v.views[0].albedo.data != NULL && v.views[0].orm.data != NULL);
+        MfImage rl = {0};
+        CHECK_OK(ds_load_relit(&v, 1, 1, &rl));
+        double cov = 0;
+        for (int i = 0; rl.data && i < 16 * 16; ++i) cov += rl.data[4 * i + 3];
+        CHECK(rl.w == 16 && cov > 5);
+        mf_image_free(&rl);
+        ds_views_free(&v);
+    }
+    /* interrupted run: the layout and one view set only, then a second run finishes it */
+    CHECK_OK(ds_write_split(&s, b, gen_probes(), 3));
+    CHECK_OK(ds_render_split(&s, b, &nv));
+    char p[MF_PATH_MAX];
+    /* an interrupted run leaves whole files only (atomic writes): remove some to simulate one */
+    const char *del[] = {".rendered", "relight/a_sky/r_001.exr", "relight/b_sky/r_001.exr", "relight/c_sky/r_001.exr",
+                         "test/r_000.png", "gt/orm/r_000.png", "train/r_002.png"};
+    int deleted = 0;
+    for (size_t i = 0; i < sizeof del / sizeof del[0]; ++i) {
+        snprintf(p, sizeof p, "%s/000_cup/%s", b, del[i]);
+        if (mf_file_exists(p) && !remove(p)) ++deleted;
+    }
+    CHECK(deleted == 6); /* two of the three probes relight */
+    CHECK_OK(ds_render_split(&s, b, &nv));
+    CHECK(nv == 4); /* only the missing views again: 2 relit, 1 test, 1 train */
+    CHECK_OK(ds_split_manifest(&s, b, 3, 1, nv, 1.0));
+    cJSON *fa = manifest_files(a), *fb = manifest_files(b);
+    CHECK(fa && fb && cJSON_GetArraySize(fa) > 20);
+    CHECK(fa && fb && cJSON_Compare(fa, fb, 1));
+    cJSON_Delete(fa);
+    cJSON_Delete(fb);
+    /* manifest checksums are of the bytes on disk */
+    fa = manifest_files(a);
+    const cJSON *h = fa ? cJSON_GetObjectItem(fa, "000_cup/train/r_000.png") : NULL;
+    CHECK(h && cJSON_IsString(h) && strlen(h->valuestring) == 16);
+    cJSON_Delete(fa);
+}
+
+MF_TEST(ds_render_split_povray_diffuse) {
+    if (!ds_povray_available()) MF_SKIP("povray not installed");
+    DsSplitSpec s = mini_spec();
+    s.diffuse = s.povray = 1;
+    s.n_train = 1;
+    s.n_test = 1;
+    s.n_relight = 1;
+    const char *a = mf_test_path("rs_pov");
+    int nv = 0;
+    CHECK_OK(ds_write_split(&s, a, gen_probes(), 4));
+    CHECK_OK(ds_render_split(&s, a, &nv));
+    CHECK(nv == 3);
+    char p[MF_PATH_MAX];
+    /* diffuse objects: GT ORM has metallic 0 and roughness >= 0.6 where covered */
+    MfImage orm = {0}, rl = {0};
+    snprintf(p, sizeof p, "%s/000_cup/gt/orm/r_000.png", a);
+    CHECK_OK(mf_image_read(p, MF_ENC_LINEAR, &orm));
+    int cov = 0;
+    for (int i = 0; orm.data && i < orm.w * orm.h; ++i)
+        if (orm.data[4 * i + 3] == 1.0f) {
+            ++cov;
+            CHECK(orm.data[4 * i + 2] < 0.01f && orm.data[4 * i + 1] > 0.59f);
+        }
+    CHECK(cov > 5);
+    /* POV-Ray's relit view exists, is finite and has the object's coverage */
+    DsViews v;
+    DsLoadOptions lo = {0, 0, 1, 0};
+    snprintf(p, sizeof p, "%s/000_cup", a);
+    CHECK_OK(ds_load_bvault(p, "test", &lo, &v));
+    if (!mf_test_failed_now()) {
+        CHECK_OK(ds_load_relit(&v, 0, 0, &rl));
+        double c2 = 0;
+        for (int i = 0; rl.data && i < rl.w * rl.h; ++i) c2 += rl.data[4 * i + 3];
+        CHECK(c2 > 0.5 * cov);
+        ds_views_free(&v);
+    }
+    mf_image_free(&orm);
+    mf_image_free(&rl);
+}

@@ -1,5 +1,6 @@
-/* mf gen: writes a procedural object and the camera layout of a generated scene (bvault layout
- * without the rendered images, which `mf render` produces from it). */
+/* mf gen: writes a procedural object and the camera layout of a generated scene (bvault layout),
+ * or a whole data set split (layout, optionally rendered in-process; prior-train / test-2d
+ * triplets always rendered). */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -23,24 +24,31 @@
     "  --seed     random seed (default 1); --tex-res texture size (default 512)\n" \
     "  --train / --test  number of cameras (default 100 / 200)\n" \
     "  --r-min / --r-max camera distance range (default 1.5 / 2.0; 2.2 / 2.8 cropped no view of 1500 checked)\n" \
-    "       mf gen --split tiny|small|full -o DIR [--seed N] [--env-dir DIR]\n" \
+    "\n" \
+    "       mf gen --split tiny|small|full|test-3d|test-3d-diffuse -o DIR [--render] [--seed N] [--env-dir DIR]\n" \
     "  Writes a whole split: DIR/NNN_<family>/ scenes as above plus gt/env.exr (training light),\n" \
-    "  relight/<env>.exr and render_{train,test,relight_<env>}.json for `mf render`, and\n" \
-    "  DIR/split.json. Probes: *.exr of --env-dir (default Blender's studio lights).\n" \
-    "       mf gen --split prior-train -o DIR [--count N] [--time-budget SECONDS] [--res 64] [--seed N]\n" \
-    "              [--views 12] [--tex-res 128] [--spp 2] [--pixel-samples 4] [--threads N] [--env-dir DIR]\n" \
-    "  Renders material-prior training triplets DIR/{rgb,albedo,orm}/NNNNNN.png (RGBA 8-bit; rgb and\n" \
-    "  albedo sRGB, orm linear, alpha = coverage) and DIR/manifest.json; stops after N samples (whole\n" \
-    "  objects) or the time budget; rerunning the same command resumes (done/ markers).\n"
+    "  relight/<env>.exr and render_{train,test,relight_<env>}.json for `mf render`, DIR/split.json\n" \
+    "  and DIR/manifest.json (counts, seeds, FNV-1a 64 of every file). With --render the images are\n" \
+    "  rendered in-process: train/ test/ r_NNN.png, gt/albedo/ gt/orm/ r_NNN.png, relight/<env>/r_NNN.exr\n" \
+    "  (test-3d-diffuse: diffuse objects, lit views by POV-Ray). Rerunning resumes.\n" \
+    "  Probes: *.exr of --env-dir (default Blender's studio lights).\n" \
+    "\n" \
+    "       mf gen --split prior-train|test-2d -o DIR [--count N] [--time-budget SECONDS] [--res 64]\n" \
+    "              [--seed N] [--views 12] [--tex-res 128] [--spp 2] [--pixel-samples 4] [--threads N]\n" \
+    "  Renders material-prior triplets DIR/{rgb,albedo,orm}/NNNNNN.png (RGBA 8-bit; rgb and albedo\n" \
+    "  sRGB, orm linear, alpha = coverage) and DIR/manifest.json; stops after N samples (whole\n" \
+    "  objects) or the time budget; rerunning the same command resumes (done/ markers).\n" \
+    "  test-2d: 8 held-out objects x 4 views (count 32, spp 4) from another seed stream.\n"
 
 static int cmd_gen(int argc, char **argv) {
     const char *out = NULL, *fam_name = NULL, *split = NULL, *env_dir = NULL;
-    int seed = 1, res = -1, ntrain = 100, ntest = 200, count = 0, img_res = 64, views = 12, spp = 2, pxs = 4, threads = 0;
-    float budget = 0;
-    float r_min = 1.5f, r_max = 2.0f;
+    int seed = 1, res = -1, ntrain = 100, ntest = 200, count = 0, img_res = 64, views = -1, spp = -1, pxs = 4, threads = 0, render = 0;
+    float r_min = 1.5f, r_max = 2.0f, budget = 0;
     for (int i = 1; i < argc; ++i) {
         int r;
-        if ((r = mf_opt_str(argc, argv, &i, "-o", &out)) || (r = mf_opt_str(argc, argv, &i, "--family", &fam_name)) ||
+        if (!strcmp(argv[i], "--render")) { render = 1; continue; }
+        if ((r = mf_opt_str(argc, argv, &i, "-o", &out)) || (r = mf_opt_str(argc, argv, &i, "--out", &out)) ||
+            (r = mf_opt_str(argc, argv, &i, "--family", &fam_name)) ||
             (r = mf_opt_int(argc, argv, &i, "--seed", &seed)) || (r = mf_opt_int(argc, argv, &i, "--tex-res", &res)) ||
             (r = mf_opt_int(argc, argv, &i, "--train", &ntrain)) || (r = mf_opt_int(argc, argv, &i, "--test", &ntest)) ||
             (r = mf_opt_str(argc, argv, &i, "--split", &split)) || (r = mf_opt_str(argc, argv, &i, "--env-dir", &env_dir)) ||
@@ -56,35 +64,42 @@ static int cmd_gen(int argc, char **argv) {
         return MF_EXIT_USAGE;
     }
     if (!out) { mf_fail(MF_EARG, "missing -o DIR"); return MF_EXIT_USAGE; }
-    if (split && !strcmp(split, "prior-train")) {
-        DsPriorTrainOpts po = ds_prior_train_defaults();
-        po.count = count;
+    if (split && (!strcmp(split, "prior-train") || !strcmp(split, "test-2d"))) {
+        DsPriorTrainOpts po = !strcmp(split, "test-2d") ? ds_test2d_defaults() : ds_prior_train_defaults();
+        if (count > 0) po.count = count;
         po.time_budget_s = budget;
         po.res = img_res;
         po.seed = (uint64_t)seed;
-        po.views_per_object = views;
+        if (views > 0) po.views_per_object = views;
         if (res > 0) po.tex_res = res;
-        po.spp_sqrt = spp;
+        if (spp > 0) po.spp_sqrt = spp;
         po.pixel_samples = pxs;
         po.env_dir = env_dir;
         po.threads = threads;
-        if (count <= 0 && budget <= 0) { mf_fail(MF_EARG, "prior-train: give --count N or --time-budget SECONDS"); return MF_EXIT_USAGE; }
+        if (po.count <= 0 && budget <= 0) { mf_fail(MF_EARG, "%s: give --count N or --time-budget SECONDS", split); return MF_EXIT_USAGE; }
         DsGenStats st;
         if (ds_gen_prior_train(&po, out, &st)) return MF_EXIT_FAIL;
-        mf_log_info("mf gen: prior-train %d samples (%d objects) at %d px -> %s; this run %d views in %.1f s (%.2f views/s)", st.count,
+        mf_log_info("mf gen: %s %d samples (%d objects) at %d px -> %s; this run %d views in %.1f s (%.2f views/s)", split, st.count,
                     st.objects, po.res, out, st.rendered_views, st.wall_s, st.wall_s > 0 ? st.rendered_views / st.wall_s : 0.0);
         return MF_EXIT_OK;
     }
-    if (res < 0) res = DS_DEFAULT_TEX_RES;
     if (split) {
         DsSplitSpec spec;
         if (ds_split_spec(split, &spec)) return MF_EXIT_USAGE;
         spec.r_min = r_min;
         spec.r_max = r_max;
+        if (spp > 0) spec.spp_sqrt = spp;
+        double t0 = mf_now();
+        int nv = 0;
         if (ds_write_split(&spec, out, env_dir, (uint64_t)seed)) return MF_EXIT_FAIL;
-        mf_log_info("mf gen: split %s (%d scenes) -> %s", split, spec.n_scenes, out);
+        if (render && ds_render_split(&spec, out, &nv)) return MF_EXIT_FAIL;
+        double wall = mf_now() - t0;
+        if (ds_split_manifest(&spec, out, (uint64_t)seed, render, nv, wall)) return MF_EXIT_FAIL;
+        mf_log_info("mf gen: split %s (%d scenes) -> %s%s; %d views rendered in %.1f s", split, spec.n_scenes, out,
+                    render ? "" : " (layout only: add --render for the images)", nv, wall);
         return MF_EXIT_OK;
     }
+    if (res < 0) res = DS_DEFAULT_TEX_RES;
     if (ntrain < 1 || ntest < 1) { mf_fail(MF_EARG, "--train and --test must be >= 1"); return MF_EXIT_USAGE; }
     int fam = fam_name ? ds_family_from_name(fam_name) : (int)((unsigned)seed % DS_FAM_COUNT);
     if (fam < 0) { mf_fail(MF_EARG, "--family: unknown family '%s'", fam_name); return MF_EXIT_USAGE; }
@@ -108,4 +123,4 @@ static int cmd_gen(int argc, char **argv) {
     return rc ? MF_EXIT_FAIL : MF_EXIT_OK;
 }
 
-MF_COMMAND(gen, "gen", "generate a procedural object (mesh, kd/ORM textures) and its scene cameras", K_USAGE, cmd_gen)
+MF_COMMAND(gen, "gen", "generate a procedural object, or a data set split (layout, rendered views, prior-train triplets)", K_USAGE, cmd_gen)
