@@ -2,6 +2,7 @@
  * for specs with povray = 1, with POV-Ray (ds_povray.h); and the per-split manifest. */
 #include <cJSON.h>
 #include <dirent.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -137,7 +138,7 @@ static int render_set(Ctx *c, const char *env_rel, const char *env_name, int kin
         return rc;
     }
     char pdir[MF_PATH_MAX];
-    DsPovScene ps = {&sc->mesh, &sc->kd, {0.5f, 0.5f, 0.5f}, &env_img, NULL, 0, 0, 0};
+    DsPovScene ps = {&sc->mesh, &sc->kd, {0.5f, 0.5f, 0.5f}, &env_img, NULL, 0, s->pov_radiosity > 0 ? s->pov_radiosity : DS_SPLIT_POV_RADIOSITY, 0, 1};
     if (s->povray) {
         snprintf(rel, sizeof rel, ".povray/%s", env_name);
         if (!(rc = mf_path_join(pdir, sizeof pdir, c->sdir, rel)) && !(rc = mf_mkdirs(pdir))) rc = ds_povray_export_assets(&ps, pdir);
@@ -320,5 +321,101 @@ int ds_split_manifest(const DsSplitSpec *s, const char *out_dir, uint64_t seed, 
     char p[MF_PATH_MAX];
     if (!rc && !(rc = mf_path_join(p, sizeof p, out_dir, "manifest.json"))) rc = mf_json_save(p, r);
     cJSON_Delete(r);
+    return rc;
+}
+
+/* ---- our renderer vs POV-Ray ---- */
+
+static void accumulate(const float *a, int as, const float *aa, int aas, const float *b, int bs, const float *ba, int bas, int npx, DsRenderCompareStat *c) {
+    double se = 0, num = 0, den = 0;
+    int n = 0;
+    for (int i = 0; i < npx; ++i) {
+        float wa = aa[(size_t)i * aas], wb = ba[(size_t)i * bas];
+        if (wa < 0.5f && wb < 0.5f) continue; /* background in both */
+        for (int k = 0; k < 3; ++k) {
+            float x = a[(size_t)i * as + k], y = b[(size_t)i * bs + k]; /* premultiplied linear */
+            float xs = mf_linear_to_srgb(x < 0 ? 0 : x > 1 ? 1 : x), ys = mf_linear_to_srgb(y < 0 ? 0 : y > 1 ? 1 : y);
+            se += (double)(xs - ys) * (xs - ys);
+            num += fabs((double)x - y);
+            den += fabs((double)y);
+        }
+        ++n;
+    }
+    if (!n) return;
+    double mse = se / (3.0 * n);
+    c->psnr_sum += 10.0 * log10(1.0 / (mse > 1e-12 ? mse : 1e-12));
+    c->rel_num += num;
+    c->rel_den += den;
+    c->n_views += 1;
+}
+
+int ds_compare_renderers(const DsSplitSpec *spec, const char *out_dir, int max_scenes, int max_views, int res, DsRenderCompare *out) {
+    memset(out, 0, sizeof *out);
+    char p[MF_PATH_MAX];
+    cJSON *list = NULL;
+    int rc = mf_path_join(p, sizeof p, out_dir, "split.json");
+    if (rc || (rc = mf_json_load(p, &list))) return rc;
+    const cJSON *scenes;
+    int ns = 0;
+    if ((rc = mf_json_array(p, "", list, "scenes", &scenes, &ns))) { cJSON_Delete(list); return rc; }
+    if (max_scenes > 0 && ns > max_scenes) ns = max_scenes;
+    double t_ours = 0, t_pov = 0;
+    for (int k = 0; k < ns && !rc; ++k) {
+        const cJSON *jsc = cJSON_GetArrayItem(scenes, k), *rl = cJSON_GetObjectItem(jsc, "relight");
+        const cJSON *jn = cJSON_GetObjectItem(jsc, "name");
+        if (!cJSON_IsString(jn) || !cJSON_IsArray(rl)) { rc = mf_fail(MF_EFORMAT, "%s: scenes[%d]: name/relight missing", p, k); break; }
+        char sdir[MF_PATH_MAX], pdir[MF_PATH_MAX];
+        Scene sc;
+        if ((rc = mf_path_join(sdir, sizeof sdir, out_dir, jn->valuestring)) || (rc = scene_load(&sc, sdir))) break;
+        /* the scene's metallic / roughness: diffuse-dominant when metallic 0 and roughness >= 0.6 everywhere */
+        for (int r = 0; r < cJSON_GetArraySize(rl) && !rc; ++r) {
+            const char *en = cJSON_GetArrayItem(rl, r)->valuestring;
+            char rel[400];
+            snprintf(rel, sizeof rel, "relight/%s.exr", en);
+            MfEnvMap env = {0};
+            MfImage env_img = {0};
+            if ((rc = mf_path_join(p, sizeof p, sdir, rel)) || (rc = mf_image_read(p, MF_ENC_LINEAR, &env_img)) || (rc = mf_env_load(&env, p))) {
+                mf_image_free(&env_img);
+                break;
+            }
+            DsPovScene ps = {&sc.mesh, &sc.kd, {0.5f, 0.5f, 0.5f}, &env_img, NULL, 0, spec->pov_radiosity > 0 ? spec->pov_radiosity : DS_SPLIT_POV_RADIOSITY, 0, 1};
+            snprintf(rel, sizeof rel, ".compare/%s", en);
+            if (!(rc = mf_path_join(pdir, sizeof pdir, sdir, rel)) && !(rc = mf_mkdirs(pdir))) rc = ds_povray_export_assets(&ps, pdir);
+            MfRenderInput in = {sc.rt, &sc.mesh, &sc.mat, 1, &env, NULL, 0};
+            int nv = sc.n_test < max_views || max_views <= 0 ? sc.n_test : max_views;
+            for (int i = 0; i < nv && !rc; ++i) {
+                MfCamera cam;
+                double m[16];
+                for (int q = 0; q < 16; ++q) m[q] = sc.test[i].m[q];
+                if ((rc = mf_camera_init(&cam, res, res, sc.angle_x, m, "compare camera"))) break;
+                MfRenderOut ro = {0}, rd = {0};
+                MfRenderOpts o = {4, 4, mf_hash64(77, (uint64_t)i), MF_LOBE_ALL};
+                double t0 = mf_now();
+                rc = mf_render(&in, &cam, &o, &ro, NULL);
+                t_ours += mf_now() - t0;
+                o.lobes = MF_LOBE_DIFFUSE;
+                if (!rc) rc = mf_render(&in, &cam, &o, &rd, NULL);
+                MfImage pov = {0};
+                char vname[32];
+                snprintf(vname, sizeof vname, "v%03d", i);
+                t0 = mf_now();
+                if (!rc && !(rc = ds_povray_write_view(&ps, &cam, pdir, vname))) rc = ds_povray_run(pdir, vname, res, res, 1, &pov);
+                t_pov += mf_now() - t0;
+                if (!rc) {
+                    accumulate(ro.rgb, 3, ro.alpha, 1, pov.data, 4, pov.data + 3, 4, res * res, &out->all);
+                    accumulate(rd.rgb, 3, rd.alpha, 1, pov.data, 4, pov.data + 3, 4, res * res, &out->diffuse_lobe);
+                }
+                mf_image_free(&pov);
+                mf_render_out_free(&ro);
+                mf_render_out_free(&rd);
+            }
+            mf_env_free(&env);
+            mf_image_free(&env_img);
+        }
+        scene_free(&sc);
+    }
+    cJSON_Delete(list);
+    out->sec_ours = t_ours;
+    out->sec_povray = t_pov;
     return rc;
 }

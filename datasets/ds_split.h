@@ -33,6 +33,7 @@ typedef struct {
     int pixel_samples;  /* primary rays per pixel when rendered (0: 4) */
     int diffuse;    /* 1: objects made diffuse-dominant (metallic 0, roughness >= 0.6) */
     int povray;     /* 1: --render makes the lit views (train, test, relit) with POV-Ray */
+    int pov_radiosity; /* POV-Ray radiosity count (0: DS_SPLIT_POV_RADIOSITY) */
     float r_min, r_max; /* camera distance range (default 1.5-2.0 as specified; note: with
                            camera_angle_x 0.6911 and extent-1 objects, 17% of such views crop
                            the object at the frame border, 0% at 2.2-2.8) */
@@ -64,5 +65,27 @@ int ds_render_split(const DsSplitSpec *s, const char *out_dir, int *rendered);
  * this run, and "files": {"<relative path>": "<FNV-1a 64 hex>"} for every file under out_dir
  * (sorted; names starting with '.' and manifest.json itself excluded). */
 int ds_split_manifest(const DsSplitSpec *s, const char *out_dir, uint64_t seed, int rendered, int views_rendered, double wall_s);
+
+/* POV-Ray radiosity samples per gather for generated splits (600 costs 3x the time at 128 px
+ * for about the same error against our renderer; reports/datasets/renderers.md). */
+#define DS_SPLIT_POV_RADIOSITY 200
+
+/* Our renderer against POV-Ray on the relit test views of a written split (scenes [0,
+ * max_scenes), views [0, max_views), res x res; 0 = all): ours with all lobes (spp_sqrt 4,
+ * 4 pixel samples) and with the diffuse lobe only, POV-Ray with the scene's kd (Lambert,
+ * radiosity DS_SPLIT_POV_RADIOSITY, scratch in <scene>/.compare/). Per view over the pixels
+ * covered in either image: PSNR of the sRGB-encoded premultiplied colour clamped to [0, 1]
+ * (averaged over views), and the mean relative error sum |ours - pov| / sum |pov| of linear
+ * colour (pooled). */
+typedef struct {
+    double psnr_sum, rel_num, rel_den; /* sums over views / pixels */
+    int n_views;
+} DsRenderCompareStat;
+typedef struct {
+    DsRenderCompareStat all;           /* ours (diffuse + specular) vs POV-Ray */
+    DsRenderCompareStat diffuse_lobe;  /* ours, diffuse lobe only, vs POV-Ray */
+    double sec_ours, sec_povray;       /* wall time of the renders */
+} DsRenderCompare;
+int ds_compare_renderers(const DsSplitSpec *s, const char *out_dir, int max_scenes, int max_views, int res, DsRenderCompare *out);
 
 #endif

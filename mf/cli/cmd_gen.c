@@ -31,6 +31,10 @@
     "  and DIR/manifest.json (counts, seeds, FNV-1a 64 of every file). With --render the images are\n" \
     "  rendered in-process: train/ test/ r_NNN.png, gt/albedo/ gt/orm/ r_NNN.png, relight/<env>/r_NNN.exr\n" \
     "  (test-3d-diffuse: diffuse objects, lit views by POV-Ray). Rerunning resumes.\n" \
+    "  --scenes N: only the first N scenes; --spp N: env/BSDF samples per pixel sample = N^2.\n" \
+    "  --compare-povray FILE.md: render the relit test views (first --views N, at --res R) with both\n" \
+    "    renderers and append a table row (PSNR, mean relative error) to FILE.md;\n" \
+    "    --pov-radiosity N: POV-Ray radiosity count (default 200).\n" \
     "  Probes: *.exr of --env-dir (default Blender's studio lights).\n" \
     "\n" \
     "       mf gen --split prior-train|test-2d -o DIR [--count N] [--time-budget SECONDS] [--res 64]\n" \
@@ -41,8 +45,8 @@
     "  test-2d: 8 held-out objects x 4 views (count 32, spp 4) from another seed stream.\n"
 
 static int cmd_gen(int argc, char **argv) {
-    const char *out = NULL, *fam_name = NULL, *split = NULL, *env_dir = NULL;
-    int seed = 1, res = -1, ntrain = 100, ntest = 200, count = 0, img_res = 64, views = -1, spp = -1, pxs = 4, threads = 0, render = 0;
+    const char *out = NULL, *fam_name = NULL, *split = NULL, *env_dir = NULL, *compare = NULL;
+    int seed = 1, res = -1, ntrain = 100, ntest = 200, count = 0, img_res = 64, views = -1, spp = -1, pxs = 4, threads = 0, render = 0, nscenes = 0, pov_rad = 0;
     float r_min = 1.5f, r_max = 2.0f, budget = 0;
     for (int i = 1; i < argc; ++i) {
         int r;
@@ -56,6 +60,8 @@ static int cmd_gen(int argc, char **argv) {
             (r = mf_opt_int(argc, argv, &i, "--count", &count)) || (r = mf_opt_int(argc, argv, &i, "--res", &img_res)) ||
             (r = mf_opt_int(argc, argv, &i, "--views", &views)) || (r = mf_opt_int(argc, argv, &i, "--spp", &spp)) ||
             (r = mf_opt_int(argc, argv, &i, "--pixel-samples", &pxs)) || (r = mf_opt_int(argc, argv, &i, "--threads", &threads)) ||
+            (r = mf_opt_int(argc, argv, &i, "--scenes", &nscenes)) || (r = mf_opt_str(argc, argv, &i, "--compare-povray", &compare)) ||
+            (r = mf_opt_int(argc, argv, &i, "--pov-radiosity", &pov_rad)) ||
             (r = mf_opt_float(argc, argv, &i, "--time-budget", &budget))) {
             if (r < 0) return MF_EXIT_USAGE;
             continue;
@@ -89,12 +95,29 @@ static int cmd_gen(int argc, char **argv) {
         spec.r_min = r_min;
         spec.r_max = r_max;
         if (spp > 0) spec.spp_sqrt = spp;
+        if (nscenes > 0) spec.n_scenes = nscenes;
+        spec.pov_radiosity = pov_rad;
         double t0 = mf_now();
         int nv = 0;
         if (ds_write_split(&spec, out, env_dir, (uint64_t)seed)) return MF_EXIT_FAIL;
         if (render && ds_render_split(&spec, out, &nv)) return MF_EXIT_FAIL;
         double wall = mf_now() - t0;
         if (ds_split_manifest(&spec, out, (uint64_t)seed, render, nv, wall)) return MF_EXIT_FAIL;
+        if (compare) {
+            DsRenderCompare c;
+            int cres = img_res != 64 ? img_res : spec.width;
+            if (ds_compare_renderers(&spec, out, nscenes, views > 0 ? views : 0, cres, &c)) return MF_EXIT_FAIL;
+            FILE *f = fopen(compare, "a");
+            if (!f) { mf_fail(MF_EIO, "%s: cannot open for appending", compare); return MF_EXIT_FAIL; }
+            fprintf(f, "| %s%s | %d | %d | %d | %.2f | %.4f | %.2f | %.4f | %.2f | %.2f |\n", split, spec.diffuse ? " (diffuse objects)" : "", cres, spec.pov_radiosity > 0 ? spec.pov_radiosity : DS_SPLIT_POV_RADIOSITY,
+                    c.all.n_views, c.all.n_views ? c.all.psnr_sum / c.all.n_views : 0.0, c.all.rel_den > 0 ? c.all.rel_num / c.all.rel_den : 0.0,
+                    c.diffuse_lobe.n_views ? c.diffuse_lobe.psnr_sum / c.diffuse_lobe.n_views : 0.0,
+                    c.diffuse_lobe.rel_den > 0 ? c.diffuse_lobe.rel_num / c.diffuse_lobe.rel_den : 0.0, c.all.n_views ? c.sec_ours / c.all.n_views : 0.0,
+                    c.all.n_views ? c.sec_povray / c.all.n_views : 0.0);
+            fclose(f);
+            mf_log_info("mf gen: ours vs POV-Ray on %d relit views: PSNR %.2f dB, mean relative error %.4f -> %s", c.all.n_views,
+                        c.all.n_views ? c.all.psnr_sum / c.all.n_views : 0.0, c.all.rel_den > 0 ? c.all.rel_num / c.all.rel_den : 0.0, compare);
+        }
         mf_log_info("mf gen: split %s (%d scenes) -> %s%s; %d views rendered in %.1f s", split, spec.n_scenes, out,
                     render ? "" : " (layout only: add --render for the images)", nv, wall);
         return MF_EXIT_OK;
