@@ -328,3 +328,25 @@ MF_TEST(ds_render_split_povray_diffuse) {
     mf_image_free(&orm);
     mf_image_free(&rl);
 }
+
+MF_TEST(ds_gen_test2d) {
+    DsPriorTrainOpts t = ds_test2d_defaults();
+    CHECK(t.count == 32 && t.views_per_object == 4 && t.res == 64 && t.stream == DS_STREAM_TEST2D && !strcmp(t.split, "test-2d"));
+    /* miniature: same layout, its own seed stream (other images than prior-train's) */
+    DsPriorTrainOpts o = tiny_opts(4);
+    o.stream = t.stream;
+    o.split = t.split;
+    const char *a = mf_test_path("t2d"), *b = mf_test_path("t2d_prior");
+    CHECK_OK(ds_gen_prior_train(&o, a, NULL));
+    DsPriorTrainOpts p = tiny_opts(4);
+    CHECK_OK(ds_gen_prior_train(&p, b, NULL));
+    char path[MF_PATH_MAX];
+    snprintf(path, sizeof path, "%s/manifest.json", a);
+    cJSON *m = NULL;
+    CHECK_OK(mf_json_load(path, &m));
+    CHECK(m && !strcmp(cJSON_GetObjectItem(m, "split")->valuestring, "test-2d"));
+    cJSON_Delete(m);
+    snprintf(path, sizeof path, "%s/albedo/000000.png", a);
+    CHECK(mf_file_exists(path));
+    CHECK(!same_files(a, b, 12));
+}
