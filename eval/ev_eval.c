@@ -246,3 +246,75 @@ out:
     ev_result_free(&res);
     return rc;
 }
+
+/* (h, w, 3) copy of channel ch of img (grey: data such as roughness, stored so that the grid's
+ * sRGB encoding shows the raw value), or of its first 3 channels (ch < 0), optionally
+ * Reinhard-tonemapped, optionally un-premultiplied by the alpha channel 3. */
+static int grid_cell(const MfImage *img, int ch, int reinhard, int unpremult, MfImage *out) {
+    int rc = mf_image_alloc(out, img->w, img->h, 3);
+    if (rc) return rc;
+    for (size_t i = 0; i < (size_t)img->w * img->h; ++i) {
+        const float *p = img->data + i * img->c;
+        float a = (unpremult && img->c == 4) ? p[3] : 1.0f;
+        for (int c = 0; c < 3; ++c) {
+            float v = ch >= 0 ? p[ch] : p[c];
+            if (unpremult) v = a > 0.0f ? v / a : 0.0f;
+            if (reinhard) v = v / (1.0f + v);
+            if (ch >= 0) v = mf_srgb_to_linear(mf_clampf(v, 0.0f, 1.0f));
+            out->data[3 * i + c] = v;
+        }
+    }
+    return MF_OK;
+}
+
+int ev_eval_grid_row(const char *scene_dir, const char *result_dir, const EvEvalOpts *o, MfImage cells[EV_GRID_COLS]) {
+    memset(cells, 0, EV_GRID_COLS * sizeof *cells);
+    DsViews dv;
+    DsLoadOptions lo = {1, 1, 1, 0};
+    int rc = ds_load(scene_dir, "test", &lo, &dv);
+    if (rc) return rc;
+    MfImage relit = {0}, env = {0};
+    const DsView *v = &dv.views[0];
+    if (!result_dir) { /* ground truth */
+        if (dv.n_relight > 0 && !(rc = ds_load_relit(&dv, 0, 0, &relit))) rc = grid_cell(&relit, -1, 0, 1, &cells[0]);
+        if (!rc && v->albedo.data) rc = grid_cell(&v->albedo, -1, 0, 0, &cells[1]);
+        if (!rc && v->orm.data) rc = grid_cell(&v->orm, 1, 0, 0, &cells[2]);
+        if (!rc && v->orm.data) rc = grid_cell(&v->orm, 2, 0, 0, &cells[3]);
+        if (!rc && dv.env_path[0] && !(rc = mf_image_read(dv.env_path, MF_ENC_LINEAR, &env))) rc = grid_cell(&env, -1, 1, 0, &cells[4]);
+    } else {
+        EvResult res;
+        if (!(rc = ev_result_load(result_dir, o->mesh_path, &res))) {
+            MfRtScene *rt = NULL;
+            MfTexMaterial mat = {&res.kd, &res.orm, mf_v3s(0.5f), mf_v3(1, 0.5f, 0)};
+            MfRenderOpts ro = {o->spp_sqrt, o->pixel_samples, o->seed, MF_LOBE_ALL};
+            MfRenderOut out = {0};
+            MfEnvMap le;
+            int have_le = 0;
+            rc = mf_rtscene_new(&res.mesh, &rt);
+            if (!rc && dv.n_relight > 0 && dv.relight_env[0][0] && !(rc = mf_env_load(&le, dv.relight_env[0]))) have_le = 1;
+            MfRenderInput in = {rt, &res.mesh, &mat, 1, have_le ? &le : NULL, NULL, 0};
+            if (!rc) rc = mf_render(&in, &v->cam, &ro, &out, NULL);
+            if (!rc) {
+                MfImage alb = {out.w, out.h, 3, out.albedo}, om = {out.w, out.h, 3, out.orm};
+                /* rgb is premultiplied: divide by alpha through a temporary RGBA image */
+                MfImage rgba = {0};
+                if (!(rc = aov_rgba(out.rgb, out.alpha, out.w, out.h, &rgba))) rc = grid_cell(&rgba, -1, 0, 1, &cells[0]);
+                mf_image_free(&rgba);
+                if (!rc) rc = grid_cell(&alb, -1, 0, 0, &cells[1]);
+                if (!rc) rc = grid_cell(&om, 1, 0, 0, &cells[2]);
+                if (!rc) rc = grid_cell(&om, 2, 0, 0, &cells[3]);
+            }
+            if (!rc && res.has_env) rc = grid_cell(&res.env.img, -1, 1, 0, &cells[4]);
+            mf_render_out_free(&out);
+            if (have_le) mf_env_free(&le);
+            mf_rtscene_free(rt);
+            ev_result_free(&res);
+        }
+    }
+    mf_image_free(&relit);
+    mf_image_free(&env);
+    ds_views_free(&dv);
+    if (rc)
+        for (int k = 0; k < EV_GRID_COLS; ++k) mf_image_free(&cells[k]);
+    return rc;
+}

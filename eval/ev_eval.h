@@ -67,4 +67,10 @@ int ev_eval_scene(const char *scene_dir, const char *result_dir, const char *met
                   const char *scene, const EvEvalOpts *o, EvTable *t, FILE *csv, int *excluded);
 void ev_eval_csv_header(FILE *csv);
 
+/* The cells of one row of a scene's image grid, for test view 0 under relighting light 0:
+ * relit view, albedo, roughness, metallic (grey) and the env map (Reinhard-tonemapped), all
+ * linear (h, w, 3) ready for ev_grid_png. result_dir NULL gives the ground-truth row. */
+#define EV_GRID_COLS 5
+int ev_eval_grid_row(const char *scene_dir, const char *result_dir, const EvEvalOpts *o, MfImage cells[EV_GRID_COLS]);
+
 #endif

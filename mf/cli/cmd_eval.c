@@ -19,7 +19,7 @@
 static const char usage[] =
     "usage: mf eval DATA_DIR --results RESULTS_DIR -o REPORT_DIR [--methods a,b,...] [--dataset NAME]\n"
     "               [--align mean|lsq|none] [--spp N] [--pixel-samples P] [--max-views N] [--no-curves]\n"
-    "               [--trivial]\n"
+    "               [--trivial] [--scenes a,b,...]\n"
     "Scores RESULTS_DIR/<method>/<scene>/ against DATA_DIR (a split folder of bvault scenes, or one\n"
     "scene) with the protocol stated in the README: relit views (every relighting light, test\n"
     "cameras; per-channel scale inside the GT mask (mean: ratio of means, default; lsq: least\n"
@@ -113,12 +113,13 @@ static int snapshot_curve(const char *scene_dir, const char *result_dir, const E
 
 static int cmd_eval(int argc, char **argv) {
     const char *data = NULL, *results = NULL, *out = NULL, *methods_s = NULL, *dataset = NULL, *align_s = "mean";
+    const char *scenes_s = NULL;
     int curves = 1, trivial = 0;
     EvEvalOpts o = ev_eval_opts_default();
     for (int i = 1; i < argc; ++i) {
         int r;
         if ((r = mf_opt_str(argc, argv, &i, "-o", &out)) || (r = mf_opt_str(argc, argv, &i, "--results", &results)) ||
-            (r = mf_opt_str(argc, argv, &i, "--methods", &methods_s)) || (r = mf_opt_str(argc, argv, &i, "--dataset", &dataset)) ||
+            (r = mf_opt_str(argc, argv, &i, "--methods", &methods_s)) || (r = mf_opt_str(argc, argv, &i, "--scenes", &scenes_s)) || (r = mf_opt_str(argc, argv, &i, "--dataset", &dataset)) ||
             (r = mf_opt_str(argc, argv, &i, "--align", &align_s)) || (r = mf_opt_int(argc, argv, &i, "--spp", &o.spp_sqrt)) ||
             (r = mf_opt_int(argc, argv, &i, "--pixel-samples", &o.pixel_samples)) ||
             (r = mf_opt_int(argc, argv, &i, "--max-views", &o.max_views))) {
@@ -146,6 +147,17 @@ static int cmd_eval(int argc, char **argv) {
     } else {
         snprintf(scene_root, sizeof scene_root, "%s", data);
         nsc = list_dirs(data, scenes, MAX_ITEMS, 1);
+    }
+    if (scenes_s && nsc > 1) { /* keep only the listed scenes */
+        int k = 0;
+        for (int i = 0; i < nsc; ++i) {
+            char list[4096];
+            snprintf(list, sizeof list, ",%s,", scenes_s);
+            char key[70];
+            snprintf(key, sizeof key, ",%.63s,", scenes[i]);
+            if (strstr(list, key)) memmove(scenes[k++], scenes[i], 64);
+        }
+        nsc = k;
     }
     if (nsc <= 0) { mf_fail(MF_EIO, "%s: no scene with transforms_test.json", data); return MF_EXIT_FAIL; }
     int nm = 0;
@@ -257,13 +269,54 @@ static int cmd_eval(int argc, char **argv) {
         if ((rc = ev_plot_png(p, "Relit PSNR vs wall time (first scene)", "wall time [s]", "relit PSNR [dB]", series, nm, 0)) == MF_OK)
             mf_sb_printf(&curves_html, "<h2>Speed vs error</h2><img src=\"speed_error.png\">\n");
     }
+    /* image grids: ground truth and each method, first test view, first novel light */
+    MfStrBuf grids = {0};
+    for (int sc = 0; sc < nsc && sc < 6 && !rc; ++sc) {
+        enum { MAXR = 9 };
+        MfImage cells[MAXR][EV_GRID_COLS];
+        const MfImage *ptr[MAXR * EV_GRID_COLS];
+        char labels[1024] = "ground truth";
+        int rows = 0;
+        char sd[MF_PATH_MAX];
+        if (mf_path_join(sd, sizeof sd, scene_root, scenes[sc])) break;
+        if (ev_eval_grid_row(sd, NULL, &o, cells[rows]) == MF_OK) ++rows;
+        for (int m = 0; m < nm && rows < MAXR; ++m) {
+            char md[MF_PATH_MAX], rd[MF_PATH_MAX];
+            if (mf_path_join(md, sizeof md, results, methods[m]) || mf_path_join(rd, sizeof rd, md, scenes[sc]) || !mf_file_exists(rd)) continue;
+            if (ev_eval_grid_row(sd, rd, &o, cells[rows]) != MF_OK) continue;
+            size_t l = strlen(labels);
+            snprintf(labels + l, sizeof labels - l, ", %.63s", methods[m]);
+            ++rows;
+        }
+        if (rows < 2) {
+            for (int r = 0; r < rows; ++r)
+                for (int k = 0; k < EV_GRID_COLS; ++k) mf_image_free(&cells[r][k]);
+            continue;
+        }
+        for (int r = 0; r < rows; ++r)
+            for (int k = 0; k < EV_GRID_COLS; ++k) ptr[r * EV_GRID_COLS + k] = cells[r][k].data ? &cells[r][k] : NULL;
+        char name[128];
+        snprintf(name, sizeof name, "grid_%.60s.png", scenes[sc]);
+        snprintf(p, sizeof p, "%s/%s", out, name);
+        rc = ev_grid_png(p, ptr, rows, EV_GRID_COLS, 128, 128, 1);
+        for (int r = 0; r < rows; ++r)
+            for (int k = 0; k < EV_GRID_COLS; ++k) mf_image_free(&cells[r][k]);
+        if (!rc) {
+            mf_sb_printf(&grids, "<h3>%s</h3><p>Rows: ", scenes[sc]);
+            mf_sb_html(&grids, labels);
+            mf_sb_printf(&grids, ". Columns: relit view (first test view, first novel light), albedo, roughness, "
+                                 "metallic, env map (tonemapped x/(1+x)).</p><img src=\"%s\">\n", name);
+        }
+    }
     if (!rc) {
+        if (grids.s) mf_sb_printf(&curves_html, "<h2>Images</h2>\n%s", grids.s);
         const char *blocks[2] = {page.s ? page.s : "", curves_html.s ? curves_html.s : ""};
         snprintf(p, sizeof p, "%s/index.html", out);
         rc = ev_html_write(p, "MaterialFusion evaluation", blocks, 2);
     }
     mf_sb_free(&page);
     mf_sb_free(&curves_html);
+    mf_sb_free(&grids);
     ev_table_free(&t);
     if (rc) return MF_EXIT_FAIL;
     mf_log_info("eval: %d runs scored, %d view scores excluded -> %s", evaluated, excluded, out);

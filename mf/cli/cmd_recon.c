@@ -11,13 +11,16 @@
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "core/mf_log.h"
+#include "core/mf_rng.h"
 #include "datasets/ds_load.h"
+#include "fusion/mf_sds.h"
 #include "inverse/mf_recon_opts.h"
 #include "io/mf_obj.h"
+#include "mf_build_info.h"
 
 static char usage[8192] =
-    "usage: mf recon DATASET_DIR -o RESULT_DIR [--method nvdiffrecmc] [--mesh OBJ] [--config FILE]\n"
-    "                [--split train] [--res N] [--max-views N] [--resume] [option VALUE ...]\n"
+    "usage: mf recon DATASET_DIR -o RESULT_DIR [--method nvdiffrecmc|materialfusion] [--mesh OBJ]\n"
+    "                [--config FILE] [--split train] [--res N] [--max-views N] [--resume] [option VALUE ...]\n"
     "Recovers albedo (kd), ORM and the HDR environment light of the scene in DATASET_DIR (any format\n"
     "mf can load: bvault, NeRF-Synthetic, NeRFactor, Stanford-ORB capture) on a fixed mesh\n"
     "(default DATASET_DIR/mesh.obj; it must have UVs: a mesh without UVs is refused, unwrap it first).\n"
@@ -26,12 +29,23 @@ static char usage[8192] =
     "as an uninterrupted run (same build, options and thread count). --res N trains at N pixels\n"
     "(the images are box-downsampled; their size must be a multiple of N). Options are applied in\n"
     "order: the method's defaults, --config FILE (JSON, keys as below with underscores), flags.\n"
-    "Options:\n";
+    "MaterialFusion (the baseline plus the SDS+ prior term, mf/fusion/mf_sds.h) adds:\n"
+    "  --prior-weights F    prior weights (default $MF_PRIOR_WEIGHTS, else mf/prior/weights/prior.mfck\n"
+    "                       of the source tree)\n"
+    "  --lambda-latent X    latent term weight (default 0.02)   --lambda-rgb X   RGB term weight (0.5)\n"
+    "  --gamma-p P          gamma_i = 1 - (i/N)^P (default 1)    --gamma-const 1  gamma_i = 1 throughout\n"
+    "  --k-views K          views per batch with the prior term (default 4)\n"
+    "Options of both methods:\n";
 
 static int cmd_recon(int argc, char **argv) {
     const char *data = NULL, *out = NULL, *method = "nvdiffrecmc", *mesh_path = NULL, *config = NULL, *split = "train";
-    int res = 0, max_views = 0, resume = 0;
+    int res = 0, max_views = 0, resume = 0, gamma_const = 0;
     MfReconOpts o = bl_nvdiffrecmc_opts();
+    MfSdsOpts so = mf_sds_opts_default();
+    const char *weights = getenv("MF_PRIOR_WEIGHTS");
+    char wdefault[MF_PATH_MAX];
+    snprintf(wdefault, sizeof wdefault, "%s/mf/prior/weights/prior.mfck", MF_SOURCE_DIR);
+    if (!weights || !weights[0]) weights = wdefault;
     /* config first, so flags given anywhere override it */
     for (int i = 1; i + 1 < argc; ++i)
         if (!strcmp(argv[i], "--config")) config = argv[i + 1];
@@ -42,7 +56,11 @@ static int cmd_recon(int argc, char **argv) {
         if ((r = mf_opt_str(argc, argv, &i, "-o", &out)) || (r = mf_opt_str(argc, argv, &i, "--method", &method)) ||
             (r = mf_opt_str(argc, argv, &i, "--mesh", &mesh_path)) || (r = mf_opt_str(argc, argv, &i, "--config", &dummy)) ||
             (r = mf_opt_str(argc, argv, &i, "--split", &split)) || (r = mf_opt_int(argc, argv, &i, "--res", &res)) ||
-            (r = mf_opt_int(argc, argv, &i, "--max-views", &max_views)) || (r = mf_recon_opts_parse_arg(&o, argc, argv, &i))) {
+            (r = mf_opt_int(argc, argv, &i, "--max-views", &max_views)) || (r = mf_opt_str(argc, argv, &i, "--prior-weights", &weights)) ||
+            (r = mf_opt_float(argc, argv, &i, "--lambda-latent", &so.lambda_latent)) ||
+            (r = mf_opt_float(argc, argv, &i, "--lambda-rgb", &so.lambda_rgb)) || (r = mf_opt_float(argc, argv, &i, "--gamma-p", &so.gamma_p)) ||
+            (r = mf_opt_int(argc, argv, &i, "--gamma-const", &gamma_const)) || (r = mf_opt_int(argc, argv, &i, "--k-views", &so.k_views)) ||
+            (r = mf_recon_opts_parse_arg(&o, argc, argv, &i))) {
             if (r < 0) return MF_EXIT_USAGE;
             continue;
         }
@@ -52,10 +70,13 @@ static int cmd_recon(int argc, char **argv) {
         data = argv[i];
     }
     if (!data || !out) { mf_fail(MF_EARG, "need DATASET_DIR and -o RESULT_DIR (see mf recon --help)"); return MF_EXIT_USAGE; }
-    if (strcmp(method, "nvdiffrecmc")) {
-        mf_fail(MF_EARG, "--method %s: unknown method (available: nvdiffrecmc)", method);
+    int is_mf = !strcmp(method, "materialfusion");
+    if (!is_mf && strcmp(method, "nvdiffrecmc")) {
+        mf_fail(MF_EARG, "--method %s: unknown method (available: nvdiffrecmc, materialfusion)", method);
         return MF_EXIT_USAGE;
     }
+    so.gamma_const = gamma_const != 0;
+    so.seed = mf_hash64(o.seed, 0x5d5);
     double t0 = mf_now();
     DsViews dv;
     DsLoadOptions lo = {0, max_views, 1, 0};
@@ -89,6 +110,24 @@ static int cmd_recon(int argc, char **argv) {
         ds_views_free(&dv);
         return MF_EXIT_FAIL;
     }
+    /* a missing or mismatched weights file stops before the optimisation starts */
+    MfSds *sds = NULL;
+    if (is_mf) {
+        MfPrior *prior = NULL;
+        if (mf_prior_load(weights, &prior)) {
+            mf_fail_prefix(MF_EIO, "materialfusion needs the prior's weights (MFCK version 1, mf-prior format %d; "
+                           "make train-prior makes them; the nvdiffrecmc baseline runs without)", MF_PRIOR_FORMAT_VERSION);
+            mf_mesh_free(&mesh);
+            ds_views_free(&dv);
+            return MF_EXIT_FAIL;
+        }
+        if (mf_sds_new(prior, &so, &sds)) {
+            mf_prior_free(prior);
+            mf_mesh_free(&mesh);
+            ds_views_free(&dv);
+            return MF_EXIT_USAGE;
+        }
+    }
     MfReconView *views = calloc((size_t)dv.n, sizeof *views);
     int rc = views ? MF_OK : mf_fail(MF_ENOMEM, "out of memory");
     for (int i = 0; i < dv.n && !rc; ++i) {
@@ -120,7 +159,8 @@ static int cmd_recon(int argc, char **argv) {
     }
     if (!rc) mf_log_info("recon: %d views %dx%d, %d iterations, batch %d, textures %d^2, env %dx%d", nviews,
                          mf_recon_view(r, 0)->cam.w, mf_recon_view(r, 0)->cam.h, o.iters, o.batch, o.tex_res, o.env_w, o.env_h);
-    if (!rc) rc = mf_recon_run(r, NULL, out);
+    MfReconHook hook = {mf_sds_hook, sds};
+    if (!rc) rc = mf_recon_run(r, is_mf ? &hook : NULL, out);
     if (!rc) {
         cJSON *opts = cJSON_CreateObject();
         mf_recon_opts_to_json(&o, opts);
@@ -131,9 +171,18 @@ static int cmd_recon(int argc, char **argv) {
         cJSON_AddNumberToObject(opts, "forward_render_s", tf);
         cJSON_AddNumberToObject(opts, "adjoint_render_s", ta);
         cJSON_AddNumberToObject(opts, "adjoint_over_forward", tf > 0 ? ta / tf : 0.0);
+        if (is_mf) {
+            cJSON_AddStringToObject(opts, "prior_weights", weights);
+            cJSON_AddNumberToObject(opts, "lambda_latent", so.lambda_latent);
+            cJSON_AddNumberToObject(opts, "lambda_rgb", so.lambda_rgb);
+            cJSON_AddNumberToObject(opts, "gamma_p", so.gamma_p);
+            cJSON_AddNumberToObject(opts, "gamma_const", so.gamma_const);
+            cJSON_AddNumberToObject(opts, "k_views", so.k_views);
+        }
         rc = mf_write_run_json(out, argc, argv, o.seed, mf_now() - t0, opts);
     }
     mf_recon_free(r);
+    mf_sds_free(sds);
     mf_mesh_free(&mesh);
     return rc ? MF_EXIT_FAIL : MF_EXIT_OK;
 }

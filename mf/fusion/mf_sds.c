@@ -1,0 +1,228 @@
+#include "fusion/mf_sds.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/mf_error.h"
+#include "core/mf_rng.h"
+#include "inverse/mf_diffrender.h"
+#include "io/mf_image.h"
+
+struct MfSds {
+    MfPrior *prior; /* owned */
+    MfSdsOpts o;
+};
+
+MfSdsOpts mf_sds_opts_default(void) {
+    MfSdsOpts o = {4, 0.02f, 0.5f, 1.0f, 0, 3.0f, 20, 980, 4, 7};
+    return o;
+}
+
+int mf_sds_new(MfPrior *prior, const MfSdsOpts *o, MfSds **out) {
+    if (o->k_views < 1 || o->t_min < 1 || o->t_max > 999 || o->t_min > o->t_max || o->aov_samples < 1)
+        return mf_fail(MF_EARG, "SDS options: k_views %d, t in [%d, %d], aov_samples %d are invalid", o->k_views, o->t_min,
+                       o->t_max, o->aov_samples);
+    MfSds *s = calloc(1, sizeof *s);
+    if (!s) return mf_fail(MF_ENOMEM, "out of memory");
+    s->prior = prior;
+    s->o = *o;
+    *out = s;
+    return MF_OK;
+}
+
+void mf_sds_free(MfSds *s) {
+    if (!s) return;
+    mf_prior_free(s->prior);
+    free(s);
+}
+
+void mf_sds_targets_free(MfSdsTargets *t) {
+    free(t->zhat);
+    free(t->dhat);
+    free(t->cond);
+    free(t->mask);
+    memset(t, 0, sizeof *t);
+}
+
+static int res_of(const MfSds *s) { return s->prior->cfg.ae.res; }
+static int lat_of(const MfSds *s) { return s->prior->cfg.ae.res / 4; } /* the autoencoder downsamples by 4 */
+static int zc_of(const MfSds *s) { return s->prior->cfg.ae.zc; }
+
+static uint64_t view_seed(const MfSds *s, int it, int view, uint64_t what) {
+    return mf_hash64(mf_hash64(mf_hash64(s->o.seed, (uint64_t)it), (uint64_t)view), what);
+}
+
+static float srgb_deriv(float l) {
+    if (!(l > 0.0031308f)) return l >= 0.0f ? 12.92f : 0.0f;
+    if (l >= 1.0f) return 0.0f; /* clipped */
+    return (1.055f / 2.4f) * powf(l, 1.0f / 2.4f - 1.0f);
+}
+
+/* Material maps of the current textures for the batch: ain, oin (n, 3, R, R) prepared as the
+ * prior's inputs; aa, ao (n, R, R, 3) keep the linear AOVs for the backward. */
+static int render_maps(MfSds *s, MfRecon *r, const MfSdsTargets *t, float *ain, float *oin, float *aa, float *ao) {
+    int R = res_of(s);
+    size_t rr = (size_t)R * R;
+    MfImage kd = mf_recon_kd_image(r), orm = mf_recon_orm_image(r);
+    MfDiffScene ds = {mf_recon_rtscene(r), &kd, &orm, mf_recon_env(r), NULL, NULL, NULL};
+    for (int k = 0; k < t->n; ++k) {
+        MfDiffOpts o = {1, s->o.aov_samples, t->aov_seed[k]};
+        float *a = aa + k * 3 * rr, *m = ao + k * 3 * rr;
+        const float *mask = t->mask + k * rr;
+        int rc = mf_diff_aov_forward(&ds, &t->cam[k], &o, a, m, NULL);
+        if (rc) return rc;
+        for (int c = 0; c < 3; ++c)
+            for (size_t p = 0; p < rr; ++p) {
+                float av = mf_clampf(a[3 * p + c], 0.0f, 1.0f), mv = mf_clampf(m[3 * p + c], 0.0f, 1.0f);
+                ain[(k * 3 + c) * rr + p] = (2.0f * mf_linear_to_srgb(av) - 1.0f) * mask[p];
+                oin[(k * 3 + c) * rr + p] = (2.0f * mv - 1.0f) * mask[p];
+            }
+    }
+    return MF_OK;
+}
+
+int mf_sds_targets(MfSds *s, MfRecon *r, const int *views, int n, int it, MfSdsTargets *t) {
+    if (n < 1 || n > MF_SDS_MAX_VIEWS) return mf_fail(MF_EARG, "SDS: %d views in a batch (1..%d)", n, MF_SDS_MAX_VIEWS);
+    int R = res_of(s), h = lat_of(s), zc = zc_of(s);
+    size_t rr = (size_t)R * R, nm = (size_t)n * 3 * rr, nz = (size_t)n * 2 * zc * h * h;
+    MfSdsTargets T;
+    memset(&T, 0, sizeof T);
+    T.n = n;
+    float *ain = malloc(nm * sizeof(float)), *oin = malloc(nm * sizeof(float));
+    float *aa = malloc(nm * sizeof(float)), *ao = malloc(nm * sizeof(float)), *z = malloc(nz * sizeof(float));
+    float *rgba = NULL;
+    T.zhat = malloc(nz * sizeof(float));
+    T.dhat = malloc(2 * nm * sizeof(float));
+    T.cond = malloc(nm * sizeof(float));
+    T.mask = malloc((size_t)n * rr * sizeof(float));
+    int rc = MF_OK;
+    if (!ain || !oin || !aa || !ao || !z || !T.zhat || !T.dhat || !T.cond || !T.mask) {
+        rc = mf_fail(MF_ENOMEM, "SDS: out of memory");
+        goto done;
+    }
+    for (int k = 0; k < n && !rc; ++k) {
+        const MfReconView *v = mf_recon_view(r, views[k]);
+        int w = v->ref.w, H = v->ref.h;
+        if (w != H) {
+            rc = mf_fail(MF_EARG, "SDS: view %d is %dx%d; the prior term needs square views", views[k], w, H);
+            break;
+        }
+        size_t npx = (size_t)w * H;
+        float *nr = realloc(rgba, npx * 4 * sizeof(float));
+        if (!nr) {
+            rc = mf_fail(MF_ENOMEM, "SDS: out of memory");
+            break;
+        }
+        rgba = nr;
+        /* condition: the reference view as straight-alpha sRGB in [0, 1] */
+        for (size_t p = 0; p < npx; ++p) {
+            float a = v->ref.data[4 * p + 3];
+            for (int c = 0; c < 3; ++c)
+                rgba[4 * p + c] = a > 0.0f ? mf_clampf(mf_linear_to_srgb(v->ref.data[4 * p + c] / a), 0.0f, 1.0f) : 0.0f;
+            rgba[4 * p + 3] = a;
+        }
+        mf_prior_prepare_image(rgba, w, H, R, T.cond + k * 3 * rr, T.mask + k * rr);
+        /* the view's camera at R x R (same field of view) */
+        double ax = 2.0 * atan((double)v->cam.w / (2.0 * (double)v->cam.fx)), m[16];
+        for (int i = 0; i < 16; ++i) m[i] = v->cam.c2w.m[i];
+        rc = mf_camera_init(&T.cam[k], R, R, ax, m, "SDS camera");
+        T.aov_seed[k] = view_seed(s, it, views[k], 1);
+    }
+    if (rc || (rc = render_maps(s, r, &T, ain, oin, aa, ao))) goto done;
+    if ((rc = mf_prior_encode_materials(s->prior, ain, oin, n, z))) goto done;
+    MfRng rng;
+    mf_rng_seed(&rng, view_seed(s, it, -1, 2), 0);
+    T.t = s->o.t_min + (int)mf_rng_below(&rng, (uint32_t)(s->o.t_max - s->o.t_min + 1));
+    if ((rc = mf_prior_sds_denoise(s->prior, z, T.cond, n, 1, 0, T.t, s->o.guidance, view_seed(s, it, -1, 3), T.zhat)))
+        goto done;
+    rc = mf_prior_decode_materials(s->prior, T.zhat, n, T.dhat, T.dhat + nm);
+done:
+    free(rgba), free(ain), free(oin), free(aa), free(ao), free(z);
+    if (rc) mf_sds_targets_free(&T);
+    else *t = T;
+    return rc;
+}
+
+int mf_sds_loss(MfSds *s, MfRecon *r, const MfSdsTargets *t, float scale, int grads, double *loss) {
+    int R = res_of(s), h = lat_of(s), zc = zc_of(s), f = R / h, n = t->n;
+    size_t rr = (size_t)R * R, hh = (size_t)h * h, nm = (size_t)n * 3 * rr, nz = (size_t)n * 2 * zc * hh;
+    float *ain = malloc(nm * sizeof(float)), *oin = malloc(nm * sizeof(float));
+    float *aa = malloc(nm * sizeof(float)), *ao = malloc(nm * sizeof(float));
+    float *z = malloc(nz * sizeof(float)), *dz = calloc(nz, sizeof(float)), *al = malloc((size_t)n * hh * sizeof(float));
+    float *dain = calloc(nm, sizeof(float)), *doin = calloc(nm, sizeof(float));
+    int rc = MF_OK;
+    if (!ain || !oin || !aa || !ao || !z || !dz || !al || !dain || !doin) {
+        rc = mf_fail(MF_ENOMEM, "SDS: out of memory");
+        goto done;
+    }
+    /* the current textures' maps (same primary hits as the targets' render) and their latents;
+     * encoding again here keeps the encoder's cache for the backward below */
+    if ((rc = render_maps(s, r, t, ain, oin, aa, ao))) goto done;
+    if ((rc = mf_prior_encode_materials(s->prior, ain, oin, n, z))) goto done;
+    /* masks at latent resolution: box filter by f */
+    for (int k = 0; k < n; ++k)
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < h; ++x) {
+                float acc = 0.0f;
+                for (int dy = 0; dy < f; ++dy)
+                    for (int dx = 0; dx < f; ++dx) acc += t->mask[k * rr + (size_t)(y * f + dy) * R + x * f + dx];
+                al[k * hh + (size_t)y * h + x] = acc / (float)(f * f);
+            }
+    double lat = 0.0, rgb = 0.0;
+    size_t per_item = (size_t)2 * zc * hh;
+    for (size_t i = 0; i < nz; ++i) {
+        float a = al[(i / per_item) * hh + i % hh], d = a * (z[i] - t->zhat[i]);
+        lat += (double)d * d;
+        dz[i] = scale * s->o.lambda_latent * 2.0f * a * d / (float)nz;
+    }
+    for (size_t i = 0; i < 2 * nm; ++i) {
+        size_t j = i % nm; /* index within the albedo or ORM maps: (k, c, p) */
+        float in = i < nm ? ain[j] : oin[j], d = t->mask[(j / (3 * rr)) * rr + j % rr] * t->dhat[i] - in;
+        rgb += (double)d * d;
+        (i < nm ? dain : doin)[j] += -scale * s->o.lambda_rgb * 2.0f * d / (float)(2 * nm); /* d/d(in) of d^2 */
+    }
+    *loss = s->o.lambda_latent * lat / (double)nz + s->o.lambda_rgb * rgb / (double)(2 * nm);
+    if (!isfinite(*loss)) {
+        rc = mf_fail(MF_ENAN, "SDS: non-finite prior loss");
+        goto done;
+    }
+    if (!grads) goto done;
+    if ((rc = mf_prior_encode_materials_backward(s->prior, dz, dain, doin))) goto done;
+    /* maps -> AOVs: albedo_in = (2 sRGB(kd) - 1) mask, orm_in = (2 orm - 1) mask; AOVs (R, R, 3) */
+    MfImage kd = mf_recon_kd_image(r), orm = mf_recon_orm_image(r);
+    MfDiffScene ds = {mf_recon_rtscene(r), &kd, &orm, mf_recon_env(r), NULL, NULL, NULL};
+    MfDiffGrads g = {mf_recon_block(r, MF_BLOCK_KD)->g, mf_recon_block(r, MF_BLOCK_ORM)->g, NULL};
+    for (int k = 0; k < n && !rc; ++k) {
+        float *a = aa + k * 3 * rr, *m = ao + k * 3 * rr;
+        for (int c = 0; c < 3; ++c)
+            for (size_t p = 0; p < rr; ++p) {
+                float mk = t->mask[k * rr + p], mv = m[3 * p + c];
+                a[3 * p + c] = dain[(k * 3 + c) * rr + p] * 2.0f * mk * srgb_deriv(a[3 * p + c]);
+                m[3 * p + c] = doin[(k * 3 + c) * rr + p] * 2.0f * mk * (mv >= 0.0f && mv <= 1.0f);
+            }
+        MfDiffOpts o = {1, s->o.aov_samples, t->aov_seed[k]};
+        rc = mf_diff_aov_backward(&ds, &t->cam[k], &o, a, m, &g);
+    }
+done:
+    free(ain), free(oin), free(aa), free(ao), free(z), free(dz), free(al), free(dain), free(doin);
+    return rc;
+}
+
+int mf_sds_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double *loss) {
+    MfSds *s = ctx;
+    const MfReconOpts *ro = mf_recon_opts(r);
+    double gamma = s->o.gamma_const ? 1.0 : 1.0 - pow((double)it / (double)(ro->iters > 0 ? ro->iters : 1), s->o.gamma_p);
+    int k = nb < s->o.k_views ? nb : s->o.k_views;
+    if (k > MF_SDS_MAX_VIEWS) k = MF_SDS_MAX_VIEWS;
+    *loss = 0.0;
+    if (gamma <= 0.0 || (s->o.lambda_latent == 0.0f && s->o.lambda_rgb == 0.0f)) return MF_OK;
+    MfSdsTargets t;
+    double l = 0.0;
+    int rc = mf_sds_targets(s, r, batch, k, it, &t);
+    if (!rc) rc = mf_sds_loss(s, r, &t, (float)gamma, 1, &l);
+    mf_sds_targets_free(&t);
+    if (rc) return mf_fail_prefix(rc, "iteration %d: prior term", it);
+    *loss = gamma * l;
+    return MF_OK;
+}

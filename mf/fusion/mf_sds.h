@@ -1,0 +1,73 @@
+/* mf_sds: MaterialFusion's SDS+ term (REFERENCE.md "MaterialFusion's SDS+ term"), as a method hook
+ * of the shared inverse loop (mf/inverse/mf_recon.h).
+ *
+ * For each of the first K views of an iteration's batch:
+ *   1. render the material AOVs (albedo kd, ORM) at the prior's resolution R from the view's
+ *      camera (mf_diff_aov_forward, several primary rays per pixel);
+ *   2. prepare them exactly as the prior was trained (DESIGN.md "Contracts"): albedo = sRGB(kd),
+ *      ORM linear, each mapped to [-1, 1] and multiplied by the view's mask; condition = the view's
+ *      reference image in sRGB, box-filtered to R, (2v - 1) x mask. Note: the official code feeds
+ *      sRGB(kd (1 - m)), a quirk (the prior was trained on the undarkened base colour); we feed kd
+ *      in both training and SDS;
+ *   3. z = Enc(maps); t ~ U{t_min..t_max} (one t per batch: the K views go through the prior as
+ *      one batch); zhat = guided DDIM from t over [t, .8t, .6t, .4t, .2t]
+ *      (guidance 3.0) — the TARGETS;
+ *   4. loss = gamma_i (lambda_latent mean((a (z - zhat))^2) + lambda_rgb mean((a D(zhat) - maps)^2)),
+ *      means over elements; a = the mask at the matching resolution; gamma_i = 1 - (i/N)^p (or 1
+ *      with gamma_const).
+ * zhat and D(zhat) are held constant (classic SDS): the latent term back-propagates through the
+ * encoder into the maps, the RGB term directly into the maps (as the official code), then through
+ * the AOV render into the kd / ORM texels. (The official code also lets zhat depend on z through
+ * the noising; we do not — stated choice.) SDS changes materials only, never the light. */
+#ifndef MF_SDS_H
+#define MF_SDS_H
+
+#include <stdint.h>
+
+#include "inverse/mf_recon.h"
+#include "prior/mf_prior.h"
+
+typedef struct {
+    int k_views;         /* views per batch that get the prior term (default 4) */
+    float lambda_latent; /* default 0.02 */
+    float lambda_rgb;    /* default 0.5 */
+    float gamma_p;       /* gamma_i = 1 - (i/N)^p, default 1 */
+    int gamma_const;     /* 1: gamma_i = 1 throughout */
+    float guidance;      /* default 3.0 */
+    int t_min, t_max;    /* default 20, 980 */
+    int aov_samples;     /* primary rays per pixel of the AOV render (default 4) */
+    uint64_t seed;
+} MfSdsOpts;
+
+MfSdsOpts mf_sds_opts_default(void);
+
+typedef struct MfSds MfSds;
+
+/* Takes ownership of prior. */
+int mf_sds_new(MfPrior *prior, const MfSdsOpts *o, MfSds **out);
+void mf_sds_free(MfSds *s);
+/* The hook for mf_recon_run: ctx is an MfSds. */
+int mf_sds_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double *loss);
+
+/* Pieces, exposed for the chain's gradient check. The K views of an iteration are processed as one
+ * batch through the prior (one timestep t per batch, drawn from U{t_min..t_max}). Targets: zhat
+ * and D(zhat) held fixed; condition and mask come from the views' reference images. */
+#define MF_SDS_MAX_VIEWS 16
+typedef struct {
+    int n;           /* views */
+    int t;           /* timestep of the batch */
+    float *zhat;     /* (n, 2zc, h, h) owned */
+    float *dhat;     /* (2, n, 3, R, R) owned: decoded albedo maps, then ORM maps */
+    float *cond;     /* (n, 3, R, R) owned */
+    float *mask;     /* (n, R, R) owned */
+    MfCamera cam[MF_SDS_MAX_VIEWS];     /* the views' cameras at R x R */
+    uint64_t aov_seed[MF_SDS_MAX_VIEWS]; /* seeds of the AOV renders (the loss re-renders the same hits) */
+} MfSdsTargets;
+
+int mf_sds_targets(MfSds *s, MfRecon *r, const int *views, int n, int it, MfSdsTargets *t);
+void mf_sds_targets_free(MfSdsTargets *t);
+/* Loss against fixed targets (without gamma; means over all elements of the batch); when grads is
+ * non-zero, adds scale * dLoss/d(texels) into the kd and ORM blocks' gradients. */
+int mf_sds_loss(MfSds *s, MfRecon *r, const MfSdsTargets *t, float scale, int grads, double *loss);
+
+#endif
