@@ -70,6 +70,8 @@ static int cmd_gen(int argc, char **argv) {
         return MF_EXIT_USAGE;
     }
     if (!out) { mf_fail(MF_EARG, "missing -o DIR"); return MF_EXIT_USAGE; }
+    int res_given = 0;
+    for (int i = 1; i < argc; ++i) res_given |= !strcmp(argv[i], "--res");
     if (split && (!strcmp(split, "prior-train") || !strcmp(split, "test-2d"))) {
         DsPriorTrainOpts po = !strcmp(split, "test-2d") ? ds_test2d_defaults() : ds_prior_train_defaults();
         if (count > 0) po.count = count;
@@ -105,7 +107,7 @@ static int cmd_gen(int argc, char **argv) {
         if (ds_split_manifest(&spec, out, (uint64_t)seed, render, nv, wall)) return MF_EXIT_FAIL;
         if (compare) {
             DsRenderCompare c;
-            int cres = img_res != 64 ? img_res : spec.width;
+            int cres = res_given ? img_res : spec.width;
             if (ds_compare_renderers(&spec, out, nscenes, views > 0 ? views : 0, cres, &c)) return MF_EXIT_FAIL;
             FILE *f = fopen(compare, "a");
             if (!f) { mf_fail(MF_EIO, "%s: cannot open for appending", compare); return MF_EXIT_FAIL; }
