@@ -343,7 +343,9 @@ static void accumulate(const float *a, int as, const float *aa, int aas, const f
     }
     if (!n) return;
     double mse = se / (3.0 * n);
-    c->psnr_sum += 10.0 * log10(1.0 / (mse > 1e-12 ? mse : 1e-12));
+    mf_log_debug("compare: %d px, PSNR %.2f dB, rel %.4f (sum|pov| %.4g)", n, 10.0 * log10(1.0 / (mse > 1e-12 ? mse : 1e-12)), den > 0 ? num / den : 0.0, den);
+    c->se += se;
+    c->n_px += n;
     c->rel_num += num;
     c->rel_den += den;
     c->n_views += 1;

@@ -18,6 +18,7 @@
 #ifndef DS_SPLIT_H
 #define DS_SPLIT_H
 
+#include <math.h>
 #include <stdint.h>
 
 #define DS_DEFAULT_ENV_DIR "/usr/share/blender/datafiles/studiolights/world"
@@ -73,14 +74,17 @@ int ds_split_manifest(const DsSplitSpec *s, const char *out_dir, uint64_t seed, 
 /* Our renderer against POV-Ray on the relit test views of a written split (scenes [0,
  * max_scenes), views [0, max_views), res x res; 0 = all): ours with all lobes (spp_sqrt 4,
  * 4 pixel samples) and with the diffuse lobe only, POV-Ray with the scene's kd (Lambert,
- * radiosity DS_SPLIT_POV_RADIOSITY, scratch in <scene>/.compare/). Per view over the pixels
- * covered in either image: PSNR of the sRGB-encoded premultiplied colour clamped to [0, 1]
- * (averaged over views), and the mean relative error sum |ours - pov| / sum |pov| of linear
- * colour (pooled). */
+ * radiosity s->pov_radiosity, scratch in <scene>/.compare/). Over the pixels covered in either
+ * image of every view (pooled): PSNR of the sRGB-encoded premultiplied colour clamped to [0, 1]
+ * (10 log10(1 / MSE)), and the mean relative error sum |ours - pov| / sum |pov| of linear colour. */
 typedef struct {
-    double psnr_sum, rel_num, rel_den; /* sums over views / pixels */
+    double se, n_px, rel_num, rel_den; /* sums over pixels of all views */
     int n_views;
 } DsRenderCompareStat;
+static inline double ds_compare_psnr(const DsRenderCompareStat *c) {
+    double mse = c->n_px > 0 ? c->se / (3.0 * c->n_px) : 0.0;
+    return 10.0 * log10(1.0 / (mse > 1e-12 ? mse : 1e-12));
+}
 typedef struct {
     DsRenderCompareStat all;           /* ours (diffuse + specular) vs POV-Ray */
     DsRenderCompareStat diffuse_lobe;  /* ours, diffuse lobe only, vs POV-Ray */

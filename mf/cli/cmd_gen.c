@@ -112,13 +112,13 @@ static int cmd_gen(int argc, char **argv) {
             FILE *f = fopen(compare, "a");
             if (!f) { mf_fail(MF_EIO, "%s: cannot open for appending", compare); return MF_EXIT_FAIL; }
             fprintf(f, "| %s%s | %d | %d | %d | %.2f | %.4f | %.2f | %.4f | %.2f | %.2f |\n", split, spec.diffuse ? " (diffuse objects)" : "", cres, spec.pov_radiosity > 0 ? spec.pov_radiosity : DS_SPLIT_POV_RADIOSITY,
-                    c.all.n_views, c.all.n_views ? c.all.psnr_sum / c.all.n_views : 0.0, c.all.rel_den > 0 ? c.all.rel_num / c.all.rel_den : 0.0,
-                    c.diffuse_lobe.n_views ? c.diffuse_lobe.psnr_sum / c.diffuse_lobe.n_views : 0.0,
+                    c.all.n_views, ds_compare_psnr(&c.all), c.all.rel_den > 0 ? c.all.rel_num / c.all.rel_den : 0.0,
+                    ds_compare_psnr(&c.diffuse_lobe),
                     c.diffuse_lobe.rel_den > 0 ? c.diffuse_lobe.rel_num / c.diffuse_lobe.rel_den : 0.0, c.all.n_views ? c.sec_ours / c.all.n_views : 0.0,
                     c.all.n_views ? c.sec_povray / c.all.n_views : 0.0);
             fclose(f);
             mf_log_info("mf gen: ours vs POV-Ray on %d relit views: PSNR %.2f dB, mean relative error %.4f -> %s", c.all.n_views,
-                        c.all.n_views ? c.all.psnr_sum / c.all.n_views : 0.0, c.all.rel_den > 0 ? c.all.rel_num / c.all.rel_den : 0.0, compare);
+                        ds_compare_psnr(&c.all), c.all.rel_den > 0 ? c.all.rel_num / c.all.rel_den : 0.0, compare);
         }
         mf_log_info("mf gen: split %s (%d scenes) -> %s%s; %d views rendered in %.1f s", split, spec.n_scenes, out,
                     render ? "" : " (layout only: add --render for the images)", nv, wall);
