@@ -15,6 +15,7 @@
 #include "core/mf_rng.h"
 #include "datasets/ds_povray.h"
 #include "datasets/ds_split.h"
+#include "io/mf_exr.h"
 #include "io/mf_json.h"
 #include "io/mf_obj.h"
 #include "nn/mf_nn_ckpt.h"
@@ -92,7 +93,8 @@ static int write_rgba(const char *path, const float *rgb, int rgb_stride, const 
         for (int c = 0; c < 3; ++c) img.data[4 * i + c] = a > 0 ? rgb[(size_t)i * rgb_stride + c] * s : 0.0f;
         img.data[4 * i + 3] = a;
     }
-    rc = mf_image_write(path, &img, enc, bits);
+    /* EXR through OpenEXRCore (no time stamp in the header: the same pixels give the same bytes) */
+    rc = bits == 32 ? mf_exr_write_image(path, &img, "", MF_EXR_FLOAT) : mf_image_write(path, &img, enc, bits);
     mf_image_free(&img);
     return rc;
 }
