@@ -25,8 +25,10 @@
  * of this run is spent (objects already started finish); objects run in parallel (OpenMP),
  * each object's rows serially in its thread.
  *
- * Seeds: object seeds of different streams are disjoint by construction: the stream index is
- * stored in the top 4 bits (prior-train 1, test splits 0, ...), hashed seed in the low 60 bits. */
+ * Seeds: prior-train and test-2d object seeds carry their stream index in the top 4 bits
+ * (1, 2; hashed seed in the low 60 bits), so those two never meet; the test splits keep their
+ * original seeds mf_hash64(seed, k) (the tiny CI scene depends on them), distinct from the
+ * others unless a 64-bit hash collides; a test checks the ranges in use. */
 #ifndef DS_GEN_H
 #define DS_GEN_H
 
@@ -39,7 +41,8 @@
 
 typedef enum { DS_STREAM_TEST = 0, DS_STREAM_PRIOR = 1, DS_STREAM_TEST2D = 2 } DsSeedStream;
 
-/* Object seed k of a stream: (stream << 60) | (mf_hash64(seed ^ stream*C, k) >> 4). */
+/* Object seed k of a stream: DS_STREAM_TEST: mf_hash64(seed, k); others:
+ * (stream << 60) | (mf_hash64(seed ^ stream*C, k) >> 4). */
 uint64_t ds_object_seed(DsSeedStream stream, uint64_t seed, uint64_t k);
 
 typedef struct {
