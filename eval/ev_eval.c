@@ -10,6 +10,7 @@
 #include "core/mf_rng.h"
 #include "datasets/ds_load.h"
 #include "eval/ev_metrics.h"
+#include "eval/ev_orb.h"
 #include "io/mf_obj.h"
 #include "render/mf_integrator.h"
 #include "render/mf_rtscene.h"
@@ -138,7 +139,8 @@ int ev_eval_scene(const char *scene_dir, const char *result_dir, const char *met
     MfTexMaterial mat = {&res.kd, &res.orm, mf_v3s(0.5f), mf_v3(1, 0.5f, 0)};
     MfRenderOpts ro = {o->spp_sqrt, o->pixel_samples, o->seed, MF_LOBE_ALL};
     Acc relit = {{0}, 0}, alb = {{0}, 0}, orm = {{0}, 0};
-    double orm3 = 0.0;
+    double orm3 = 0.0, orb_h = 0.0, orb_l = 0.0;
+    int orb_n = 0, is_orb = dv.format == DS_FMT_STANFORD_ORB;
     int bad = 0;
     /* relighting */
     int nl = o->max_lights > 0 && o->max_lights < dv.n_relight ? o->max_lights : dv.n_relight;
@@ -160,6 +162,9 @@ int ev_eval_scene(const char *scene_dir, const char *result_dir, const char *met
                 unpremultiply(&gt);
                 unpremultiply(&pred);
                 EvMetrics m;
+                double ph, pl;
+                if (is_orb && ev_orb_psnr_h(&pred, &gt, &gt, &ph) == MF_OK && ev_orb_psnr_l(&pred, &gt, &gt, &pl) == MF_OK)
+                    orb_h += ph, orb_l += pl, ++orb_n;
                 if (score_color(&pred, &gt, o->align, &m) == MF_OK) {
                     acc_add(&relit, &m);
                     row(csv, method, dataset, scene, dv.views[i].name, "relit", dv.relight_name[k], &m);
@@ -238,6 +243,8 @@ int ev_eval_scene(const char *scene_dir, const char *result_dir, const char *met
             }
         }
         if (!rc && orm.n) rc = ev_table_add(t, method, dataset, scene, "orm3_psnr", orm3 / orm.n);
+        if (!rc && orb_n) rc = ev_table_add(t, method, dataset, scene, "relit_orb_psnr_h", orb_h / orb_n);
+        if (!rc && orb_n) rc = ev_table_add(t, method, dataset, scene, "relit_orb_psnr_l", orb_l / orb_n);
     }
     if (excluded) *excluded += bad;
 out:

@@ -19,12 +19,13 @@
 
 static const char usage[] =
     "usage: mf bench-render [-o reports/perf/render.md] [--width W] [--height H] [--spp N] [--threads T]\n"
-    "                       [--pixel-samples P] [--env FILE.exr] [--env-width EW]\n"
+    "                       [--pixel-samples P] [--env FILE.exr] [--env-width EW] [--save IMG.exr]\n"
     "Renders a procedural torus (131072 triangles) under an HDR probe (default Blender's sunset.exr,\n"
     "else a constant sky) with N^2 light + N^2 BSDF samples per pixel (default 512x512, N = 8,\n"
     "2 threads; --env-width box-filters the probe down to at most EW columns, e.g. 512 for the\n"
     "inverse pipeline's env resolution), then replays exactly the renderer's rays (recorded per row) through a bare\n"
-    "rtcIntersect1/rtcOccluded1 loop, and reports path samples/s, rays/s and bare time / render time.\n";
+    "rtcIntersect1/rtcOccluded1 loop, and reports path samples/s, rays/s and bare time / render time.\n"
+    "--save writes the rendered AOVs (multi-channel EXR) to compare renderer versions.\n";
 
 /* Replays recorded rays; returns the number of occluded shadow rays + primary hits (a checksum). */
 static long replay(RTCScene scene, const MfRayLog *log) {
@@ -85,14 +86,14 @@ static double cpu_now(void) {
 }
 
 static int cmd_bench_render(int argc, char **argv) {
-    const char *outp = "reports/perf/render.md", *envp = "/usr/share/blender/datafiles/studiolights/world/sunset.exr";
+    const char *outp = "reports/perf/render.md", *savep = NULL, *envp = "/usr/share/blender/datafiles/studiolights/world/sunset.exr";
     int W = 512, H = 512, spp = 8, threads = 2, ps = 1, env_w = 0;
     for (int i = 1; i < argc; ++i) {
         int r;
         if ((r = mf_opt_str(argc, argv, &i, "-o", &outp)) || (r = mf_opt_int(argc, argv, &i, "--width", &W)) ||
             (r = mf_opt_int(argc, argv, &i, "--height", &H)) || (r = mf_opt_int(argc, argv, &i, "--spp", &spp)) ||
             (r = mf_opt_int(argc, argv, &i, "--threads", &threads)) || (r = mf_opt_int(argc, argv, &i, "--pixel-samples", &ps)) ||
-            (r = mf_opt_str(argc, argv, &i, "--env", &envp)) || (r = mf_opt_int(argc, argv, &i, "--env-width", &env_w))) {
+            (r = mf_opt_str(argc, argv, &i, "--env", &envp)) || (r = mf_opt_str(argc, argv, &i, "--save", &savep)) || (r = mf_opt_int(argc, argv, &i, "--env-width", &env_w))) {
             if (r < 0) return MF_EXIT_USAGE;
             continue;
         }
@@ -184,6 +185,7 @@ static int cmd_bench_render(int argc, char **argv) {
     double cover = 0;
     for (size_t i = 0; i < (size_t)W * H; ++i) cover += out.alpha[i];
     cover /= (double)W * H;
+    if (!rc && savep) rc = mf_render_out_write_exr(savep, &out);
     mf_render_out_free(&out);
     if (rc) goto done;
 

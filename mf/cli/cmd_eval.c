@@ -232,10 +232,12 @@ static int cmd_eval(int argc, char **argv) {
     const char *relit_m[] = {"relit_psnr", "relit_ssim", "relit_l1", "relit_flip"};
     const char *mat_m[] = {"albedo_psnr", "albedo_ssim", "albedo_l1", "orm_psnr", "orm_l1", "orm3_psnr"};
     const char *cost_m[] = {"time_s", "mem_mb"};
+    const char *orb_m[] = {"relit_orb_psnr_h", "relit_orb_psnr_l"};
     struct { const char *file, *caption; const char *const *metrics; int nk; } tabs[] = {
         {"relight", "Relighting (test views under novel lights)", relit_m, 4},
         {"materials", "Albedo and ORM (per test view)", mat_m, 6},
         {"cost", "Wall time (s) and peak memory (MB) per scene", cost_m, 2},
+        {"orb", "Stanford-ORB's own relighting metrics (PSNR-H, PSNR-L)", orb_m, 2},
     };
     MfStrBuf page = {0};
     mf_sb_printf(&page, "<p>Data: <code>");
@@ -249,6 +251,9 @@ static int cmd_eval(int argc, char **argv) {
                         "perceptual metric.</p>\n",
                  ev_align_name(o.align), o.spp_sqrt, o.spp_sqrt, o.pixel_samples);
     for (size_t k = 0; k < sizeof tabs / sizeof tabs[0] && !rc; ++k) {
+        int any = 0;
+        for (int m = 0; m < nm && !any; ++m) any = ev_table_stat(&t, mptr[m], dataset, tabs[k].metrics[0]).n > 0;
+        if (!any) continue; /* e.g. the ORB table outside Stanford-ORB */
         char md[MF_PATH_MAX], tex[MF_PATH_MAX];
         snprintf(md, sizeof md, "%s/%s.md", out, tabs[k].file);
         snprintf(tex, sizeof tex, "%s/%s.tex", out, tabs[k].file);

@@ -43,10 +43,10 @@ typedef struct { MfVec3 g, gd, gs; } Adj;
 
 /* One light-transport sample: direction wi (local and world), MIS weight w, visible. Adds its
  * contribution to the sample's diffuse/specular (forward) or its adjoint to the gradients. */
-static void contribute(Ctx *c, const MfHit *h, const Mat *mat, MfVec3 wo, MfVec3 wi, MfVec3 wi_w, float w,
-                       MfVec3 *dif, MfVec3 *spec, const Adj *a, MfVec3 *dkd, float *dr, float *dm) {
-    MfVec3 L = mf_env_eval(c->s->env, wi_w);
-    MfBrdfValue f = mf_brdf_eval(&mat->m, wo, wi, MF_LOBE_ALL);
+static void contribute(Ctx *c, const Mat *mat, const MfBrdfCtx *bc, MfVec3 wo, MfVec3 wi, MfVec3 wi_w, float w,
+                       MfVec3 L, MfVec3 *dif, MfVec3 *spec, const Adj *a, MfVec3 *dkd, float *dr, float *dm) {
+    float pdf_unused;
+    MfBrdfValue f = mf_brdf_ctx_eval_pdf(bc, wi, &pdf_unused); /* = mf_brdf_eval(&mat->m, wo, wi) */
     if (!c->adj) {
         *dif = mf_madd(*dif, L, f.diffuse_demod * w);
         *spec = mf_add(*spec, mf_scale(mf_mul(L, f.specular), w));
@@ -85,35 +85,71 @@ static void shade(Ctx *c, const MfHit *h, MfVec3 wo_w, MfRng *rng, MfVec3 *dif, 
     if (wo.z <= 0.0f) return;
     MfVec3 dkd = mf_v3s(0.0f);
     float dr = 0.0f, dm = 0.0f;
-    int n = c->o->spp_sqrt;
+    /* Batched as in the forward renderer (mf_integrator.c): same random numbers, same shadow
+     * rays, same order of the sums, so the same values as one sample at a time. */
+    MfBrdfCtx bc, bc_s; /* shading and sampling material */
+    mf_brdf_prepare(&bc, &mat.m, wo, MF_LOBE_ALL);
+    mf_brdf_prepare(&bc_s, &mat_s.m, wo, MF_LOBE_ALL);
+    int n = c->o->spp_sqrt, N = n * n;
     float inv_n = 1.0f / (float)n, inv_N = 1.0f / (float)(n * n);
-    for (int i = 0; i < n; ++i)
-        for (int j = 0; j < n; ++j) {
-            float u1 = ((float)i + mf_rng_float(rng)) * inv_n, u2 = ((float)j + mf_rng_float(rng)) * inv_n;
-            MfVec3 wi_w;
-            float pl;
-            mf_env_sample(env_s, u1, u2, &wi_w, &pl);
+    enum { B = 64 };
+    float us1[B], us2[B], pdf[B], ws[B];
+    MfVec3 dir[B], wis[B], Ls[B];
+    for (int b0 = 0; b0 < N; b0 += B) {
+        int nb = N - b0 < B ? N - b0 : B, na = 0;
+        for (int t = 0; t < nb; ++t) {
+            int i = (b0 + t) / n, j = (b0 + t) % n;
+            us1[t] = ((float)i + mf_rng_float(rng)) * inv_n;
+            us2[t] = ((float)j + mf_rng_float(rng)) * inv_n;
+        }
+        mf_env_sample_dir_n(env_s, nb, us1, us2, dir, pdf);
+        for (int t = 0; t < nb; ++t) {
+            MfVec3 wi_w = dir[t];
+            float pl = pdf[t];
             if (!(pl > 0.0f) || mf_dot(wi_w, h->ng) <= 0.0f) continue;
             MfVec3 wi = mf_to_local(&fr, wi_w);
             if (wi.z <= 0.0f) continue;
-            float w = inv_N / (pl + mf_brdf_pdf(&mat_s.m, wo, wi, MF_LOBE_ALL));
+            float pb;
+            mf_brdf_ctx_eval_pdf(&bc_s, wi, &pb);
+            float w = inv_N / (pl + pb);
             if (!(w > 0.0f) || !isfinite(w) || !visible(s, h, wi_w)) continue;
-            contribute(c, h, &mat, wo, wi, wi_w, w, dif, spec, a, &dkd, &dr, &dm);
+            dir[na] = wi_w;
+            wis[na] = wi;
+            ws[na++] = w;
         }
-    for (int i = 0; i < n; ++i)
-        for (int j = 0; j < n; ++j) {
+        mf_env_eval_pdf_n(s->env, na, dir, Ls, NULL);
+        for (int t = 0; t < na; ++t) contribute(c, &mat, &bc, wo, wis[t], dir[t], ws[t], Ls[t], dif, spec, a, &dkd, &dr, &dm);
+    }
+    for (int b0 = 0; b0 < N; b0 += B) {
+        int nb = N - b0 < B ? N - b0 : B, na = 0;
+        for (int t = 0; t < nb; ++t) {
+            int i = (b0 + t) / n, j = (b0 + t) % n;
             float u0 = mf_rng_float(rng);
             float u1 = ((float)i + mf_rng_float(rng)) * inv_n, u2 = ((float)j + mf_rng_float(rng)) * inv_n;
             MfVec3 wi;
             float pb;
-            if (!mf_brdf_sample(&mat_s.m, wo, u0, u1, u2, MF_LOBE_ALL, &wi, &pb)) continue;
+            MfBrdfValue f_unused;
+            if (!mf_brdf_ctx_sample(&bc_s, u0, u1, u2, &wi, &pb, &f_unused)) continue;
             if (!(pb > 0.0f) || wi.z <= 0.0f) continue;
             MfVec3 wi_w = mf_to_world(&fr, wi);
             if (mf_dot(wi_w, h->ng) <= 0.0f) continue;
-            float w = inv_N / (mf_env_pdf(env_s, wi_w) + pb);
-            if (!(w > 0.0f) || !isfinite(w) || !visible(s, h, wi_w)) continue;
-            contribute(c, h, &mat, wo, wi, wi_w, w, dif, spec, a, &dkd, &dr, &dm);
+            dir[na] = wi_w;
+            wis[na] = wi;
+            ws[na++] = pb;
         }
+        /* the env pdf is that of the sampling map; the radiance that of the shading map */
+        if (env_s == s->env) {
+            mf_env_eval_pdf_n(s->env, na, dir, Ls, pdf);
+        } else {
+            for (int t = 0; t < na; ++t) pdf[t] = mf_env_pdf(env_s, dir[t]);
+            mf_env_eval_pdf_n(s->env, na, dir, Ls, NULL);
+        }
+        for (int t = 0; t < na; ++t) {
+            float w = inv_N / (pdf[t] + ws[t]);
+            if (!(w > 0.0f) || !isfinite(w) || !visible(s, h, dir[t])) continue;
+            contribute(c, &mat, &bc, wo, wis[t], dir[t], w, Ls[t], dif, spec, a, &dkd, &dr, &dm);
+        }
+    }
     if (c->adj) {
         float gkd[3] = {dkd.x, dkd.y, dkd.z};
         float gorm[3] = {0.0f, mat.orm.y >= 0.0f && mat.orm.y <= 1.0f ? dr : 0.0f,

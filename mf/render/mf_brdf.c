@@ -186,3 +186,72 @@ int mf_brdf_sample(const MfMaterial *mat, MfVec3 wo, float u0, float u1, float u
     *pdf = p;
     return 1;
 }
+
+/* ---- per-shading-point context: the same operations as above, constants hoisted ---- */
+
+void mf_brdf_prepare(MfBrdfCtx *c, const MfMaterial *mat, MfVec3 wo, int lobes) {
+    c->mat = *mat;
+    c->wo = wo;
+    c->lobes = lobes;
+    c->co = fminf(wo.z, 1.0f);
+    c->met = mat_metallic(mat);
+    c->alpha = mat_alpha(mat);
+    c->a2 = c->alpha * c->alpha;
+    c->so = smith_s(c->a2, c->co);
+    c->f0 = mat_f0(mat);
+    c->pd = (wo.z > 0.0f && (lobes & MF_LOBE_ALL)) ? mf_brdf_p_diffuse(mat, wo, lobes) : 0.0f;
+}
+
+MfBrdfValue mf_brdf_ctx_eval_pdf(const MfBrdfCtx *c, MfVec3 wi, float *pdf) {
+    MfBrdfValue v = {mf_v3s(0.0f), mf_v3s(0.0f), 0.0f};
+    *pdf = 0.0f;
+    MfVec3 wo = c->wo;
+    if (!(wo.z > 0.0f) || !(wi.z > 0.0f)) return v;
+    int lobes = c->lobes;
+    float co = c->co, ci = fminf(wi.z, 1.0f);
+    if (lobes & MF_LOBE_DIFFUSE) {
+        v.diffuse_demod = ci * MF_INV_PI;
+        v.diffuse = mf_scale(c->mat.kd, (1.0f - c->met) * v.diffuse_demod);
+    }
+    float pd = c->pd, p = 0.0f;
+    if (!(lobes & MF_LOBE_ALL)) {
+        *pdf = 0.0f;
+        return v;
+    }
+    if (pd > 0.0f) p += pd * ci * MF_INV_PI;
+    if ((lobes & MF_LOBE_SPECULAR) || pd < 1.0f) {
+        MfVec3 h = mf_norm(mf_add(wo, wi));
+        float D = ggx_D_h(c->alpha, h);
+        if (lobes & MF_LOBE_SPECULAR) {
+            MfVec3 F = mf_fresnel_schlick(c->f0, mf_dot(wo, h));
+            float k = D * ci / (2.0f * (c->so * ci + smith_s(c->a2, ci) * co));
+            v.specular = mf_scale(F, k);
+        }
+        if (pd < 1.0f) p += (1.0f - pd) * (D / (2.0f * (co + c->so)));
+    }
+    *pdf = p;
+    return v;
+}
+
+int mf_brdf_ctx_sample(const MfBrdfCtx *c, float u0, float u1, float u2, MfVec3 *wi, float *pdf, MfBrdfValue *f) {
+    MfVec3 wo = c->wo;
+    if (!(wo.z > 0.0f) || !(c->lobes & MF_LOBE_ALL)) return 0;
+    u1 = mf_clampf(u1, 0.0f, 1.0f);
+    u2 = mf_clampf(u2, 0.0f, 1.0f);
+    MfVec3 d;
+    if (u0 < c->pd) {
+        float r = sqrtf(u1), phi = 2.0f * MF_PI * u2;
+        d = mf_v3(r * cosf(phi), r * sinf(phi), sqrtf(fmaxf(0.0f, 1.0f - u1)));
+    } else {
+        MfVec3 h = sample_vndf(c->alpha, wo, u1, u2);
+        d = mf_norm(mf_reflect(wo, h));
+    }
+    if (!(d.z > 0.0f) || !mf_isfinite3(d)) return 0;
+    float p;
+    MfBrdfValue v = mf_brdf_ctx_eval_pdf(c, d, &p);
+    if (!(p > 0.0f) || !isfinite(p)) return 0;
+    *wi = d;
+    *pdf = p;
+    *f = v;
+    return 1;
+}

@@ -45,6 +45,23 @@ float mf_brdf_pdf(const MfMaterial *mat, MfVec3 wo, MfVec3 wi, int lobes);
  * (then *wi and *pdf are unspecified). */
 int mf_brdf_sample(const MfMaterial *mat, MfVec3 wo, float u0, float u1, float u2, int lobes, MfVec3 *wi, float *pdf);
 
+/* Per-shading-point constants for one material and wo (lobe probability, alpha, F0, Smith term
+ * of wo): mf_brdf_prepare once, then mf_brdf_ctx_eval_pdf / mf_brdf_ctx_sample return exactly
+ * the values of mf_brdf_eval + mf_brdf_pdf / mf_brdf_sample + mf_brdf_eval (same operations),
+ * without recomputing them per direction. */
+typedef struct {
+    MfMaterial mat;
+    MfVec3 wo, f0;
+    int lobes;
+    float co, met, alpha, a2, so; /* min(wo.z, 1), clamped metallic, r^2, alpha^2, s(co) */
+    float pd;                     /* mf_brdf_p_diffuse */
+} MfBrdfCtx;
+void mf_brdf_prepare(MfBrdfCtx *c, const MfMaterial *mat, MfVec3 wo, int lobes);
+/* mf_brdf_eval(wi) and, in *pdf, mf_brdf_pdf(wi). */
+MfBrdfValue mf_brdf_ctx_eval_pdf(const MfBrdfCtx *c, MfVec3 wi, float *pdf);
+/* mf_brdf_sample; on success also *f = mf_brdf_eval(*wi). */
+int mf_brdf_ctx_sample(const MfBrdfCtx *c, float u0, float u1, float u2, MfVec3 *wi, float *pdf, MfBrdfValue *f);
+
 /* Adjoint of mf_brdf_eval with respect to the material (wo, wi and the sampling are constants):
  * dmat->kd, ->roughness, ->metallic += gradient of <d_diffuse, diffuse> + <d_specular, specular>.
  * Roughness outside [MF_MIN_ROUGHNESS, 1] and metallic outside [0, 1] are clamped in mf_brdf_eval

@@ -130,6 +130,17 @@ typedef struct {
     MfVec3 diffuse, specular;
 } Shade;
 
+/* Samples are processed in batches: all light-sample directions of a batch first (their CDF
+ * searches miss the cache independently, so the CPU overlaps them), then the BRDF and shadow
+ * rays, then the radiance lookups of the visible ones. The random numbers, the rays and the
+ * order of the sums are those of one-sample-at-a-time, so the result is identical. */
+#define SHADE_BATCH 64
+
+typedef struct {
+    MfVec3 wi_w, fs; /* world direction, specular BRDF value */
+    float fd, p;     /* demodulated diffuse value; MIS weight (light loop) or BSDF pdf (BSDF loop) */
+} Accepted;
+
 /* Direct light at a hit: demodulated diffuse and specular radiance toward wo_w. */
 static Shade shade(const MfRenderInput *in, const MfRenderOpts *opts, const MfHit *h, const MfMaterial *mat, MfVec3 wo_w,
                    MfRng *rng, MfRayLog *log) {
@@ -139,49 +150,75 @@ static Shade shade(const MfRenderInput *in, const MfRenderOpts *opts, const MfHi
     if (wo.z <= 0.0f) return s;
     int lobes = opts->lobes;
     if (in->env) {
-        int n = opts->spp_sqrt;
+        MfBrdfCtx bc;
+        mf_brdf_prepare(&bc, mat, wo, lobes);
+        int n = opts->spp_sqrt, N = n * n;
         float inv_n = 1.0f / (float)n, inv_N = 1.0f / (float)(n * n);
-        /* Light samples. */
-        for (int i = 0; i < n; ++i)
-            for (int j = 0; j < n; ++j) {
-                float u1 = ((float)i + mf_rng_float(rng)) * inv_n, u2 = ((float)j + mf_rng_float(rng)) * inv_n;
-                MfVec3 wi_w;
-                float pl;
-                MfVec3 L = mf_env_sample(in->env, u1, u2, &wi_w, &pl);
+        MfVec3 dir[SHADE_BATCH];
+        float pdf[SHADE_BATCH], us1[SHADE_BATCH], us2[SHADE_BATCH];
+        MfVec3 Ls[SHADE_BATCH];
+        Accepted acc[SHADE_BATCH];
+        /* Light samples: acc[].p = MIS weight. */
+        for (int b0 = 0; b0 < N; b0 += SHADE_BATCH) {
+            int nb = N - b0 < SHADE_BATCH ? N - b0 : SHADE_BATCH, na = 0;
+            for (int t = 0; t < nb; ++t) {
+                int i = (b0 + t) / n, j = (b0 + t) % n;
+                us1[t] = ((float)i + mf_rng_float(rng)) * inv_n;
+                us2[t] = ((float)j + mf_rng_float(rng)) * inv_n;
+            }
+            mf_env_sample_dir_n(in->env, nb, us1, us2, dir, pdf);
+            for (int t = 0; t < nb; ++t) {
+                MfVec3 wi_w = dir[t];
+                float pl = pdf[t];
                 if (!(pl > 0.0f) || mf_dot(wi_w, h->ng) <= 0.0f) continue;
                 MfVec3 wi = mf_to_local(&fr, wi_w);
                 if (wi.z <= 0.0f) continue;
-                MfBrdfValue f = mf_brdf_eval(mat, wo, wi, lobes);
+                float pb;
+                MfBrdfValue f = mf_brdf_ctx_eval_pdf(&bc, wi, &pb);
                 if (f.diffuse_demod <= 0.0f && mf_maxc(f.specular) <= 0.0f) continue;
                 /* visibility first: occluded samples need no MIS weight */
                 if (!visible(in, h, wi_w, INFINITY, log)) continue;
-                float pb = mf_brdf_pdf(mat, wo, wi, lobes);
                 float w = inv_N / (pl + pb);
                 if (!(w > 0.0f) || !isfinite(w)) continue;
-                s.diffuse = mf_madd(s.diffuse, L, f.diffuse_demod * w);
-                s.specular = mf_add(s.specular, mf_scale(mf_mul(L, f.specular), w));
+                acc[na++] = (Accepted){wi_w, f.specular, f.diffuse_demod, w};
             }
-        /* BSDF samples. */
-        for (int i = 0; i < n; ++i)
-            for (int j = 0; j < n; ++j) {
+            for (int a = 0; a < na; ++a) dir[a] = acc[a].wi_w;
+            mf_env_eval_pdf_n(in->env, na, dir, Ls, NULL);
+            for (int a = 0; a < na; ++a) {
+                MfVec3 L = Ls[a];
+                float w = acc[a].p;
+                s.diffuse = mf_madd(s.diffuse, L, acc[a].fd * w);
+                s.specular = mf_add(s.specular, mf_scale(mf_mul(L, acc[a].fs), w));
+            }
+        }
+        /* BSDF samples: acc[].p = BSDF pdf. */
+        for (int b0 = 0; b0 < N; b0 += SHADE_BATCH) {
+            int nb = N - b0 < SHADE_BATCH ? N - b0 : SHADE_BATCH, na = 0;
+            for (int t = 0; t < nb; ++t) {
+                int i = (b0 + t) / n, j = (b0 + t) % n;
                 float u0 = mf_rng_float(rng);
                 float u1 = ((float)i + mf_rng_float(rng)) * inv_n, u2 = ((float)j + mf_rng_float(rng)) * inv_n;
                 MfVec3 wi;
                 float pb;
-                if (!mf_brdf_sample(mat, wo, u0, u1, u2, lobes, &wi, &pb)) continue;
+                MfBrdfValue f;
+                if (!mf_brdf_ctx_sample(&bc, u0, u1, u2, &wi, &pb, &f)) continue;
                 if (!(pb > 0.0f) || wi.z <= 0.0f) continue;
                 MfVec3 wi_w = mf_to_world(&fr, wi);
                 if (mf_dot(wi_w, h->ng) <= 0.0f) continue;
-                MfBrdfValue f = mf_brdf_eval(mat, wo, wi, lobes);
                 if (f.diffuse_demod <= 0.0f && mf_maxc(f.specular) <= 0.0f) continue;
                 if (!visible(in, h, wi_w, INFINITY, log)) continue;
-                float pl = mf_env_pdf(in->env, wi_w);
-                float w = inv_N / (pl + pb);
-                if (!(w > 0.0f) || !isfinite(w)) continue;
-                MfVec3 L = mf_env_eval(in->env, wi_w);
-                s.diffuse = mf_madd(s.diffuse, L, f.diffuse_demod * w);
-                s.specular = mf_add(s.specular, mf_scale(mf_mul(L, f.specular), w));
+                acc[na++] = (Accepted){wi_w, f.specular, f.diffuse_demod, pb};
             }
+            for (int a = 0; a < na; ++a) dir[a] = acc[a].wi_w;
+            mf_env_eval_pdf_n(in->env, na, dir, Ls, pdf);
+            for (int a = 0; a < na; ++a) {
+                MfVec3 L = Ls[a];
+                float w = inv_N / (pdf[a] + acc[a].p);
+                if (!(w > 0.0f) || !isfinite(w)) continue;
+                s.diffuse = mf_madd(s.diffuse, L, acc[a].fd * w);
+                s.specular = mf_add(s.specular, mf_scale(mf_mul(L, acc[a].fs), w));
+            }
+        }
     }
     for (int k = 0; k < in->nlights; ++k) {
         MfVec3 wi_w, E;

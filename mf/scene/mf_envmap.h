@@ -18,6 +18,8 @@
 #ifndef MF_ENVMAP_H
 #define MF_ENVMAP_H
 
+#include <stdint.h>
+
 #include "core/mf_math.h"
 #include "io/mf_image.h"
 
@@ -26,6 +28,11 @@ typedef struct {
     float *marg_cdf; /* owned; (h + 1,) cumulative over rows */
     float *cond_cdf; /* owned; (h, w + 1) cumulative within each row */
     double total;    /* sum of texel weights (for pdf) */
+    /* Acceleration tables (rebuilt by mf_env_update; results are identical without them). */
+    double *row_tab;      /* owned; (h, 2): cos(pi y / h), cos(pi y / h) - cos(pi (y + 1) / h) */
+    uint32_t *marg_guide; /* owned; (marg_k + 1,) marg_guide[k] = row drawn by u = k / marg_k */
+    uint32_t *cond_guide; /* owned; (h, cond_k + 1) same per row for the column CDFs */
+    int marg_k, cond_k;   /* guide table sizes (powers of two) */
 } MfEnvMap;
 
 /* Takes ownership of img (must have c >= 3; extra channels dropped; NaN/Inf refused) and builds
@@ -53,5 +60,16 @@ void mf_env_eval_backward(const MfEnvMap *env, MfVec3 d, MfVec3 dL, float *dimg)
 MfVec3 mf_env_sample(const MfEnvMap *env, float u1, float u2, MfVec3 *dir, float *pdf);
 /* Solid-angle pdf of mf_env_sample for direction d. */
 float mf_env_pdf(const MfEnvMap *env, MfVec3 d);
+/* mf_env_sample without the radiance lookup (same direction and pdf): for callers that reject
+ * many samples before they need the radiance (then call mf_env_eval). */
+void mf_env_sample_dir(const MfEnvMap *env, float u1, float u2, MfVec3 *dir, float *pdf);
+/* mf_env_eval and mf_env_pdf of the same direction from one direction -> (u, v) conversion
+ * (identical values). */
+MfVec3 mf_env_eval_pdf(const MfEnvMap *env, MfVec3 d, float *pdf);
+/* Batched forms (n >= 0 items, same values as the single calls): memory loads of all items are
+ * issued (prefetched) before any is used, so their cache misses overlap. pdf may be NULL in
+ * mf_env_eval_pdf_n (then only radiance). */
+void mf_env_sample_dir_n(const MfEnvMap *env, int n, const float *u1, const float *u2, MfVec3 *dir, float *pdf);
+void mf_env_eval_pdf_n(const MfEnvMap *env, int n, const MfVec3 *d, MfVec3 *L, float *pdf);
 
 #endif
