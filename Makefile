@@ -96,18 +96,10 @@ else
 RECON_CONFIG ?= baselines/nvdiffrecmc.json
 endif
 
-# Renders every render_*.json of one generated scene into its folder; each output folder gets a
-# .done marker, so an interrupted run resumes where it stopped.
-define render_scene
-cd $(1) && for j in render_*.json; do n=$${j#render_}; n=$${n%.json}; \
-  case $$n in relight_*) o=relight/$${n#relight_};; *) o=$$n;; esac; \
-  [ -f $$o/.done ] || { $(MF) render $$j -o $$o --png && touch $$o/.done; } || exit 1; done
-endef
 
-# One command per split: generate the layout, then render it.
+# One command per split: generate and render it (resumable: rerunning continues).
 $(DATA)/%/.rendered: | $(BUILD)/mf
-	$(MF) gen --split $* -o $(DATA)/$*
-	@for s in $(DATA)/$*/*/; do $(call render_scene,$$s) || exit 1; done
+	$(MF) gen --split $* -o $(DATA)/$* --render
 	touch $@
 
 .PRECIOUS: $(DATA)/%/.rendered
