@@ -140,6 +140,7 @@ bench: $(BUILD)/mf
 bench-quick: $(BUILD)/mf
 	$(MAKE) --no-print-directory bench-split BENCH_SPLIT=test-3d SCENE_LIMIT=3 RESULTS=$(RESULTS)/quick \
 	  RECON_CONFIG=baselines/quick.json RECON_EXTRA="--res 64" REPORT=reports/quick
+	$(MAKE) --no-print-directory eval-prior
 
 bench-split: $(DATA)/$(BENCH_SPLIT)/.rendered
 	for m in $(BENCH_METHODS); do $(MAKE) --no-print-directory recon-runs METHOD=$$m || exit 1; done
