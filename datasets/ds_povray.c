@@ -107,8 +107,11 @@ int ds_povray_write_view(const DsPovScene *s, const MfCamera *cam, const char *d
     fprintf(f, "\n  up ");
     pov_vec(f, mf_scale(cy, (float)cam->h / cam->fy));
     fprintf(f, "\n}\n");
-    if (s->env)
+    if (s->env && !s->hide_env)
         fprintf(f, "sky_sphere { pigment { image_map { hdr \"env.hdr\" map_type 1 interpolate 2 } } scale <-1, 1, 1> }\n");
+    else if (s->env) /* seen by radiosity rays only: an emissive sphere with the same mapping */
+        fprintf(f, "sphere { <0, 0, 0>, 1 texture { pigment { image_map { hdr \"env.hdr\" map_type 1 interpolate 2 } }\n"
+                   "  finish { ambient 0 diffuse 0 emission 1 } } scale <-1e4, 1e4, 1e4> no_image no_shadow }\n");
     for (int i = 0; i < s->nlights; ++i) {
         const MfLight *l = &s->lights[i];
         if (l->kind == MF_LIGHT_SUN) {

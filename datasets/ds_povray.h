@@ -40,6 +40,9 @@ typedef struct {
     int nlights;
     int radiosity_count;   /* radiosity samples per gather (default 600 when 0) */
     int aa_depth;          /* 0: one ray per pixel centre; d > 0: adaptive-off supersampling, depth d */
+    int hide_env;          /* 1: the env lights the object (radiosity) but camera rays do not see it,
+                              so alpha = coverage as in our renders: a no_image emissive sphere of
+                              radius 1e4 with the sky's mapping instead of a sky_sphere */
 } DsPovScene;
 
 /* Writes dir/mesh.inc, dir/kd.hdr and dir/env.hdr (as present): the camera-independent part. */

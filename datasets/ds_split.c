@@ -10,15 +10,24 @@
 #include "core/mf_fs.h"
 #include "core/mf_rng.h"
 #include "datasets/ds_cameras.h"
+#include "datasets/ds_gen.h"
 #include "datasets/ds_shapes.h"
 #include "io/mf_json.h"
 
 int ds_split_spec(const char *name, DsSplitSpec *out) {
-    DsSplitSpec s = {{0}, 0, 0, 0, 0, 0, 0, 0, 1.5f, 2.0f};
+    DsSplitSpec s;
+    memset(&s, 0, sizeof s);
+    s.r_min = 1.5f;
+    s.r_max = 2.0f;
+    s.pixel_samples = 4;
     if (!strcmp(name, "tiny")) { s.n_scenes = 3; s.width = 32; s.n_train = 8; s.n_test = 4; s.tex_res = 64; s.n_relight = 2; s.spp_sqrt = 4; }
     else if (!strcmp(name, "small")) { s.n_scenes = 10; s.width = 128; s.n_train = 50; s.n_test = 20; s.tex_res = 256; s.n_relight = 3; s.spp_sqrt = 8; }
     else if (!strcmp(name, "full")) { s.n_scenes = 30; s.width = 512; s.n_train = 100; s.n_test = 50; s.tex_res = 512; s.n_relight = 4; s.spp_sqrt = 16; }
-    else return mf_fail(MF_EARG, "unknown split '%s' (tiny, small, full)", name);
+    else if (!strcmp(name, "test-3d") || !strcmp(name, "test-3d-diffuse")) {
+        s.n_scenes = 9; s.width = 128; s.n_train = 64; s.n_test = 8; s.tex_res = 256; s.n_relight = 3; s.spp_sqrt = 3;
+        s.diffuse = s.povray = !strcmp(name, "test-3d-diffuse");
+    }
+    else return mf_fail(MF_EARG, "unknown split '%s' (tiny, small, full, test-3d, test-3d-diffuse, test-2d, prior-train)", name);
     snprintf(s.name, sizeof s.name, "%s", name);
     *out = s;
     return MF_OK;
@@ -75,7 +84,7 @@ static int write_render_json(const char *path, const char *env, const char *came
     cJSON_AddNumberToObject(r, "width", s->width);
     cJSON_AddNumberToObject(r, "height", s->width);
     cJSON_AddNumberToObject(ren, "spp_sqrt", s->spp_sqrt);
-    cJSON_AddNumberToObject(ren, "pixel_samples", 4);
+    cJSON_AddNumberToObject(ren, "pixel_samples", s->pixel_samples > 0 ? s->pixel_samples : 4);
     cJSON_AddNumberToObject(ren, "seed", (double)(seed & 0xFFFFFFu));
     cJSON_AddStringToObject(ren, "lobes", "all");
     cJSON_AddItemToObject(r, "render", ren);
@@ -110,12 +119,18 @@ int ds_write_split(const DsSplitSpec *s, const char *out_dir, const char *env_di
     if (!rc) rc = mf_mkdirs(out_dir);
     for (int k = 0; k < s->n_scenes && !rc; ++k) {
         DsFamily fam = (DsFamily)(k % DS_FAM_COUNT);
-        uint64_t oseed = mf_hash64(seed, (uint64_t)k);
+        uint64_t oseed = ds_object_seed(DS_STREAM_TEST, seed, (uint64_t)k);
         char sdir[MF_PATH_MAX], p[MF_PATH_MAX], name[64];
         snprintf(name, sizeof name, "%03d_%s", k, ds_family_name(fam));
         if ((rc = mf_path_join(sdir, sizeof sdir, out_dir, name))) break;
         DsObject o;
         if ((rc = ds_object_generate(&o, fam, oseed, s->tex_res))) break;
+        if (s->diffuse) /* diffuse-dominant: metallic 0, roughness >= 0.6 */
+            for (size_t i = 0; i < (size_t)o.orm.w * (size_t)o.orm.h; ++i) {
+                float *t = o.orm.data + i * (size_t)o.orm.c;
+                if (t[1] < 0.6f) t[1] = 0.6f;
+                t[2] = 0.0f;
+            }
         rc = ds_object_write(&o, sdir);
         ds_object_free(&o);
         if (rc) break;

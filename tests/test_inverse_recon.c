@@ -186,3 +186,40 @@ MF_TEST(inverse_recon_resume_is_exact) {
     mf_recon_free(half);
     mf_mesh_free(&mesh);
 }
+
+/* A hook that poisons one gradient at iteration 4. */
+static int nan_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double *loss) {
+    (void)ctx, (void)batch, (void)nb;
+    *loss = 0.0;
+    if (it == 4) mf_recon_block(r, MF_BLOCK_KD)->g[5] = NAN;
+    return MF_OK;
+}
+
+MF_TEST(inverse_recon_nan_gradient_stops_cleanly) {
+    MfMesh mesh;
+    CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
+    MfReconView v[NV];
+    memset(v, 0, sizeof v);
+    CHECK_OK(make_views(&mesh, v));
+    MfReconOpts o = small_opts();
+    o.iters = 8;
+    o.checkpoint_every = 2;
+    o.snapshot_every = 0;
+    MfRecon *r = NULL;
+    CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r));
+    if (!r) return;
+    const char *dir = mf_test_path("nanrun");
+    MfReconHook hook = {nan_hook, NULL};
+    CHECK_ERR(mf_recon_run(r, &hook, dir), "iteration 4: stopping; the last good checkpoint is");
+    CHECK(mf_recon_iteration(r) == 4);
+    /* no texture was written from the bad state, the checkpoint of iteration 4 is there and finite */
+    char p[1024];
+    snprintf(p, sizeof p, "%s/albedo.png", dir);
+    CHECK(!mf_file_exists(p));
+    snprintf(p, sizeof p, "%s/checkpoint.mfck", dir);
+    CHECK(mf_file_exists(p));
+    const MfParamBlock *kd = mf_recon_block(r, MF_BLOCK_KD);
+    for (size_t i = 0; i < kd->n; ++i) CHECK(isfinite(kd->p[i]));
+    mf_recon_free(r);
+    mf_mesh_free(&mesh);
+}

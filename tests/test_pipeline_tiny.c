@@ -52,4 +52,7 @@ MF_TEST(pipeline_tiny_baseline_beats_trivial) {
     CHECK_MSG(nv.mean > 17.5, "baseline relit PSNR %.2f below the recorded threshold 17.5", nv.mean);
     CHECK_MSG(nv.mean > grey.mean + 2.0 && nv.mean > flat.mean + 2.0, "baseline does not beat the trivial guesses by 2 dB");
     ev_table_free(&t);
+    /* --res trains on box-downsampled views (regression: the factor was once lost) */
+    CHECK(sh("%s recon %s -o %s/res16 --res 16 --iters 1 --tex-res 16 2>&1 | grep -q '8 views 16x16'", mf, scene, res) == 0);
+    CHECK(sh("%s recon %s -o %s/res5 --res 5 --iters 1 2>/dev/null", mf, scene, res) != 0);
 }

@@ -88,8 +88,8 @@ static int cmd_recon(int argc, char **argv) {
             ds_views_free(&dv);
             return MF_EXIT_USAGE;
         }
+        lo.downsample = dv.w / res; /* before freeing dv, which zeroes it */
         ds_views_free(&dv);
-        lo.downsample = (int)((unsigned)dv.w / (unsigned)res);
         if (ds_load(data, split, &lo, &dv)) return MF_EXIT_FAIL;
     }
     char mp[MF_PATH_MAX];

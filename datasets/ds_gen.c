@@ -1,0 +1,312 @@
+#include "datasets/ds_gen.h"
+
+#include <cJSON.h>
+#include <dirent.h>
+#include <math.h>
+#include <omp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/mf_error.h"
+#include "core/mf_fs.h"
+#include "core/mf_log.h"
+#include "core/mf_rng.h"
+#include "datasets/ds_cameras.h"
+#include "datasets/ds_shapes.h"
+#include "datasets/ds_split.h"
+#include "io/mf_json.h"
+#include "nn/mf_nn_ckpt.h"
+#include "render/mf_integrator.h"
+
+uint64_t ds_object_seed(DsSeedStream stream, uint64_t seed, uint64_t k) {
+    if (stream == DS_STREAM_TEST) return mf_hash64(seed, k); /* as the test splits always had */
+    uint64_t h = mf_hash64(seed ^ ((uint64_t)stream * 0x9E3779B97F4A7C15ull), k);
+    return ((uint64_t)stream << 60) | (h >> 4);
+}
+
+DsPriorTrainOpts ds_prior_train_defaults(void) {
+    DsPriorTrainOpts o = {0, 64, 1, 0.0, 12, 128, 2, 4, NULL, 0, DS_STREAM_PRIOR, "prior-train"};
+    return o;
+}
+
+DsPriorTrainOpts ds_test2d_defaults(void) {
+    DsPriorTrainOpts o = {32, 64, 1, 0.0, 4, 128, 4, 4, NULL, 0, DS_STREAM_TEST2D, "test-2d"};
+    return o;
+}
+
+static int cmp_str(const void *a, const void *b) { return strcmp(*(char *const *)a, *(char *const *)b); }
+
+int ds_list_probes(const char *dir, char ***names, int *n) {
+    DIR *d = opendir(dir);
+    if (!d) return mf_fail(MF_EIO, "%s: cannot open the probe folder", dir);
+    char **v = NULL;
+    int cnt = 0, cap = 0;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        size_t l = strlen(e->d_name);
+        if (e->d_name[0] == '.' || l < 5 || (strcmp(e->d_name + l - 4, ".exr") && strcmp(e->d_name + l - 4, ".hdr"))) continue;
+        if (cnt == cap) {
+            cap = cap ? 2 * cap : 16;
+            char **nv = realloc(v, sizeof(char *) * (size_t)cap);
+            if (!nv) break;
+            v = nv;
+        }
+        if ((v[cnt] = strdup(e->d_name))) ++cnt;
+    }
+    closedir(d);
+    if (cnt) qsort(v, (size_t)cnt, sizeof(char *), cmp_str);
+    *names = v;
+    *n = cnt;
+    return MF_OK;
+}
+
+/* FNV-1a 64 of a file's bytes. */
+static int file_fnv(const char *path, uint64_t *h) {
+    char *data = NULL;
+    size_t len = 0;
+    int rc = mf_read_file(path, &data, &len);
+    if (!rc) *h = mf_fnv1a64(0xcbf29ce484222325ull, data, len);
+    free(data);
+    return rc;
+}
+
+/* Writes an (res, res, 4) image from an AOV (3 channels, straight) and alpha. */
+static int write_rgba(const char *path, const float *rgb, const float *alpha, int w, int h, int premult, MfEncoding enc) {
+    MfImage img;
+    int rc = mf_image_alloc(&img, w, h, 4);
+    if (rc) return rc;
+    for (int i = 0; i < w * h; ++i) {
+        float a = alpha[i], s = (premult && a > 0) ? 1.0f / a : 1.0f;
+        for (int c = 0; c < 3; ++c) img.data[4 * i + c] = a > 0 ? rgb[3 * i + c] * s : 0.0f;
+        img.data[4 * i + 3] = a;
+    }
+    rc = mf_image_write(path, &img, enc, 8);
+    mf_image_free(&img);
+    return rc;
+}
+
+typedef struct {
+    MfEnvMap *probes; /* (np,) loaded probes */
+    char **names;
+    int np;
+} ProbeSet;
+
+/* Renders object k completely and writes its marker. Runs in one thread. */
+static int render_object(const DsPriorTrainOpts *o, const char *out, const ProbeSet *ps, int k, int *nviews) {
+    DsFamily fam = (DsFamily)(k % DS_FAM_COUNT);
+    uint64_t oseed = ds_object_seed(o->stream, o->seed, (uint64_t)k);
+    DsObject obj;
+    int rc = ds_object_generate(&obj, fam, oseed, o->tex_res);
+    if (rc) return rc;
+    MfRtScene *rt = NULL;
+    MfMat4 *c2w = malloc(sizeof(MfMat4) * (size_t)o->views_per_object);
+    char *marker = NULL;
+    size_t mcap = (size_t)o->views_per_object * 3 * 64 + 64, mlen = 0;
+    marker = malloc(mcap);
+    if (!c2w || !marker) rc = mf_fail(MF_ENOMEM, "out of memory");
+    if (!rc) rc = mf_rtscene_new(&obj.mesh, &rt);
+    DsCamSampling cs = ds_cam_sampling_default();
+    if (!rc) rc = ds_sample_cameras(&cs, o->views_per_object, oseed, 0, c2w);
+    MfTexMaterial mat = {&obj.kd, &obj.orm, {0.5f, 0.5f, 0.5f}, {1, 0.5f, 0}};
+    MfRng rng;
+    mf_rng_seed(&rng, oseed, 0x119447u);
+    MfRenderOut ro = {0};
+    for (int v = 0; v < o->views_per_object && !rc; ++v) {
+        MfCamera cam;
+        double m[16];
+        for (int i = 0; i < 16; ++i) m[i] = c2w[v].m[i];
+        if ((rc = mf_camera_init(&cam, o->res, o->res, cs.camera_angle_x, m, "prior-train camera"))) break;
+        /* the light: all draws happen for every view, so the stream does not depend on choices */
+        float u_kind = mf_rng_float(&rng), u_kind2 = mf_rng_float(&rng), u_probe = mf_rng_float(&rng), u_rot = mf_rng_float(&rng),
+              u_pow = mf_rng_float(&rng);
+        MfEnvMap env = {0};
+        MfLight light;
+        MfRenderInput in = {rt, &obj.mesh, &mat, 1, NULL, NULL, 0};
+        MfVec3 cpos = mf_camera_pos(&cam);
+        if (u_kind < 0.5f) {
+            int pi = (int)(u_probe * (float)ps->np);
+            if (pi >= ps->np) pi = ps->np - 1;
+            MfImage copy;
+            const MfImage *src = &ps->probes[pi].img;
+            if ((rc = mf_image_alloc(&copy, src->w, src->h, 3))) break;
+            memcpy(copy.data, src->data, sizeof(float) * (size_t)src->w * (size_t)src->h * 3);
+            if ((rc = mf_env_init(&env, &copy))) break;
+            if ((rc = mf_env_rotate_z(&env, u_rot * 2.0f * MF_PI))) { mf_env_free(&env); break; }
+            in.env = &env;
+        } else {
+            memset(&light, 0, sizeof light);
+            light.color = mf_v3s(1.0f);
+            if (u_kind2 < 0.5f) {
+                light.kind = MF_LIGHT_POINT;
+                light.pos = cpos;
+                light.strength = DS_POINT_W_MIN + u_pow * (DS_POINT_W_MAX - DS_POINT_W_MIN);
+            } else {
+                light.kind = MF_LIGHT_SUN;
+                light.dir = mf_norm(cpos);
+                light.strength = DS_SUN_MIN + u_pow * (DS_SUN_MAX - DS_SUN_MIN);
+            }
+            in.lights = &light;
+            in.nlights = 1;
+        }
+        MfRenderOpts ropt = {o->spp_sqrt, o->pixel_samples, mf_hash64(oseed, (uint64_t)v + 1000), MF_LOBE_ALL};
+        rc = mf_render(&in, &cam, &ropt, &ro, NULL);
+        if (in.env) mf_env_free(&env);
+        if (rc) break;
+        int idx = k * o->views_per_object + v;
+        static const char *const sub[3] = {"rgb", "albedo", "orm"};
+        for (int j = 0; j < 3 && !rc; ++j) {
+            char rel[64], p[MF_PATH_MAX];
+            snprintf(rel, sizeof rel, "%s/%06d.png", sub[j], idx);
+            if ((rc = mf_path_join(p, sizeof p, out, rel))) break;
+            if (j == 0) rc = write_rgba(p, ro.rgb, ro.alpha, o->res, o->res, 1, MF_ENC_SRGB);
+            else if (j == 1) rc = write_rgba(p, ro.albedo, ro.alpha, o->res, o->res, 0, MF_ENC_SRGB);
+            else rc = write_rgba(p, ro.orm, ro.alpha, o->res, o->res, 0, MF_ENC_LINEAR);
+            uint64_t h = 0;
+            if (!rc) rc = file_fnv(p, &h);
+            if (!rc) mlen += (size_t)snprintf(marker + mlen, mcap - mlen, "%s %016llx\n", rel, (unsigned long long)h);
+        }
+        mf_render_out_free(&ro);
+        if (!rc) ++*nviews;
+    }
+    if (!rc) {
+        char rel[64], p[MF_PATH_MAX];
+        snprintf(rel, sizeof rel, "done/%06d.txt", k);
+        if (!(rc = mf_path_join(p, sizeof p, out, rel))) rc = mf_write_file(p, marker, mlen);
+    }
+    mf_render_out_free(&ro);
+    free(marker);
+    free(c2w);
+    if (rt) mf_rtscene_free(rt);
+    ds_object_free(&obj);
+    return rc;
+}
+
+static int marker_path(const char *out, int k, char *p, size_t cap) {
+    char rel[64];
+    snprintf(rel, sizeof rel, "done/%06d.txt", k);
+    return mf_path_join(p, cap, out, rel);
+}
+
+static int write_manifest(const DsPriorTrainOpts *o, const char *out, const ProbeSet *ps, const DsGenStats *st) {
+    cJSON *r = cJSON_CreateObject(), *files = cJSON_CreateObject(), *pr = cJSON_CreateArray();
+    char buf[64];
+    cJSON_AddStringToObject(r, "split", o->split ? o->split : "prior-train");
+    cJSON_AddNumberToObject(r, "seed_stream", o->stream);
+    cJSON_AddNumberToObject(r, "resolution", o->res);
+    cJSON_AddNumberToObject(r, "count", st->count);
+    cJSON_AddNumberToObject(r, "seed", (double)o->seed);
+    cJSON_AddNumberToObject(r, "objects", st->objects);
+    cJSON_AddNumberToObject(r, "views_per_object", o->views_per_object);
+    cJSON_AddNumberToObject(r, "tex_res", o->tex_res);
+    cJSON_AddNumberToObject(r, "spp_sqrt", o->spp_sqrt);
+    cJSON_AddNumberToObject(r, "pixel_samples", o->pixel_samples);
+    cJSON_AddStringToObject(r, "lights", "50% HDR probe rotated about +Z, 25% point light at the camera, 25% sun along the view");
+    snprintf(buf, sizeof buf, "[%g, %g]", (double)DS_POINT_W_MIN, (double)DS_POINT_W_MAX);
+    cJSON_AddStringToObject(r, "point_power_w", buf);
+    snprintf(buf, sizeof buf, "[%g, %g]", (double)DS_SUN_MIN, (double)DS_SUN_MAX);
+    cJSON_AddStringToObject(r, "sun_strength_w_m2", buf);
+    for (int i = 0; i < ps->np; ++i) cJSON_AddItemToArray(pr, cJSON_CreateString(ps->names[i]));
+    cJSON_AddItemToObject(r, "probes", pr);
+    cJSON_AddNumberToObject(r, "wall_time_s", st->wall_s);
+    cJSON_AddNumberToObject(r, "views_rendered_this_run", st->rendered_views);
+    cJSON_AddNumberToObject(r, "views_per_s", st->wall_s > 0 ? st->rendered_views / st->wall_s : 0.0);
+    cJSON_AddNumberToObject(r, "threads", omp_get_max_threads());
+    cJSON_AddStringToObject(r, "checksum", "fnv1a64");
+    int rc = MF_OK;
+    for (int k = 0; k < st->objects && !rc; ++k) {
+        char p[MF_PATH_MAX], *data = NULL;
+        size_t len = 0;
+        if ((rc = marker_path(out, k, p, sizeof p)) || (rc = mf_read_file(p, &data, &len))) break;
+        char *save = NULL;
+        for (char *line = strtok_r(data, "\n", &save); line; line = strtok_r(NULL, "\n", &save)) {
+            char *sp = strchr(line, ' ');
+            if (!sp) { rc = mf_fail(MF_EFORMAT, "%s: malformed marker line", p); break; }
+            *sp = '\0';
+            cJSON_AddStringToObject(files, line, sp + 1);
+        }
+        free(data);
+    }
+    cJSON_AddItemToObject(r, "files", files);
+    char p[MF_PATH_MAX];
+    if (!rc && !(rc = mf_path_join(p, sizeof p, out, "manifest.json"))) rc = mf_json_save(p, r);
+    cJSON_Delete(r);
+    return rc;
+}
+
+int ds_gen_prior_train(const DsPriorTrainOpts *o, const char *out_dir, DsGenStats *stats) {
+    if (o->res < 8 || o->res > 4096) return mf_fail(MF_EARG, "prior-train: resolution %d outside [8, 4096]", o->res);
+    if (o->views_per_object < 1 || o->spp_sqrt < 1 || o->pixel_samples < 1) return mf_fail(MF_EARG, "prior-train: views, spp and pixel samples must be >= 1");
+    if (o->count <= 0 && o->time_budget_s <= 0) return mf_fail(MF_EARG, "prior-train: give a count or a time budget");
+    double t0 = mf_now();
+    const char *env_dir = o->env_dir ? o->env_dir : DS_DEFAULT_ENV_DIR;
+    static const char *const subs[4] = {"rgb", "albedo", "orm", "done"};
+    for (int j = 0; j < 4; ++j) {
+        char p[MF_PATH_MAX];
+        int r = mf_path_join(p, sizeof p, out_dir, subs[j]);
+        if (r || (r = mf_mkdirs(p))) return r;
+    }
+    ProbeSet ps = {0};
+    int rc = ds_list_probes(env_dir, &ps.names, &ps.np);
+    if (rc) return rc;
+    if (!ps.np) rc = mf_fail(MF_EARG, "%s: no .exr/.hdr probes", env_dir);
+    if (!rc && !(ps.probes = calloc((size_t)ps.np, sizeof(MfEnvMap)))) rc = mf_fail(MF_ENOMEM, "out of memory");
+    for (int i = 0; i < ps.np && !rc; ++i) {
+        char p[MF_PATH_MAX];
+        if (!(rc = mf_path_join(p, sizeof p, env_dir, ps.names[i]))) rc = mf_env_load(&ps.probes[i], p);
+    }
+    int max_obj = o->count > 0 ? (o->count + o->views_per_object - 1) / o->views_per_object : 1 << 20;
+    int first_err = 0, views_total = 0, stop = 0;
+    char errmsg[1024] = "";
+    MfProgress prog;
+    mf_progress_begin(&prog, o->split ? o->split : "prior-train", o->count > 0 ? (size_t)max_obj : 0);
+    int nthreads = o->threads > 0 ? o->threads : omp_get_max_threads();
+    if (!rc) {
+#pragma omp parallel for schedule(dynamic, 1) num_threads(nthreads) reduction(+ : views_total)
+        for (int k = 0; k < max_obj; ++k) {
+            int skip;
+#pragma omp atomic read
+            skip = stop;
+            if (skip) continue;
+            if (o->time_budget_s > 0 && mf_now() - t0 > o->time_budget_s) {
+#pragma omp atomic write
+                stop = 1;
+                continue;
+            }
+            char mp[MF_PATH_MAX];
+            if (marker_path(out_dir, k, mp, sizeof mp) == MF_OK && mf_file_exists(mp)) { mf_progress_add(&prog, 1); continue; }
+            int nv = 0;
+            int r = render_object(o, out_dir, &ps, k, &nv);
+            views_total += nv;
+            if (r) {
+#pragma omp critical(ds_gen_err)
+                {
+                    if (!first_err) { first_err = r; snprintf(errmsg, sizeof errmsg, "%s", mf_error()); }
+                }
+#pragma omp atomic write
+                stop = 1;
+            }
+            mf_progress_add(&prog, 1);
+        }
+    }
+    mf_progress_end(&prog);
+    if (!rc && first_err) rc = mf_fail(first_err, "%s", errmsg);
+    DsGenStats st = {0};
+    st.rendered_views = views_total;
+    st.wall_s = mf_now() - t0;
+    /* complete objects: the prefix with markers */
+    if (!rc) {
+        char mp[MF_PATH_MAX];
+        while (st.objects < max_obj && marker_path(out_dir, st.objects, mp, sizeof mp) == MF_OK && mf_file_exists(mp)) ++st.objects;
+        st.count = st.objects * o->views_per_object;
+        rc = write_manifest(o, out_dir, &ps, &st);
+    }
+    if (stats) *stats = st;
+    for (int i = 0; i < ps.np; ++i) {
+        if (ps.probes) mf_env_free(&ps.probes[i]);
+        free(ps.names[i]);
+    }
+    free(ps.probes);
+    free(ps.names);
+    return rc;
+}

@@ -1,0 +1,81 @@
+/* ds_gen: rendered data set splits, rendered in-process with mf_render (mf/render/mf_integrator.h).
+ *
+ * prior-train (layout pinned in notes/contracts.md and the README): training triplets for the
+ * material prior. Object k (family k mod DS_FAM_COUNT, seed ds_object_seed(DS_STREAM_PRIOR,
+ * seed, k)) is generated with tex_res^2 textures and rendered from views_per_object cameras
+ * (ds_sample_cameras, default sampling, stream 0 of the object seed); sample index
+ * i = k * views_per_object + v. Each view's light (as the paper's training data, REFERENCE.md):
+ * with probability 1/2 an HDR probe of env_dir (uniform choice) rotated about +Z by a uniform
+ * angle; otherwise, with equal odds, a point light at the camera (power uniform in
+ * [DS_POINT_W_MIN, DS_POINT_W_MAX] W) or a sun shining along the view direction (strength
+ * uniform in [DS_SUN_MIN, DS_SUN_MAX] W/m^2). The paper's 150 W point / 10-20 W/m^2 sun were
+ * for Objaverse-sized scenes; ours are scaled so a white Lambertian surface facing the light at
+ * the mean camera distance has radiance about 0.5-1 (like the probes).
+ *   out/rgb/NNNNNN.png     RGBA 8-bit sRGB lit render (straight alpha), alpha = coverage
+ *   out/albedo/NNNNNN.png  RGBA 8-bit sRGB kd AOV, alpha = coverage
+ *   out/orm/NNNNNN.png     RGBA 8-bit linear ORM AOV (R = 1, G roughness, B metallic)
+ *   out/done/OOOOOO.txt    per-object completion marker: one line "<file> <fnv1a64 hex>" per
+ *                          file written for that object (written last, atomically)
+ *   out/manifest.json      split, resolution, count, seed, objects, views_per_object, lights,
+ *                          wall time and views/s of the last run, FNV-1a 64 of every file
+ * Every file is written to a temporary name and renamed. A run resumes: objects with a marker
+ * are skipped (their checksums are read from the marker), the others are (re)rendered; the
+ * bytes do not depend on interruptions or thread count (deterministic from the seed).
+ * Generation stops after `count` samples (rounded up to whole objects) or when time_budget_s
+ * of this run is spent (objects already started finish); objects run in parallel (OpenMP),
+ * each object's rows serially in its thread.
+ *
+ * Seeds: prior-train and test-2d object seeds carry their stream index in the top 4 bits
+ * (1, 2; hashed seed in the low 60 bits), so those two never meet; the test splits keep their
+ * original seeds mf_hash64(seed, k) (the tiny CI scene depends on them), distinct from the
+ * others unless a 64-bit hash collides; a test checks the ranges in use. */
+#ifndef DS_GEN_H
+#define DS_GEN_H
+
+#include <stdint.h>
+
+#define DS_POINT_W_MIN 30.0f
+#define DS_POINT_W_MAX 60.0f
+#define DS_SUN_MIN 1.5f
+#define DS_SUN_MAX 3.0f
+
+typedef enum { DS_STREAM_TEST = 0, DS_STREAM_PRIOR = 1, DS_STREAM_TEST2D = 2 } DsSeedStream;
+
+/* Object seed k of a stream: DS_STREAM_TEST: mf_hash64(seed, k); others:
+ * (stream << 60) | (mf_hash64(seed ^ stream*C, k) >> 4). */
+uint64_t ds_object_seed(DsSeedStream stream, uint64_t seed, uint64_t k);
+
+typedef struct {
+    int count;            /* samples wanted (<= 0: unlimited, the time budget decides) */
+    int res;              /* square image size (64) */
+    uint64_t seed;
+    double time_budget_s; /* <= 0: none */
+    int views_per_object; /* 12 */
+    int tex_res;          /* 128 */
+    int spp_sqrt;         /* 2 */
+    int pixel_samples;    /* 4 */
+    const char *env_dir;  /* NULL: DS_DEFAULT_ENV_DIR */
+    int threads;          /* objects in parallel (<= 0: OpenMP default) */
+    DsSeedStream stream;  /* DS_STREAM_PRIOR (test-2d: DS_STREAM_TEST2D) */
+    const char *split;    /* name written into the manifest ("prior-train", "test-2d") */
+} DsPriorTrainOpts;
+
+DsPriorTrainOpts ds_prior_train_defaults(void);
+/* test-2d (the paper's 2D table): 8 held-out objects x 4 views, the prior-train layout and
+ * lights, object seeds from DS_STREAM_TEST2D. */
+DsPriorTrainOpts ds_test2d_defaults(void);
+
+typedef struct {
+    int objects;          /* complete objects on disk (prefix 0..objects-1) */
+    int count;            /* samples = objects * views_per_object */
+    int rendered_views;   /* views rendered in this run */
+    double wall_s;        /* this run */
+} DsGenStats;
+
+/* Writes or resumes the prior-train split in out_dir. stats may be NULL. */
+int ds_gen_prior_train(const DsPriorTrainOpts *o, const char *out_dir, DsGenStats *stats);
+
+/* Sorted *.exr names of a folder (caller frees each and the array). */
+int ds_list_probes(const char *dir, char ***names, int *n);
+
+#endif
