@@ -162,7 +162,7 @@ bench-external:
 PRIOR_DATA       ?= $(DATA)/prior-train
 PRIOR_CKPT       ?= $(DATA)/prior-ckpt
 PRIOR_WEIGHTS    ?= mf/prior/weights/prior.mfck
-PRIOR_GEN_ARGS   ?=
+PRIOR_GEN_ARGS   ?= --count 12060 --seed 1
 PRIOR_TRAIN_ARGS ?= --ae-steps 500 --steps 4000 --batch 16 --seed 1 --dn-samples 6000
 $(PRIOR_DATA)/manifest.json: | $(BUILD)/mf
 	$(MF) gen --split prior-train -o $(PRIOR_DATA) $(PRIOR_GEN_ARGS)
