@@ -59,8 +59,7 @@ $(BUILD)/obj/%.o: %.cpp
 # The git revision, for run.json; rewritten only when it changes, so nothing rebuilds needlessly.
 $(BUILD)/gen/mf_build_info.h: FORCE
 	@mkdir -p $(dir $@)
-	@{ echo "#define MF_GIT_REV \"$$(git rev-parse --short HEAD 2>/dev/null || echo unknown)$$(git diff --quiet HEAD 2>/dev/null || echo -dirty)\""; \
-	   echo "#define MF_SOURCE_DIR \"$(CURDIR)\""; } > $@.tmp
+	@echo "#define MF_GIT_REV \"$$(git rev-parse --short HEAD 2>/dev/null || echo unknown)$$(git diff --quiet HEAD 2>/dev/null || echo -dirty)\"" > $@.tmp
 	@cmp -s $@.tmp $@ || mv $@.tmp $@; rm -f $@.tmp
 $(CLI_OBJ): $(BUILD)/gen/mf_build_info.h
 

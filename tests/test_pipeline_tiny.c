@@ -1,7 +1,8 @@
 /* CI regression on the tiny split: generate one scene, render it, reconstruct it with the
- * nvdiffrecmc-style baseline, relight and evaluate it, all through the `mf` command (MF_BIN),
- * and check the relit PSNR against a threshold set from measured runs and against the trivial
- * guesses. */
+ * nvdiffrecmc-style baseline and with MaterialFusion (committed prior weights), relight and
+ * evaluate both, all through the `mf` command (MF_BIN); check the baseline's relit PSNR against a
+ * threshold set from measured runs and against the trivial guesses, and MaterialFusion against the
+ * baseline within a stated noise margin. */
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -23,7 +24,7 @@ static int sh(const char *fmt, ...) {
     return st == 0 ? 0 : 1;
 }
 
-MF_TEST(pipeline_tiny_baseline_beats_trivial) {
+MF_TEST(pipeline_tiny_baseline_and_materialfusion) {
     const char *mf = getenv("MF_BIN");
     if (!mf || !mf_file_exists(mf)) MF_SKIP("MF_BIN not set (run through make test)");
     const char *d = mf_test_path("pipeline_tiny");
@@ -38,6 +39,9 @@ MF_TEST(pipeline_tiny_baseline_beats_trivial) {
     snprintf(res, sizeof res, "%s/results", d);
     snprintf(rep, sizeof rep, "%s/report", d);
     CHECK(sh("%s recon %s -o %s/nvdiffrecmc/000_cup --iters 200 --tex-res 64 --env-w 32 --env-h 16 2>/dev/null", mf, scene, res) == 0);
+    /* MaterialFusion with the committed prior weights, same budget */
+    CHECK(sh("%s recon %s -o %s/materialfusion/000_cup --method materialfusion --iters 200 --tex-res 64 --env-w 32 --env-h 16 2>/dev/null",
+             mf, scene, res) == 0);
     CHECK(sh("%s eval %s --results %s -o %s --dataset tiny --trivial --no-curves 2>/dev/null", mf, scene, res, rep) == 0);
     snprintf(csv, sizeof csv, "%s/scenes.csv", rep);
     EvTable t;
@@ -46,8 +50,13 @@ MF_TEST(pipeline_tiny_baseline_beats_trivial) {
     EvStat nv = ev_table_stat(&t, "nvdiffrecmc", "tiny", "relit_psnr");
     EvStat grey = ev_table_stat(&t, "trivial-grey", "tiny", "relit_psnr");
     EvStat flat = ev_table_stat(&t, "trivial-flat-light", "tiny", "relit_psnr");
-    if (getenv("MF_TEST_VERBOSE")) printf("    relit PSNR: baseline %.2f, grey %.2f, flat light %.2f\n", nv.mean, grey.mean, flat.mean);
-    CHECK(nv.n == 1 && grey.n == 1 && flat.n == 1);
+    EvStat mfs = ev_table_stat(&t, "materialfusion", "tiny", "relit_psnr");
+    if (getenv("MF_TEST_VERBOSE"))
+        printf("    relit PSNR: baseline %.2f, MaterialFusion %.2f, grey %.2f, flat light %.2f\n", nv.mean, mfs.mean, grey.mean, flat.mean);
+    CHECK(nv.n == 1 && grey.n == 1 && flat.n == 1 && mfs.n == 1);
+    /* Measured 23.3 dB for MaterialFusion vs 19.3-19.4 for the baseline on this scene; the stated
+     * noise margin of a single 200-iteration run is 1 dB. */
+    CHECK_MSG(mfs.mean > nv.mean - 1.0, "MaterialFusion relit PSNR %.2f is more than 1 dB below the baseline's %.2f", mfs.mean, nv.mean);
     /* Measured 19.8 dB (baseline), 15.2 (grey), 14.3 (flat light) on this scene. */
     CHECK_MSG(nv.mean > 17.5, "baseline relit PSNR %.2f below the recorded threshold 17.5", nv.mean);
     CHECK_MSG(nv.mean > grey.mean + 2.0 && nv.mean > flat.mean + 2.0, "baseline does not beat the trivial guesses by 2 dB");

@@ -16,7 +16,6 @@
 #include "fusion/mf_sds.h"
 #include "inverse/mf_recon_opts.h"
 #include "io/mf_obj.h"
-#include "mf_build_info.h"
 
 static char usage[8192] =
     "usage: mf recon DATASET_DIR -o RESULT_DIR [--method nvdiffrecmc|materialfusion] [--mesh OBJ]\n"
@@ -30,8 +29,8 @@ static char usage[8192] =
     "(the images are box-downsampled; their size must be a multiple of N). Options are applied in\n"
     "order: the method's defaults, --config FILE (JSON, keys as below with underscores), flags.\n"
     "MaterialFusion (the baseline plus the SDS+ prior term, mf/fusion/mf_sds.h) adds:\n"
-    "  --prior-weights F    prior weights (default $MF_PRIOR_WEIGHTS, else mf/prior/weights/prior.mfck\n"
-    "                       of the source tree)\n"
+    "  --prior-weights F    prior weights, a .mfck file or its folder (default $MF_PRIOR_WEIGHTS, else the\n"
+    "                       committed mf/prior/weights/prior.mfck)\n"
     "  --lambda-latent X    latent term weight (default 0.02)   --lambda-rgb X   RGB term weight (0.5)\n"
     "  --gamma-p P          gamma_i = 1 - (i/N)^P (default 1)    --gamma-const 1  gamma_i = 1 throughout\n"
     "  --k-views K          views per batch with the prior term (default 4)\n"
@@ -42,10 +41,9 @@ static int cmd_recon(int argc, char **argv) {
     int res = 0, max_views = 0, resume = 0, gamma_const = 0;
     MfReconOpts o = bl_nvdiffrecmc_opts();
     MfSdsOpts so = mf_sds_opts_default();
-    const char *weights = getenv("MF_PRIOR_WEIGHTS");
     char wdefault[MF_PATH_MAX];
-    snprintf(wdefault, sizeof wdefault, "%s/mf/prior/weights/prior.mfck", MF_SOURCE_DIR);
-    if (!weights || !weights[0]) weights = wdefault;
+    mf_prior_default_weights(wdefault, sizeof wdefault); /* $MF_PRIOR_WEIGHTS, else the committed weights */
+    const char *weights = wdefault;
     /* config first, so flags given anywhere override it */
     for (int i = 1; i + 1 < argc; ++i)
         if (!strcmp(argv[i], "--config")) config = argv[i + 1];
@@ -114,7 +112,7 @@ static int cmd_recon(int argc, char **argv) {
     MfSds *sds = NULL;
     if (is_mf) {
         MfPrior *prior = NULL;
-        if (mf_prior_load(weights, &prior)) {
+        if (mf_prior_load_path(weights, &prior)) {
             mf_fail_prefix(MF_EIO, "materialfusion needs the prior's weights (MFCK version 1, mf-prior format %d; "
                            "make train-prior makes them; the nvdiffrecmc baseline runs without)", MF_PRIOR_FORMAT_VERSION);
             mf_mesh_free(&mesh);
