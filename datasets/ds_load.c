@@ -165,6 +165,22 @@ typedef struct {
     char msg[MF_PATH_MAX + 256];
 } FrameJob;
 
+/* After the parallel phase, in frame order: the first failure, size agreement with the first
+ * frame, and the cameras at the final (possibly downsampled) size. */
+static int finish_frames(const FrameJob *jobs, DsView *views, int n) {
+    for (int i = 0; i < n; ++i) {
+        const FrameJob *job = &jobs[i];
+        if (job->rc) return mf_fail(job->rc, "%s", job->msg);
+        if (job->w0 != jobs[0].w0 || job->h0 != jobs[0].h0)
+            return mf_fail(MF_EFORMAT, "%s: image is %dx%d, the split's first image is %dx%d", views[i].image_path, job->w0,
+                           job->h0, jobs[0].w0, jobs[0].h0);
+        views[i].camera_angle_x = job->ax;
+        int rc = mf_camera_init(&views[i].cam, views[i].rgba.w, views[i].rgba.h, job->ax, job->c2w, job->what);
+        if (rc) return rc;
+    }
+    return MF_OK;
+}
+
 static int load_frame_images(TfKind kind, const char *dir, const char *split, const char *orb_root, const char *orb_capture,
                              const DsLoadOptions *o, FrameJob *job, DsView *view) {
     int rc;
@@ -267,17 +283,7 @@ static int load_transforms(const char *dir, const char *split, TfKind kind, cons
         if (job->rc) snprintf(job->msg, sizeof job->msg, "%s", mf_error());
     }
     /* 3. failures and sizes in frame order; cameras at the final size */
-    for (int i = 0; i < nf; ++i) {
-        FrameJob *job = &jobs[i];
-        if (job->rc) { rc = mf_fail(job->rc, "%s", job->msg); goto fail; }
-        if (job->w0 != jobs[0].w0 || job->h0 != jobs[0].h0) {
-            rc = mf_fail(MF_EFORMAT, "%s: image is %dx%d, the split's first image is %dx%d", views[i].image_path, job->w0, job->h0,
-                         jobs[0].w0, jobs[0].h0);
-            goto fail;
-        }
-        views[i].camera_angle_x = job->ax;
-        if ((rc = mf_camera_init(&views[i].cam, views[i].rgba.w, views[i].rgba.h, job->ax, job->c2w, job->what))) goto fail;
-    }
+    if ((rc = finish_frames(jobs, views, nf))) goto fail;
     free(jobs);
     v.format = kind == TF_ORB ? DS_FMT_STANFORD_ORB : (kind == TF_BVAULT ? DS_FMT_BVAULT : DS_FMT_NERF_SYNTHETIC);
     snprintf(v.dir, sizeof v.dir, "%s", dir);
@@ -485,17 +491,7 @@ int ds_load_nerfactor(const char *dir, const char *split, const DsLoadOptions *o
         if (r) snprintf(job->msg, sizeof job->msg, "%s", mf_error());
     }
     /* 3. in view order: failures, sizes, cameras */
-    for (int i = 0; i < n; ++i) {
-        FrameJob *job = &jobs[i];
-        if (job->rc) { rc = mf_fail(job->rc, "%s", job->msg); goto fail; }
-        if (job->w0 != jobs[0].w0 || job->h0 != jobs[0].h0) {
-            rc = mf_fail(MF_EFORMAT, "%s: image is %dx%d, the split's first image is %dx%d", views[i].image_path, job->w0, job->h0,
-                         jobs[0].w0, jobs[0].h0);
-            goto fail;
-        }
-        views[i].camera_angle_x = job->ax;
-        if ((rc = mf_camera_init(&views[i].cam, views[i].rgba.w, views[i].rgba.h, job->ax, job->c2w, job->what))) goto fail;
-    }
+    if ((rc = finish_frames(jobs, views, n))) goto fail;
     /* relighting probes: rgba_<probe>.png in the first view's folder */
     {
         char vdir[MF_PATH_MAX];
