@@ -188,7 +188,9 @@ static void pixel(Ctx *c, int x, int y, MfRenderOut *out) {
         a.gs = gs ? mf_v3(gs[3 * i] * inv_ps, gs[3 * i + 1] * inv_ps, gs[3 * i + 2] * inv_ps) : mf_v3s(0.0f);
         if (is_zero3(a.g) && is_zero3(a.gd) && is_zero3(a.gs)) return; /* no adjoint here: nothing to trace */
     }
-    MfVec3 rgb = mf_v3s(0), dif = mf_v3s(0), spec = mf_v3s(0), alb = mf_v3s(0), orm = mf_v3s(0);
+    MfVec3 rgb = mf_v3s(0), dif = mf_v3s(0), spec = mf_v3s(0), alb = mf_v3s(0), orm = mf_v3s(0), nrm = mf_v3s(0);
+    MfVec3 fwd = mf_v3(-cam->c2w.m[2], -cam->c2w.m[6], -cam->c2w.m[10]); /* camera -z */
+    float depth = 0.0f;
     int hits = 0;
     for (int k = 0; k < ps; ++k) {
         float px = (float)x + ((float)k + mf_rng_float(&rng)) * inv_ps;
@@ -207,6 +209,8 @@ static void pixel(Ctx *c, int x, int y, MfRenderOut *out) {
         spec = mf_add(spec, sp);
         alb = mf_add(alb, m.m.kd);
         orm = mf_add(orm, m.orm);
+        nrm = mf_add(nrm, h.ns); /* G-buffer guides (the denoiser's), as mf_integrator's */
+        depth += h.t * mf_dot(dir, fwd);
     }
     if (c->adj) return;
     out->alpha[i] = (float)hits * inv_ps;
@@ -219,6 +223,9 @@ static void pixel(Ctx *c, int x, int y, MfRenderOut *out) {
         dst[k][3 * i + 1] = v[k].y;
         dst[k][3 * i + 2] = v[k].z;
     }
+    MfVec3 n = hits ? mf_norm(nrm) : nrm;
+    out->normal[3 * i] = n.x, out->normal[3 * i + 1] = n.y, out->normal[3 * i + 2] = n.z;
+    out->depth[i] = depth * inv_h;
 }
 
 static int check(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o) {

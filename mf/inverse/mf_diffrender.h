@@ -63,7 +63,8 @@ typedef struct {
 } MfDiffGrads;
 
 /* out must be allocated for cam->w x cam->h (mf_render_out_alloc); fills rgb, alpha, diffuse,
- * specular, albedo and orm (albedo/orm averaged over hit samples, as the forward renderer). */
+ * specular, albedo, orm, normal and depth (albedo/orm/depth averaged over hit samples, normal
+ * the renormalised average of the hits' shading normals, as the forward renderer). */
 int mf_diff_forward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, MfRenderOut *out);
 int mf_diff_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, const MfDiffAdjoint *adj,
                      MfDiffGrads *g);

@@ -10,6 +10,7 @@
 #include "core/mf_fs.h"
 #include "core/mf_log.h"
 #include "core/mf_rng.h"
+#include "inverse/mf_denoise.h"
 #include "inverse/mf_diffrender.h"
 #include "inverse/mf_loss.h"
 #include "io/mf_exr.h"
@@ -53,6 +54,8 @@ MfReconOpts mf_recon_opts_default(void) {
     o.init_rough = 0.5f;
     o.init_metal = 0.25f;
     o.init_light = 0.5f;
+    o.denoise = 0;
+    o.denoise_sigma = 2.0f;
     o.snapshot_every = 50;
     o.checkpoint_every = 50;
     o.seed = 1;
@@ -262,6 +265,9 @@ static int view_step(MfRecon *r, int vi, uint64_t vseed, float scale, IterStats 
     MfDiffScene s = {r->rt, &kd, &orm, &r->env, NULL, NULL, NULL};
     MfDiffOpts fo = {r->o.spp_sqrt, r->o.pixel_samples, mf_hash64(vseed, 1)};
     MfRenderOut out;
+    MfBilateral bf;
+    memset(&bf, 0, sizeof bf);
+    float *dz = NULL, *dn = NULL, *gbuf = NULL; /* denoiser: (h, w), (3, h, w, 3), (4, h, w, 3) */
     int rc = mf_render_out_alloc(&out, w, h);
     if (rc) return rc;
     float *bg = malloc(npx * 3 * sizeof(float)), *cp = malloc(npx * 3 * sizeof(float));
@@ -275,6 +281,20 @@ static int view_step(MfRecon *r, int vi, uint64_t vseed, float scale, IterStats 
     double t0 = mf_now();
     if ((rc = mf_diff_forward(&s, &v->cam, &fo, &out))) goto done;
     r->t_forward += mf_now() - t0;
+    /* the light and image the loss sees: the renderer's, or the denoised recombination */
+    const float *lrgb = out.rgb, *ldif = out.diffuse, *lspec = out.specular;
+    if (r->o.denoise) {
+        if (!(dz = malloc(npx * sizeof(float))) || !(dn = malloc(npx * 9 * sizeof(float)))) {
+            rc = mf_fail(MF_ENOMEM, "out of memory for the denoiser of a %dx%d view", w, h);
+            goto done;
+        }
+        mf_bilateral_depth_slope(&v->cam, out.normal, out.depth, out.alpha, dz);
+        if ((rc = mf_bilateral_init(&bf, w, h, r->o.denoise_sigma, out.normal, out.depth, dz, out.alpha)) ||
+            (rc = mf_denoise_combine_forward(&bf, out.diffuse, out.specular, out.albedo, out.orm, dn, dn + 3 * npx,
+                                             dn + 6 * npx)))
+            goto done;
+        ldif = dn, lspec = dn + 3 * npx, lrgb = dn + 6 * npx;
+    }
     MfRng rng;
     mf_rng_seed(&rng, mf_hash64(vseed, 2), 0);
     for (size_t i = 0; i < npx * 3; ++i) bg[i] = mf_rng_float(&rng);
@@ -282,14 +302,14 @@ static int view_step(MfRecon *r, int vi, uint64_t vseed, float scale, IterStats 
         ra[i] = v->ref.data[4 * i + 3];
         for (int c = 0; c < 3; ++c) rrgb[3 * i + c] = v->ref.data[4 * i + c];
     }
-    mf_loss_composite(cp, out.rgb, out.alpha, bg, npx);
+    mf_loss_composite(cp, lrgb, out.alpha, bg, npx);
     mf_loss_composite(cr, rrgb, ra, bg, npx);
     st->image += mf_loss_logl1_fwd(cp, cr, npx * 3) * scale;
     st->alpha += mf_loss_mse_fwd(out.alpha, ra, npx) * scale;
     mf_loss_logl1_bwd(cp, cr, npx * 3, scale, drgb); /* d composite / d rgb_premult = 1 */
     if (r->o.w_shading > 0.0f) {
-        st->reg += r->o.w_shading * mf_reg_shading_fwd(out.diffuse, out.specular, out.alpha, npx, r->o.w_spec_ratio) * scale;
-        mf_reg_shading_bwd(out.diffuse, out.specular, out.alpha, npx, r->o.w_spec_ratio, r->o.w_shading * scale, dd, ds);
+        st->reg += r->o.w_shading * mf_reg_shading_fwd(ldif, lspec, out.alpha, npx, r->o.w_spec_ratio) * scale;
+        mf_reg_shading_bwd(ldif, lspec, out.alpha, npx, r->o.w_spec_ratio, r->o.w_shading * scale, dd, ds);
     }
     double se = 0.0;
     for (size_t i = 0; i < npx * 3; ++i) {
@@ -301,10 +321,28 @@ static int view_step(MfRecon *r, int vi, uint64_t vseed, float scale, IterStats 
     bo.seed = mf_hash64(vseed, 3); /* decorrelated from the primal samples */
     MfDiffAdjoint adj = {drgb, dd, ds};
     MfDiffGrads g = {r->blocks[MF_BLOCK_KD].g, r->blocks[MF_BLOCK_ORM].g, r->blocks[MF_BLOCK_ENV].g};
+    if (r->o.denoise) {
+        /* through the recombination and F^T: per-pixel light adjoints, and the material AOVs'
+         * adjoints (kd (1 - m) multiplies the denoised diffuse light per pixel) */
+        if (!(gbuf = calloc(npx * 12, sizeof(float)))) {
+            rc = mf_fail(MF_ENOMEM, "out of memory for the denoiser of a %dx%d view", w, h);
+            goto done;
+        }
+        float *gd = gbuf, *gs = gbuf + 3 * npx, *galb = gbuf + 6 * npx, *gorm = gbuf + 9 * npx;
+        if ((rc = mf_denoise_combine_backward(&bf, ldif, out.albedo, out.orm, drgb, dd, ds, gd, gs, galb, gorm)))
+            goto done;
+        adj.drgb = NULL, adj.ddiffuse = gd, adj.dspecular = gs;
+        t0 = mf_now();
+        rc = mf_diff_aov_backward(&s, &v->cam, &fo, galb, gorm, &g); /* seed A: the forward's hits */
+        r->t_adjoint += mf_now() - t0;
+        if (rc) goto done;
+    }
     t0 = mf_now();
     rc = mf_diff_backward(&s, &v->cam, &bo, &adj, &g);
     r->t_adjoint += mf_now() - t0;
 done:
+    mf_bilateral_free(&bf);
+    free(dz), free(dn), free(gbuf);
     mf_render_out_free(&out);
     free(bg), free(cp), free(cr), free(ra), free(drgb), free(dd), free(ds), free(rrgb);
     return rc;

@@ -9,6 +9,12 @@
  *      render and reference over the same uniform-noise background, image loss = logl1 (+ alpha
  *      MSE, reported: with a fixed mesh it has no material gradient), shading regulariser on the
  *      demodulated light; adjoint render (seed B != A: decorrelated) accumulates the gradients;
+ *      with `denoise` the diffuse and specular light are first filtered by nvdiffrecmc's
+ *      bilateral denoiser (G-buffer guides of the forward pass) and recombined as
+ *      rgb = kd (1 - m) F(diffuse) + F(specular) (mf_denoise.h); the loss and the shading
+ *      regulariser see the denoised values, their adjoints pass through F^T into the renderer's
+ *      per-pixel diffuse/specular adjoints, and into kd / metallic through the per-pixel
+ *      material AOVs (mf_diff_aov_backward, same seed A: same hits with one pixel sample);
  *   4. texel smoothness regularisers on kd and ORM (G, B) over the texels the mesh's UVs use;
  *   5. the method hook (MaterialFusion's SDS+ term) may add loss and gradients;
  *   6. Adam step with bounds: kd in [0,1], ORM R = 1 (frozen), G in [0.08,1], B in [0,1],
@@ -56,6 +62,8 @@ typedef struct {
     float w_shading;      /* white-light shading regulariser weight */
     float w_spec_ratio;   /* mean(spec) / mean(diffuse) weight inside the shading term */
     float init_kd, init_rough, init_metal, init_light;
+    int denoise;          /* 1: bilateral denoiser of the demodulated light (mf_denoise.h) */
+    float denoise_sigma;  /* its spatial sigma in pixels (nvdiffrecmc: 2, 23x23 window) */
     int snapshot_every;   /* 0: none */
     int checkpoint_every; /* 0: only at the end */
     uint64_t seed;
