@@ -50,16 +50,29 @@ MF_TEST(inverse_denoise_adjoint_is_transpose) {
     mf_rng_seed(&r, 4, 0);
     for (int i = 0; i < N; ++i) x[i] = mf_rng_float(&r) - 0.3f, y[i] = mf_rng_float(&r) - 0.5f;
     const float sig[3] = {2.0f, 0.7f, 4.0f};
-    for (int k = 0; k < 3; ++k) {
+    for (int k = 0; k < 4; ++k) {
+        /* k = 3: sigma 2 without the weight cache (recomputed weights: the same values) */
         MfBilateral b;
-        CHECK_OK(mf_bilateral_init(&b, GW, GH, sig[k], g.normal, g.depth, g.dz, g.alpha));
-        CHECK(b.radius == 2 * (int)ceilf(2.5f * sig[k]) + 1);
+        memset(&b, 0, sizeof b);
+        float sk = k < 3 ? sig[k] : 2.0f;
+        CHECK_OK(mf_bilateral_init(&b, GW, GH, sk, g.normal, g.depth, g.dz, g.alpha));
+        CHECK(b.wcache != NULL);
+        if (k == 3) {
+            float *ref = malloc(N * sizeof(float));
+            CHECK_OK(mf_bilateral_forward(&b, x, C, ref));
+            free(b.wcache);
+            b.wcache = NULL;
+            CHECK_OK(mf_bilateral_forward(&b, x, C, fx));
+            CHECK_MSG(!memcmp(ref, fx, N * sizeof(float)), "cached and recomputed weights differ");
+            free(ref);
+        }
+        CHECK(b.radius == 2 * (int)ceilf(2.5f * sk) + 1);
         memset(fty, 0, N * sizeof(float));
         CHECK_OK(mf_bilateral_forward(&b, x, C, fx));
         CHECK_OK(mf_bilateral_backward(&b, y, C, fty));
         double a = 0, c = 0, s = 0;
         for (int i = 0; i < N; ++i) a += (double)fx[i] * y[i], c += (double)x[i] * fty[i], s += fabs((double)fx[i] * y[i]);
-        CHECK_MSG(fabs(a - c) <= 1e-5 * s, "sigma %g: <Fx,y> %.9g vs <x,F^T y> %.9g", (double)sig[k], a, c);
+        CHECK_MSG(fabs(a - c) <= 1e-5 * s, "case %d: <Fx,y> %.9g vs <x,F^T y> %.9g", k, a, c);
         /* backward accumulates */
         CHECK_OK(mf_bilateral_backward(&b, y, C, fty));
         double c2 = 0;
@@ -67,11 +80,21 @@ MF_TEST(inverse_denoise_adjoint_is_transpose) {
         CHECK_MSG(fabs(c2 - 2 * c) <= 1e-5 * s, "backward does not accumulate");
         mf_bilateral_free(&b);
     }
-    /* the 23x23 window at sigma 2 is what nvdiffrecmc's kernel loops over */
-    MfBilateral b;
+    /* the 23x23 window at sigma 2 is what nvdiffrecmc's kernel loops over; a re-init of the
+     * same filter (buffers reused) on another guide equals a fresh one */
+    MfBilateral b, b2;
+    memset(&b, 0, sizeof b), memset(&b2, 0, sizeof b2);
     CHECK_OK(mf_bilateral_init(&b, GW, GH, 2.0f, g.normal, g.depth, g.dz, g.alpha));
     CHECK(2 * b.radius + 1 == 23);
+    Guide g2;
+    random_guide(&g2, 99);
+    CHECK_OK(mf_bilateral_init(&b, GW, GH, 2.0f, g2.normal, g2.depth, g2.dz, g2.alpha));
+    CHECK_OK(mf_bilateral_init(&b2, GW, GH, 2.0f, g2.normal, g2.depth, g2.dz, g2.alpha));
+    CHECK_OK(mf_bilateral_forward(&b, x, C, fx));
+    CHECK_OK(mf_bilateral_forward(&b2, x, C, y));
+    CHECK_MSG(!memcmp(fx, y, N * sizeof(float)), "a reused filter differs from a fresh one");
     mf_bilateral_free(&b);
+    mf_bilateral_free(&b2);
     CHECK_ERR(mf_bilateral_init(&b, GW, GH, 0.0f, g.normal, g.depth, g.dz, g.alpha), "sigma");
     free(x), free(y), free(fx), free(fty);
 }
@@ -82,6 +105,7 @@ MF_TEST(inverse_denoise_preserves_constants) {
     float in[GW * GH * 3], out[GW * GH * 3];
     const float c[3] = {0.3f, 1.7f, 0.05f};
     MfBilateral b;
+    memset(&b, 0, sizeof b);
     CHECK_OK(mf_bilateral_init(&b, GW, GH, 2.0f, g.normal, g.depth, g.dz, g.alpha));
     /* premultiplied constant: alpha_t c in, alpha_p c out (partial and zero coverage included) */
     for (int i = 0; i < GW * GH; ++i)
@@ -103,6 +127,7 @@ MF_TEST(inverse_denoise_degenerate_guides_no_nan) {
     float zero[GW * GH];
     memset(zero, 0, sizeof zero);
     MfBilateral b;
+    memset(&b, 0, sizeof b);
     CHECK_OK(mf_bilateral_init(&b, GW, GH, 2.0f, g.normal, g.depth, g.dz, zero));
     memset(din, 0, sizeof din);
     CHECK_OK(mf_bilateral_forward(&b, in, 3, out));
@@ -216,6 +241,7 @@ MF_TEST(inverse_denoise_combine_identity_and_gradients) {
     mf_bilateral_depth_slope(&sc.cam, out.normal, out.depth, out.alpha, dz);
     /* F = identity (a vanishing sigma): the renderer's rgb exactly (one pixel sample) */
     MfBilateral b;
+    memset(&b, 0, sizeof b);
     CHECK_OK(mf_bilateral_init(&b, RW, RH, 1e-4f, out.normal, out.depth, dz, out.alpha));
     CHECK_OK(mf_denoise_combine_forward(&b, out.diffuse, out.specular, out.albedo, out.orm, dd, dsp, rgb));
     double e = 0;
@@ -279,6 +305,7 @@ MF_TEST(inverse_denoise_reduces_noise) {
     float *dz = malloc(NP * sizeof(float)), *f = malloc(N3 * sizeof(float));
     mf_bilateral_depth_slope(&sc.cam, lo.normal, lo.depth, lo.alpha, dz);
     MfBilateral b;
+    memset(&b, 0, sizeof b);
     CHECK_OK(mf_bilateral_init(&b, RW, RH, 2.0f, lo.normal, lo.depth, dz, lo.alpha));
     const float *noisy[2] = {lo.diffuse, lo.specular}, *ref[2] = {hi.diffuse, hi.specular};
     double ratio[2];

@@ -9,21 +9,27 @@
 #define W_EPS 1e-4f    /* nvdiffrecmc's FLT_EPS: normal clamp and depth denominator floor */
 #define DZ_BIG 1e30f   /* dz of grazing / degenerate planes: depth term ~ 1 */
 #define MAX_CH 8
+#define CACHE_MAX ((size_t)48 << 20) /* weights cached up to this many floats (192 MB) */
 
-/* Weight of tap t = p + (dx, dy) for output pixel p, both covered (alpha > 0). */
+/* Weight of tap t = p + (dx, dy) for output pixel p (both covered): nvdiffrecmc's product of
+ * spatial, normal and depth terms. The depth term exp(-|z_t - z_p| / max(dz_p dist, 1e-4)) is
+ * computed as exp(-|z_t - z_p| min(1/dz_p * 1/dist, 1e4)); terms below 1e-30 (or past e^-80)
+ * are 0. The one function behind the forward, the cache and the adjoint. */
 static inline float weight(const MfBilateral *b, size_t p, size_t t, int dx, int dy) {
     if (dx == 0 && dy == 0) return 1.0f; /* centre: normal and depth terms are 1 by definition */
-    int r = b->radius, side = 2 * r + 1;
-    float ws = b->spatial[(size_t)(dy + r) * side + (dx + r)];
+    int r = b->radius;
+    size_t k = (size_t)(dy + r) * (size_t)(2 * r + 1) + (size_t)(dx + r);
     const float *np = b->normal + 3 * p, *nt = b->normal + 3 * t;
     float d = np[0] * nt[0] + np[1] * nt[1] + np[2] * nt[2];
     d = d < W_EPS ? W_EPS : d > 1.0f ? 1.0f : d;
-    for (int k = 0; k < 7; ++k) d *= d; /* ^128 */
-    float sn = ws * d;
+    for (int i = 0; i < 7; ++i) d *= d; /* ^128 */
+    float sn = b->spatial[k] * d;
     if (!(sn > 1e-30f)) return 0.0f;
-    float den = b->dz[p] * sqrtf((float)(dx * dx + dy * dy));
-    if (!(den > W_EPS)) den = W_EPS;
-    return sn * expf(-fabsf(b->depth[t] - b->depth[p]) / den);
+    float inv = b->inv_dz[p] * b->inv_dist[k];
+    if (!(inv < 1.0f / W_EPS)) inv = 1.0f / W_EPS;
+    float a = fabsf(b->depth[t] - b->depth[p]) * inv;
+    if (!(a < 80.0f)) return 0.0f;
+    return sn * expf(-a);
 }
 
 void mf_bilateral_depth_slope(const MfCamera *cam, const float *normal, const float *depth, const float *alpha,
@@ -56,8 +62,11 @@ void mf_bilateral_depth_slope(const MfCamera *cam, const float *normal, const fl
 void mf_bilateral_free(MfBilateral *b) {
     if (!b) return;
     free(b->spatial);
+    free(b->inv_dist);
     free(b->normal);
+    free(b->inv_dz);
     free(b->inv_norm);
+    free(b->wcache);
     memset(b, 0, sizeof *b);
 }
 
@@ -65,29 +74,38 @@ int mf_bilateral_init(MfBilateral *b, int w, int h, float sigma, const float *no
                       const float *dz, const float *alpha) {
     if (w <= 0 || h <= 0) return mf_fail(MF_EARG, "bilateral: image size %dx%d", w, h);
     if (!(sigma > 0.0f && sigma <= 8.0f)) return mf_fail(MF_EARG, "bilateral: sigma %g outside (0, 8]", (double)sigma);
-    MfBilateral t;
-    memset(&t, 0, sizeof t);
-    t.w = w, t.h = h, t.sigma = sigma;
-    t.radius = 2 * (int)ceilf(sigma * 2.5f) + 1;
-    t.depth = depth, t.dz = dz, t.alpha = alpha;
-    int side = 2 * t.radius + 1;
-    size_t np = (size_t)w * h;
-    t.spatial = malloc((size_t)side * side * sizeof(float));
-    t.normal = malloc(np * 3 * sizeof(float));
-    t.inv_norm = malloc(np * sizeof(float));
-    if (!t.spatial || !t.normal || !t.inv_norm) {
-        mf_bilateral_free(&t);
-        return mf_fail(MF_ENOMEM, "bilateral: out of memory for a %dx%d guide", w, h);
+    int radius = 2 * (int)ceilf(sigma * 2.5f) + 1, side = 2 * radius + 1;
+    size_t np = (size_t)w * h, S = (size_t)side * side;
+    /* buffers are kept across calls of the same size and radius (the cache is tens of MB:
+     * fresh pages every view would cost more than the filter) */
+    if (!(b->spatial && b->w == w && b->h == h && b->radius == radius)) {
+        mf_bilateral_free(b);
+        b->spatial = malloc(S * sizeof(float));
+        b->inv_dist = malloc(S * sizeof(float));
+        b->normal = malloc(np * 3 * sizeof(float));
+        b->inv_dz = malloc(np * sizeof(float));
+        b->inv_norm = malloc(np * sizeof(float));
+        if (np * S <= CACHE_MAX) b->wcache = malloc(np * S * sizeof(float)); /* NULL: recomputed */
+        if (!b->spatial || !b->inv_dist || !b->normal || !b->inv_dz || !b->inv_norm) {
+            mf_bilateral_free(b);
+            return mf_fail(MF_ENOMEM, "bilateral: out of memory for a %dx%d guide", w, h);
+        }
     }
+    MfBilateral t = *b; /* filled here, published at the end */
+    t.w = w, t.h = h, t.sigma = sigma, t.radius = radius;
+    t.depth = depth, t.dz = dz, t.alpha = alpha;
     for (int dy = -t.radius; dy <= t.radius; ++dy)
-        for (int dx = -t.radius; dx <= t.radius; ++dx)
-            t.spatial[(size_t)(dy + t.radius) * side + dx + t.radius] =
-                expf(-(float)(dx * dx + dy * dy) / (2.0f * sigma * sigma));
+        for (int dx = -t.radius; dx <= t.radius; ++dx) {
+            size_t k = (size_t)(dy + t.radius) * side + dx + t.radius;
+            t.spatial[k] = expf(-(float)(dx * dx + dy * dy) / (2.0f * sigma * sigma));
+            t.inv_dist[k] = dx || dy ? 1.0f / sqrtf((float)(dx * dx + dy * dy)) : 0.0f;
+        }
     for (size_t i = 0; i < np; ++i) {
         const float *n = normal + 3 * i;
         float l = sqrtf(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
         float s = l > 1e-12f && isfinite(l) ? 1.0f / l : 0.0f;
         for (int c = 0; c < 3; ++c) t.normal[3 * i + c] = n[c] * s;
+        t.inv_dz[i] = 1.0f / dz[i]; /* dz = 0: inf, clamped in weight() */
     }
     int r = t.radius;
 #pragma omp parallel for schedule(static)
@@ -99,7 +117,8 @@ int mf_bilateral_init(MfBilateral *b, int w, int h, float sigma, const float *no
                 t.inv_norm[p] = 0.0f;
                 continue;
             }
-            float sum = 0.0f;
+            /* cache entries of taps outside the image or uncovered are never read */
+            float sum = 0.0f, *wc = t.wcache ? t.wcache + p * S : NULL;
             for (int dy = -r; dy <= r; ++dy) {
                 int ty = y + dy;
                 if (ty < 0 || ty >= h) continue;
@@ -108,7 +127,9 @@ int mf_bilateral_init(MfBilateral *b, int w, int h, float sigma, const float *no
                     if (tx < 0 || tx >= w) continue;
                     size_t q = (size_t)ty * w + tx;
                     if (!(alpha[q] > 0.0f)) continue;
-                    sum += weight(&t, p, q, dx, dy) * alpha[q];
+                    float wt = weight(&t, p, q, dx, dy);
+                    if (wc) wc[(size_t)(dy + r) * side + dx + r] = wt;
+                    sum += wt * alpha[q];
                 }
             }
             t.inv_norm[p] = ap / sum; /* sum >= ap (centre tap) > 0 */
@@ -119,13 +140,15 @@ int mf_bilateral_init(MfBilateral *b, int w, int h, float sigma, const float *no
 
 int mf_bilateral_forward(const MfBilateral *b, const float *in, int c, float *out) {
     if (c < 1 || c > MAX_CH) return mf_fail(MF_EARG, "bilateral: %d channels outside [1, %d]", c, MAX_CH);
-    int w = b->w, h = b->h, r = b->radius;
+    int w = b->w, h = b->h, r = b->radius, side = 2 * r + 1;
+    size_t S = (size_t)side * side;
     const float *alpha = b->alpha;
 #pragma omp parallel for schedule(static)
     for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x) {
             size_t p = (size_t)y * w + x;
             float acc[MAX_CH] = {0};
+            const float *wc = b->wcache ? b->wcache + p * S : NULL;
             if (b->inv_norm[p] > 0.0f) {
                 for (int dy = -r; dy <= r; ++dy) {
                     int ty = y + dy;
@@ -135,7 +158,7 @@ int mf_bilateral_forward(const MfBilateral *b, const float *in, int c, float *ou
                         if (tx < 0 || tx >= w) continue;
                         size_t q = (size_t)ty * w + tx;
                         if (!(alpha[q] > 0.0f)) continue;
-                        float wt = weight(b, p, q, dx, dy);
+                        float wt = wc ? wc[(size_t)(dy + r) * side + dx + r] : weight(b, p, q, dx, dy);
                         if (wt == 0.0f) continue;
                         for (int k = 0; k < c; ++k) acc[k] += wt * in[q * c + k];
                     }
@@ -148,7 +171,8 @@ int mf_bilateral_forward(const MfBilateral *b, const float *in, int c, float *ou
 
 int mf_bilateral_backward(const MfBilateral *b, const float *dout, int c, float *din) {
     if (c < 1 || c > MAX_CH) return mf_fail(MF_EARG, "bilateral: %d channels outside [1, %d]", c, MAX_CH);
-    int w = b->w, h = b->h, r = b->radius;
+    int w = b->w, h = b->h, r = b->radius, side = 2 * r + 1;
+    size_t S = (size_t)side * side;
     const float *alpha = b->alpha;
 #pragma omp parallel for schedule(static)
     for (int y = 0; y < h; ++y)
@@ -166,7 +190,7 @@ int mf_bilateral_backward(const MfBilateral *b, const float *dout, int c, float 
                     size_t p = (size_t)py * w + px;
                     float s = b->inv_norm[p];
                     if (!(s > 0.0f)) continue;
-                    float wt = weight(b, p, t, -ex, -ey) * s;
+                    float wt = (b->wcache ? b->wcache[p * S + (size_t)(r - ey) * side + (r - ex)] : weight(b, p, t, -ex, -ey)) * s;
                     if (wt == 0.0f) continue;
                     for (int k = 0; k < c; ++k) acc[k] += wt * dout[p * c + k];
                 }

@@ -42,11 +42,15 @@ typedef struct {
     float sigma;
     int radius;       /* 2 ceil(2.5 sigma) + 1 */
     float *spatial;   /* owned; (2r+1, 2r+1) spatial weights */
+    float *inv_dist;  /* owned; (2r+1, 2r+1) 1 / |(dx, dy)| (0 at the centre) */
     float *normal;    /* owned; (h, w, 3) unit shading normal (0 where degenerate) */
+    float *inv_dz;    /* owned; (h, w) 1 / dz */
     const float *depth; /* borrowed; (h, w) camera -z distance */
     const float *dz;    /* borrowed; (h, w) depth change per pixel step */
     const float *alpha; /* borrowed; (h, w) coverage in [0, 1] */
     float *inv_norm;  /* owned; (h, w) alpha_p / W_p (0 where alpha_p = 0) */
+    float *wcache;    /* owned or NULL; (h, w, 2r+1, 2r+1) w_pt, when it fits in 192 MB
+                       * (otherwise recomputed: the same function, the same values) */
 } MfBilateral;
 
 /* dz for the depth term: per covered pixel, the plane through the pixel centre's hit point
@@ -58,8 +62,9 @@ void mf_bilateral_depth_slope(const MfCamera *cam, const float *normal, const fl
                               float *dz);
 
 /* Prepares the filter for one G-buffer (w x h): copies and normalises the normals, keeps
- * pointers to depth, dz and alpha (which must outlive b) and computes the normalisation.
- * sigma in (0, 8]. */
+ * pointers to depth, dz and alpha (which must outlive b's use) and computes the weights and
+ * normalisation. sigma in (0, 8]. b must be zeroed before its first init; a later init of the
+ * same b reuses its buffers when size and radius are unchanged. mf_bilateral_free releases. */
 int mf_bilateral_init(MfBilateral *b, int w, int h, float sigma, const float *normal, const float *depth,
                       const float *dz, const float *alpha);
 void mf_bilateral_free(MfBilateral *b);

@@ -32,6 +32,7 @@ struct MfRecon {
     int it;                     /* iterations done */
     double wall_offset;         /* wall seconds of earlier (resumed) runs */
     double t_forward, t_adjoint; /* seconds in the primal and adjoint renders (this process) */
+    MfBilateral dn;             /* owned; the denoiser's buffers, reused view after view */
 };
 
 MfReconOpts mf_recon_opts_default(void) {
@@ -56,6 +57,7 @@ MfReconOpts mf_recon_opts_default(void) {
     o.init_light = 0.5f;
     o.denoise = 0;
     o.denoise_sigma = 2.0f;
+    o.denoise_decorrelate = 1;
     o.snapshot_every = 50;
     o.checkpoint_every = 50;
     o.seed = 1;
@@ -153,6 +155,7 @@ void mf_recon_free(MfRecon *r) {
     mf_rtscene_free(r->rt);
     for (int b = 0; b < MF_NBLOCKS; ++b) mf_param_free(&r->blocks[b]);
     mf_env_free(&r->env);
+    mf_bilateral_free(&r->dn);
     for (int i = 0; r->views && i < r->nviews; ++i) mf_image_free(&r->views[i].ref);
     free(r->views);
     free(r->uv_mask);
@@ -265,9 +268,10 @@ static int view_step(MfRecon *r, int vi, uint64_t vseed, float scale, IterStats 
     MfDiffScene s = {r->rt, &kd, &orm, &r->env, NULL, NULL, NULL};
     MfDiffOpts fo = {r->o.spp_sqrt, r->o.pixel_samples, mf_hash64(vseed, 1)};
     MfRenderOut out;
-    MfBilateral bf;
-    memset(&bf, 0, sizeof bf);
     float *dz = NULL, *dn = NULL, *gbuf = NULL; /* denoiser: (h, w), (3, h, w, 3), (4, h, w, 3) */
+    float *dmod_c = NULL;                       /* (h, w, 3) F(diffuse) of the seed-C render */
+    MfRenderOut out_c;
+    memset(&out_c, 0, sizeof out_c);
     int rc = mf_render_out_alloc(&out, w, h);
     if (rc) return rc;
     float *bg = malloc(npx * 3 * sizeof(float)), *cp = malloc(npx * 3 * sizeof(float));
@@ -289,8 +293,8 @@ static int view_step(MfRecon *r, int vi, uint64_t vseed, float scale, IterStats 
             goto done;
         }
         mf_bilateral_depth_slope(&v->cam, out.normal, out.depth, out.alpha, dz);
-        if ((rc = mf_bilateral_init(&bf, w, h, r->o.denoise_sigma, out.normal, out.depth, dz, out.alpha)) ||
-            (rc = mf_denoise_combine_forward(&bf, out.diffuse, out.specular, out.albedo, out.orm, dn, dn + 3 * npx,
+        if ((rc = mf_bilateral_init(&r->dn, w, h, r->o.denoise_sigma, out.normal, out.depth, dz, out.alpha)) ||
+            (rc = mf_denoise_combine_forward(&r->dn, out.diffuse, out.specular, out.albedo, out.orm, dn, dn + 3 * npx,
                                              dn + 6 * npx)))
             goto done;
         ldif = dn, lspec = dn + 3 * npx, lrgb = dn + 6 * npx;
@@ -329,7 +333,24 @@ static int view_step(MfRecon *r, int vi, uint64_t vseed, float scale, IterStats 
             goto done;
         }
         float *gd = gbuf, *gs = gbuf + 3 * npx, *galb = gbuf + 6 * npx, *gorm = gbuf + 9 * npx;
-        if ((rc = mf_denoise_combine_backward(&bf, ldif, out.albedo, out.orm, drgb, dd, ds, gd, gs, galb, gorm)))
+        /* the light multiplying kd's adjoint: the primal's (nvdiffrecmc) or, decorrelated, an
+         * independent render (seed C) through the same filter */
+        const float *dmod = ldif;
+        if (r->o.denoise_decorrelate) {
+            MfDiffOpts co = fo;
+            co.seed = mf_hash64(vseed, 4);
+            t0 = mf_now();
+            if ((rc = mf_render_out_alloc(&out_c, w, h)) || (rc = mf_diff_forward(&s, &v->cam, &co, &out_c))) goto done;
+            r->t_forward += mf_now() - t0;
+            if (!(dmod_c = malloc(npx * 3 * sizeof(float)))) {
+                rc = mf_fail(MF_ENOMEM, "out of memory for the denoiser of a %dx%d view", w, h);
+                goto done;
+            }
+            if ((rc = mf_bilateral_forward(&r->dn, out_c.diffuse, 3, dmod_c))) goto done;
+            dmod = dmod_c;
+        }
+        rc = mf_denoise_combine_backward(&r->dn, dmod, out.albedo, out.orm, drgb, dd, ds, gd, gs, galb, gorm);
+        if (rc)
             goto done;
         adj.drgb = NULL, adj.ddiffuse = gd, adj.dspecular = gs;
         t0 = mf_now();
@@ -341,8 +362,8 @@ static int view_step(MfRecon *r, int vi, uint64_t vseed, float scale, IterStats 
     rc = mf_diff_backward(&s, &v->cam, &bo, &adj, &g);
     r->t_adjoint += mf_now() - t0;
 done:
-    mf_bilateral_free(&bf);
-    free(dz), free(dn), free(gbuf);
+    free(dz), free(dn), free(gbuf), free(dmod_c);
+    mf_render_out_free(&out_c);
     mf_render_out_free(&out);
     free(bg), free(cp), free(cr), free(ra), free(drgb), free(dd), free(ds), free(rrgb);
     return rc;

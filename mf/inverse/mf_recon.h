@@ -14,7 +14,11 @@
  *      rgb = kd (1 - m) F(diffuse) + F(specular) (mf_denoise.h); the loss and the shading
  *      regulariser see the denoised values, their adjoints pass through F^T into the renderer's
  *      per-pixel diffuse/specular adjoints, and into kd / metallic through the per-pixel
- *      material AOVs (mf_diff_aov_backward, same seed A: same hits with one pixel sample);
+ *      material AOVs (mf_diff_aov_backward, same seed A: same hits with one pixel sample).
+ *      In nvdiffrecmc kd's adjoint is drgb F(diffuse) with the PRIMAL's light, correlated with
+ *      the image error it multiplies (biased in a non-linear loss); with denoise_decorrelate
+ *      (default) that light comes from a third, independent render (seed C) through the same
+ *      filter, at the cost of one more forward render (reports/baseline/denoiser.md);
  *   4. texel smoothness regularisers on kd and ORM (G, B) over the texels the mesh's UVs use;
  *   5. the method hook (MaterialFusion's SDS+ term) may add loss and gradients;
  *   6. Adam step with bounds: kd in [0,1], ORM R = 1 (frozen), G in [0.08,1], B in [0,1],
@@ -64,6 +68,7 @@ typedef struct {
     float init_kd, init_rough, init_metal, init_light;
     int denoise;          /* 1: bilateral denoiser of the demodulated light (mf_denoise.h) */
     float denoise_sigma;  /* its spatial sigma in pixels (nvdiffrecmc: 2, 23x23 window) */
+    int denoise_decorrelate; /* 1: kd's adjoint uses the denoised light of an independent render */
     int snapshot_every;   /* 0: none */
     int checkpoint_every; /* 0: only at the end */
     uint64_t seed;

@@ -38,6 +38,7 @@ static const OptField k_fields[] = {
     F(init_light, T_FLOAT, "initial env radiance"),
     F(denoise, T_INT, "1: bilateral denoiser of the demodulated diffuse/specular light (nvdiffrecmc)"),
     F(denoise_sigma, T_FLOAT, "denoiser spatial sigma in pixels (window 2*ceil(2.5 sigma)+1 each side)"),
+    F(denoise_decorrelate, T_INT, "1: kd's adjoint takes the denoised light of an independent render (0: the primal's)"),
     F(snapshot_every, T_INT, "texture snapshot period (0: none)"),
     F(checkpoint_every, T_INT, "checkpoint period (0: at the end only)"),
     F(seed, T_U64, "random seed"),
