@@ -127,7 +127,7 @@ MF_TEST(fusion_sds_chain_gradient) {
 }
 
 /* The hook's fused path (one render and encode for targets and loss) equals the public pieces;
- * with every = 3 it runs at iterations 0, 3, ... only, weighted by 3. */
+ * with every = 3 the term is computed at iterations 0, 3, ... and its gradient held in between. */
 MF_TEST(fusion_sds_hook_every) {
     MfMesh mesh;
     MfRecon *r = NULL;
@@ -135,17 +135,27 @@ MF_TEST(fusion_sds_hook_every) {
     MfSds *s = tiny_sds_every(3);
     if (!r || !s) return;
     int batch[2] = {0, 1}, N = mf_recon_opts(r)->iters;
+    MfParamBlock *kd = mf_recon_block(r, MF_BLOCK_KD);
     MfSdsTargets t;
-    double l = -1.0, h1 = -1.0, h3 = -1.0;
+    double l = -1.0, h0 = -1.0, h1 = -1.0, h3 = -1.0;
     CHECK_OK(mf_sds_targets(s, r, batch, 2, 3, &t));
     CHECK_OK(mf_sds_loss(s, r, &t, 1.0f, 0, &l));
     mf_sds_targets_free(&t);
-    CHECK_OK(mf_sds_hook(s, r, 1, batch, 2, &h1));
-    CHECK_OK(mf_sds_hook(s, r, 3, batch, 2, &h3));
-    CHECK(h1 == 0.0);
-    double gamma = 1.0 - 3.0 / (double)N;
+    mf_param_zero_grad(kd);
+    CHECK_OK(mf_sds_hook(s, r, 0, batch, 2, &h0));
+    float *g0 = malloc(kd->n * sizeof(float));
+    if (!g0) return;
+    memcpy(g0, kd->g, kd->n * sizeof(float));
+    mf_param_zero_grad(kd);
+    CHECK_OK(mf_sds_hook(s, r, 1, batch, 2, &h1)); /* held: the same gradient and loss, gamma(1) */
+    double g1 = 1.0 - 1.0 / (double)N, err = 0.0, mag = 0.0;
+    for (size_t i = 0; i < kd->n; ++i) err = fmax(err, fabs(kd->g[i] - g1 * g0[i])), mag = fmax(mag, fabs(g0[i]));
+    CHECK(mag > 0.0 && err <= 1e-6 * mag);
+    CHECK_NEAR(h1, g1 * h0, 1e-9 * h0);
+    CHECK_OK(mf_sds_hook(s, r, 3, batch, 2, &h3)); /* refreshed */
     CHECK(l > 0.0);
-    CHECK_NEAR(h3, 3.0 * gamma * l, 1e-6 * fabs(h3) + 1e-12);
+    CHECK_NEAR(h3, (1.0 - 3.0 / (double)N) * l, 1e-6 * fabs(h3) + 1e-12);
+    free(g0);
     mf_sds_free(s);
     mf_recon_free(r);
     mf_mesh_free(&mesh);

@@ -43,6 +43,8 @@ MF_TEST(pipeline_tiny_baseline_and_materialfusion) {
     CHECK(sh("%s recon %s -o %s/materialfusion/000_cup --method materialfusion --iters 200 --tex-res 64 --env-w 32 --env-h 16 2>/dev/null",
              mf, scene, res) == 0);
     CHECK(sh("%s eval %s --results %s -o %s --dataset tiny --trivial --no-curves 2>/dev/null", mf, scene, res, rep) == 0);
+    /* provenance: every scored run with its exact command */
+    CHECK(sh("grep -q '| materialfusion | 000_cup | .*--method materialfusion' %s/runs.md", rep) == 0);
     snprintf(csv, sizeof csv, "%s/scenes.csv", rep);
     EvTable t;
     ev_table_init(&t);

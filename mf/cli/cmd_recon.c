@@ -34,7 +34,7 @@ static char usage[8192] =
     "  --lambda-latent X    latent term weight (default 0.02)   --lambda-rgb X   RGB term weight (0.5)\n"
     "  --gamma-p P          gamma_i = 1 - (i/N)^P (default 1)    --gamma-const 1  gamma_i = 1 throughout\n"
     "  --k-views K          views per batch with the prior term (default 4)\n"
-    "  --sds-every K        the prior term every K iterations, weighted by K (default 4)\n"
+    "  --sds-every K        recompute the prior term every K iterations, hold its gradient between (default 4)\n"
     "Options of both methods:\n";
 
 static int cmd_recon(int argc, char **argv) {

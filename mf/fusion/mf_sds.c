@@ -12,6 +12,13 @@
 struct MfSds {
     MfPrior *prior; /* owned */
     MfSdsOpts o;
+    /* the term's texel gradient (without gamma), refreshed every o.every iterations and applied
+     * at every iteration in between */
+    float *held_kd;  /* (tex kd n,) owned */
+    float *held_orm; /* (tex ORM n,) owned */
+    size_t held_n;
+    int held_it;     /* iteration of the last refresh, -1: none */
+    double held_loss;
 };
 
 MfSdsOpts mf_sds_opts_default(void) {
@@ -27,6 +34,7 @@ int mf_sds_new(MfPrior *prior, const MfSdsOpts *o, MfSds **out) {
     if (!s) return mf_fail(MF_ENOMEM, "out of memory");
     s->prior = prior;
     s->o = *o;
+    s->held_it = -1;
     *out = s;
     return MF_OK;
 }
@@ -34,6 +42,7 @@ int mf_sds_new(MfPrior *prior, const MfSdsOpts *o, MfSds **out) {
 void mf_sds_free(MfSds *s) {
     if (!s) return;
     mf_prior_free(s->prior);
+    free(s->held_kd), free(s->held_orm);
     free(s);
 }
 
@@ -174,9 +183,9 @@ int mf_sds_targets(MfSds *s, MfRecon *r, const int *views, int n, int it, MfSdsT
     return targets(s, r, views, n, it, t, NULL);
 }
 
-/* Loss of maps m (the prior's encoder cache must hold m's encode) against targets t; with grads,
- * back-propagates into the kd / ORM blocks (m->aa, m->ao are overwritten with AOV adjoints). */
-static int loss_of(MfSds *s, MfRecon *r, const MfSdsTargets *t, Maps *m, float scale, int grads, double *loss) {
+/* Loss of maps m (the prior's encoder cache must hold m's encode) against targets t; with g,
+ * adds scale * dLoss/d(texels) into g->dkd / g->dorm (m->aa, m->ao are overwritten). */
+static int loss_of(MfSds *s, MfRecon *r, const MfSdsTargets *t, Maps *m, float scale, MfDiffGrads *g, double *loss) {
     int R = res_of(s), h = lat_of(s), zc = zc_of(s), f = R / h, n = t->n;
     size_t rr = (size_t)R * R, hh = (size_t)h * h, nm = (size_t)n * 3 * rr, nz = (size_t)n * 2 * zc * hh;
     const float *ain = m->ain, *oin = m->oin, *z = m->z;
@@ -215,12 +224,11 @@ static int loss_of(MfSds *s, MfRecon *r, const MfSdsTargets *t, Maps *m, float s
         rc = mf_fail(MF_ENAN, "SDS: non-finite prior loss");
         goto done;
     }
-    if (!grads) goto done;
+    if (!g) goto done;
     if ((rc = mf_prior_encode_materials_backward(s->prior, dz, dain, doin))) goto done;
     /* maps -> AOVs: albedo_in = (2 sRGB(kd) - 1) mask, orm_in = (2 orm - 1) mask; AOVs (R, R, 3) */
     MfImage kd = mf_recon_kd_image(r), orm = mf_recon_orm_image(r);
     MfDiffScene ds = {mf_recon_rtscene(r), &kd, &orm, mf_recon_env(r), NULL, NULL, NULL};
-    MfDiffGrads g = {mf_recon_block(r, MF_BLOCK_KD)->g, mf_recon_block(r, MF_BLOCK_ORM)->g, NULL};
     for (int k = 0; k < n && !rc; ++k) {
         float *a = aa + k * 3 * rr, *m = ao + k * 3 * rr;
         for (int c = 0; c < 3; ++c)
@@ -230,7 +238,7 @@ static int loss_of(MfSds *s, MfRecon *r, const MfSdsTargets *t, Maps *m, float s
                 m[3 * p + c] = doin[(k * 3 + c) * rr + p] * 2.0f * mk * (mv >= 0.0f && mv <= 1.0f);
             }
         MfDiffOpts o = {1, s->o.aov_samples, t->aov_seed[k]};
-        rc = mf_diff_aov_backward(&ds, &t->cam[k], &o, a, m, &g);
+        rc = mf_diff_aov_backward(&ds, &t->cam[k], &o, a, m, g);
     }
 done:
     free(dz), free(al), free(dain), free(doin);
@@ -240,7 +248,8 @@ done:
 int mf_sds_loss(MfSds *s, MfRecon *r, const MfSdsTargets *t, float scale, int grads, double *loss) {
     Maps m; /* the current textures' maps (same primary hits as the targets' render) */
     int rc = maps_compute(s, r, t, &m);
-    if (!rc) rc = loss_of(s, r, t, &m, scale, grads, loss);
+    MfDiffGrads g = {mf_recon_block(r, MF_BLOCK_KD)->g, mf_recon_block(r, MF_BLOCK_ORM)->g, NULL};
+    if (!rc) rc = loss_of(s, r, t, &m, scale, grads ? &g : NULL, loss);
     maps_free(&m);
     return rc;
 }
@@ -252,16 +261,35 @@ int mf_sds_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double 
     int k = nb < s->o.k_views ? nb : s->o.k_views;
     if (k > MF_SDS_MAX_VIEWS) k = MF_SDS_MAX_VIEWS;
     *loss = 0.0;
-    if (gamma <= 0.0 || (s->o.lambda_latent == 0.0f && s->o.lambda_rgb == 0.0f) || it % s->o.every) return MF_OK;
-    gamma *= s->o.every; /* the term's total weight over the run does not depend on `every` */
-    MfSdsTargets t;
-    Maps m = {0}; /* the textures do not change between the targets and the loss: one render and encode */
-    double l = 0.0;
-    int rc = targets(s, r, batch, k, it, &t, &m);
-    if (!rc) rc = loss_of(s, r, &t, &m, (float)gamma, 1, &l);
-    maps_free(&m);
-    mf_sds_targets_free(&t);
-    if (rc) return mf_fail_prefix(rc, "iteration %d: prior term", it);
-    *loss = gamma * l;
+    if (gamma <= 0.0 || (s->o.lambda_latent == 0.0f && s->o.lambda_rgb == 0.0f)) return MF_OK;
+    MfParamBlock *kd = mf_recon_block(r, MF_BLOCK_KD), *orm = mf_recon_block(r, MF_BLOCK_ORM);
+    /* refresh at multiples of `every` and of the checkpoint period (a resumed run starts at one:
+     * it refreshes where the uninterrupted run did, so --resume stays exact) */
+    int ce = ro->checkpoint_every;
+    if (s->held_it < 0 || it % s->o.every == 0 || (ce > 0 && it % ce == 0)) {
+        if (s->held_n != kd->n || !s->held_kd || !s->held_orm) {
+            free(s->held_kd), free(s->held_orm);
+            s->held_kd = malloc(kd->n * sizeof(float)), s->held_orm = malloc(orm->n * sizeof(float));
+            s->held_n = kd->n;
+            if (!s->held_kd || !s->held_orm) return mf_fail(MF_ENOMEM, "SDS: out of memory");
+        }
+        memset(s->held_kd, 0, kd->n * sizeof(float));
+        memset(s->held_orm, 0, orm->n * sizeof(float));
+        MfSdsTargets t;
+        Maps m = {0}; /* the textures do not change between the targets and the loss: one render and encode */
+        MfDiffGrads g = {s->held_kd, s->held_orm, NULL};
+        int rc = targets(s, r, batch, k, it, &t, &m);
+        if (!rc) rc = loss_of(s, r, &t, &m, 1.0f, &g, &s->held_loss);
+        maps_free(&m);
+        mf_sds_targets_free(&t);
+        if (rc) {
+            s->held_it = -1;
+            return mf_fail_prefix(rc, "iteration %d: prior term", it);
+        }
+        s->held_it = it;
+    }
+    for (size_t i = 0; i < kd->n; ++i) kd->g[i] += (float)gamma * s->held_kd[i];
+    for (size_t i = 0; i < orm->n; ++i) orm->g[i] += (float)gamma * s->held_orm[i];
+    *loss = gamma * s->held_loss;
     return MF_OK;
 }
