@@ -136,7 +136,7 @@ int ev_eval_scene(const char *scene_dir, const char *result_dir, const char *met
     }
     MfRtScene *rt = NULL;
     if ((rc = mf_rtscene_new(&res.mesh, &rt))) goto out;
-    MfTexMaterial mat = {&res.kd, &res.orm, mf_v3s(0.5f), mf_v3(1, 0.5f, 0)};
+    MfTexMaterial mat = {&res.kd, &res.orm, mf_v3s(0.5f), mf_v3(1, 0.5f, 0), NULL};
     MfRenderOpts ro = {o->spp_sqrt, o->pixel_samples, o->seed, MF_LOBE_ALL};
     Acc relit = {{0}, 0}, alb = {{0}, 0}, orm = {{0}, 0};
     double orm3 = 0.0, orb_h = 0.0, orb_l = 0.0;
@@ -292,7 +292,7 @@ int ev_eval_grid_row(const char *scene_dir, const char *result_dir, const EvEval
         EvResult res;
         if (!(rc = ev_result_load(result_dir, o->mesh_path, &res))) {
             MfRtScene *rt = NULL;
-            MfTexMaterial mat = {&res.kd, &res.orm, mf_v3s(0.5f), mf_v3(1, 0.5f, 0)};
+            MfTexMaterial mat = {&res.kd, &res.orm, mf_v3s(0.5f), mf_v3(1, 0.5f, 0), NULL};
             MfRenderOpts ro = {o->spp_sqrt, o->pixel_samples, o->seed, MF_LOBE_ALL};
             MfRenderOut out = {0};
             MfEnvMap le;

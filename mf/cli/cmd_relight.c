@@ -53,7 +53,7 @@ static int cmd_relight(int argc, char **argv) {
     if (!rc && !(rc = mf_env_load(&env, envp))) have_env = 1;
     if (!rc) rc = mf_rtscene_new(&res.mesh, &rt);
     if (!rc) rc = mf_mkdirs(out);
-    MfTexMaterial mat = {have_res ? &res.kd : NULL, have_res ? &res.orm : NULL, mf_v3s(0.5f), mf_v3(1, 0.5f, 0)};
+    MfTexMaterial mat = {have_res ? &res.kd : NULL, have_res ? &res.orm : NULL, mf_v3s(0.5f), mf_v3(1, 0.5f, 0), NULL};
     MfRenderInput in = {rt, have_res ? &res.mesh : NULL, &mat, 1, have_env ? &env : NULL, NULL, 0};
     MfRenderOpts ro = {spp, ps, (uint64_t)seed, MF_LOBE_ALL};
     for (int k = 0; k < nf && !rc; ++k) {
