@@ -136,6 +136,7 @@ MF_TEST(inverse_recon_resume_is_exact) {
     o.iters = 12;
     o.checkpoint_every = 0;
     o.snapshot_every = 0;
+    o.normal_map = 1; /* every block, the normal map's included, must resume exactly */
     MfRecon *full = NULL, *half = NULL;
     MfReconView v1[NV], v2[NV];
     memset(v1, 0, sizeof v1);
@@ -162,7 +163,17 @@ MF_TEST(inverse_recon_resume_is_exact) {
     CHECK_OK(mf_recon_run(half, NULL, mf_test_path("half")));
     for (int b = 0; full && half && b < MF_NBLOCKS; ++b) {
         const MfParamBlock *x = mf_recon_block(full, b), *y = mf_recon_block(half, b);
+        CHECK(x->n > 0);
         CHECK_MSG(x->n == y->n && !memcmp(x->p, y->p, x->n * sizeof(float)), "block %s differs after resume", x->name);
+    }
+    if (full) { /* the normal map moved away from flat, and was written with the result */
+        const MfParamBlock *nb = mf_recon_block(full, MF_BLOCK_NORMAL);
+        double dev = 0;
+        for (size_t i = 0; i < nb->n; ++i) dev = fmax(dev, fabs(nb->p[i] - (i % 3 == 2 ? 1.0f : 0.5f)));
+        CHECK(dev > 1e-4);
+        char np[1024];
+        snprintf(np, sizeof np, "%s/normal.png", mf_test_path("full"));
+        CHECK(mf_file_exists(np));
     }
     /* the resumed log has one row per iteration, 1..12 */
     char lp[1024], *log = NULL;
