@@ -8,6 +8,9 @@
 #include <string.h>
 
 #include "core/mf_error.h"
+#include "core/mf_fs.h"
+#include "eval/ev_eval.h"
+#include "io/mf_obj.h"
 #include "render/mf_integrator.h"
 #include "render/mf_normalmap.h"
 #include "render/mf_rtscene.h"
@@ -156,5 +159,36 @@ MF_TEST(normalmap_flat_map_renders_unchanged) {
     mf_image_free(&flat);
     mf_env_free(&env);
     mf_rtscene_free(rt);
+    mf_mesh_free(&m);
+}
+
+/* A result folder's normal.png is loaded (and used by relighting) when present, not otherwise. */
+MF_TEST(normalmap_result_folder_loads_normal_png) {
+    const char *dir = mf_test_path("nmres");
+    char p[1024];
+    CHECK_OK(mf_mkdirs(dir));
+    MfMesh m;
+    CHECK_OK(mf_shape_uv_sphere(&m, mf_v3(0, 0, 0), 0.5f, 8, 4));
+    snprintf(p, sizeof p, "%s/mesh.obj", dir);
+    CHECK_OK(mf_obj_write(p, &m, "albedo.png"));
+    MfImage im;
+    CHECK_OK(mf_image_alloc(&im, 4, 4, 3));
+    for (int i = 0; i < 48; ++i) im.data[i] = 0.5f;
+    snprintf(p, sizeof p, "%s/albedo.png", dir);
+    CHECK_OK(mf_image_write(p, &im, MF_ENC_SRGB, 8));
+    snprintf(p, sizeof p, "%s/orm.png", dir);
+    CHECK_OK(mf_image_write(p, &im, MF_ENC_LINEAR, 8));
+    EvResult r;
+    CHECK_OK(ev_result_load(dir, NULL, &r));
+    CHECK(!r.has_normal);
+    ev_result_free(&r);
+    for (int i = 0; i < 16; ++i) im.data[3 * i] = 0.75f, im.data[3 * i + 2] = 1.0f;
+    snprintf(p, sizeof p, "%s/normal.png", dir);
+    CHECK_OK(mf_image_write(p, &im, MF_ENC_LINEAR, 8));
+    CHECK_OK(ev_result_load(dir, NULL, &r));
+    CHECK(r.has_normal && r.normal.w == 4 && r.normal.c == 3);
+    if (r.has_normal) CHECK_NEAR(r.normal.data[0], 191.0f / 255.0f, 1e-6); /* linear 8-bit, not sRGB-decoded */
+    ev_result_free(&r);
+    mf_image_free(&im);
     mf_mesh_free(&m);
 }
