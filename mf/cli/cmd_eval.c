@@ -217,6 +217,12 @@ static int cmd_eval(int argc, char **argv) {
             run_cost(rd, &wall, &rss);
             if (wall > 0 && !(rc = ev_table_add(&t, methods[m], dataset, scenes[s], "time_s", wall)))
                 rc = ev_table_add(&t, methods[m], dataset, scenes[s], "mem_mb", rss / 1048576.0);
+            /* wall time as a multiple of the first method's on the same scene (the baseline in bench) */
+            char bd[MF_PATH_MAX];
+            double bwall = 0.0, brss;
+            if (!rc && wall > 0 && !mf_path_join(md, sizeof md, results, methods[0]) && !mf_path_join(bd, sizeof bd, md, scenes[s]))
+                run_cost(bd, &bwall, &brss);
+            if (!rc && wall > 0 && bwall > 0) rc = ev_table_add(&t, methods[m], dataset, scenes[s], "time_x", wall / bwall);
             if (!rc && curves && s == 0) rc = snapshot_curve(sd, rd, &o, cx[m], cy[m], MAX_ITEMS, &series[m].n);
         }
     }
@@ -231,12 +237,12 @@ static int cmd_eval(int argc, char **argv) {
     const char *ds[1] = {dataset};
     const char *relit_m[] = {"relit_psnr", "relit_ssim", "relit_l1", "relit_flip"};
     const char *mat_m[] = {"albedo_psnr", "albedo_ssim", "albedo_l1", "orm_psnr", "orm_l1", "orm3_psnr"};
-    const char *cost_m[] = {"time_s", "mem_mb"};
+    const char *cost_m[] = {"time_s", "time_x", "mem_mb"};
     const char *orb_m[] = {"relit_orb_psnr_h", "relit_orb_psnr_l"};
     struct { const char *file, *caption; const char *const *metrics; int nk; } tabs[] = {
         {"relight", "Relighting (test views under novel lights)", relit_m, 4},
         {"materials", "Albedo and ORM (per test view)", mat_m, 6},
-        {"cost", "Wall time (s) and peak memory (MB) per scene", cost_m, 2},
+        {"cost", "Wall time (s), wall time as a multiple of the first method's on the same scene (time_x), and peak memory (MB) per scene", cost_m, 3},
         {"orb", "Stanford-ORB's own relighting metrics (PSNR-H, PSNR-L)", orb_m, 2},
     };
     MfStrBuf page = {0};
