@@ -58,7 +58,8 @@ typedef struct {
     float w_orm_smooth;   /* ORM smoothness weight */
     float w_shading;      /* white-light shading regulariser weight */
     float w_spec_ratio;   /* mean(spec) / mean(diffuse) weight inside the shading term */
-    int normal_map;       /* 1: optimise a tangent-space normal map (tex_res^2, MF_BLOCK_NORMAL) */
+    int normal_map;       /* 1: optimise a tangent-space normal map (tex_res^2, MF_BLOCK_NORMAL);
+                             default 0 (measured to lower relighting quality on GT meshes) */
     float w_nrm_perturb;  /* normal-map perturbation weight (L1 from flat; nvdiffrecmc 0.25) */
     float w_nrm_smooth;   /* normal-map smoothness weight (nvdiffrecmc 0.025) */
     float init_kd, init_rough, init_metal, init_light;
