@@ -23,7 +23,7 @@ static char usage[8192] =
     "Recovers albedo (kd), ORM and the HDR environment light of the scene in DATASET_DIR (any format\n"
     "mf can load: bvault, NeRF-Synthetic, NeRFactor, Stanford-ORB capture) on a fixed mesh\n"
     "(default DATASET_DIR/mesh.obj; it must have UVs: a mesh without UVs is refused, unwrap it first).\n"
-    "Writes RESULT_DIR/ albedo.png orm.png env.exr mesh.obj scene.glb log.csv run.json snapshots/\n"
+    "Writes RESULT_DIR/ albedo.png orm.png (normal.png) env.exr mesh.obj scene.glb log.csv run.json snapshots/\n"
     "checkpoint.mfck. --resume continues from RESULT_DIR/checkpoint.mfck and reaches the same result\n"
     "as an uninterrupted run (same build, options and thread count). --res N trains at N pixels\n"
     "(the images are box-downsampled; their size must be a multiple of N). Options are applied in\n"
