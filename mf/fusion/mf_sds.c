@@ -74,7 +74,7 @@ static int render_maps(MfSds *s, MfRecon *r, const MfSdsTargets *t, float *ain, 
     int R = res_of(s);
     size_t rr = (size_t)R * R;
     MfImage kd = mf_recon_kd_image(r), orm = mf_recon_orm_image(r);
-    MfDiffScene ds = {mf_recon_rtscene(r), &kd, &orm, mf_recon_env(r), NULL, NULL, NULL};
+    MfDiffScene ds = {.rt = mf_recon_rtscene(r), .kd = &kd, .orm = &orm, .env = mf_recon_env(r)};
     for (int k = 0; k < t->n; ++k) {
         MfDiffOpts o = {1, s->o.aov_samples, t->aov_seed[k]};
         float *a = aa + k * 3 * rr, *m = ao + k * 3 * rr;
@@ -228,7 +228,7 @@ static int loss_of(MfSds *s, MfRecon *r, const MfSdsTargets *t, Maps *m, float s
     if ((rc = mf_prior_encode_materials_backward(s->prior, dz, dain, doin))) goto done;
     /* maps -> AOVs: albedo_in = (2 sRGB(kd) - 1) mask, orm_in = (2 orm - 1) mask; AOVs (R, R, 3) */
     MfImage kd = mf_recon_kd_image(r), orm = mf_recon_orm_image(r);
-    MfDiffScene ds = {mf_recon_rtscene(r), &kd, &orm, mf_recon_env(r), NULL, NULL, NULL};
+    MfDiffScene ds = {.rt = mf_recon_rtscene(r), .kd = &kd, .orm = &orm, .env = mf_recon_env(r)};
     for (int k = 0; k < n && !rc; ++k) {
         float *a = aa + k * 3 * rr, *m = ao + k * 3 * rr;
         for (int c = 0; c < 3; ++c)
@@ -248,7 +248,7 @@ done:
 int mf_sds_loss(MfSds *s, MfRecon *r, const MfSdsTargets *t, float scale, int grads, double *loss) {
     Maps m; /* the current textures' maps (same primary hits as the targets' render) */
     int rc = maps_compute(s, r, t, &m);
-    MfDiffGrads g = {mf_recon_block(r, MF_BLOCK_KD)->g, mf_recon_block(r, MF_BLOCK_ORM)->g, NULL};
+    MfDiffGrads g = {.dkd = mf_recon_block(r, MF_BLOCK_KD)->g, .dorm = mf_recon_block(r, MF_BLOCK_ORM)->g};
     if (!rc) rc = loss_of(s, r, t, &m, scale, grads ? &g : NULL, loss);
     maps_free(&m);
     return rc;
@@ -277,7 +277,7 @@ int mf_sds_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double 
         memset(s->held_orm, 0, orm->n * sizeof(float));
         MfSdsTargets t;
         Maps m = {0}; /* the textures do not change between the targets and the loss: one render and encode */
-        MfDiffGrads g = {s->held_kd, s->held_orm, NULL};
+        MfDiffGrads g = {.dkd = s->held_kd, .dorm = s->held_orm};
         int rc = targets(s, r, batch, k, it, &t, &m);
         if (!rc) rc = loss_of(s, r, &t, &m, 1.0f, &g, &s->held_loss);
         maps_free(&m);
