@@ -37,7 +37,7 @@ LIB_OBJ  := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
 CLI_OBJ  := $(CLI_C:%.c=$(BUILD)/obj/%.o)
 TEST_OBJ := $(TEST_C:%.c=$(BUILD)/obj/%.o)
 
-.PHONY: FORCE all deps test asan bench-render bench-baseline bench-prior bench-quick bench bench-split bench-external recon-runs train-prior eval-prior clean
+.PHONY: FORCE all deps test asan bench-render bench-baseline bench-prior bench-quick bench bench-split bench-runs bench-external recon-runs train-prior eval-prior clean
 all: $(BUILD)/mf $(BUILD)/mf_tests
 
 deps:
@@ -116,8 +116,11 @@ FLAGS_mf-no-latent   := --method materialfusion --lambda-latent 0
 SCENE_LIMIT   ?= 1000
 SCENES = $(wordlist 1,$(SCENE_LIMIT),$(notdir $(patsubst %/,%,$(dir $(wildcard $(DATA)/$(BENCH_SPLIT)/*/transforms_test.json)))))
 recon-runs: $(foreach s,$(SCENES),$(RESULTS)/$(BENCH_SPLIT)/$(METHOD)/$(s)/run.json)
-$(RESULTS)/$(BENCH_SPLIT)/$(METHOD)/%/run.json: | $(BUILD)/mf
-	$(MF) recon $(DATA)/$(BENCH_SPLIT)/$* -o $(dir $@) $(FLAGS_$(METHOD)) --config $(RECON_CONFIG) --resume $(RECON_EXTRA)
+# scene-major order: every method of a scene runs back to back, so the per-scene time ratios
+# (eval's time_x) compare runs made under the same machine load
+bench-runs: $(foreach s,$(SCENES),$(foreach m,$(BENCH_METHODS),$(RESULTS)/$(BENCH_SPLIT)/$(m)/$(s)/run.json))
+$(RESULTS)/$(BENCH_SPLIT)/%/run.json: | $(BUILD)/mf
+	$(MF) recon $(DATA)/$(BENCH_SPLIT)/$(notdir $*) -o $(dir $@) $(FLAGS_$(patsubst %/,%,$(dir $*))) --config $(RECON_CONFIG) --resume $(RECON_EXTRA)
 
 comma := ,
 EVAL = $(MF) eval $(DATA)/$(BENCH_SPLIT) --results $(RESULTS)/$(BENCH_SPLIT) --dataset $(BENCH_SPLIT) --trivial \
@@ -142,7 +145,7 @@ bench-quick: $(BUILD)/mf
 	$(MAKE) --no-print-directory eval-prior
 
 bench-split: $(DATA)/$(BENCH_SPLIT)/.rendered
-	for m in $(BENCH_METHODS); do $(MAKE) --no-print-directory recon-runs METHOD=$$m || exit 1; done
+	$(MAKE) --no-print-directory bench-runs
 	$(EVAL) --methods $(shell echo $(BENCH_METHODS) | tr ' ' ',') -o $(REPORT)
 
 # Public data sets, when the user points at a local copy (with meshes: geometry recovery is not

@@ -108,7 +108,7 @@ static int render_object(const DsPriorTrainOpts *o, const char *out, const Probe
     if (!rc) rc = mf_rtscene_new(&obj.mesh, &rt);
     DsCamSampling cs = ds_cam_sampling_default();
     if (!rc) rc = ds_sample_cameras(&cs, o->views_per_object, oseed, 0, c2w);
-    MfTexMaterial mat = {&obj.kd, &obj.orm, {0.5f, 0.5f, 0.5f}, {1, 0.5f, 0}};
+    MfTexMaterial mat = {.kd = &obj.kd, .orm = &obj.orm, .kd_const = {0.5f, 0.5f, 0.5f}, .orm_const = {1, 0.5f, 0}};
     MfRng rng;
     mf_rng_seed(&rng, oseed, 0x119447u);
     MfRenderOut ro = {0};

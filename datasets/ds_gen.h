@@ -75,7 +75,7 @@ typedef struct {
 /* Writes or resumes the prior-train split in out_dir. stats may be NULL. */
 int ds_gen_prior_train(const DsPriorTrainOpts *o, const char *out_dir, DsGenStats *stats);
 
-/* Sorted *.exr names of a folder (caller frees each and the array). */
+/* Sorted *.exr and *.hdr names of a folder (caller frees each and the array). */
 int ds_list_probes(const char *dir, char ***names, int *n);
 
 #endif

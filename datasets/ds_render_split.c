@@ -219,7 +219,20 @@ int ds_render_split(const DsSplitSpec *s, const char *out_dir, int *rendered) {
         if (!cJSON_IsString(jn) || !cJSON_IsString(js) || !cJSON_IsArray(rl)) { rc = mf_fail(MF_EFORMAT, "%s: scenes[%d]: name/object_seed/relight missing", p, k); break; }
         char sdir[MF_PATH_MAX], marker[MF_PATH_MAX];
         if ((rc = mf_path_join(sdir, sizeof sdir, out_dir, jn->valuestring)) || (rc = mf_path_join(marker, sizeof marker, sdir, ".rendered"))) break;
-        if (mf_file_exists(marker)) {
+        /* the marker lists the relighting lights it covers: a split regenerated with more lights
+         * renders only the views that are missing */
+        char done[1024] = "ok", *have = NULL;
+        size_t have_len = 0;
+        for (int r = 0; r < cJSON_GetArraySize(rl); ++r) {
+            const cJSON *e = cJSON_GetArrayItem(rl, r);
+            size_t l = strlen(done);
+            snprintf(done + l, sizeof done - l, " %s", cJSON_IsString(e) ? e->valuestring : "?");
+        }
+        strncat(done, "\n", sizeof done - strlen(done) - 1);
+        int complete = mf_file_exists(marker) && !mf_read_file(marker, &have, &have_len) && have_len == strlen(done) &&
+                       !memcmp(have, done, have_len);
+        free(have);
+        if (complete) {
             mf_progress_add(&prog, (size_t)(s->n_train + s->n_test * (1 + s->n_relight)));
             continue;
         }
@@ -236,7 +249,7 @@ int ds_render_split(const DsSplitSpec *s, const char *out_dir, int *rendered) {
         }
         total += c.rendered;
         scene_free(&sc);
-        if (!rc) rc = mf_write_file(marker, "ok\n", 3);
+        if (!rc) rc = mf_write_file(marker, done, strlen(done));
     }
     mf_progress_end(&prog);
     cJSON_Delete(list);

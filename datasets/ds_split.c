@@ -1,7 +1,6 @@
 #include "datasets/ds_split.h"
 
 #include <cJSON.h>
-#include <dirent.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -24,8 +23,10 @@ int ds_split_spec(const char *name, DsSplitSpec *out) {
     else if (!strcmp(name, "small")) { s.n_scenes = 10; s.width = 128; s.n_train = 50; s.n_test = 20; s.tex_res = 256; s.n_relight = 3; s.spp_sqrt = 8; }
     else if (!strcmp(name, "full")) { s.n_scenes = 30; s.width = 512; s.n_train = 100; s.n_test = 50; s.tex_res = 512; s.n_relight = 4; s.spp_sqrt = 16; }
     else if (!strcmp(name, "test-3d") || !strcmp(name, "test-3d-diffuse")) {
-        s.n_scenes = 9; s.width = 128; s.n_train = 64; s.n_test = 8; s.tex_res = 256; s.n_relight = 3; s.spp_sqrt = 3;
+        s.n_scenes = 9; s.width = 128; s.n_train = 64; s.n_test = 8; s.tex_res = 256; s.spp_sqrt = 3;
         s.diffuse = s.povray = !strcmp(name, "test-3d-diffuse");
+        /* every other probe; POV-Ray's variant keeps 3 (each POV-Ray view costs ~6 CPU-s) */
+        s.n_relight = s.povray ? 3 : DS_RELIGHT_ALL;
     }
     else return mf_fail(MF_EARG, "unknown split '%s' (tiny, small, full, test-3d, test-3d-diffuse, test-2d, prior-train)", name);
     snprintf(s.name, sizeof s.name, "%s", name);
@@ -33,33 +34,16 @@ int ds_split_spec(const char *name, DsSplitSpec *out) {
     return MF_OK;
 }
 
-static int cmp_str(const void *a, const void *b) { return strcmp(*(char *const *)a, *(char *const *)b); }
-
-static int list_exr(const char *dir, char ***names, int *n) {
-    DIR *d = opendir(dir);
-    if (!d) return mf_fail(MF_EIO, "%s: cannot open the probe folder", dir);
-    char **v = NULL;
-    int cnt = 0, cap = 0;
-    struct dirent *e;
-    while ((e = readdir(d))) {
-        size_t l = strlen(e->d_name);
-        if (e->d_name[0] == '.' || l < 5 || strcmp(e->d_name + l - 4, ".exr")) continue;
-        if (cnt == cap) {
-            cap = cap ? 2 * cap : 16;
-            char **nv = realloc(v, sizeof(char *) * (size_t)cap);
-            if (!nv) break;
-            v = nv;
-        }
-        if ((v[cnt] = strdup(e->d_name))) ++cnt;
-    }
-    closedir(d);
-    if (cnt) qsort(v, (size_t)cnt, sizeof(char *), cmp_str);
-    *names = v;
-    *n = cnt;
-    return MF_OK;
-}
-
 static int copy_file(const char *from, const char *to) {
+    size_t l = strlen(from);
+    if (l < 4 || strcmp(from + l - 4, ".exr")) { /* .hdr: converted, the layout holds EXR */
+        MfImage img = {0};
+        int rc = mf_image_read(from, MF_ENC_LINEAR, &img);
+        if (!rc) rc = mf_mkdirs_for(to);
+        if (!rc) rc = mf_image_write(to, &img, MF_ENC_LINEAR, 32);
+        mf_image_free(&img);
+        return rc;
+    }
     char *data = NULL;
     size_t len = 0;
     int rc = mf_read_file(from, &data, &len);
@@ -93,17 +77,18 @@ static int write_render_json(const char *path, const char *env, const char *came
     return rc;
 }
 
-static void strip_exr(char *s) {
+static void strip_ext(char *s) {
     size_t l = strlen(s);
-    if (l > 4 && !strcmp(s + l - 4, ".exr")) s[l - 4] = '\0';
+    if (l > 4 && (!strcmp(s + l - 4, ".exr") || !strcmp(s + l - 4, ".hdr"))) s[l - 4] = '\0';
 }
 
-int ds_write_split(const DsSplitSpec *s, const char *out_dir, const char *env_dir, uint64_t seed) {
+int ds_write_split(DsSplitSpec *s, const char *out_dir, const char *env_dir, uint64_t seed) {
     if (!env_dir) env_dir = DS_DEFAULT_ENV_DIR;
     char **probes = NULL;
     int np = 0, rc;
-    if ((rc = list_exr(env_dir, &probes, &np))) return rc;
-    if (np < s->n_relight + 1) {
+    if ((rc = ds_list_probes(env_dir, &probes, &np))) return rc;
+    if (s->n_relight == DS_RELIGHT_ALL) s->n_relight = np - 1;
+    if (np < 2 || np < s->n_relight + 1) {
         for (int i = 0; i < np; ++i) free(probes[i]);
         free(probes);
         return mf_fail(MF_EARG, "%s: %d probes, the split needs %d (1 training + %d relighting)", env_dir, np, s->n_relight + 1, s->n_relight);
@@ -161,7 +146,7 @@ int ds_write_split(const DsSplitSpec *s, const char *out_dir, const char *env_di
         cJSON *sc = cJSON_CreateObject(), *rl = cJSON_CreateArray();
         char envname[256];
         snprintf(envname, sizeof envname, "%s", probes[perm[0]]);
-        strip_exr(envname);
+        strip_ext(envname);
         cJSON_AddStringToObject(sc, "name", name);
         cJSON_AddStringToObject(sc, "family", ds_family_name(fam));
         char seedstr[32];
@@ -173,7 +158,7 @@ int ds_write_split(const DsSplitSpec *s, const char *out_dir, const char *env_di
         for (int r = 0; r < s->n_relight && !rc; ++r) {
             char en[256], rel[MF_PATH_MAX + 300], jn[400];
             snprintf(en, sizeof en, "%s", probes[perm[1 + r]]);
-            strip_exr(en);
+            strip_ext(en);
             cJSON_AddItemToArray(rl, cJSON_CreateString(en));
             snprintf(rel, sizeof rel, "relight/%s.exr", en);
             if ((rc = mf_path_join(src, sizeof src, env_dir, probes[perm[1 + r]])) || (rc = mf_path_join(p, sizeof p, sdir, rel)) ||

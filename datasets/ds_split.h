@@ -8,11 +8,11 @@
  *   transforms_train.json, transforms_test.json          ds_sample_cameras (streams 0 and 1)
  *   gt/env.exr                                           training light (copied probe)
  *   relight/<env>.exr                                    s.n_relight other probes (never the
- *                                                        training light)
+ *                                                        training light; .hdr probes converted)
  *   render_train.json, render_test.json,                 `mf render render_train.json -o
  *   render_relight_<env>.json                            <scene>/train --png` etc. (width x width)
  * and out_dir/split.json lists the scenes (name, family, seed, train env, relight envs).
- * Probes come from env_dir (*.exr, sorted by name; Blender's studio lights by default:
+ * Probes come from env_dir (*.exr and *.hdr, sorted by name; Blender's studio lights by default:
  * /usr/share/blender/datafiles/studiolights/world). Scene k uses family k mod DS_FAM_COUNT
  * and object seed ds_object_seed(DS_STREAM_TEST, seed, k) (ds_gen.h); everything is deterministic from (spec, seed). */
 #ifndef DS_SPLIT_H
@@ -22,6 +22,7 @@
 #include <stdint.h>
 
 #define DS_DEFAULT_ENV_DIR "/usr/share/blender/datafiles/studiolights/world"
+#define DS_RELIGHT_ALL (-1)
 
 typedef struct {
     char name[32];
@@ -29,7 +30,7 @@ typedef struct {
     int width;      /* square image size */
     int n_train, n_test;
     int tex_res;
-    int n_relight;
+    int n_relight;  /* relighting probes per scene; DS_RELIGHT_ALL: every probe but the training one */
     int spp_sqrt;   /* written into the render JSONs */
     int pixel_samples;  /* primary rays per pixel when rendered (0: 4) */
     int diffuse;    /* 1: objects made diffuse-dominant (metallic 0, roughness >= 0.6) */
@@ -43,11 +44,13 @@ typedef struct {
 /* Named specs: "tiny" (3 scenes, 32x32, 8 train, 4 test views, 64^2 textures, 2 relighting
  * lights), "small" (10 scenes, 128x128, 50 / 20 views, 256^2, 3 lights), "full" (30 scenes,
  * 512x512, 100 / 50 views, 512^2, 4 lights), "test-3d" (9 scenes, 128x128, 64 train / 8 test
- * views, 256^2, 3 relighting lights, spp_sqrt 3), "test-3d-diffuse" (test-3d with diffuse
- * objects, lit views by POV-Ray). MF_EARG for an unknown name. */
+ * views, 256^2, every other probe relights (7 with Blender's 8), spp_sqrt 3), "test-3d-diffuse"
+ * (test-3d with diffuse objects, lit views by POV-Ray, 3 relighting lights). MF_EARG for an
+ * unknown name. */
 int ds_split_spec(const char *name, DsSplitSpec *out);
 
-int ds_write_split(const DsSplitSpec *s, const char *out_dir, const char *env_dir, uint64_t seed);
+/* Resolves s->n_relight == DS_RELIGHT_ALL to the probe count - 1 (in place). */
+int ds_write_split(DsSplitSpec *s, const char *out_dir, const char *env_dir, uint64_t seed);
 
 /* Renders a split written by ds_write_split (reads out_dir/split.json and the scene files) into
  *   <scene>/train/r_NNN.png           training views under gt/env.exr (RGBA 8-bit sRGB, straight

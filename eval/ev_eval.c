@@ -27,6 +27,12 @@ int ev_result_load(const char *dir, const char *mesh_path, EvResult *out) {
         rc = mf_env_load(&r.env, p);
         r.has_env = !rc;
     }
+    if (!rc && !(rc = mf_path_join(p, sizeof p, dir, "normal.png")) && mf_file_exists(p)) {
+        rc = mf_image_read(p, MF_ENC_LINEAR, &r.normal);
+        r.has_normal = !rc;
+        if (!rc && r.normal.c < 3) rc = mf_fail(MF_EFORMAT, "%s: needs 3 channels", p);
+        if (!rc && !r.mesh.uv) rc = mf_fail(MF_EFORMAT, "%s: a normal map needs a mesh with UVs", p);
+    }
     if (!rc && (r.kd.c < 3 || r.orm.c < 3)) rc = mf_fail(MF_EFORMAT, "%s: albedo.png and orm.png need 3 channels", dir);
     if (rc) {
         ev_result_free(&r);
@@ -41,6 +47,7 @@ void ev_result_free(EvResult *r) {
     mf_mesh_free(&r->mesh);
     mf_image_free(&r->kd);
     mf_image_free(&r->orm);
+    if (r->has_normal) mf_image_free(&r->normal);
     if (r->has_env) mf_env_free(&r->env);
     memset(r, 0, sizeof *r);
 }
@@ -136,7 +143,7 @@ int ev_eval_scene(const char *scene_dir, const char *result_dir, const char *met
     }
     MfRtScene *rt = NULL;
     if ((rc = mf_rtscene_new(&res.mesh, &rt))) goto out;
-    MfTexMaterial mat = {&res.kd, &res.orm, mf_v3s(0.5f), mf_v3(1, 0.5f, 0)};
+    MfTexMaterial mat = {&res.kd, &res.orm, mf_v3s(0.5f), mf_v3(1, 0.5f, 0), res.has_normal ? &res.normal : NULL};
     MfRenderOpts ro = {o->spp_sqrt, o->pixel_samples, o->seed, MF_LOBE_ALL};
     Acc relit = {{0}, 0}, alb = {{0}, 0}, orm = {{0}, 0};
     double orm3 = 0.0, orb_h = 0.0, orb_l = 0.0;
@@ -292,7 +299,7 @@ int ev_eval_grid_row(const char *scene_dir, const char *result_dir, const EvEval
         EvResult res;
         if (!(rc = ev_result_load(result_dir, o->mesh_path, &res))) {
             MfRtScene *rt = NULL;
-            MfTexMaterial mat = {&res.kd, &res.orm, mf_v3s(0.5f), mf_v3(1, 0.5f, 0)};
+            MfTexMaterial mat = {&res.kd, &res.orm, mf_v3s(0.5f), mf_v3(1, 0.5f, 0), res.has_normal ? &res.normal : NULL};
             MfRenderOpts ro = {o->spp_sqrt, o->pixel_samples, o->seed, MF_LOBE_ALL};
             MfRenderOut out = {0};
             MfEnvMap le;

@@ -33,9 +33,12 @@ typedef struct {
     MfImage orm; /* owned; (h, w, 3) linear */
     int has_env;
     MfEnvMap env; /* owned when has_env */
+    int has_normal;
+    MfImage normal; /* owned when has_normal; (h, w, 3) tangent-space normal map (normal.png, linear) */
 } EvResult;
 
-/* mesh_path NULL: dir/mesh.obj (a snapshot folder passes its run's mesh). */
+/* mesh_path NULL: dir/mesh.obj (a snapshot folder passes its run's mesh). Loads normal.png too
+ * when the folder has one (renders then use it as the material's normal map). */
 int ev_result_load(const char *dir, const char *mesh_path, EvResult *out);
 void ev_result_free(EvResult *r);
 

@@ -193,6 +193,45 @@ MF_TEST(ds_split_tiny_layout) {
     CHECK_ERR(ds_write_split(&s, mf_test_path("tiny2"), mf_test_path("no_probes_here"), 1), "no_probes_here");
 }
 
+/* test-3d relights under every probe but the training one; a .hdr probe is converted to EXR */
+MF_TEST(ds_split_relights_every_other_probe) {
+    const char *probes = mf_test_path("probes_all");
+    const char *names[] = {"a.exr", "b.hdr", "c.exr"};
+    for (int i = 0; i < 3; ++i) {
+        char p[MF_PATH_MAX];
+        snprintf(p, sizeof p, "%s/%s", probes, names[i]);
+        write_probe(p, 1.0f + i);
+    }
+    DsSplitSpec s;
+    CHECK_OK(ds_split_spec("test-3d", &s));
+    CHECK(s.n_relight == DS_RELIGHT_ALL);
+    s.n_scenes = 2, s.width = 16, s.n_train = 2, s.n_test = 1, s.tex_res = 32;
+    const char *out = mf_test_path("allprobes");
+    CHECK_OK(ds_write_split(&s, out, probes, 5));
+    CHECK(s.n_relight == 2);
+    cJSON *list = NULL;
+    char p[MF_PATH_MAX];
+    snprintf(p, sizeof p, "%s/split.json", out);
+    CHECK_OK(mf_json_load(p, &list));
+    const cJSON *scenes = list ? cJSON_GetObjectItem(list, "scenes") : NULL;
+    for (int k = 0; k < cJSON_GetArraySize(scenes); ++k) {
+        const cJSON *sc = cJSON_GetArrayItem(scenes, k), *rl = cJSON_GetObjectItem(sc, "relight");
+        const char *name = cJSON_GetObjectItem(sc, "name")->valuestring;
+        CHECK(cJSON_GetArraySize(rl) == 2);
+        for (int r = 0; r < cJSON_GetArraySize(rl); ++r) {
+            const char *en = cJSON_GetArrayItem(rl, r)->valuestring;
+            MfImage im = {0};
+            snprintf(p, sizeof p, "%s/%s/relight/%s.exr", out, name, en);
+            CHECK_OK(mf_image_read(p, MF_ENC_LINEAR, &im)); /* b.hdr arrives as b.exr, values kept */
+            if (!strcmp(en, "b")) CHECK_NEAR(im.data[0], 2.0f, 1e-2f);
+            mf_image_free(&im);
+        }
+    }
+    cJSON_Delete(list);
+    CHECK_OK(ds_split_spec("test-3d-diffuse", &s));
+    CHECK(s.n_relight == 3 && s.povray);
+}
+
 /* bvault per-view GT read from the albedo/orm layers of the multi-layer EXR beside each PNG */
 #include "io/mf_exr.h"
 MF_TEST(ds_load_bvault_gt_from_exr_layers) {

@@ -25,7 +25,7 @@ static int make_recon(MfMesh *mesh, MfRecon **out) {
     if ((rc = mf_rtscene_new(mesh, &rt))) return rc;
     MfEnvMap env;
     mf_env_init_constant(&env, 8, 4, mf_v3s(1.0f));
-    MfTexMaterial mat = {NULL, NULL, mf_v3(0.6f, 0.4f, 0.3f), mf_v3(1, 0.6f, 0.1f)};
+    MfTexMaterial mat = {NULL, NULL, mf_v3(0.6f, 0.4f, 0.3f), mf_v3(1, 0.6f, 0.1f), NULL};
     MfRenderInput in = {rt, mesh, &mat, 1, &env, NULL, 0};
     MfRenderOpts ro = {2, 2, 3, MF_LOBE_ALL};
     for (int v = 0; v < NV && !rc; ++v) {
@@ -57,7 +57,7 @@ static int make_recon(MfMesh *mesh, MfRecon **out) {
     return rc;
 }
 
-static MfSds *tiny_sds(void) {
+static MfSds *tiny_sds_every(int every) {
     MfPriorConfig cfg;
     mf_prior_config_tiny(&cfg);
     MfPrior *p = NULL;
@@ -66,6 +66,7 @@ static MfSds *tiny_sds(void) {
     mf_denoiser_init_weights(p->dn, 12);
     MfSdsOpts o = mf_sds_opts_default();
     o.k_views = 2;
+    o.every = every;
     MfSds *s = NULL;
     if (mf_sds_new(p, &o, &s)) {
         mf_prior_free(p);
@@ -73,6 +74,8 @@ static MfSds *tiny_sds(void) {
     }
     return s;
 }
+
+static MfSds *tiny_sds(void) { return tiny_sds_every(1); }
 
 MF_TEST(fusion_sds_chain_gradient) {
     MfMesh mesh;
@@ -118,6 +121,41 @@ MF_TEST(fusion_sds_chain_gradient) {
     /* float forward through an autoencoder: differences carry ~1e-3 relative noise */
     CHECK_MSG(worst < 3e-2, "SDS chain gradient relative error %.3g", worst);
     mf_sds_targets_free(&t);
+    mf_sds_free(s);
+    mf_recon_free(r);
+    mf_mesh_free(&mesh);
+}
+
+/* The hook's fused path (one render and encode for targets and loss) equals the public pieces;
+ * with every = 3 the term is computed at iterations 0, 3, ... and its gradient held in between. */
+MF_TEST(fusion_sds_hook_every) {
+    MfMesh mesh;
+    MfRecon *r = NULL;
+    CHECK_OK(make_recon(&mesh, &r));
+    MfSds *s = tiny_sds_every(3);
+    if (!r || !s) return;
+    int batch[2] = {0, 1}, N = mf_recon_opts(r)->iters;
+    MfParamBlock *kd = mf_recon_block(r, MF_BLOCK_KD);
+    MfSdsTargets t;
+    double l = -1.0, h0 = -1.0, h1 = -1.0, h3 = -1.0;
+    CHECK_OK(mf_sds_targets(s, r, batch, 2, 3, &t));
+    CHECK_OK(mf_sds_loss(s, r, &t, 1.0f, 0, &l));
+    mf_sds_targets_free(&t);
+    mf_param_zero_grad(kd);
+    CHECK_OK(mf_sds_hook(s, r, 0, batch, 2, &h0));
+    float *g0 = malloc(kd->n * sizeof(float));
+    if (!g0) return;
+    memcpy(g0, kd->g, kd->n * sizeof(float));
+    mf_param_zero_grad(kd);
+    CHECK_OK(mf_sds_hook(s, r, 1, batch, 2, &h1)); /* held: the same gradient and loss, gamma(1) */
+    double g1 = 1.0 - 1.0 / (double)N, err = 0.0, mag = 0.0;
+    for (size_t i = 0; i < kd->n; ++i) err = fmax(err, fabs(kd->g[i] - g1 * g0[i])), mag = fmax(mag, fabs(g0[i]));
+    CHECK(mag > 0.0 && err <= 1e-6 * mag);
+    CHECK_NEAR(h1, g1 * h0, 1e-9 * h0);
+    CHECK_OK(mf_sds_hook(s, r, 3, batch, 2, &h3)); /* refreshed */
+    CHECK(l > 0.0);
+    CHECK_NEAR(h3, (1.0 - 3.0 / (double)N) * l, 1e-6 * fabs(h3) + 1e-12);
+    free(g0);
     mf_sds_free(s);
     mf_recon_free(r);
     mf_mesh_free(&mesh);

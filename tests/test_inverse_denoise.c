@@ -224,7 +224,7 @@ static void scene_free(Scene *s) {
 }
 
 static int render(Scene *sc, int spp_sqrt, MfRenderOut *out) {
-    MfDiffScene s = {sc->rt, &sc->kd, &sc->orm, &sc->env, NULL, NULL, NULL};
+    MfDiffScene s = {.rt = sc->rt, .kd = &sc->kd, .orm = &sc->orm, .env = &sc->env};
     MfDiffOpts o = {spp_sqrt, 1, 77}; /* same seed: the same primary hit per pixel */
     int rc = mf_render_out_alloc(out, RW, RH);
     return rc ? rc : mf_diff_forward(&s, &sc->cam, &o, out);

@@ -36,7 +36,7 @@ static int make_views(const MfMesh *mesh, MfReconView *views) {
     gt_env(&e);
     MfEnvMap env;
     if ((rc = mf_env_init(&env, &e))) return rc;
-    MfTexMaterial mat = {NULL, NULL, mf_v3(GT_KD[0], GT_KD[1], GT_KD[2]), mf_v3(1.0f, 0.7f, 0.0f)};
+    MfTexMaterial mat = {NULL, NULL, mf_v3(GT_KD[0], GT_KD[1], GT_KD[2]), mf_v3(1.0f, 0.7f, 0.0f), NULL};
     MfRenderInput in = {rt, mesh, &mat, 1, &env, NULL, 0};
     MfRenderOpts ro = {8, 4, 99, MF_LOBE_ALL};
     for (int v = 0; v < NV && !rc; ++v) {
@@ -146,6 +146,7 @@ static void check_resume(int denoise) {
     o.denoise = denoise;
     o.checkpoint_every = 0;
     o.snapshot_every = 0;
+    o.normal_map = 1; /* every block, the normal map's included, must resume exactly */
     MfRecon *full = NULL, *half = NULL;
     MfReconView v1[NV], v2[NV];
     memset(v1, 0, sizeof v1);
@@ -154,9 +155,10 @@ static void check_resume(int denoise) {
     CHECK_OK(make_views(&mesh, v2));
     CHECK_OK(mf_recon_new(&mesh, v1, NV, &o, &full));
     const char *full_dir = mf_test_path(denoise ? "full_dn" : "full"), *half_dir = mf_test_path(denoise ? "half_dn" : "half");
-    char hd[512];
+    char hd[512], fd[512];
     snprintf(hd, sizeof hd, "%s", half_dir);
-    CHECK_OK(mf_recon_run(full, NULL, full_dir));
+    snprintf(fd, sizeof fd, "%s", full_dir);
+    CHECK_OK(mf_recon_run(full, NULL, fd));
     MfReconOpts oh = o;
     oh.iters = 5;
     CHECK_OK(mf_recon_new(&mesh, v2, NV, &oh, &half));
@@ -175,7 +177,17 @@ static void check_resume(int denoise) {
     CHECK_OK(mf_recon_run(half, NULL, hd));
     for (int b = 0; full && half && b < MF_NBLOCKS; ++b) {
         const MfParamBlock *x = mf_recon_block(full, b), *y = mf_recon_block(half, b);
+        CHECK(x->n > 0);
         CHECK_MSG(x->n == y->n && !memcmp(x->p, y->p, x->n * sizeof(float)), "block %s differs after resume", x->name);
+    }
+    if (full) { /* the normal map moved away from flat, and was written with the result */
+        const MfParamBlock *nb = mf_recon_block(full, MF_BLOCK_NORMAL);
+        double dev = 0;
+        for (size_t i = 0; i < nb->n; ++i) dev = fmax(dev, fabs(nb->p[i] - (i % 3 == 2 ? 1.0f : 0.5f)));
+        CHECK(dev > 1e-4);
+        char np[1024];
+        snprintf(np, sizeof np, "%s/normal.png", fd);
+        CHECK(mf_file_exists(np));
     }
     /* the resumed log has one row per iteration, 1..12 */
     char lp[1024], *log = NULL;

@@ -63,7 +63,7 @@ static cJSON *validate(const char *path, char **file, const unsigned char **bin,
         int ct = num(a, "componentType", 0);
         CHECK(ct == 5126 || ct == 5125);
         const char *type = cJSON_GetObjectItem(a, "type")->valuestring;
-        int nc = strcmp(type, "VEC3") == 0 ? 3 : strcmp(type, "VEC2") == 0 ? 2 : 1;
+        int nc = strcmp(type, "VEC4") == 0 ? 4 : strcmp(type, "VEC3") == 0 ? 3 : strcmp(type, "VEC2") == 0 ? 2 : 1;
         size_t need = (size_t)num(a, "byteOffset", 0) + (size_t)num(a, "count", 0) * nc * 4;
         CHECK_MSG(need <= (size_t)num(vw, "byteLength", 0), "accessor %s needs %zu bytes", type, need);
     }
@@ -112,6 +112,7 @@ MF_TEST(io_gltf_glb_structure) {
         const cJSON *at = cJSON_GetArrayItem(acc, num(attr, "TEXCOORD_0", -1));
         const cJSON *ai = cJSON_GetArrayItem(acc, num(prim, "indices", -1));
         CHECK(ap && an && at && ai);
+        CHECK(num(attr, "TANGENT", -1) == -1); /* only with a normal map */
         if (ap && an && at && ai) {
             CHECK(num(ap, "count", 0) == 5 && num(an, "count", 0) == 5 && num(at, "count", 0) == 5 && num(ai, "count", 0) == 18);
             CHECK(num(ai, "componentType", 0) == 5125 && num(ap, "componentType", 0) == 5126);
@@ -179,6 +180,58 @@ MF_TEST(io_gltf_glb_structure) {
     mat.albedo_png = mf_test_path("fake.png");
     CHECK_ERR(mf_gltf_write_glb(mf_test_path("bad.glb"), &m, &mat), "fake.png: not a PNG");
     CHECK(!mf_file_exists(mf_test_path("bad.glb")));
+    mf_mesh_free(&m);
+    mf_image_free(&im);
+}
+
+/* A normal map: material.normalTexture holds the PNG's bytes, and the primitive carries TANGENT
+ * (VEC4: unit xyz orthogonal to NORMAL, w = +-1). */
+MF_TEST(io_gltf_normal_texture) {
+    MfImage im = {0};
+    CHECK_OK(mf_image_alloc(&im, 4, 4, 3));
+    for (int i = 0; i < 16; ++i) im.data[3 * i] = im.data[3 * i + 1] = 0.5f, im.data[3 * i + 2] = 1.0f;
+    const char *np = mf_test_path("normal.png");
+    CHECK_OK(mf_image_write(np, &im, MF_ENC_LINEAR, 8));
+    MfMesh m = {0};
+    make_mesh(&m);
+    MfGltfMaterial mat = mf_gltf_material_default();
+    mat.normal_png = np;
+    const char *p = mf_test_path("nmap.glb");
+    CHECK_OK(mf_gltf_write_glb(p, &m, &mat));
+    char *file = NULL;
+    const unsigned char *bin = NULL;
+    size_t binlen = 0;
+    cJSON *j = validate(p, &file, &bin, &binlen);
+    if (j) {
+        const cJSON *mo = cJSON_GetArrayItem(cJSON_GetObjectItem(j, "materials"), 0);
+        const cJSON *ti = cJSON_GetObjectItem(mo, "normalTexture");
+        CHECK(ti != NULL);
+        const cJSON *texs = cJSON_GetObjectItem(j, "textures"), *imgs = cJSON_GetObjectItem(j, "images");
+        const cJSON *views = cJSON_GetObjectItem(j, "bufferViews"), *acc = cJSON_GetObjectItem(j, "accessors");
+        const cJSON *img = ti ? cJSON_GetArrayItem(imgs, num(cJSON_GetArrayItem(texs, num(ti, "index", -1)), "source", -1)) : NULL;
+        const cJSON *vw = img ? cJSON_GetArrayItem(views, num(img, "bufferView", -1)) : NULL;
+        char *png = NULL;
+        size_t plen = 0;
+        CHECK_OK(mf_read_file(np, &png, &plen));
+        CHECK(vw && (size_t)num(vw, "byteLength", 0) == plen);
+        if (vw && png && (size_t)num(vw, "byteLength", 0) == plen) CHECK(memcmp(bin + num(vw, "byteOffset", 0), png, plen) == 0);
+        free(png);
+        const cJSON *prim = cJSON_GetArrayItem(cJSON_GetObjectItem(cJSON_GetArrayItem(cJSON_GetObjectItem(j, "meshes"), 0), "primitives"), 0);
+        const cJSON *attr = cJSON_GetObjectItem(prim, "attributes");
+        const cJSON *at = cJSON_GetArrayItem(acc, num(attr, "TANGENT", -1)), *an = cJSON_GetArrayItem(acc, num(attr, "NORMAL", -1));
+        CHECK(at && an && strcmp(cJSON_GetObjectItem(at, "type")->valuestring, "VEC4") == 0 && num(at, "count", 0) == 5);
+        if (at && an) {
+            const float *t = (const float *)(bin + num(cJSON_GetArrayItem(views, num(at, "bufferView", 0)), "byteOffset", 0));
+            const float *n = (const float *)(bin + num(cJSON_GetArrayItem(views, num(an, "bufferView", 0)), "byteOffset", 0));
+            for (int i = 0; i < 5; ++i) {
+                CHECK_NEAR(t[4 * i] * t[4 * i] + t[4 * i + 1] * t[4 * i + 1] + t[4 * i + 2] * t[4 * i + 2], 1.0, 1e-5);
+                CHECK_NEAR(t[4 * i] * n[3 * i] + t[4 * i + 1] * n[3 * i + 1] + t[4 * i + 2] * n[3 * i + 2], 0.0, 1e-5);
+                CHECK(t[4 * i + 3] == 1.0f || t[4 * i + 3] == -1.0f);
+            }
+        }
+        cJSON_Delete(j);
+    }
+    free(file);
     mf_mesh_free(&m);
     mf_image_free(&im);
 }

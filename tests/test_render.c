@@ -235,7 +235,7 @@ MF_TEST(render_degenerate_triangles) {
         CHECK_NEAR(h.ng.y, -1.0, 1e-6);
         CHECK_NEAR(h.t, 3.0, 1e-4);
     }
-    MfTexMaterial mat = {NULL, NULL, mf_v3s(0.5f), mf_v3(0, 0.5f, 0)};
+    MfTexMaterial mat = {NULL, NULL, mf_v3s(0.5f), mf_v3(0, 0.5f, 0), NULL};
     MfLight sun = {MF_LIGHT_SUN, mf_v3s(1), 2.0f, mf_norm(mf_v3(0.2f, -1, 0.3f)), mf_v3s(0)};
     MfEnvMap env;
     CHECK_OK(mf_env_init_constant(&env, 8, 4, mf_v3s(0.5f)));

@@ -96,7 +96,7 @@ MF_TEST(render_blender_spheres_sunset) {
     CHECK_OK(two_spheres(&mesh, centres, 0.5f));
     MfRtScene *rt = NULL;
     CHECK_OK(mf_rtscene_new(&mesh, &rt));
-    MfTexMaterial mats[2] = {{NULL, NULL, {0.8f, 0.3f, 0.2f}, {0, 1.0f, 0.0f}}, {NULL, NULL, {0.9f, 0.7f, 0.4f}, {0, 0.4f, 1.0f}}};
+    MfTexMaterial mats[2] = {{NULL, NULL, {0.8f, 0.3f, 0.2f}, {0, 1.0f, 0.0f}, NULL}, {NULL, NULL, {0.9f, 0.7f, 0.4f}, {0, 0.4f, 1.0f}, NULL}};
     MfEnvMap env;
     CHECK_OK(mf_env_load(&env, probe));
     MfRenderInput in = {rt, &mesh, mats, 2, &env, NULL, 0};
@@ -230,7 +230,7 @@ MF_TEST(render_povray_lambert) {
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 256, 128));
     MfRtScene *rt = NULL;
     CHECK_OK(mf_rtscene_new(&mesh, &rt));
-    MfTexMaterial mat = {NULL, NULL, kd, {0, 0.5f, 0}};
+    MfTexMaterial mat = {NULL, NULL, kd, {0, 0.5f, 0}, NULL};
     MfLight sun = {MF_LIGHT_SUN, {1, 1, 1}, E, l, {0, 0, 0}};
     MfRenderInput in = {rt, &mesh, &mat, 1, NULL, &sun, 1};
     MfRenderOpts o = {1, 16, 9, MF_LOBE_DIFFUSE};

@@ -133,7 +133,7 @@ static int cmd_bench_render(int argc, char **argv) {
         if ((rc = mf_env_init_constant(&env, 64, 32, mf_v3s(1.0f)))) goto done;
     }
     has_env = 1;
-    MfTexMaterial mat = {NULL, NULL, {0.6f, 0.5f, 0.4f}, {0.0f, 0.4f, 0.3f}};
+    MfTexMaterial mat = {NULL, NULL, {0.6f, 0.5f, 0.4f}, {0.0f, 0.4f, 0.3f}, NULL};
     MfRenderInput in = {rt, &mesh, &mat, 1, &env, NULL, 0};
     MfRenderOpts o = {spp, ps, 1, MF_LOBE_ALL};
     MfMat4 m = mf_mat4_look_at(mf_v3(0.0f, -1.15f, 0.75f), mf_v3(0, 0, 0), mf_v3(0, 0, 1));

@@ -9,6 +9,7 @@
 
 #include "cli/mf_cli.h"
 #include "core/mf_error.h"
+#include "mf_build_info.h"
 #include "core/mf_fs.h"
 #include "core/mf_log.h"
 #include "core/mf_strbuf.h"
@@ -26,7 +27,7 @@ static const char usage[] =
     "squares), sRGB, clip, composite on black), albedo (same protocol) and ORM (roughness and\n"
     "metallic, no scaling; orm3 adds a constant R channel). Metrics: PSNR, SSIM, L1, FLIP (LPIPS is\n"
     "not computed: it needs pretrained weights that cannot be obtained here). Writes REPORT_DIR/\n"
-    "per_view.csv, scenes.csv, relight.{md,tex}, materials.{md,tex}, cost.md, speed_error.png,\n"
+    "per_view.csv, scenes.csv, relight.{md,tex}, materials.{md,tex}, cost.md, runs.md (provenance), speed_error.png,\n"
     "and index.html. Methods default to every folder in RESULTS_DIR. --trivial adds two guesses every\n"
     "method must beat: trivial-grey (albedo 0.5 on the GT mesh under the true light) and\n"
     "trivial-flat-light (the true textures under a constant white light).\n";
@@ -58,8 +59,9 @@ static int list_dirs(const char *dir, char names[][64], int max, int need_test_j
     return n;
 }
 
-/* Wall seconds and peak RSS of a result folder's run.json (0 when absent). */
-static void run_cost(const char *result_dir, double *wall, double *rss) {
+/* Wall seconds and peak RSS of a result folder's run.json (0 when absent). With prov, appends the
+ * run's provenance as a markdown row: method, scene, revision, seed, threads, time, memory, argv. */
+static void run_cost(const char *result_dir, double *wall, double *rss, MfStrBuf *prov, const char *method, const char *scene) {
     char p[MF_PATH_MAX];
     cJSON *root = NULL;
     *wall = *rss = 0.0;
@@ -68,6 +70,15 @@ static void run_cost(const char *result_dir, double *wall, double *rss) {
     *rss = cJSON_GetNumberValue(cJSON_GetObjectItem(root, "peak_rss_bytes"));
     if (*wall != *wall) *wall = 0.0;
     if (*rss != *rss) *rss = 0.0;
+    if (prov) {
+        const cJSON *rev = cJSON_GetObjectItem(root, "git_revision"), *av = cJSON_GetObjectItem(root, "argv");
+        mf_sb_printf(prov, "| %s | %s | %s | %.0f | %.0f | %.1f | %.0f | `", method, scene, cJSON_IsString(rev) ? rev->valuestring : "?",
+                     cJSON_GetNumberValue(cJSON_GetObjectItem(root, "seed")), cJSON_GetNumberValue(cJSON_GetObjectItem(root, "threads")),
+                     *wall, *rss / 1048576.0);
+        const cJSON *a;
+        cJSON_ArrayForEach(a, av) if (cJSON_IsString(a)) mf_sb_printf(prov, "%s%s", a == av->child ? "" : " ", a->valuestring);
+        mf_sb_printf(prov, "` |\n");
+    }
     cJSON_Delete(root);
 }
 
@@ -190,7 +201,12 @@ static int cmd_eval(int argc, char **argv) {
     int rc = MF_OK, excluded = 0, evaluated = 0;
     const char *mptr[MAX_ITEMS];
     for (int m = 0; m < nm; ++m) mptr[m] = methods[m];
-    MfStrBuf curves_html = {0};
+    MfStrBuf curves_html = {0}, prov = {0};
+    mf_sb_printf(&prov, "# Provenance\n\nWritten by `mf eval` (revision %s):\n\n    mf", MF_GIT_REV);
+    for (int i = 0; i < argc; ++i) mf_sb_printf(&prov, " %s", argv[i]);
+    mf_sb_printf(&prov, "\n\nEach scored run (from its run.json): the revision that produced it, seed, OpenMP threads, wall "
+                        "time, peak memory and the exact command.\n\n| method | scene | revision | seed | threads | wall s | "
+                        "peak MB | command |\n|---|---|---|---:|---:|---:|---:|---|\n");
     EvSeries series[MAX_ITEMS];
     static double cx[MAX_ITEMS][MAX_ITEMS], cy[MAX_ITEMS][MAX_ITEMS];
     for (int m = 0; m < nm && !rc; ++m) {
@@ -214,9 +230,15 @@ static int cmd_eval(int argc, char **argv) {
             }
             ++evaluated;
             double wall, rss;
-            run_cost(rd, &wall, &rss);
+            run_cost(rd, &wall, &rss, &prov, methods[m], scenes[s]);
             if (wall > 0 && !(rc = ev_table_add(&t, methods[m], dataset, scenes[s], "time_s", wall)))
                 rc = ev_table_add(&t, methods[m], dataset, scenes[s], "mem_mb", rss / 1048576.0);
+            /* wall time as a multiple of the first method's on the same scene (the baseline in bench) */
+            char bd[MF_PATH_MAX];
+            double bwall = 0.0, brss;
+            if (!rc && wall > 0 && !mf_path_join(md, sizeof md, results, methods[0]) && !mf_path_join(bd, sizeof bd, md, scenes[s]))
+                run_cost(bd, &bwall, &brss, NULL, NULL, NULL);
+            if (!rc && wall > 0 && bwall > 0) rc = ev_table_add(&t, methods[m], dataset, scenes[s], "time_x", wall / bwall);
             if (!rc && curves && s == 0) rc = snapshot_curve(sd, rd, &o, cx[m], cy[m], MAX_ITEMS, &series[m].n);
         }
     }
@@ -224,6 +246,7 @@ static int cmd_eval(int argc, char **argv) {
     if (rc || bad) {
         mf_discard_file(tmp);
         ev_table_free(&t);
+        mf_sb_free(&prov);
         if (!rc) mf_fail(MF_EIO, "%s: write failed", p);
         return MF_EXIT_FAIL;
     }
@@ -231,12 +254,12 @@ static int cmd_eval(int argc, char **argv) {
     const char *ds[1] = {dataset};
     const char *relit_m[] = {"relit_psnr", "relit_ssim", "relit_l1", "relit_flip"};
     const char *mat_m[] = {"albedo_psnr", "albedo_ssim", "albedo_l1", "orm_psnr", "orm_l1", "orm3_psnr"};
-    const char *cost_m[] = {"time_s", "mem_mb"};
+    const char *cost_m[] = {"time_s", "time_x", "mem_mb"};
     const char *orb_m[] = {"relit_orb_psnr_h", "relit_orb_psnr_l"};
     struct { const char *file, *caption; const char *const *metrics; int nk; } tabs[] = {
         {"relight", "Relighting (test views under novel lights)", relit_m, 4},
         {"materials", "Albedo and ORM (per test view)", mat_m, 6},
-        {"cost", "Wall time (s) and peak memory (MB) per scene", cost_m, 2},
+        {"cost", "Wall time (s), wall time as a multiple of the first method's on the same scene (time_x), and peak memory (MB) per scene", cost_m, 3},
         {"orb", "Stanford-ORB's own relighting metrics (PSNR-H, PSNR-L)", orb_m, 2},
     };
     MfStrBuf page = {0};
@@ -319,8 +342,13 @@ static int cmd_eval(int argc, char **argv) {
         snprintf(p, sizeof p, "%s/index.html", out);
         rc = ev_html_write(p, "MaterialFusion evaluation", blocks, 2);
     }
+    if (!rc) {
+        snprintf(p, sizeof p, "%s/runs.md", out);
+        rc = mf_sb_write(&prov, p);
+    }
     mf_sb_free(&page);
     mf_sb_free(&curves_html);
+    mf_sb_free(&prov);
     mf_sb_free(&grids);
     ev_table_free(&t);
     if (rc) return MF_EXIT_FAIL;

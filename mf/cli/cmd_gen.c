@@ -42,7 +42,8 @@
     "              [--seed N] [--views 12] [--tex-res 128] [--spp 2] [--pixel-samples 4] [--threads N]\n" \
     "  Renders material-prior triplets DIR/{rgb,albedo,orm}/NNNNNN.png (RGBA 8-bit; rgb and albedo\n" \
     "  sRGB, orm linear, alpha = coverage) and DIR/manifest.json; stops after N samples (whole\n" \
-    "  objects) or the time budget; rerunning the same command resumes (done/ markers).\n" \
+    "  objects) or the time budget (prior-train default: 1800 s, as many objects as 30 minutes of\n" \
+    "  generation give); rerunning the same command resumes (done/ markers).\n" \
     "  test-2d: 8 held-out objects x 4 views (count 32, spp 4) from another seed stream.\n"
 
 #define K_COMPARE_HEAD \
@@ -108,7 +109,7 @@ static int cmd_gen(int argc, char **argv) {
         po.pixel_samples = pxs;
         po.env_dir = env_dir;
         po.threads = threads;
-        if (po.count <= 0 && budget <= 0) { mf_fail(MF_EARG, "%s: give --count N or --time-budget SECONDS", split); return MF_EXIT_USAGE; }
+        if (po.count <= 0 && budget <= 0) po.time_budget_s = 1800; /* prior-train: as much as 30 minutes give */
         DsGenStats st;
         if (ds_gen_prior_train(&po, out, &st)) return MF_EXIT_FAIL;
         mf_log_info("mf gen: %s %d samples (%d objects) at %d px -> %s; this run %d views in %.1f s (%.2f views/s)", split, st.count,

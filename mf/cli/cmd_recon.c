@@ -23,7 +23,7 @@ static char usage[8192] =
     "Recovers albedo (kd), ORM and the HDR environment light of the scene in DATASET_DIR (any format\n"
     "mf can load: bvault, NeRF-Synthetic, NeRFactor, Stanford-ORB capture) on a fixed mesh\n"
     "(default DATASET_DIR/mesh.obj; it must have UVs: a mesh without UVs is refused, unwrap it first).\n"
-    "Writes RESULT_DIR/ albedo.png orm.png env.exr mesh.obj scene.glb log.csv run.json snapshots/\n"
+    "Writes RESULT_DIR/ albedo.png orm.png (normal.png) env.exr mesh.obj scene.glb log.csv run.json snapshots/\n"
     "checkpoint.mfck. --resume continues from RESULT_DIR/checkpoint.mfck and reaches the same result\n"
     "as an uninterrupted run (same build, options and thread count). --res N trains at N pixels\n"
     "(the images are box-downsampled; their size must be a multiple of N). Options are applied in\n"
@@ -34,6 +34,7 @@ static char usage[8192] =
     "  --lambda-latent X    latent term weight (default 0.02)   --lambda-rgb X   RGB term weight (0.5)\n"
     "  --gamma-p P          gamma_i = 1 - (i/N)^P (default 1)    --gamma-const 1  gamma_i = 1 throughout\n"
     "  --k-views K          views per batch with the prior term (default 4)\n"
+    "  --sds-every K        recompute the prior term every K iterations, hold its gradient between (default 4)\n"
     "Options of both methods:\n";
 
 static int cmd_recon(int argc, char **argv) {
@@ -58,6 +59,7 @@ static int cmd_recon(int argc, char **argv) {
             (r = mf_opt_float(argc, argv, &i, "--lambda-latent", &so.lambda_latent)) ||
             (r = mf_opt_float(argc, argv, &i, "--lambda-rgb", &so.lambda_rgb)) || (r = mf_opt_float(argc, argv, &i, "--gamma-p", &so.gamma_p)) ||
             (r = mf_opt_int(argc, argv, &i, "--gamma-const", &gamma_const)) || (r = mf_opt_int(argc, argv, &i, "--k-views", &so.k_views)) ||
+            (r = mf_opt_int(argc, argv, &i, "--sds-every", &so.every)) ||
             (r = mf_recon_opts_parse_arg(&o, argc, argv, &i))) {
             if (r < 0) return MF_EXIT_USAGE;
             continue;
@@ -176,6 +178,7 @@ static int cmd_recon(int argc, char **argv) {
             cJSON_AddNumberToObject(opts, "gamma_p", so.gamma_p);
             cJSON_AddNumberToObject(opts, "gamma_const", so.gamma_const);
             cJSON_AddNumberToObject(opts, "k_views", so.k_views);
+            cJSON_AddNumberToObject(opts, "sds_every", so.every);
         }
         rc = mf_write_run_json(out, argc, argv, o.seed, mf_now() - t0, opts);
     }

@@ -15,9 +15,10 @@
 static const char usage[] =
     "usage: mf relight RESULT_DIR --env MAP.exr --cameras transforms.json -o OUT_DIR\n"
     "                  [--spp N] [--pixel-samples P] [--width W] [--seed S] [--png]\n"
-    "Renders RESULT_DIR (mesh.obj, albedo.png, orm.png) under MAP (linear lat-long, Blender mapping)\n"
-    "for every frame of the NeRF-synthetic transforms.json: OUT_DIR/<frame>.exr (multi-layer, as\n"
-    "mf render) and with --png an sRGB PNG. Image size: --width (square), default 512.\n";
+    "Renders RESULT_DIR (mesh.obj, albedo.png, orm.png, and normal.png when present) under MAP\n"
+    "(linear lat-long, Blender mapping) for every frame of the NeRF-synthetic transforms.json:\n"
+    "OUT_DIR/<frame>.exr (multi-layer, as mf render) and with --png an sRGB PNG. Image size:\n"
+    "--width (square), default 512.\n";
 
 static int cmd_relight(int argc, char **argv) {
     const char *result = NULL, *envp = NULL, *cams = NULL, *out = NULL;
@@ -53,7 +54,8 @@ static int cmd_relight(int argc, char **argv) {
     if (!rc && !(rc = mf_env_load(&env, envp))) have_env = 1;
     if (!rc) rc = mf_rtscene_new(&res.mesh, &rt);
     if (!rc) rc = mf_mkdirs(out);
-    MfTexMaterial mat = {have_res ? &res.kd : NULL, have_res ? &res.orm : NULL, mf_v3s(0.5f), mf_v3(1, 0.5f, 0)};
+    MfTexMaterial mat = {have_res ? &res.kd : NULL, have_res ? &res.orm : NULL, mf_v3s(0.5f), mf_v3(1, 0.5f, 0),
+                         have_res && res.has_normal ? &res.normal : NULL};
     MfRenderInput in = {rt, have_res ? &res.mesh : NULL, &mat, 1, have_env ? &env : NULL, NULL, 0};
     MfRenderOpts ro = {spp, ps, (uint64_t)seed, MF_LOBE_ALL};
     for (int k = 0; k < nf && !rc; ++k) {

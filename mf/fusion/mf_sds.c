@@ -12,21 +12,29 @@
 struct MfSds {
     MfPrior *prior; /* owned */
     MfSdsOpts o;
+    /* the term's texel gradient (without gamma), refreshed every o.every iterations and applied
+     * at every iteration in between */
+    float *held_kd;  /* (tex kd n,) owned */
+    float *held_orm; /* (tex ORM n,) owned */
+    size_t held_n;
+    int held_it;     /* iteration of the last refresh, -1: none */
+    double held_loss;
 };
 
 MfSdsOpts mf_sds_opts_default(void) {
-    MfSdsOpts o = {4, 0.02f, 0.5f, 1.0f, 0, 3.0f, 20, 980, 4, 7};
+    MfSdsOpts o = {4, 0.02f, 0.5f, 1.0f, 0, 3.0f, 20, 980, 4, 7, 4};
     return o;
 }
 
 int mf_sds_new(MfPrior *prior, const MfSdsOpts *o, MfSds **out) {
-    if (o->k_views < 1 || o->t_min < 1 || o->t_max > 999 || o->t_min > o->t_max || o->aov_samples < 1)
-        return mf_fail(MF_EARG, "SDS options: k_views %d, t in [%d, %d], aov_samples %d are invalid", o->k_views, o->t_min,
-                       o->t_max, o->aov_samples);
+    if (o->k_views < 1 || o->t_min < 1 || o->t_max > 999 || o->t_min > o->t_max || o->aov_samples < 1 || o->every < 1)
+        return mf_fail(MF_EARG, "SDS options: k_views %d, t in [%d, %d], aov_samples %d, every %d are invalid", o->k_views,
+                       o->t_min, o->t_max, o->aov_samples, o->every);
     MfSds *s = calloc(1, sizeof *s);
     if (!s) return mf_fail(MF_ENOMEM, "out of memory");
     s->prior = prior;
     s->o = *o;
+    s->held_it = -1;
     *out = s;
     return MF_OK;
 }
@@ -34,6 +42,7 @@ int mf_sds_new(MfPrior *prior, const MfSdsOpts *o, MfSds **out) {
 void mf_sds_free(MfSds *s) {
     if (!s) return;
     mf_prior_free(s->prior);
+    free(s->held_kd), free(s->held_orm);
     free(s);
 }
 
@@ -65,7 +74,7 @@ static int render_maps(MfSds *s, MfRecon *r, const MfSdsTargets *t, float *ain, 
     int R = res_of(s);
     size_t rr = (size_t)R * R;
     MfImage kd = mf_recon_kd_image(r), orm = mf_recon_orm_image(r);
-    MfDiffScene ds = {mf_recon_rtscene(r), &kd, &orm, mf_recon_env(r), NULL, NULL, NULL};
+    MfDiffScene ds = {.rt = mf_recon_rtscene(r), .kd = &kd, .orm = &orm, .env = mf_recon_env(r)};
     for (int k = 0; k < t->n; ++k) {
         MfDiffOpts o = {1, s->o.aov_samples, t->aov_seed[k]};
         float *a = aa + k * 3 * rr, *m = ao + k * 3 * rr;
@@ -82,22 +91,47 @@ static int render_maps(MfSds *s, MfRecon *r, const MfSdsTargets *t, float *ain, 
     return MF_OK;
 }
 
-int mf_sds_targets(MfSds *s, MfRecon *r, const int *views, int n, int it, MfSdsTargets *t) {
+/* The current textures' prepared maps and their latents for a batch: ain, oin (n, 3, R, R) prior
+ * inputs; aa, ao (n, R, R, 3) linear AOVs; z (n, 2zc, h, h). The prior's encoder cache holds the
+ * encode of ain/oin until its next encode (the denoiser and decoder use other work buffers). */
+typedef struct {
+    float *ain, *oin, *aa, *ao, *z;
+} Maps;
+
+static void maps_free(Maps *m) {
+    free(m->ain), free(m->oin), free(m->aa), free(m->ao), free(m->z);
+    memset(m, 0, sizeof *m);
+}
+
+static int maps_compute(MfSds *s, MfRecon *r, const MfSdsTargets *t, Maps *m) {
+    size_t rr = (size_t)res_of(s) * res_of(s), nm = (size_t)t->n * 3 * rr;
+    size_t nz = (size_t)t->n * 2 * zc_of(s) * lat_of(s) * lat_of(s);
+    memset(m, 0, sizeof *m);
+    m->ain = malloc(nm * sizeof(float)), m->oin = malloc(nm * sizeof(float));
+    m->aa = malloc(nm * sizeof(float)), m->ao = malloc(nm * sizeof(float)), m->z = malloc(nz * sizeof(float));
+    int rc = (!m->ain || !m->oin || !m->aa || !m->ao || !m->z) ? mf_fail(MF_ENOMEM, "SDS: out of memory") : MF_OK;
+    if (!rc) rc = render_maps(s, r, t, m->ain, m->oin, m->aa, m->ao);
+    if (!rc) rc = mf_prior_encode_materials(s->prior, m->ain, m->oin, t->n, m->z);
+    if (rc) maps_free(m);
+    return rc;
+}
+
+/* Targets for the batch; keep (may be NULL) receives the current maps that produced them. */
+static int targets(MfSds *s, MfRecon *r, const int *views, int n, int it, MfSdsTargets *t, Maps *keep) {
     if (n < 1 || n > MF_SDS_MAX_VIEWS) return mf_fail(MF_EARG, "SDS: %d views in a batch (1..%d)", n, MF_SDS_MAX_VIEWS);
     int R = res_of(s), h = lat_of(s), zc = zc_of(s);
     size_t rr = (size_t)R * R, nm = (size_t)n * 3 * rr, nz = (size_t)n * 2 * zc * h * h;
     MfSdsTargets T;
     memset(&T, 0, sizeof T);
     T.n = n;
-    float *ain = malloc(nm * sizeof(float)), *oin = malloc(nm * sizeof(float));
-    float *aa = malloc(nm * sizeof(float)), *ao = malloc(nm * sizeof(float)), *z = malloc(nz * sizeof(float));
+    Maps cur = {0};
     float *rgba = NULL;
     T.zhat = malloc(nz * sizeof(float));
     T.dhat = malloc(2 * nm * sizeof(float));
     T.cond = malloc(nm * sizeof(float));
     T.mask = malloc((size_t)n * rr * sizeof(float));
     int rc = MF_OK;
-    if (!ain || !oin || !aa || !ao || !z || !T.zhat || !T.dhat || !T.cond || !T.mask) {
+    if (!T.zhat || !T.dhat || !T.cond || !T.mask) {
         rc = mf_fail(MF_ENOMEM, "SDS: out of memory");
         goto done;
     }
@@ -129,37 +163,40 @@ int mf_sds_targets(MfSds *s, MfRecon *r, const int *views, int n, int it, MfSdsT
         rc = mf_camera_init(&T.cam[k], R, R, ax, m, "SDS camera");
         T.aov_seed[k] = view_seed(s, it, views[k], 1);
     }
-    if (rc || (rc = render_maps(s, r, &T, ain, oin, aa, ao))) goto done;
-    if ((rc = mf_prior_encode_materials(s->prior, ain, oin, n, z))) goto done;
+    if (rc || (rc = maps_compute(s, r, &T, &cur))) goto done;
     MfRng rng;
     mf_rng_seed(&rng, view_seed(s, it, -1, 2), 0);
     T.t = s->o.t_min + (int)mf_rng_below(&rng, (uint32_t)(s->o.t_max - s->o.t_min + 1));
-    if ((rc = mf_prior_sds_denoise(s->prior, z, T.cond, n, 1, 0, T.t, s->o.guidance, view_seed(s, it, -1, 3), T.zhat)))
+    if ((rc = mf_prior_sds_denoise(s->prior, cur.z, T.cond, n, 1, 0, T.t, s->o.guidance, view_seed(s, it, -1, 3), T.zhat)))
         goto done;
     rc = mf_prior_decode_materials(s->prior, T.zhat, n, T.dhat, T.dhat + nm);
 done:
-    free(rgba), free(ain), free(oin), free(aa), free(ao), free(z);
+    free(rgba);
+    if (rc || !keep) maps_free(&cur);
+    else *keep = cur;
     if (rc) mf_sds_targets_free(&T);
     else *t = T;
     return rc;
 }
 
-int mf_sds_loss(MfSds *s, MfRecon *r, const MfSdsTargets *t, float scale, int grads, double *loss) {
+int mf_sds_targets(MfSds *s, MfRecon *r, const int *views, int n, int it, MfSdsTargets *t) {
+    return targets(s, r, views, n, it, t, NULL);
+}
+
+/* Loss of maps m (the prior's encoder cache must hold m's encode) against targets t; with g,
+ * adds scale * dLoss/d(texels) into g->dkd / g->dorm (m->aa, m->ao are overwritten). */
+static int loss_of(MfSds *s, MfRecon *r, const MfSdsTargets *t, Maps *m, float scale, MfDiffGrads *g, double *loss) {
     int R = res_of(s), h = lat_of(s), zc = zc_of(s), f = R / h, n = t->n;
     size_t rr = (size_t)R * R, hh = (size_t)h * h, nm = (size_t)n * 3 * rr, nz = (size_t)n * 2 * zc * hh;
-    float *ain = malloc(nm * sizeof(float)), *oin = malloc(nm * sizeof(float));
-    float *aa = malloc(nm * sizeof(float)), *ao = malloc(nm * sizeof(float));
-    float *z = malloc(nz * sizeof(float)), *dz = calloc(nz, sizeof(float)), *al = malloc((size_t)n * hh * sizeof(float));
+    const float *ain = m->ain, *oin = m->oin, *z = m->z;
+    float *aa = m->aa, *ao = m->ao;
+    float *dz = calloc(nz, sizeof(float)), *al = malloc((size_t)n * hh * sizeof(float));
     float *dain = calloc(nm, sizeof(float)), *doin = calloc(nm, sizeof(float));
     int rc = MF_OK;
-    if (!ain || !oin || !aa || !ao || !z || !dz || !al || !dain || !doin) {
+    if (!dz || !al || !dain || !doin) {
         rc = mf_fail(MF_ENOMEM, "SDS: out of memory");
         goto done;
     }
-    /* the current textures' maps (same primary hits as the targets' render) and their latents;
-     * encoding again here keeps the encoder's cache for the backward below */
-    if ((rc = render_maps(s, r, t, ain, oin, aa, ao))) goto done;
-    if ((rc = mf_prior_encode_materials(s->prior, ain, oin, n, z))) goto done;
     /* masks at latent resolution: box filter by f */
     for (int k = 0; k < n; ++k)
         for (int y = 0; y < h; ++y)
@@ -187,12 +224,11 @@ int mf_sds_loss(MfSds *s, MfRecon *r, const MfSdsTargets *t, float scale, int gr
         rc = mf_fail(MF_ENAN, "SDS: non-finite prior loss");
         goto done;
     }
-    if (!grads) goto done;
+    if (!g) goto done;
     if ((rc = mf_prior_encode_materials_backward(s->prior, dz, dain, doin))) goto done;
     /* maps -> AOVs: albedo_in = (2 sRGB(kd) - 1) mask, orm_in = (2 orm - 1) mask; AOVs (R, R, 3) */
     MfImage kd = mf_recon_kd_image(r), orm = mf_recon_orm_image(r);
-    MfDiffScene ds = {mf_recon_rtscene(r), &kd, &orm, mf_recon_env(r), NULL, NULL, NULL};
-    MfDiffGrads g = {mf_recon_block(r, MF_BLOCK_KD)->g, mf_recon_block(r, MF_BLOCK_ORM)->g, NULL};
+    MfDiffScene ds = {.rt = mf_recon_rtscene(r), .kd = &kd, .orm = &orm, .env = mf_recon_env(r)};
     for (int k = 0; k < n && !rc; ++k) {
         float *a = aa + k * 3 * rr, *m = ao + k * 3 * rr;
         for (int c = 0; c < 3; ++c)
@@ -202,10 +238,19 @@ int mf_sds_loss(MfSds *s, MfRecon *r, const MfSdsTargets *t, float scale, int gr
                 m[3 * p + c] = doin[(k * 3 + c) * rr + p] * 2.0f * mk * (mv >= 0.0f && mv <= 1.0f);
             }
         MfDiffOpts o = {1, s->o.aov_samples, t->aov_seed[k]};
-        rc = mf_diff_aov_backward(&ds, &t->cam[k], &o, a, m, &g);
+        rc = mf_diff_aov_backward(&ds, &t->cam[k], &o, a, m, g);
     }
 done:
-    free(ain), free(oin), free(aa), free(ao), free(z), free(dz), free(al), free(dain), free(doin);
+    free(dz), free(al), free(dain), free(doin);
+    return rc;
+}
+
+int mf_sds_loss(MfSds *s, MfRecon *r, const MfSdsTargets *t, float scale, int grads, double *loss) {
+    Maps m; /* the current textures' maps (same primary hits as the targets' render) */
+    int rc = maps_compute(s, r, t, &m);
+    MfDiffGrads g = {.dkd = mf_recon_block(r, MF_BLOCK_KD)->g, .dorm = mf_recon_block(r, MF_BLOCK_ORM)->g};
+    if (!rc) rc = loss_of(s, r, t, &m, scale, grads ? &g : NULL, loss);
+    maps_free(&m);
     return rc;
 }
 
@@ -217,12 +262,34 @@ int mf_sds_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double 
     if (k > MF_SDS_MAX_VIEWS) k = MF_SDS_MAX_VIEWS;
     *loss = 0.0;
     if (gamma <= 0.0 || (s->o.lambda_latent == 0.0f && s->o.lambda_rgb == 0.0f)) return MF_OK;
-    MfSdsTargets t;
-    double l = 0.0;
-    int rc = mf_sds_targets(s, r, batch, k, it, &t);
-    if (!rc) rc = mf_sds_loss(s, r, &t, (float)gamma, 1, &l);
-    mf_sds_targets_free(&t);
-    if (rc) return mf_fail_prefix(rc, "iteration %d: prior term", it);
-    *loss = gamma * l;
+    MfParamBlock *kd = mf_recon_block(r, MF_BLOCK_KD), *orm = mf_recon_block(r, MF_BLOCK_ORM);
+    /* refresh at multiples of `every` and of the checkpoint period (a resumed run starts at one:
+     * it refreshes where the uninterrupted run did, so --resume stays exact) */
+    int ce = ro->checkpoint_every;
+    if (s->held_it < 0 || it % s->o.every == 0 || (ce > 0 && it % ce == 0)) {
+        if (s->held_n != kd->n || !s->held_kd || !s->held_orm) {
+            free(s->held_kd), free(s->held_orm);
+            s->held_kd = malloc(kd->n * sizeof(float)), s->held_orm = malloc(orm->n * sizeof(float));
+            s->held_n = kd->n;
+            if (!s->held_kd || !s->held_orm) return mf_fail(MF_ENOMEM, "SDS: out of memory");
+        }
+        memset(s->held_kd, 0, kd->n * sizeof(float));
+        memset(s->held_orm, 0, orm->n * sizeof(float));
+        MfSdsTargets t;
+        Maps m = {0}; /* the textures do not change between the targets and the loss: one render and encode */
+        MfDiffGrads g = {.dkd = s->held_kd, .dorm = s->held_orm};
+        int rc = targets(s, r, batch, k, it, &t, &m);
+        if (!rc) rc = loss_of(s, r, &t, &m, 1.0f, &g, &s->held_loss);
+        maps_free(&m);
+        mf_sds_targets_free(&t);
+        if (rc) {
+            s->held_it = -1;
+            return mf_fail_prefix(rc, "iteration %d: prior term", it);
+        }
+        s->held_it = it;
+    }
+    for (size_t i = 0; i < kd->n; ++i) kd->g[i] += (float)gamma * s->held_kd[i];
+    for (size_t i = 0; i < orm->n; ++i) orm->g[i] += (float)gamma * s->held_orm[i];
+    *loss = gamma * s->held_loss;
     return MF_OK;
 }

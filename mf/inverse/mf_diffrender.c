@@ -8,6 +8,8 @@
 #include "core/mf_error.h"
 #include "core/mf_rng.h"
 #include "render/mf_brdf.h"
+#include "render/mf_normalmap.h"
+#include "scene/mf_tangent.h"
 #include "scene/mf_texture.h"
 
 #define SHADOW_EPS 0.001f
@@ -19,6 +21,8 @@ typedef struct {
     const MfDiffOpts *o;
     const MfDiffAdjoint *adj; /* NULL in the forward pass */
     float *dkd, *dorm, *denv; /* this thread's accumulators (adjoint only) */
+    const float *tan;         /* (nv, 4) tangents when s->normal, else NULL */
+    float *dnormal;           /* this thread's normal-map accumulator (adjoint only), or NULL */
 } Ctx;
 
 typedef struct {
@@ -43,8 +47,33 @@ typedef struct { MfVec3 g, gd, gs; } Adj;
 
 /* One light-transport sample: direction wi (local and world), MIS weight w, visible. Adds its
  * contribution to the sample's diffuse/specular (forward) or its adjoint to the gradients. */
+/* Gradient of <gd, demod> + <gk, k> with respect to the (world) shading normal, where
+ * demod = cos_i / pi and k = D ci / (2 (s(co) ci + s(ci) co)) (the BRDF's specular factor
+ * without Fresnel, which depends on dot(wo, h) only). The BRDF is isotropic: it depends on the
+ * normal only through co = n.wo, ci = n.wi and hz = n.h. */
+static MfVec3 brdf_normal_grad(const MfBrdfCtx *bc, MfVec3 wo, MfVec3 wi, MfVec3 wo_w, MfVec3 wi_w, float gd, float gk) {
+    if (!(wo.z > 0.0f) || !(wi.z > 0.0f)) return mf_v3s(0.0f);
+    MfVec3 gn = mf_scale(wi_w, gd * MF_INV_PI);
+    if (!(bc->lobes & MF_LOBE_SPECULAR) || gk == 0.0f) return gn;
+    float co = bc->co, ci = fminf(wi.z, 1.0f), a2 = bc->a2;
+    MfVec3 h = mf_norm(mf_add(wo, wi)), h_w = mf_norm(mf_add(wo_w, wi_w));
+    if (!(h.z > 0.0f)) return gn;
+    float c2 = h.z * h.z, d = fmaf(c2, a2, h.x * h.x + h.y * h.y);
+    float D = a2 / (MF_PI * d * d);
+    float so = bc->so, si = sqrtf(fmaxf(ci * ci + a2 * (1.0f - ci * ci), 0.0f));
+    float Q = so * ci + si * co, k = D * ci / (2.0f * Q);
+    float dso = co * (1.0f - a2) / so, dsi = ci * (1.0f - a2) / si;
+    float dk_dci = D / (2.0f * Q) - k / Q * (so + dsi * co);
+    float dk_dco = -k / Q * (dso * ci + si);
+    float dk_dhz = -4.0f * D * h.z * (a2 - 1.0f) / d * ci / (2.0f * Q);
+    gn = mf_madd(gn, wi_w, gk * dk_dci);
+    gn = mf_madd(gn, wo_w, gk * dk_dco);
+    return mf_madd(gn, h_w, gk * dk_dhz);
+}
+
 static void contribute(Ctx *c, const Mat *mat, const MfBrdfCtx *bc, MfVec3 wo, MfVec3 wi, MfVec3 wi_w, float w,
-                       MfVec3 L, MfVec3 *dif, MfVec3 *spec, const Adj *a, MfVec3 *dkd, float *dr, float *dm) {
+                       MfVec3 L, MfVec3 *dif, MfVec3 *spec, const Adj *a, MfVec3 *dkd, float *dr, float *dm,
+                       MfVec3 wo_w, MfVec3 *dn) {
     float pdf_unused;
     MfBrdfValue f = mf_brdf_ctx_eval_pdf(bc, wi, &pdf_unused); /* = mf_brdf_eval(&mat->m, wo, wi) */
     if (!c->adj) {
@@ -66,6 +95,14 @@ static void contribute(Ctx *c, const Mat *mat, const MfBrdfCtx *bc, MfVec3 wo, M
     *dkd = mf_add(*dkd, dmat.kd);
     *dr += dmat.roughness;
     *dm += dmat.metallic;
+    if (dn) { /* normal adjoint: rgb gets kd (1-m) L demod w + L F k w, diffuse L demod w, specular L F k w */
+        float mc = mf_clampf(fmaxf(m, 0.0f), 0.0f, 1.0f);
+        float gdem = mf_dot(a->g, mf_mul(mf_scale(kd, 1.0f - mc), Lw)) + mf_dot(a->gd, Lw);
+        MfVec3 h = mf_norm(mf_add(wo, wi));
+        MfVec3 F = mf_fresnel_schlick(bc->f0, mf_dot(wo, h));
+        float gk = mf_dot(mf_mul(mf_add(a->g, a->gs), Lw), F);
+        *dn = mf_add(*dn, brdf_normal_grad(bc, wo, wi, wo_w, wi_w, gdem, gk));
+    }
 }
 
 static inline int visible(const MfDiffScene *s, const MfHit *h, MfVec3 wi) {
@@ -79,17 +116,29 @@ static void shade(Ctx *c, const MfHit *h, MfVec3 wo_w, MfRng *rng, MfVec3 *dif, 
     Mat mat = lookup(s->kd, s->orm, h->uv);
     Mat mat_s = (s->kd_s || s->orm_s) ? lookup(s->kd_s ? s->kd_s : s->kd, s->orm_s ? s->orm_s : s->orm, h->uv) : mat;
     const MfEnvMap *env_s = s->env_s ? s->env_s : s->env;
-    MfFrame fr = mf_frame(h->ns);
-    MfVec3 wo = mf_to_local(&fr, wo_w);
+    /* shading frame (evaluation) and sampling frame: the hit's normal, or the mapped normals */
+    MfFrame fr, fr_s;
+    MfNmapFrame nf;
+    int sep = 0; /* 1: the sampling frame differs from the shading frame */
+    if (s->normal) {
+        nf = mf_nmap_frame(mf_rtscene_mesh(s->rt), c->tan, h);
+        fr = mf_frame(mf_nmap_normal(&nf, s->normal, h->uv, wo_w));
+        sep = s->normal_s && s->normal_s != s->normal;
+        fr_s = sep ? mf_frame(mf_nmap_normal(&nf, s->normal_s, h->uv, wo_w)) : fr;
+    } else {
+        fr = fr_s = mf_frame(h->ns);
+    }
+    MfVec3 wo = mf_to_local(&fr, wo_w), wo_s = sep ? mf_to_local(&fr_s, wo_w) : wo;
     *dif = *spec = mf_v3s(0.0f);
     if (wo.z <= 0.0f) return;
-    MfVec3 dkd = mf_v3s(0.0f);
+    MfVec3 dkd = mf_v3s(0.0f), dnv = mf_v3s(0.0f);
+    MfVec3 *dn = (c->adj && c->dnormal && s->normal) ? &dnv : NULL;
     float dr = 0.0f, dm = 0.0f;
     /* Batched as in the forward renderer (mf_integrator.c): same random numbers, same shadow
      * rays, same order of the sums, so the same values as one sample at a time. */
     MfBrdfCtx bc, bc_s; /* shading and sampling material */
     mf_brdf_prepare(&bc, &mat.m, wo, MF_LOBE_ALL);
-    mf_brdf_prepare(&bc_s, &mat_s.m, wo, MF_LOBE_ALL);
+    mf_brdf_prepare(&bc_s, &mat_s.m, wo_s, MF_LOBE_ALL);
     int n = c->o->spp_sqrt, N = n * n;
     float inv_n = 1.0f / (float)n, inv_N = 1.0f / (float)(n * n);
     enum { B = 64 };
@@ -110,7 +159,7 @@ static void shade(Ctx *c, const MfHit *h, MfVec3 wo_w, MfRng *rng, MfVec3 *dif, 
             MfVec3 wi = mf_to_local(&fr, wi_w);
             if (wi.z <= 0.0f) continue;
             float pb;
-            mf_brdf_ctx_eval_pdf(&bc_s, wi, &pb);
+            mf_brdf_ctx_eval_pdf(&bc_s, sep ? mf_to_local(&fr_s, wi_w) : wi, &pb);
             float w = inv_N / (pl + pb);
             if (!(w > 0.0f) || !isfinite(w) || !visible(s, h, wi_w)) continue;
             dir[na] = wi_w;
@@ -118,7 +167,7 @@ static void shade(Ctx *c, const MfHit *h, MfVec3 wo_w, MfRng *rng, MfVec3 *dif, 
             ws[na++] = w;
         }
         mf_env_eval_pdf_n(s->env, na, dir, Ls, NULL);
-        for (int t = 0; t < na; ++t) contribute(c, &mat, &bc, wo, wis[t], dir[t], ws[t], Ls[t], dif, spec, a, &dkd, &dr, &dm);
+        for (int t = 0; t < na; ++t) contribute(c, &mat, &bc, wo, wis[t], dir[t], ws[t], Ls[t], dif, spec, a, &dkd, &dr, &dm, wo_w, dn);
     }
     for (int b0 = 0; b0 < N; b0 += B) {
         int nb = N - b0 < B ? N - b0 : B, na = 0;
@@ -131,8 +180,9 @@ static void shade(Ctx *c, const MfHit *h, MfVec3 wo_w, MfRng *rng, MfVec3 *dif, 
             MfBrdfValue f_unused;
             if (!mf_brdf_ctx_sample(&bc_s, u0, u1, u2, &wi, &pb, &f_unused)) continue;
             if (!(pb > 0.0f) || wi.z <= 0.0f) continue;
-            MfVec3 wi_w = mf_to_world(&fr, wi);
+            MfVec3 wi_w = mf_to_world(&fr_s, wi);
             if (mf_dot(wi_w, h->ng) <= 0.0f) continue;
+            if (sep && (wi = mf_to_local(&fr, wi_w)).z <= 0.0f) continue; /* below the shading horizon: f = 0 */
             dir[na] = wi_w;
             wis[na] = wi;
             ws[na++] = pb;
@@ -147,7 +197,7 @@ static void shade(Ctx *c, const MfHit *h, MfVec3 wo_w, MfRng *rng, MfVec3 *dif, 
         for (int t = 0; t < na; ++t) {
             float w = inv_N / (pdf[t] + ws[t]);
             if (!(w > 0.0f) || !isfinite(w) || !visible(s, h, dir[t])) continue;
-            contribute(c, &mat, &bc, wo, wis[t], dir[t], w, Ls[t], dif, spec, a, &dkd, &dr, &dm);
+            contribute(c, &mat, &bc, wo, wis[t], dir[t], w, Ls[t], dif, spec, a, &dkd, &dr, &dm, wo_w, dn);
         }
     }
     if (c->adj) {
@@ -156,6 +206,7 @@ static void shade(Ctx *c, const MfHit *h, MfVec3 wo_w, MfRng *rng, MfVec3 *dif, 
                          mat.orm.z >= 0.0f && mat.orm.z <= 1.0f ? dm : 0.0f};
         if (c->dkd) mf_tex_sample_backward(s->kd, h->uv.x, h->uv.y, MF_WRAP_REPEAT, gkd, c->dkd);
         if (c->dorm) mf_tex_sample_backward(s->orm, h->uv.x, h->uv.y, MF_WRAP_REPEAT, gorm, c->dorm);
+        if (dn) mf_nmap_normal_backward(&nf, s->normal, h->uv, wo_w, dnv, c->dnormal);
     }
 }
 
@@ -235,6 +286,32 @@ static int check(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o)
     if (o->pixel_samples < 1 || o->pixel_samples > MAX_PIXEL_SAMPLES)
         return mf_fail(MF_EARG, "diffrender: pixel_samples %d outside [1, %d]", o->pixel_samples, MAX_PIXEL_SAMPLES);
     if (cam->w <= 0 || cam->h <= 0) return mf_fail(MF_EARG, "diffrender: camera size %dx%d", cam->w, cam->h);
+    if (s->normal) {
+        if (s->normal->c != 3) return mf_fail(MF_EARG, "diffrender: the normal map needs 3 channels");
+        if (s->normal_s && s->normal_s->c != 3) return mf_fail(MF_EARG, "diffrender: the sampling normal map needs 3 channels");
+        if (!mf_rtscene_mesh(s->rt)->uv) return mf_fail(MF_EARG, "diffrender: a normal map needs a mesh with UVs");
+    }
+    return MF_OK;
+}
+
+/* The tangents a normal map needs: the scene's, or computed into *owned (freed by the caller). */
+static int tangents(const MfDiffScene *s, const float **tan, float **owned) {
+    *tan = NULL;
+    *owned = NULL;
+    if (!s->normal) return MF_OK;
+    if (s->tangent) {
+        *tan = s->tangent;
+        return MF_OK;
+    }
+    const MfMesh *m = mf_rtscene_mesh(s->rt);
+    float *t = malloc((size_t)m->nv * 4 * sizeof(float) + 1);
+    if (!t) return mf_fail(MF_ENOMEM, "diffrender: out of memory for tangents");
+    int rc = mf_mesh_tangents(m, t);
+    if (rc) {
+        free(t);
+        return rc;
+    }
+    *tan = *owned = t;
     return MF_OK;
 }
 
@@ -242,11 +319,15 @@ int mf_diff_forward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts 
     int rc = check(s, cam, o);
     if (rc) return rc;
     if (out->w != cam->w || out->h != cam->h) return mf_fail(MF_EARG, "diffrender: output size does not match the camera");
+    const float *tan;
+    float *tan_owned;
+    if ((rc = tangents(s, &tan, &tan_owned))) return rc;
 #pragma omp parallel for schedule(dynamic, 1)
     for (int y = 0; y < cam->h; ++y) {
-        Ctx c = {s, cam, o, NULL, NULL, NULL, NULL};
+        Ctx c = {s, cam, o, NULL, NULL, NULL, NULL, tan, NULL};
         for (int x = 0; x < cam->w; ++x) pixel(&c, x, y, out);
     }
+    free(tan_owned);
     return MF_OK;
 }
 
@@ -257,15 +338,23 @@ int mf_diff_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts
     size_t nkd = g->dkd ? (size_t)s->kd->w * s->kd->h * 3 : 0;
     size_t norm = g->dorm ? (size_t)s->orm->w * s->orm->h * 3 : 0;
     size_t nenv = g->denv ? (size_t)s->env->img.w * s->env->img.h * 3 : 0;
-    size_t per = nkd + norm + nenv;
+    size_t nnm = (g->dnormal && s->normal) ? (size_t)s->normal->w * s->normal->h * 3 : 0;
+    size_t per = nkd + norm + nenv + nnm;
+    const float *tan;
+    float *tan_owned;
+    if ((rc = tangents(s, &tan, &tan_owned))) return rc;
     int nt = omp_get_max_threads();
     float *buf = calloc((size_t)nt * per + 1, sizeof(float));
-    if (!buf) return mf_fail(MF_ENOMEM, "diffrender: out of memory for %d gradient buffers of %zu floats", nt, per);
+    if (!buf) {
+        free(tan_owned);
+        return mf_fail(MF_ENOMEM, "diffrender: out of memory for %d gradient buffers of %zu floats", nt, per);
+    }
 #pragma omp parallel num_threads(nt)
     {
         int t = omp_get_thread_num();
         float *b = buf + (size_t)t * per;
-        Ctx c = {s, cam, o, adj, nkd ? b : NULL, norm ? b + nkd : NULL, nenv ? b + nkd + norm : NULL};
+        Ctx c = {s, cam, o, adj, nkd ? b : NULL, norm ? b + nkd : NULL, nenv ? b + nkd + norm : NULL, tan,
+                 nnm ? b + nkd + norm + nenv : NULL};
         /* static schedule: the rows a thread handles, and so the summation order, are fixed */
 #pragma omp for schedule(static, 1)
         for (int y = 0; y < cam->h; ++y)
@@ -276,8 +365,10 @@ int mf_diff_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts
         for (size_t i = 0; i < nkd; ++i) g->dkd[i] += b[i];
         for (size_t i = 0; i < norm; ++i) g->dorm[i] += b[nkd + i];
         for (size_t i = 0; i < nenv; ++i) g->denv[i] += b[nkd + norm + i];
+        for (size_t i = 0; i < nnm; ++i) g->dnormal[i] += b[nkd + norm + nenv + i];
     }
     free(buf);
+    free(tan_owned);
     return MF_OK;
 }
 

@@ -13,6 +13,12 @@
  *    smooth function of them with common random numbers;
  *  - per-sample accumulation of the adjoint into texels (bilinear lookup of kd/ORM at the hit's
  *    UV, repeat wrap) and env-map texels (bilinear lookup along each sample direction).
+ * Optional tangent-space normal map (render/mf_normalmap.h): the shading frame at each primary
+ * hit is built from the mapped normal (evaluation) and, for drawing BSDF samples and their
+ * pdfs, from the sampling copy's mapped normal; shadow-ray offsets and the below-the-surface
+ * test keep the geometric normal. Its adjoint goes through the BRDF's dependence on the normal
+ * (cosines and the half vector's cosine; the BRDF is isotropic) into the map's texels. Without
+ * a map every output is bit-identical to the renderer without this feature.
  * The visibility boundary's gradient is ignored (geometry is fixed here), as in nvdiffrecmc.
  *
  * Outputs of the forward pass use MfRenderOut's arrays rgb, alpha, diffuse, specular (all
@@ -42,6 +48,11 @@ typedef struct {
     const MfImage *kd_s;  /* borrowed; sampling copies, NULL = the evaluated ones */
     const MfImage *orm_s;
     const MfEnvMap *env_s;
+    const MfImage *normal;   /* borrowed; (th, tw, 3) tangent-space normal map (mf_normalmap.h), or
+                                NULL = none (shading normal = the hit's interpolated normal) */
+    const MfImage *normal_s; /* borrowed; its sampling copy, NULL = normal */
+    const float *tangent;    /* borrowed; (nv, 4) mf_mesh_tangents of rt's mesh, or NULL =
+                                computed per call when a normal map is given */
 } MfDiffScene;
 
 typedef struct {
@@ -60,6 +71,7 @@ typedef struct {
     float *dkd;  /* (th, tw, 3) +=, or NULL */
     float *dorm; /* (th, tw, 3) +=, or NULL (channel R never receives gradient) */
     float *denv; /* (eh, ew, 3) +=, or NULL */
+    float *dnormal; /* (th, tw, 3) += normal-map texels, or NULL (ignored without a normal map) */
 } MfDiffGrads;
 
 /* out must be allocated for cam->w x cam->h (mf_render_out_alloc); fills rgb, alpha, diffuse,

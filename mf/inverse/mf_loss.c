@@ -86,6 +86,30 @@ void mf_reg_smooth_bwd(const float *tex, int w, int h, int ch, int c0, int nc, c
     })
 }
 
+static const float k_flat[3] = {0.0f, 0.0f, 1.0f};
+
+double mf_reg_nmap_flat_fwd(const float *nmap, int w, int h, const float *mask) {
+    double s = 0.0;
+    size_t n = 0;
+    for (size_t p = 0; p < (size_t)w * h; ++p) {
+        if (mask && !(mask[p] > 0.0f)) continue;
+        ++n;
+        for (int c = 0; c < 3; ++c) s += fabsf(2.0f * nmap[3 * p + c] - 1.0f - k_flat[c]);
+    }
+    return n ? s / (3.0 * (double)n) : 0.0;
+}
+
+void mf_reg_nmap_flat_bwd(const float *nmap, int w, int h, const float *mask, float scale, float *dnmap) {
+    size_t n = 0;
+    for (size_t p = 0; p < (size_t)w * h; ++p) n += !mask || mask[p] > 0.0f;
+    if (!n) return;
+    float k = 2.0f * scale / (3.0f * (float)n);
+    for (size_t p = 0; p < (size_t)w * h; ++p) {
+        if (mask && !(mask[p] > 0.0f)) continue;
+        for (int c = 0; c < 3; ++c) dnmap[3 * p + c] += k * sgn(2.0f * nmap[3 * p + c] - 1.0f - k_flat[c]);
+    }
+}
+
 static inline float luma3(const float *c) { return 0.2126f * c[0] + 0.7152f * c[1] + 0.0722f * c[2]; }
 static const float k_luma[3] = {0.2126f, 0.7152f, 0.0722f};
 

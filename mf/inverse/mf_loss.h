@@ -37,6 +37,12 @@ double mf_reg_smooth_fwd(const float *tex, int w, int h, int ch, int c0, int nc,
 void mf_reg_smooth_bwd(const float *tex, int w, int h, int ch, int c0, int nc, const float *mask, float scale,
                        float *dtex);
 
+/* Normal-map perturbation (nvdiffrecmc's normal-map regulariser): mean over the masked texels
+ * of sum_c |(2 v_c - 1) - flat_c| / 3, flat = (0, 0, 1): the L1 deviation of the tangent-space
+ * normal from unperturbed. nmap (h, w, 3) texels in [0, 1]; mask (h, w) or NULL. */
+double mf_reg_nmap_flat_fwd(const float *nmap, int w, int h, const float *mask);
+void mf_reg_nmap_flat_bwd(const float *nmap, int w, int h, const float *mask, float scale, float *dnmap);
+
 /* diffuse (N, 3), spec (N, 3), cover (N,) in [0, 1]. */
 double mf_reg_shading_fwd(const float *diffuse, const float *spec, const float *cover, size_t npx, float lambda_spec);
 void mf_reg_shading_bwd(const float *diffuse, const float *spec, const float *cover, size_t npx, float lambda_spec,

@@ -19,10 +19,11 @@
  *      the image error it multiplies (biased in a non-linear loss); with denoise_decorrelate
  *      (default) that light comes from a third, independent render (seed C) through the same
  *      filter, at the cost of one more forward render (reports/baseline/denoiser.md);
- *   4. texel smoothness regularisers on kd and ORM (G, B) over the texels the mesh's UVs use;
+ *   4. texel smoothness regularisers on kd and ORM (G, B) over the texels the mesh's UVs use
+ *      (with a normal map: its smoothness and its perturbation from flat, too);
  *   5. the method hook (MaterialFusion's SDS+ term) may add loss and gradients;
  *   6. Adam step with bounds: kd in [0,1], ORM R = 1 (frozen), G in [0.08,1], B in [0,1],
- *      light >= 0.01. A non-finite gradient stops the run (MF_ENAN) with the last good
+ *      light >= 0.01, normal-map texels in [0,1] (initialised flat, (0.5, 0.5, 1)). A non-finite gradient stops the run (MF_ENAN) with the last good
  *      checkpoint kept and no texture written from the bad state.
  * Parameter blocks are kept in an array (MF_BLOCK_*) so a geometry block can join later
  * without changing the loop. Determinism: every random choice derives from (seed, iteration,
@@ -30,7 +31,8 @@
  * (same build and thread count).
  *
  * Outputs (mf_recon_run / mf_recon_write_result) follow DESIGN.md's result folder: albedo.png
- * (sRGB), orm.png (linear, R = 1), env.exr, mesh.obj (+ mesh.mtl), scene.glb, log.csv
+ * (sRGB), orm.png (linear, R = 1), normal.png (8-bit linear, glTF tangent space; only with
+ * normal_map), env.exr, mesh.obj (+ mesh.mtl), scene.glb, log.csv
  * (iter, wall_s, loss_total, loss_image, loss_reg, loss_sds, train_psnr), snapshots/iter_NNNNN/
  * (albedo.png, orm.png, env.exr every snapshot_every iterations) and checkpoint.mfck. */
 #ifndef MF_RECON_H
@@ -45,7 +47,8 @@
 #include "scene/mf_envmap.h"
 #include "scene/mf_mesh.h"
 
-typedef enum { MF_BLOCK_KD = 0, MF_BLOCK_ORM = 1, MF_BLOCK_ENV = 2, MF_NBLOCKS = 3 } MfBlockId;
+/* MF_BLOCK_NORMAL exists only with opts.normal_map (otherwise its block is empty: n = 0). */
+typedef enum { MF_BLOCK_KD = 0, MF_BLOCK_ORM = 1, MF_BLOCK_ENV = 2, MF_BLOCK_NORMAL = 3, MF_NBLOCKS = 4 } MfBlockId;
 
 typedef struct {
     MfCamera cam; /* at the resolution of ref */
@@ -65,6 +68,10 @@ typedef struct {
     float w_orm_smooth;   /* ORM smoothness weight */
     float w_shading;      /* white-light shading regulariser weight */
     float w_spec_ratio;   /* mean(spec) / mean(diffuse) weight inside the shading term */
+    int normal_map;       /* 1: optimise a tangent-space normal map (tex_res^2, MF_BLOCK_NORMAL);
+                             default 0 (measured to lower relighting quality on GT meshes) */
+    float w_nrm_perturb;  /* normal-map perturbation weight (L1 from flat; nvdiffrecmc 0.25) */
+    float w_nrm_smooth;   /* normal-map smoothness weight (nvdiffrecmc 0.025) */
     float init_kd, init_rough, init_metal, init_light;
     int denoise;          /* 1: bilateral denoiser of the demodulated light (mf_denoise.h) */
     float denoise_sigma;  /* its spatial sigma in pixels (nvdiffrecmc: 2, 23x23 window) */
@@ -97,7 +104,7 @@ int mf_recon_load_checkpoint(MfRecon *r, const char *path);
 /* Runs iterations from the current one to opts.iters, writing log.csv / snapshots /
  * checkpoints under out_dir (appending to log.csv when resuming). prog may be NULL. */
 int mf_recon_run(MfRecon *r, const MfReconHook *hook, const char *out_dir);
-/* Writes albedo.png, orm.png, env.exr, mesh.obj (+mtl), scene.glb into dir. */
+/* Writes albedo.png, orm.png (normal.png), env.exr, mesh.obj (+mtl), scene.glb into dir. */
 int mf_recon_write_result(const MfRecon *r, const char *dir);
 
 /* Accessors for hooks and tests. */
@@ -111,6 +118,7 @@ const MfRtScene *mf_recon_rtscene(const MfRecon *r);
 /* Texture images viewing the current parameters (borrowed; valid until the next step). */
 MfImage mf_recon_kd_image(const MfRecon *r);
 MfImage mf_recon_orm_image(const MfRecon *r);
+MfImage mf_recon_normal_image(const MfRecon *r); /* data NULL without normal_map */
 const MfEnvMap *mf_recon_env(const MfRecon *r);
 /* Seconds spent in the primal (forward) and adjoint renders by this process. */
 void mf_recon_timing(const MfRecon *r, double *forward_s, double *adjoint_s);

@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "core/mf_error.h"
+#include "scene/mf_tangent.h"
 #include "core/mf_fs.h"
 
 enum {
@@ -74,7 +75,7 @@ static int is_png(const char *data, size_t len) {
 int mf_gltf_write_glb(const char *path, const MfMesh *m, const MfGltfMaterial *matp) {
     MfGltfMaterial mat = matp ? *matp : mf_gltf_material_default();
     if (!m || m->nv <= 0 || m->nt <= 0 || !m->pos || !m->tri) return mf_fail(MF_EARG, "%s: cannot export an empty mesh", path);
-    if ((mat.albedo_png || mat.orm_png) && !m->uv) return mf_fail(MF_EARG, "%s: textures need a mesh with UVs", path);
+    if ((mat.albedo_png || mat.orm_png || mat.normal_png) && !m->uv) return mf_fail(MF_EARG, "%s: textures need a mesh with UVs", path);
     for (size_t i = 0; i < (size_t)m->nt * 3; ++i)
         if (m->tri[i] >= (uint32_t)m->nv) return mf_fail(MF_EARG, "%s: triangle %zu uses vertex %u of %d", path, i / 3, m->tri[i], m->nv);
     for (size_t i = 0; i < (size_t)m->nv * 3; ++i)
@@ -82,13 +83,19 @@ int mf_gltf_write_glb(const char *path, const MfMesh *m, const MfGltfMaterial *m
 
     size_t nv = (size_t)m->nv, nt = (size_t)m->nt;
     int rc = MF_OK;
-    char *png[2] = {NULL, NULL};
-    size_t pnglen[2] = {0, 0};
-    const char *pngpath[2] = {mat.albedo_png, mat.orm_png};
-    for (int k = 0; k < 2; ++k) {
+    char *png[3] = {NULL, NULL, NULL};
+    size_t pnglen[3] = {0, 0, 0};
+    const char *pngpath[3] = {mat.albedo_png, mat.orm_png, mat.normal_png};
+    float *tan = NULL; /* (nv, 4) TANGENT, with a normal map */
+    for (int k = 0; k < 3; ++k) {
         if (!pngpath[k]) continue;
         if ((rc = mf_read_file(pngpath[k], &png[k], &pnglen[k]))) goto out_png;
         if (!is_png(png[k], pnglen[k])) { rc = mf_fail(MF_EFORMAT, "%s: not a PNG file (glTF export of %s)", pngpath[k], path); goto out_png; }
+    }
+
+    if (png[2]) {
+        if (!(tan = malloc(sizeof(float) * 4 * nv))) { rc = mf_fail(MF_ENOMEM, "%s: out of memory", path); goto out_png; }
+        if ((rc = mf_mesh_tangents(m, tan))) goto out_png;
     }
 
     /* Normals: the mesh's (normalised) or smooth ones computed on a copy. */
@@ -113,11 +120,13 @@ int mf_gltf_write_glb(const char *path, const MfMesh *m, const MfGltfMaterial *m
     size_t o_nrm = align4(o_pos + l_pos), l_nrm = 12 * nv;
     size_t o_uv = align4(o_nrm + l_nrm), l_uv = m->uv ? 8 * nv : 0;
     size_t o_idx = align4(o_uv + l_uv), l_idx = 12 * nt;
-    size_t o_img[2], end = align4(o_idx + l_idx);
-    for (int k = 0; k < 2; ++k) {
+    size_t o_img[3], end = align4(o_idx + l_idx);
+    for (int k = 0; k < 3; ++k) {
         o_img[k] = end;
         end = align4(end + pnglen[k]);
     }
+    size_t o_tan = end, l_tan = tan ? 16 * nv : 0;
+    end = align4(end + l_tan);
     size_t binlen = end;
     if (binlen > 0xFFFFFFF0u) { free(nrm); rc = mf_fail(MF_EARG, "%s: mesh too large for a .glb (%zu bytes)", path, binlen); goto out_png; }
     unsigned char *bin = calloc(binlen + 4, 1);
@@ -130,8 +139,9 @@ int mf_gltf_write_glb(const char *path, const MfMesh *m, const MfGltfMaterial *m
         memcpy(bin + o_uv + 8 * i, uv, 8);
     }
     memcpy(bin + o_idx, m->tri, l_idx);
-    for (int k = 0; k < 2; ++k)
+    for (int k = 0; k < 3; ++k)
         if (png[k]) memcpy(bin + o_img[k], png[k], pnglen[k]);
+    if (tan) memcpy(bin + o_tan, tan, l_tan);
 
     float mn[3] = {FLT_MAX, FLT_MAX, FLT_MAX}, mx[3] = {-FLT_MAX, -FLT_MAX, -FLT_MAX};
     for (size_t i = 0; i < nv; ++i)
@@ -164,6 +174,7 @@ int mf_gltf_write_glb(const char *path, const MfMesh *m, const MfGltfMaterial *m
     int a_nrm = add_accessor(acc, add_view(views, o_nrm, l_nrm, GL_ARRAY_BUFFER), GL_FLOAT, nv, "VEC3", NULL, NULL, 3);
     int a_uv = m->uv ? add_accessor(acc, add_view(views, o_uv, l_uv, GL_ARRAY_BUFFER), GL_FLOAT, nv, "VEC2", NULL, NULL, 2) : -1;
     int a_idx = add_accessor(acc, add_view(views, o_idx, l_idx, GL_ELEMENT_ARRAY_BUFFER), GL_UNSIGNED_INT, 3 * nt, "SCALAR", NULL, NULL, 1);
+    int a_tan = tan ? add_accessor(acc, add_view(views, o_tan, l_tan, GL_ARRAY_BUFFER), GL_FLOAT, nv, "VEC4", NULL, NULL, 4) : -1;
 
     cJSON *meshes = cJSON_AddArrayToObject(root, "meshes");
     cJSON *mesh = cJSON_CreateObject();
@@ -174,6 +185,7 @@ int mf_gltf_write_glb(const char *path, const MfMesh *m, const MfGltfMaterial *m
     cJSON_AddNumberToObject(attr, "POSITION", a_pos);
     cJSON_AddNumberToObject(attr, "NORMAL", a_nrm);
     if (a_uv >= 0) cJSON_AddNumberToObject(attr, "TEXCOORD_0", a_uv);
+    if (a_tan >= 0) cJSON_AddNumberToObject(attr, "TANGENT", a_tan);
     cJSON_AddNumberToObject(prim, "indices", a_idx);
     cJSON_AddNumberToObject(prim, "material", 0);
     cJSON_AddNumberToObject(prim, "mode", 4);
@@ -190,7 +202,7 @@ int mf_gltf_write_glb(const char *path, const MfMesh *m, const MfGltfMaterial *m
     if (mat.double_sided) cJSON_AddTrueToObject(mo, "doubleSided");
     cJSON_AddItemToArray(mats, mo);
 
-    if (png[0] || png[1]) {
+    if (png[0] || png[1] || png[2]) {
         cJSON *images = cJSON_AddArrayToObject(root, "images");
         cJSON *textures = cJSON_AddArrayToObject(root, "textures");
         cJSON *samplers = cJSON_AddArrayToObject(root, "samplers");
@@ -200,9 +212,9 @@ int mf_gltf_write_glb(const char *path, const MfMesh *m, const MfGltfMaterial *m
         cJSON_AddNumberToObject(smp, "wrapS", 10497);     /* REPEAT */
         cJSON_AddNumberToObject(smp, "wrapT", 10497);
         cJSON_AddItemToArray(samplers, smp);
-        const char *slot[2] = {"baseColorTexture", "metallicRoughnessTexture"};
-        const char *iname[2] = {"albedo", "orm"};
-        for (int k = 0; k < 2; ++k) {
+        const char *slot[3] = {"baseColorTexture", "metallicRoughnessTexture", "normalTexture"};
+        const char *iname[3] = {"albedo", "orm", "normal"};
+        for (int k = 0; k < 3; ++k) {
             if (!png[k]) continue;
             cJSON *im = cJSON_CreateObject();
             cJSON_AddStringToObject(im, "name", iname[k]);
@@ -213,7 +225,7 @@ int mf_gltf_write_glb(const char *path, const MfMesh *m, const MfGltfMaterial *m
             cJSON_AddNumberToObject(tx, "sampler", 0);
             cJSON_AddNumberToObject(tx, "source", cJSON_GetArraySize(images) - 1);
             cJSON_AddItemToArray(textures, tx);
-            cJSON *ti = cJSON_AddObjectToObject(pbr, slot[k]);
+            cJSON *ti = cJSON_AddObjectToObject(k == 2 ? mo : pbr, slot[k]); /* normalTexture: in the material */
             cJSON_AddNumberToObject(ti, "index", cJSON_GetArraySize(textures) - 1);
         }
     }
@@ -246,5 +258,7 @@ int mf_gltf_write_glb(const char *path, const MfMesh *m, const MfGltfMaterial *m
 out_png:
     free(png[0]);
     free(png[1]);
+    free(png[2]);
+    free(tan);
     return rc;
 }

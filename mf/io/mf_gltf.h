@@ -12,7 +12,13 @@
  * albedo.png); metallicRoughnessTexture a linear ORM PNG (G roughness, B metallic; R is
  * ignored by glTF, our files hold R = 1). Meshes without normals get area-weighted smooth
  * normals; a mesh without UVs can be exported only without textures. Per-triangle material ids
- * are ignored (one material for the whole mesh). The file is written atomically. */
+ * are ignored (one material for the whole mesh). The file is written atomically.
+ * Normal maps: normalTexture is a linear tangent-space PNG in glTF's convention, which is ours
+ * (scene/mf_tangent.h: +X along increasing u, +Y toward the image's top row). With one, the
+ * primitive also carries TANGENT (float VEC4, xyz unit, w = +-1 handedness: bitangent =
+ * w cross(NORMAL, tangent)) from mf_mesh_tangents, appended after the images in the BIN chunk,
+ * so viewers shade with exactly the frames our renderer uses instead of deriving MikkTSpace
+ * ones. Files without a normal map are unchanged. */
 #ifndef MF_GLTF_H
 #define MF_GLTF_H
 
@@ -22,6 +28,7 @@ typedef struct {
     const char *name;          /* borrowed; material and node name, NULL = "material" */
     const char *albedo_png;    /* borrowed; path of the baseColorTexture PNG (sRGB), or NULL */
     const char *orm_png;       /* borrowed; path of the metallicRoughnessTexture PNG (linear), or NULL */
+    const char *normal_png;    /* borrowed; path of the normalTexture PNG (linear, tangent space), or NULL */
     float base_color[4];       /* baseColorFactor, linear RGBA (multiplies the texture) */
     float metallic, roughness; /* metallicFactor, roughnessFactor (multiply B and G) */
     int double_sided;

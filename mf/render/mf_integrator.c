@@ -7,6 +7,8 @@
 #include "core/mf_error.h"
 #include "core/mf_rng.h"
 #include "io/mf_exr.h"
+#include "render/mf_normalmap.h"
+#include "scene/mf_tangent.h"
 #include "scene/mf_texture.h"
 
 #define MF_SHADOW_EPS 0.001f
@@ -142,10 +144,10 @@ typedef struct {
 } Accepted;
 
 /* Direct light at a hit: demodulated diffuse and specular radiance toward wo_w. */
-static Shade shade(const MfRenderInput *in, const MfRenderOpts *opts, const MfHit *h, const MfMaterial *mat, MfVec3 wo_w,
-                   MfRng *rng, MfRayLog *log) {
+static Shade shade(const MfRenderInput *in, const MfRenderOpts *opts, const MfHit *h, MfVec3 ns, const MfMaterial *mat,
+                   MfVec3 wo_w, MfRng *rng, MfRayLog *log) {
     Shade s = {mf_v3s(0.0f), mf_v3s(0.0f)};
-    MfFrame fr = mf_frame(h->ns);
+    MfFrame fr = mf_frame(ns);
     MfVec3 wo = mf_to_local(&fr, wo_w);
     if (wo.z <= 0.0f) return s;
     int lobes = opts->lobes;
@@ -236,8 +238,17 @@ static Shade shade(const MfRenderInput *in, const MfRenderOpts *opts, const MfHi
     return s;
 }
 
-static void render_pixel(const MfRenderInput *in, const MfCamera *cam, const MfRenderOpts *opts, int x, int y,
-                         MfRenderOut *out, MfRayLog *log) {
+/* The shading normal at a hit: the material's normal map (tan: the mesh's tangents), or ns. */
+static MfVec3 shading_normal(const MfRenderInput *in, const float *tan, const MfHit *h, MfVec3 wo_w) {
+    int id = (h->mat >= 0 && h->mat < in->nmat) ? h->mat : 0;
+    const MfImage *map = in->mats[id].normal;
+    if (!map || !tan) return h->ns;
+    MfNmapFrame f = mf_nmap_frame(in->mesh, tan, h);
+    return mf_nmap_normal(&f, map, h->uv, wo_w);
+}
+
+static void render_pixel(const MfRenderInput *in, const float *tan, const MfCamera *cam, const MfRenderOpts *opts, int x,
+                         int y, MfRenderOut *out, MfRayLog *log) {
     MfRng rng;
     mf_rng_seed(&rng, opts->seed, (uint64_t)y * (uint64_t)cam->w + (uint64_t)x);
     int ps = opts->pixel_samples;
@@ -269,7 +280,8 @@ static void render_pixel(const MfRenderInput *in, const MfCamera *cam, const MfR
         ++hits;
         MfVec3 o;
         MfMaterial mat = lookup_material(in, &h, &o);
-        Shade s = shade(in, opts, &h, &mat, mf_neg(dir), &rng, log);
+        MfVec3 ns = shading_normal(in, tan, &h, mf_neg(dir));
+        Shade s = shade(in, opts, &h, ns, &mat, mf_neg(dir), &rng, log);
         MfVec3 kdw = mf_scale(mat.kd, 1.0f - mat.metallic);
         if (!(opts->lobes & MF_LOBE_DIFFUSE)) s.diffuse = mf_v3s(0.0f);
         MfVec3 c = mf_add(mf_mul(kdw, s.diffuse), s.specular);
@@ -278,7 +290,7 @@ static void render_pixel(const MfRenderInput *in, const MfCamera *cam, const MfR
         spec = mf_add(spec, s.specular);
         alb = mf_add(alb, mat.kd);
         orm = mf_add(orm, o);
-        nrm = mf_add(nrm, h.ns);
+        nrm = mf_add(nrm, ns);
         depth += h.t * mf_dot(dir, fwd);
     }
     size_t i = (size_t)y * cam->w + x;
@@ -314,12 +326,24 @@ int mf_render_rows(const MfRenderInput *in, const MfCamera *cam, const MfRenderO
     if (out->w != cam->w || out->h != cam->h || y0 < 0 || y1 > cam->h || y0 > y1)
         return mf_fail(MF_EARG, "render: output %dx%d / rows [%d, %d) do not match the camera %dx%d", out->w, out->h, y0, y1,
                        cam->w, cam->h);
+    float *tan = NULL; /* (nv, 4) tangents, only when a material has a normal map */
+    for (int k = 0; k < in->nmat && !tan; ++k) {
+        if (!in->mats[k].normal) continue;
+        if (!in->mesh->uv) return mf_fail(MF_EARG, "render: a normal map needs a mesh with UVs");
+        if (in->mats[k].normal->c < 3) return mf_fail(MF_EARG, "render: a normal map needs 3 channels");
+        if (!(tan = malloc((size_t)in->mesh->nv * 4 * sizeof(float) + 1))) return mf_fail(MF_ENOMEM, "render: out of memory for tangents");
+        if ((rc = mf_mesh_tangents(in->mesh, tan))) {
+            free(tan);
+            return rc;
+        }
+    }
 #pragma omp parallel for schedule(dynamic, 1)
     for (int y = y0; y < y1; ++y) {
         MfRayLog *log = logs ? &logs[y - y0] : NULL;
-        for (int x = 0; x < cam->w; ++x) render_pixel(in, cam, opts, x, y, out, log);
+        for (int x = 0; x < cam->w; ++x) render_pixel(in, tan, cam, opts, x, y, out, log);
         if (prog) mf_progress_add(prog, 1);
     }
+    free(tan);
     return MF_OK;
 }
 

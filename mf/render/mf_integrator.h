@@ -24,7 +24,10 @@
  *                     (not premultiplied); 0 where alpha = 0.
  * Materials: per material id (mesh->mat, 0 without), kd from a linear RGB texture (sRGB-decoded
  * on load by the scene loader) or a constant; ORM (occlusion, roughness, metallic; linear) from a
- * texture or a constant; textures sampled bilinearly with repeat wrap at the hit's UV.
+ * texture or a constant; textures sampled bilinearly with repeat wrap at the hit's UV. A
+ * material may carry a tangent-space normal map (mf_normalmap.h; tangents from the mesh's UVs,
+ * scene/mf_tangent.h): it sets the shading normal at the primary hit (and the normal AOV);
+ * shadow-ray offsets keep the geometric normal. Without one, images are unchanged bit for bit.
  * Determinism: pixel (x, y) draws from PCG32 stream y*w + x of `seed`, so images do not depend
  * on the thread count. Rows are distributed over OpenMP threads. */
 #ifndef MF_INTEGRATOR_H
@@ -46,6 +49,8 @@ typedef struct {
     const MfImage *orm; /* borrowed; (h, w, >=3) linear ORM, or NULL: orm_const */
     MfVec3 kd_const;    /* linear base colour */
     MfVec3 orm_const;   /* (occlusion, roughness, metallic) */
+    const MfImage *normal; /* borrowed; (h, w, 3) tangent-space normal map (render/mf_normalmap.h,
+                              glTF convention), or NULL: the hit's interpolated normal */
 } MfTexMaterial;
 
 typedef struct {
