@@ -142,8 +142,21 @@ static int render_object(const DsPriorTrainOpts *o, const char *out, const Probe
             int procedural = o->train_lights == DS_LIGHTS_PROCEDURAL || (o->train_lights == DS_LIGHTS_BOTH && u_probe >= 0.5f);
             if (procedural) {
                 float u_sel = o->train_lights == DS_LIGHTS_BOTH ? 2.0f * (u_probe - 0.5f) : u_probe;
-                DsEnvKind kind = u_sel < 0.5f ? DS_ENV_SKY : DS_ENV_INDOOR;
-                if ((rc = ds_env_random(kind, mf_hash64(oseed, 0xE0000u + (uint64_t)v), DS_ENV_W, DS_ENV_H, &copy))) break;
+                uint64_t eseed = mf_hash64(oseed, 0xE0000u + (uint64_t)v);
+                if (u_sel < 0.5f) { /* sky map + the sun as a directional light (ds_envgen.h) */
+                    DsSkyParams sp = ds_sky_params_random(eseed);
+                    sp.sun_as_light = 1;
+                    DsSkyInfo si;
+                    if ((rc = ds_env_sky(&sp, DS_ENV_W, DS_ENV_H, &copy, &si))) break;
+                    float a = u_rot * 2.0f * MF_PI, ca = cosf(a), sa = sinf(a); /* rotated with the map */
+                    memset(&light, 0, sizeof light);
+                    light.kind = MF_LIGHT_SUN;
+                    light.dir = mf_norm(mf_v3(ca * si.sun_dir.x - sa * si.sun_dir.y, sa * si.sun_dir.x + ca * si.sun_dir.y, si.sun_dir.z));
+                    light.color = si.sun_rgb;
+                    light.strength = 1.0f;
+                    if (mf_maxc(si.sun_rgb) > 0) in.lights = &light, in.nlights = 1;
+                } else if ((rc = ds_env_random(DS_ENV_INDOOR, eseed, DS_ENV_W, DS_ENV_H, &copy)))
+                    break;
             } else {
                 float u_sel = o->train_lights == DS_LIGHTS_BOTH ? 2.0f * u_probe : u_probe;
                 int pi = (int)(u_sel * (float)ps->np);

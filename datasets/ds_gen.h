@@ -15,8 +15,10 @@
  *   DS_LIGHTS_BLENDER (default, the committed prior's recipe): the probes of env_dir as above;
  *   DS_LIGHTS_PROCEDURAL: a procedural map generated in memory (datasets/ds_envgen.h,
  *     DS_ENV_W x DS_ENV_H) from the view's seed mf_hash64(object seed, 0xE0000 + v): a clear sky
- *     with sun when u_probe < 1/2, else a lit room; env_dir is never read, so test-3d's Blender
- *     relighting probes stay lights the prior never saw;
+ *     when u_probe < 1/2 (its sun not in the map but a directional MF_LIGHT_SUN of the same
+ *     irradiance, rotated with the map: a sub-texel sun in the map gives fireflies), else a lit
+ *     room; env_dir is never read, so test-3d's Blender relighting probes stay lights the prior
+ *     never saw;
  *   DS_LIGHTS_BOTH: u_probe < 1/2 picks a probe of env_dir (index u_probe * 2 * n), else a
  *     procedural map (sky / room by the second half of u_probe's range).
  * The random draws per view are the same in every mode (so blender mode's bytes are unchanged).
