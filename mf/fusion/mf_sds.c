@@ -124,7 +124,7 @@ static int targets(MfSds *s, MfRecon *r, const int *views, int n, int it, MfSdsT
     MfSdsTargets T;
     memset(&T, 0, sizeof T);
     T.n = n;
-    Maps m = {0};
+    Maps cur = {0};
     float *rgba = NULL;
     T.zhat = malloc(nz * sizeof(float));
     T.dhat = malloc(2 * nm * sizeof(float));
@@ -163,17 +163,17 @@ static int targets(MfSds *s, MfRecon *r, const int *views, int n, int it, MfSdsT
         rc = mf_camera_init(&T.cam[k], R, R, ax, m, "SDS camera");
         T.aov_seed[k] = view_seed(s, it, views[k], 1);
     }
-    if (rc || (rc = maps_compute(s, r, &T, &m))) goto done;
+    if (rc || (rc = maps_compute(s, r, &T, &cur))) goto done;
     MfRng rng;
     mf_rng_seed(&rng, view_seed(s, it, -1, 2), 0);
     T.t = s->o.t_min + (int)mf_rng_below(&rng, (uint32_t)(s->o.t_max - s->o.t_min + 1));
-    if ((rc = mf_prior_sds_denoise(s->prior, m.z, T.cond, n, 1, 0, T.t, s->o.guidance, view_seed(s, it, -1, 3), T.zhat)))
+    if ((rc = mf_prior_sds_denoise(s->prior, cur.z, T.cond, n, 1, 0, T.t, s->o.guidance, view_seed(s, it, -1, 3), T.zhat)))
         goto done;
     rc = mf_prior_decode_materials(s->prior, T.zhat, n, T.dhat, T.dhat + nm);
 done:
     free(rgba);
-    if (rc || !keep) maps_free(&m);
-    else *keep = m;
+    if (rc || !keep) maps_free(&cur);
+    else *keep = cur;
     if (rc) mf_sds_targets_free(&T);
     else *t = T;
     return rc;
