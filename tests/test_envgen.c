@@ -298,6 +298,20 @@ MF_TEST(envgen_prior_train_procedural_lights) {
     cJSON_Delete(m);
     snprintf(p, sizeof p, "%s/rgb/000005.png", out);
     CHECK(mf_file_exists(p));
+    /* both: a probe folder is needed again (here two procedural maps written as files) */
+    const char *pdir = mf_test_path("envgen_pt_probes");
+    CHECK_OK(mf_mkdirs(pdir));
+    for (int i = 0; i < 2; ++i) {
+        MfImage img;
+        CHECK_OK(ds_env_random((DsEnvKind)i, 40 + i, 32, 16, &img));
+        snprintf(p, sizeof p, "%s/p%d.exr", pdir, i);
+        CHECK_OK(mf_image_write(p, &img, MF_ENC_LINEAR, 32));
+        mf_image_free(&img);
+    }
+    o.train_lights = DS_LIGHTS_BOTH;
+    o.env_dir = pdir;
+    CHECK_OK(ds_gen_prior_train(&o, mf_test_path("envgen_pt_both"), &st));
+    CHECK(st.objects == 1 && st.env_views > 0);
     CHECK(ds_train_lights_from_name("both") == DS_LIGHTS_BOTH && ds_train_lights_from_name("x") == -1);
 }
 
