@@ -13,6 +13,7 @@
 #include "core/mf_log.h"
 #include "core/mf_rng.h"
 #include "datasets/ds_cameras.h"
+#include "datasets/ds_envgen.h"
 #include "datasets/ds_shapes.h"
 #include "datasets/ds_split.h"
 #include "io/mf_json.h"
@@ -26,13 +27,25 @@ uint64_t ds_object_seed(DsSeedStream stream, uint64_t seed, uint64_t k) {
 }
 
 DsPriorTrainOpts ds_prior_train_defaults(void) {
-    DsPriorTrainOpts o = {0, 64, 1, 0.0, 12, 128, 2, 4, NULL, 0, DS_STREAM_PRIOR, "prior-train"};
+    DsPriorTrainOpts o = {0, 64, 1, 0.0, 12, 128, 2, 4, NULL, 0, DS_STREAM_PRIOR, "prior-train", DS_LIGHTS_BLENDER};
     return o;
 }
 
 DsPriorTrainOpts ds_test2d_defaults(void) {
-    DsPriorTrainOpts o = {32, 64, 1, 0.0, 4, 128, 4, 4, NULL, 0, DS_STREAM_TEST2D, "test-2d"};
+    DsPriorTrainOpts o = {32, 64, 1, 0.0, 4, 128, 4, 4, NULL, 0, DS_STREAM_TEST2D, "test-2d", DS_LIGHTS_BLENDER};
     return o;
+}
+
+int ds_train_lights_from_name(const char *name) {
+    if (!name) return -1;
+    if (!strcmp(name, "blender")) return DS_LIGHTS_BLENDER;
+    if (!strcmp(name, "procedural")) return DS_LIGHTS_PROCEDURAL;
+    if (!strcmp(name, "both")) return DS_LIGHTS_BOTH;
+    return -1;
+}
+
+const char *ds_train_lights_name(DsTrainLights t) {
+    return t == DS_LIGHTS_PROCEDURAL ? "procedural" : (t == DS_LIGHTS_BOTH ? "both" : "blender");
 }
 
 static int cmp_str(const void *a, const void *b) { return strcmp(*(char *const *)a, *(char *const *)b); }
@@ -93,7 +106,7 @@ typedef struct {
 } ProbeSet;
 
 /* Renders object k completely and writes its marker. Runs in one thread. */
-static int render_object(const DsPriorTrainOpts *o, const char *out, const ProbeSet *ps, int k, int *nviews) {
+static int render_object(const DsPriorTrainOpts *o, const char *out, const ProbeSet *ps, int k, int *nviews, int *nenv) {
     DsFamily fam = (DsFamily)(k % DS_FAM_COUNT);
     uint64_t oseed = ds_object_seed(o->stream, o->seed, (uint64_t)k);
     DsObject obj;
@@ -125,13 +138,36 @@ static int render_object(const DsPriorTrainOpts *o, const char *out, const Probe
         MfRenderInput in = {rt, &obj.mesh, &mat, 1, NULL, NULL, 0};
         MfVec3 cpos = mf_camera_pos(&cam);
         if (u_kind < 0.5f) {
-            int pi = (int)(u_probe * (float)ps->np);
-            if (pi >= ps->np) pi = ps->np - 1;
             MfImage copy;
-            const MfImage *src = &ps->probes[pi].img;
-            if ((rc = mf_image_alloc(&copy, src->w, src->h, 3))) break;
-            memcpy(copy.data, src->data, sizeof(float) * (size_t)src->w * (size_t)src->h * 3);
+            int procedural = o->train_lights == DS_LIGHTS_PROCEDURAL || (o->train_lights == DS_LIGHTS_BOTH && u_probe >= 0.5f);
+            if (procedural) {
+                float u_sel = o->train_lights == DS_LIGHTS_BOTH ? 2.0f * (u_probe - 0.5f) : u_probe;
+                uint64_t eseed = mf_hash64(oseed, 0xE0000u + (uint64_t)v);
+                if (u_sel < 0.5f) { /* sky map + the sun as a directional light (ds_envgen.h) */
+                    DsSkyParams sp = ds_sky_params_random(eseed);
+                    sp.sun_as_light = 1;
+                    DsSkyInfo si;
+                    if ((rc = ds_env_sky(&sp, DS_ENV_W, DS_ENV_H, &copy, &si))) break;
+                    float a = u_rot * 2.0f * MF_PI, ca = cosf(a), sa = sinf(a); /* rotated with the map */
+                    memset(&light, 0, sizeof light);
+                    light.kind = MF_LIGHT_SUN;
+                    light.dir = mf_norm(mf_v3(ca * si.sun_dir.x - sa * si.sun_dir.y, sa * si.sun_dir.x + ca * si.sun_dir.y, si.sun_dir.z));
+                    light.color = si.sun_rgb;
+                    light.strength = 1.0f;
+                    if (mf_maxc(si.sun_rgb) > 0) in.lights = &light, in.nlights = 1;
+                } else if ((rc = ds_env_random(DS_ENV_INDOOR, eseed, DS_ENV_W, DS_ENV_H, &copy)))
+                    break;
+            } else {
+                float u_sel = o->train_lights == DS_LIGHTS_BOTH ? 2.0f * u_probe : u_probe;
+                int pi = (int)(u_sel * (float)ps->np);
+                if (pi >= ps->np) pi = ps->np - 1;
+                if (pi < 0) pi = 0;
+                const MfImage *src = &ps->probes[pi].img;
+                if ((rc = mf_image_alloc(&copy, src->w, src->h, 3))) break;
+                memcpy(copy.data, src->data, sizeof(float) * (size_t)src->w * (size_t)src->h * 3);
+            }
             if ((rc = mf_env_init(&env, &copy))) break;
+            ++*nenv;
             if ((rc = mf_env_rotate_z(&env, u_rot * 2.0f * MF_PI))) { mf_env_free(&env); break; }
             in.env = &env;
         } else {
@@ -201,7 +237,12 @@ static int write_manifest(const DsPriorTrainOpts *o, const char *out, const Prob
     cJSON_AddNumberToObject(r, "tex_res", o->tex_res);
     cJSON_AddNumberToObject(r, "spp_sqrt", o->spp_sqrt);
     cJSON_AddNumberToObject(r, "pixel_samples", o->pixel_samples);
-    cJSON_AddStringToObject(r, "lights", "50% HDR probe rotated about +Z, 25% point light at the camera, 25% sun along the view");
+    static const char *const kLights[3] = {
+        "50% HDR probe rotated about +Z, 25% point light at the camera, 25% sun along the view",
+        "50% procedural env map (25% clear sky with sun, 25% lit room; datasets/ds_envgen.h) rotated about +Z, 25% point light at the camera, 25% sun along the view",
+        "25% HDR probe rotated about +Z, 25% procedural env map (12.5% sky, 12.5% room) rotated about +Z, 25% point light at the camera, 25% sun along the view"};
+    cJSON_AddStringToObject(r, "lights", kLights[o->train_lights == DS_LIGHTS_PROCEDURAL ? 1 : (o->train_lights == DS_LIGHTS_BOTH ? 2 : 0)]);
+    cJSON_AddStringToObject(r, "train_lights", ds_train_lights_name(o->train_lights));
     snprintf(buf, sizeof buf, "[%g, %g]", (double)DS_POINT_W_MIN, (double)DS_POINT_W_MAX);
     cJSON_AddStringToObject(r, "point_power_w", buf);
     snprintf(buf, sizeof buf, "[%g, %g]", (double)DS_SUN_MIN, (double)DS_SUN_MAX);
@@ -246,23 +287,27 @@ int ds_gen_prior_train(const DsPriorTrainOpts *o, const char *out_dir, DsGenStat
         int r = mf_path_join(p, sizeof p, out_dir, subs[j]);
         if (r || (r = mf_mkdirs(p))) return r;
     }
+    if (o->train_lights != DS_LIGHTS_BLENDER && o->train_lights != DS_LIGHTS_PROCEDURAL && o->train_lights != DS_LIGHTS_BOTH)
+        return mf_fail(MF_EARG, "prior-train: unknown train_lights %d", (int)o->train_lights);
     ProbeSet ps = {0};
-    int rc = ds_list_probes(env_dir, &ps.names, &ps.np);
-    if (rc) return rc;
-    if (!ps.np) rc = mf_fail(MF_EARG, "%s: no .exr/.hdr probes", env_dir);
-    if (!rc && !(ps.probes = calloc((size_t)ps.np, sizeof(MfEnvMap)))) rc = mf_fail(MF_ENOMEM, "out of memory");
+    int rc = MF_OK;
+    if (o->train_lights != DS_LIGHTS_PROCEDURAL) { /* procedural: env_dir is never read */
+        if ((rc = ds_list_probes(env_dir, &ps.names, &ps.np))) return rc;
+        if (!ps.np) rc = mf_fail(MF_EARG, "%s: no .exr/.hdr probes", env_dir);
+    }
+    if (!rc && ps.np > 0 && !(ps.probes = calloc((size_t)ps.np, sizeof(MfEnvMap)))) rc = mf_fail(MF_ENOMEM, "out of memory");
     for (int i = 0; i < ps.np && !rc; ++i) {
         char p[MF_PATH_MAX];
         if (!(rc = mf_path_join(p, sizeof p, env_dir, ps.names[i]))) rc = mf_env_load(&ps.probes[i], p);
     }
     int max_obj = o->count > 0 ? (o->count + o->views_per_object - 1) / o->views_per_object : 1 << 20;
-    int first_err = 0, views_total = 0, stop = 0;
+    int first_err = 0, views_total = 0, env_total = 0, stop = 0;
     char errmsg[1024] = "";
     MfProgress prog;
     mf_progress_begin(&prog, o->split ? o->split : "prior-train", o->count > 0 ? (size_t)max_obj : 0);
     int nthreads = o->threads > 0 ? o->threads : omp_get_max_threads();
     if (!rc) {
-#pragma omp parallel for schedule(dynamic, 1) num_threads(nthreads) reduction(+ : views_total)
+#pragma omp parallel for schedule(dynamic, 1) num_threads(nthreads) reduction(+ : views_total, env_total)
         for (int k = 0; k < max_obj; ++k) {
             int skip;
 #pragma omp atomic read
@@ -275,9 +320,10 @@ int ds_gen_prior_train(const DsPriorTrainOpts *o, const char *out_dir, DsGenStat
             }
             char mp[MF_PATH_MAX];
             if (marker_path(out_dir, k, mp, sizeof mp) == MF_OK && mf_file_exists(mp)) { mf_progress_add(&prog, 1); continue; }
-            int nv = 0;
-            int r = render_object(o, out_dir, &ps, k, &nv);
+            int nv = 0, ne = 0;
+            int r = render_object(o, out_dir, &ps, k, &nv, &ne);
             views_total += nv;
+            env_total += ne;
             if (r) {
 #pragma omp critical(ds_gen_err)
                 {
@@ -293,6 +339,7 @@ int ds_gen_prior_train(const DsPriorTrainOpts *o, const char *out_dir, DsGenStat
     if (!rc && first_err) rc = mf_fail(first_err, "%s", errmsg);
     DsGenStats st = {0};
     st.rendered_views = views_total;
+    st.env_views = env_total;
     st.wall_s = mf_now() - t0;
     /* complete objects: the prefix with markers */
     if (!rc) {

@@ -11,6 +11,17 @@
  * uniform in [DS_SUN_MIN, DS_SUN_MAX] W/m^2). The paper's 150 W point / 10-20 W/m^2 sun were
  * for Objaverse-sized scenes; ours are scaled so a white Lambertian surface facing the light at
  * the mean camera distance has radiance about 0.5-1 (like the probes).
+ * train_lights picks where the env-map half of the views gets its maps:
+ *   DS_LIGHTS_BLENDER (default, the committed prior's recipe): the probes of env_dir as above;
+ *   DS_LIGHTS_PROCEDURAL: a procedural map generated in memory (datasets/ds_envgen.h,
+ *     DS_ENV_W x DS_ENV_H) from the view's seed mf_hash64(object seed, 0xE0000 + v): a clear sky
+ *     when u_probe < 1/2 (its sun not in the map but a directional MF_LIGHT_SUN of the same
+ *     irradiance, rotated with the map: a sub-texel sun in the map gives fireflies), else a lit
+ *     room; env_dir is never read, so test-3d's Blender relighting probes stay lights the prior
+ *     never saw;
+ *   DS_LIGHTS_BOTH: u_probe < 1/2 picks a probe of env_dir (index u_probe * 2 * n), else a
+ *     procedural map (sky / room by the second half of u_probe's range).
+ * The random draws per view are the same in every mode (so blender mode's bytes are unchanged).
  *   out/rgb/NNNNNN.png     RGBA 8-bit sRGB lit render (straight alpha), alpha = coverage
  *   out/albedo/NNNNNN.png  RGBA 8-bit sRGB kd AOV, alpha = coverage
  *   out/orm/NNNNNN.png     RGBA 8-bit linear ORM AOV (R = 1, G roughness, B metallic)
@@ -41,6 +52,12 @@
 
 typedef enum { DS_STREAM_TEST = 0, DS_STREAM_PRIOR = 1, DS_STREAM_TEST2D = 2 } DsSeedStream;
 
+/* Where the env-map lit views of prior-train / test-2d take their maps (see above). */
+typedef enum { DS_LIGHTS_BLENDER = 0, DS_LIGHTS_PROCEDURAL = 1, DS_LIGHTS_BOTH = 2 } DsTrainLights;
+/* "blender", "procedural", "both" -> mode; -1 for another name. */
+int ds_train_lights_from_name(const char *name);
+const char *ds_train_lights_name(DsTrainLights t);
+
 /* Object seed k of a stream: DS_STREAM_TEST: mf_hash64(seed, k); others:
  * (stream << 60) | (mf_hash64(seed ^ stream*C, k) >> 4). */
 uint64_t ds_object_seed(DsSeedStream stream, uint64_t seed, uint64_t k);
@@ -58,6 +75,7 @@ typedef struct {
     int threads;          /* objects in parallel (<= 0: OpenMP default) */
     DsSeedStream stream;  /* DS_STREAM_PRIOR (test-2d: DS_STREAM_TEST2D) */
     const char *split;    /* name written into the manifest ("prior-train", "test-2d") */
+    DsTrainLights train_lights; /* DS_LIGHTS_BLENDER (default) */
 } DsPriorTrainOpts;
 
 DsPriorTrainOpts ds_prior_train_defaults(void);
@@ -69,6 +87,7 @@ typedef struct {
     int objects;          /* complete objects on disk (prefix 0..objects-1) */
     int count;            /* samples = objects * views_per_object */
     int rendered_views;   /* views rendered in this run */
+    int env_views;        /* of those, views lit by an env map (probe or procedural) */
     double wall_s;        /* this run */
 } DsGenStats;
 

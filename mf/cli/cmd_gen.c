@@ -10,6 +10,7 @@
 #include "core/mf_fs.h"
 #include "core/mf_log.h"
 #include "datasets/ds_cameras.h"
+#include "datasets/ds_envgen.h"
 #include "datasets/ds_gen.h"
 #include "datasets/ds_shapes.h"
 #include "datasets/ds_split.h"
@@ -44,7 +45,21 @@
     "  sRGB, orm linear, alpha = coverage) and DIR/manifest.json; stops after N samples (whole\n" \
     "  objects) or the time budget (prior-train default: 1800 s, as many objects as 30 minutes of\n" \
     "  generation give); rerunning the same command resumes (done/ markers).\n" \
-    "  test-2d: 8 held-out objects x 4 views (count 32, spp 4) from another seed stream.\n"
+    "  test-2d: 8 held-out objects x 4 views (count 32, spp 4) from another seed stream.\n" \
+    "  --train-lights blender|procedural|both: where the env-lit half of the views takes its maps:\n" \
+    "    blender (default, the committed prior's recipe): probes of --env-dir (Blender's studio lights);\n" \
+    "    procedural: a clear sky with sun or a lit room generated in memory from each view's seed\n" \
+    "    (datasets/ds_envgen.h; --env-dir is not read), so test-3d's Blender relighting probes are\n" \
+    "    lights the prior never saw; both: half probes, half procedural.\n" \
+    "\n" \
+    "       mf gen --envs DIR [--count N] [--seed S] [--kind sky|indoor|both] [--env-width W]\n" \
+    "  Writes N procedural HDR env maps per kind (default 8, both kinds), DIR/sky_NNN.exr and\n" \
+    "  DIR/indoor_NNN.exr: 32-bit float linear RGB lat-long maps W x W/2 (default 256 x 128) in\n" \
+    "  Blender's world mapping, usable by every split's --env-dir. sky: Preetham 1999 clear sky,\n" \
+    "  sun elevation 3-80 deg, turbidity 2-6, 0.53 deg sun disc (sub-texel at 256 wide: bilinear\n" \
+    "  lookup spreads it, so expect fireflies where it is the main light), ground below the horizon;\n" \
+    "  indoor: box room seen from its centre with 1-4 ceiling panels / windows (2700-10000 K).\n" \
+    "  Exposure: a white plane facing the main light has radiance 0.7-2.0 (Blender's probes: 0.4-2.6).\n"
 
 #define K_COMPARE_HEAD \
     "# Our renderer vs POV-Ray on the same relit views\n\n" \
@@ -69,8 +84,39 @@
     "| split | px | radiosity count | views | PSNR all lobes (dB) | rel. error all lobes | PSNR diffuse lobe (dB) | rel. error diffuse lobe | s/view ours | s/view POV-Ray |\n" \
     "|---|---|---|---|---|---|---|---|---|---|\n"
 
+/* mf gen --envs DIR: procedural env maps. */
+static int gen_envs(const char *dir, int count, int seed, const char *kind, int width) {
+    int sky = 1, indoor = 1;
+    if (kind && !strcmp(kind, "sky")) indoor = 0;
+    else if (kind && !strcmp(kind, "indoor")) sky = 0;
+    else if (kind && strcmp(kind, "both")) { mf_fail(MF_EARG, "--kind: expected sky, indoor or both, not '%s'", kind); return MF_EXIT_USAGE; }
+    if (count < 1 || count > 100000) { mf_fail(MF_EARG, "--count %d outside [1, 100000]", count); return MF_EXIT_USAGE; }
+    if (width < 8 || width > 16384 || width % 2) { mf_fail(MF_EARG, "--env-width %d: expected an even width in [8, 16384]", width); return MF_EXIT_USAGE; }
+    if (mf_mkdirs(dir)) return MF_EXIT_FAIL;
+    double t0 = mf_now();
+    int written = 0;
+    for (int k = 0; k < 2; ++k) {
+        if ((k == 0 && !sky) || (k == 1 && !indoor)) continue;
+        uint64_t base = mf_hash64((uint64_t)seed, k == 0 ? 0x5C7u : 0x1D0u);
+        for (int i = 0; i < count; ++i) {
+            char name[64], p[MF_PATH_MAX];
+            snprintf(name, sizeof name, "%s_%03d.exr", k == 0 ? "sky" : "indoor", i);
+            if (mf_path_join(p, sizeof p, dir, name)) return MF_EXIT_FAIL;
+            MfImage img;
+            if (ds_env_random(k == 0 ? DS_ENV_SKY : DS_ENV_INDOOR, mf_hash64(base, (uint64_t)i), width, width / 2, &img)) return MF_EXIT_FAIL;
+            int rc = mf_image_write(p, &img, MF_ENC_LINEAR, 32); /* temporary name + rename */
+            mf_image_free(&img);
+            if (rc) return MF_EXIT_FAIL;
+            ++written;
+        }
+    }
+    mf_log_info("mf gen: %d procedural env maps (%dx%d, seed %d) -> %s in %.1f s", written, width, width / 2, seed, dir, mf_now() - t0);
+    return MF_EXIT_OK;
+}
+
 static int cmd_gen(int argc, char **argv) {
-    const char *out = NULL, *fam_name = NULL, *split = NULL, *env_dir = NULL, *compare = NULL;
+    const char *out = NULL, *fam_name = NULL, *split = NULL, *env_dir = NULL, *compare = NULL, *envs = NULL, *kind = NULL, *train_lights = NULL;
+    int env_width = DS_ENV_W;
     int seed = 1, res = -1, ntrain = 100, ntest = 200, count = 0, img_res = 64, views = -1, spp = -1, pxs = 4, threads = 0, render = 0, nscenes = 0, pov_rad = 0;
     float r_min = 1.5f, r_max = 2.0f, budget = 0;
     for (int i = 1; i < argc; ++i) {
@@ -87,6 +133,8 @@ static int cmd_gen(int argc, char **argv) {
             (r = mf_opt_int(argc, argv, &i, "--pixel-samples", &pxs)) || (r = mf_opt_int(argc, argv, &i, "--threads", &threads)) ||
             (r = mf_opt_int(argc, argv, &i, "--scenes", &nscenes)) || (r = mf_opt_str(argc, argv, &i, "--compare-povray", &compare)) ||
             (r = mf_opt_int(argc, argv, &i, "--pov-radiosity", &pov_rad)) ||
+            (r = mf_opt_str(argc, argv, &i, "--envs", &envs)) || (r = mf_opt_str(argc, argv, &i, "--kind", &kind)) ||
+            (r = mf_opt_int(argc, argv, &i, "--env-width", &env_width)) || (r = mf_opt_str(argc, argv, &i, "--train-lights", &train_lights)) ||
             (r = mf_opt_float(argc, argv, &i, "--time-budget", &budget))) {
             if (r < 0) return MF_EXIT_USAGE;
             continue;
@@ -94,7 +142,14 @@ static int cmd_gen(int argc, char **argv) {
         mf_fail(MF_EARG, "unknown option '%s'", argv[i]);
         return MF_EXIT_USAGE;
     }
+    if (envs) return gen_envs(envs, count > 0 ? count : 8, seed, kind, env_width);
     if (!out) { mf_fail(MF_EARG, "missing -o DIR"); return MF_EXIT_USAGE; }
+    int tl = train_lights ? ds_train_lights_from_name(train_lights) : DS_LIGHTS_BLENDER;
+    if (tl < 0) { mf_fail(MF_EARG, "--train-lights: expected blender, procedural or both, not '%s'", train_lights); return MF_EXIT_USAGE; }
+    if (train_lights && !(split && (!strcmp(split, "prior-train") || !strcmp(split, "test-2d")))) {
+        mf_fail(MF_EARG, "--train-lights applies to --split prior-train or test-2d");
+        return MF_EXIT_USAGE;
+    }
     int res_given = 0;
     for (int i = 1; i < argc; ++i) res_given |= !strcmp(argv[i], "--res");
     if (split && (!strcmp(split, "prior-train") || !strcmp(split, "test-2d"))) {
@@ -108,6 +163,7 @@ static int cmd_gen(int argc, char **argv) {
         if (spp > 0) po.spp_sqrt = spp;
         po.pixel_samples = pxs;
         po.env_dir = env_dir;
+        po.train_lights = (DsTrainLights)tl;
         po.threads = threads;
         if (po.count <= 0 && budget <= 0) po.time_budget_s = 1800; /* prior-train: as much as 30 minutes give */
         DsGenStats st;
