@@ -25,6 +25,8 @@
  * partially covered edge pixels (pixel_samples > 1) stay premultiplied:
  *   F(x)_p = alpha_p sum_t w_pt x_t / W_p,   W_p = sum_t w_pt alpha_t,
  * for x premultiplied by alpha (x_t = alpha_t c gives alpha_p c: constants are preserved);
+ * weights below 1e-30 (or with a depth term below e^-80) are dropped as 0, in the forward and
+ * the adjoint alike (one weight function, cached per view when it fits in 192 MB);
  * the centre tap's normal and depth terms are 1 by definition, so W_p >= alpha_p > 0 wherever
  * a pixel is covered (no clamp needed), and F(x)_p = 0 where alpha_p = 0.
  * Images are (h, w, c) row-major, c channels per pixel (c = 3 for light). Rows are distributed
