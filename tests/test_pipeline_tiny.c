@@ -28,7 +28,7 @@ MF_TEST(pipeline_tiny_baseline_and_materialfusion) {
     const char *mf = getenv("MF_BIN");
     if (!mf || !mf_file_exists(mf)) MF_SKIP("MF_BIN not set (run through make test)");
     const char *d = mf_test_path("pipeline_tiny");
-    CHECK(sh("%s gen --split tiny -o %s 2>/dev/null", mf, d) == 0);
+    CHECK(sh("%s gen --split tiny -o %s --no-render 2>/dev/null", mf, d) == 0); /* images via the render JSONs below */
     char scene[1024];
     snprintf(scene, sizeof scene, "%s/000_cup", d);
     CHECK_MSG(mf_file_exists(scene), "%s missing", scene);

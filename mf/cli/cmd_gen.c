@@ -27,11 +27,11 @@
     "  --train / --test  number of cameras (default 100 / 200)\n" \
     "  --r-min / --r-max camera distance range (default 1.5 / 2.0; 2.2 / 2.8 cropped no view of 1500 checked)\n" \
     "\n" \
-    "       mf gen --split tiny|small|full|test-3d|test-3d-diffuse -o DIR [--render] [--seed N] [--env-dir DIR]\n" \
+    "       mf gen --split tiny|small|full|test-3d|test-3d-diffuse -o DIR [--no-render] [--seed N] [--env-dir DIR]\n" \
     "  Writes a whole split: DIR/NNN_<family>/ scenes as above plus gt/env.exr (training light),\n" \
     "  relight/<env>.exr and render_{train,test,relight_<env>}.json for `mf render`, DIR/split.json\n" \
-    "  and DIR/manifest.json (counts, seeds, FNV-1a 64 of every file). With --render the images are\n" \
-    "  rendered in-process: train/ test/ r_NNN.png, gt/albedo/ gt/orm/ r_NNN.png, relight/<env>/r_NNN.exr\n" \
+    "  and DIR/manifest.json (counts, seeds, FNV-1a 64 of every file), and renders the images\n" \
+    "  in-process (--no-render: the layout only): train/ test/ r_NNN.png, gt/albedo/ gt/orm/ r_NNN.png, relight/<env>/r_NNN.exr\n" \
     "  (test-3d-diffuse: diffuse objects, lit views by POV-Ray). Rerunning resumes.\n" \
     "  --scenes N: only the first N scenes; --spp N: env/BSDF samples per pixel sample = N^2.\n" \
     "  --compare-povray FILE.md: render the relit test views (first --views N, at --res R) with both\n" \
@@ -117,11 +117,12 @@ static int gen_envs(const char *dir, int count, int seed, const char *kind, int 
 static int cmd_gen(int argc, char **argv) {
     const char *out = NULL, *fam_name = NULL, *split = NULL, *env_dir = NULL, *compare = NULL, *envs = NULL, *kind = NULL, *train_lights = NULL;
     int env_width = DS_ENV_W;
-    int seed = 1, res = -1, ntrain = 100, ntest = 200, count = 0, img_res = 64, views = -1, spp = -1, pxs = 4, threads = 0, render = 0, nscenes = 0, pov_rad = 0;
+    int seed = 1, res = -1, ntrain = 100, ntest = 200, count = 0, img_res = 64, views = -1, spp = -1, pxs = 4, threads = 0, render = 1, nscenes = 0, pov_rad = 0;
     float r_min = 1.5f, r_max = 2.0f, budget = 0;
     for (int i = 1; i < argc; ++i) {
         int r;
-        if (!strcmp(argv[i], "--render")) { render = 1; continue; }
+        if (!strcmp(argv[i], "--render")) { render = 1; continue; } /* the default; kept for scripts */
+        if (!strcmp(argv[i], "--no-render")) { render = 0; continue; }
         if ((r = mf_opt_str(argc, argv, &i, "-o", &out)) || (r = mf_opt_str(argc, argv, &i, "--out", &out)) ||
             (r = mf_opt_str(argc, argv, &i, "--family", &fam_name)) ||
             (r = mf_opt_int(argc, argv, &i, "--seed", &seed)) || (r = mf_opt_int(argc, argv, &i, "--tex-res", &res)) ||
@@ -204,7 +205,7 @@ static int cmd_gen(int argc, char **argv) {
                         ds_compare_psnr(&c.all), c.all.rel_den > 0 ? c.all.rel_num / c.all.rel_den : 0.0, compare);
         }
         mf_log_info("mf gen: split %s (%d scenes) -> %s%s; %d views rendered in %.1f s", split, spec.n_scenes, out,
-                    render ? "" : " (layout only: add --render for the images)", nv, wall);
+                    render ? "" : " (layout only, --no-render)", nv, wall);
         return MF_EXIT_OK;
     }
     if (res < 0) res = DS_DEFAULT_TEX_RES;
