@@ -36,6 +36,14 @@ static inline double mf_rng_double(MfRng *r) {
     return ((double)hi * 67108864.0 + (double)lo) * (1.0 / 9007199254740992.0);
 }
 
+/* A jittered point in stratum k of an n x n grid over [0, 1)^2 (row k / n, column k % n);
+ * u1 is drawn before u2. */
+static inline void mf_rng_stratum2(MfRng *r, int k, int n, float *u1, float *u2) {
+    float inv_n = 1.0f / (float)n;
+    *u1 = ((float)(k / n) + mf_rng_float(r)) * inv_n;
+    *u2 = ((float)(k % n) + mf_rng_float(r)) * inv_n;
+}
+
 /* Uniform integer in [0, n) without modulo bias (n > 0). */
 uint32_t mf_rng_below(MfRng *r, uint32_t n);
 

@@ -140,17 +140,13 @@ static void shade(Ctx *c, const MfHit *h, MfVec3 wo_w, MfRng *rng, MfVec3 *dif, 
     mf_brdf_prepare(&bc, &mat.m, wo, MF_LOBE_ALL);
     mf_brdf_prepare(&bc_s, &mat_s.m, wo_s, MF_LOBE_ALL);
     int n = c->o->spp_sqrt, N = n * n;
-    float inv_n = 1.0f / (float)n, inv_N = 1.0f / (float)(n * n);
+    float inv_N = 1.0f / (float)(n * n);
     enum { B = 64 };
     float us1[B], us2[B], pdf[B], ws[B];
     MfVec3 dir[B], wis[B], Ls[B];
     for (int b0 = 0; b0 < N; b0 += B) {
         int nb = N - b0 < B ? N - b0 : B, na = 0;
-        for (int t = 0; t < nb; ++t) {
-            int i = (b0 + t) / n, j = (b0 + t) % n;
-            us1[t] = ((float)i + mf_rng_float(rng)) * inv_n;
-            us2[t] = ((float)j + mf_rng_float(rng)) * inv_n;
-        }
+        for (int t = 0; t < nb; ++t) mf_rng_stratum2(rng, b0 + t, n, &us1[t], &us2[t]);
         mf_env_sample_dir_n(env_s, nb, us1, us2, dir, pdf);
         for (int t = 0; t < nb; ++t) {
             MfVec3 wi_w = dir[t];
@@ -172,9 +168,8 @@ static void shade(Ctx *c, const MfHit *h, MfVec3 wo_w, MfRng *rng, MfVec3 *dif, 
     for (int b0 = 0; b0 < N; b0 += B) {
         int nb = N - b0 < B ? N - b0 : B, na = 0;
         for (int t = 0; t < nb; ++t) {
-            int i = (b0 + t) / n, j = (b0 + t) % n;
-            float u0 = mf_rng_float(rng);
-            float u1 = ((float)i + mf_rng_float(rng)) * inv_n, u2 = ((float)j + mf_rng_float(rng)) * inv_n;
+            float u0 = mf_rng_float(rng), u1, u2;
+            mf_rng_stratum2(rng, b0 + t, n, &u1, &u2);
             MfVec3 wi;
             float pb;
             MfBrdfValue f_unused;

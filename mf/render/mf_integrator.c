@@ -155,7 +155,7 @@ static Shade shade(const MfRenderInput *in, const MfRenderOpts *opts, const MfHi
         MfBrdfCtx bc;
         mf_brdf_prepare(&bc, mat, wo, lobes);
         int n = opts->spp_sqrt, N = n * n;
-        float inv_n = 1.0f / (float)n, inv_N = 1.0f / (float)(n * n);
+        float inv_N = 1.0f / (float)(n * n);
         MfVec3 dir[SHADE_BATCH];
         float pdf[SHADE_BATCH], us1[SHADE_BATCH], us2[SHADE_BATCH];
         MfVec3 Ls[SHADE_BATCH];
@@ -163,11 +163,7 @@ static Shade shade(const MfRenderInput *in, const MfRenderOpts *opts, const MfHi
         /* Light samples: acc[].p = MIS weight. */
         for (int b0 = 0; b0 < N; b0 += SHADE_BATCH) {
             int nb = N - b0 < SHADE_BATCH ? N - b0 : SHADE_BATCH, na = 0;
-            for (int t = 0; t < nb; ++t) {
-                int i = (b0 + t) / n, j = (b0 + t) % n;
-                us1[t] = ((float)i + mf_rng_float(rng)) * inv_n;
-                us2[t] = ((float)j + mf_rng_float(rng)) * inv_n;
-            }
+            for (int t = 0; t < nb; ++t) mf_rng_stratum2(rng, b0 + t, n, &us1[t], &us2[t]);
             mf_env_sample_dir_n(in->env, nb, us1, us2, dir, pdf);
             for (int t = 0; t < nb; ++t) {
                 MfVec3 wi_w = dir[t];
@@ -197,9 +193,8 @@ static Shade shade(const MfRenderInput *in, const MfRenderOpts *opts, const MfHi
         for (int b0 = 0; b0 < N; b0 += SHADE_BATCH) {
             int nb = N - b0 < SHADE_BATCH ? N - b0 : SHADE_BATCH, na = 0;
             for (int t = 0; t < nb; ++t) {
-                int i = (b0 + t) / n, j = (b0 + t) % n;
-                float u0 = mf_rng_float(rng);
-                float u1 = ((float)i + mf_rng_float(rng)) * inv_n, u2 = ((float)j + mf_rng_float(rng)) * inv_n;
+                float u0 = mf_rng_float(rng), u1, u2;
+                mf_rng_stratum2(rng, b0 + t, n, &u1, &u2);
                 MfVec3 wi;
                 float pb;
                 MfBrdfValue f;
