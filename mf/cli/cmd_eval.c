@@ -14,6 +14,7 @@
 #include "core/mf_log.h"
 #include "core/mf_strbuf.h"
 #include "eval/ev_eval.h"
+#include "eval/ev_paired.h"
 #include "eval/ev_report.h"
 #include "io/mf_json.h"
 
@@ -28,7 +29,8 @@ static const char usage[] =
     "metallic, no scaling; orm3 adds a constant R channel). Metrics: PSNR, SSIM, L1, FLIP (LPIPS is\n"
     "not computed: it needs pretrained weights that cannot be obtained here). Writes REPORT_DIR/\n"
     "per_view.csv, scenes.csv, relight.{md,tex}, materials.{md,tex}, cost.md, runs.md (provenance), speed_error.png,\n"
-    "and index.html. Methods default to every folder in RESULTS_DIR. --trivial adds two guesses every\n"
+    "paired.{md,csv} (every method minus the first over the shared scenes: mean, 95% CI, wins, paired\n"
+    "t-test and sign-test p; mf compare recomputes it for another reference) and index.html. Methods default to every folder in RESULTS_DIR. --trivial adds two guesses every\n"
     "method must beat: trivial-grey (albedo 0.5 on the GT mesh under the true light) and\n"
     "trivial-flat-light (the true textures under a constant white light).\n";
 
@@ -290,6 +292,7 @@ static int cmd_eval(int argc, char **argv) {
         snprintf(p, sizeof p, "%s/scenes.csv", out);
         rc = ev_table_write_csv(&t, p);
     }
+    if (!rc && nm > 1) rc = ev_paired_write_bench(&t, out, mptr[0], mptr, nm, dataset); /* against the first method */
     int have_curve = 0;
     for (int m = 0; m < nm; ++m) have_curve |= series[m].n > 0;
     if (!rc && curves && have_curve && ev_gnuplot_available()) {
