@@ -16,7 +16,8 @@
 
 enum { RES = 16, NV = 4 };
 
-static int make_recon(MfMesh *mesh, MfRecon **out) {
+/* iters and ckpt_every override the small defaults (6 and 0) when positive. */
+static int make_recon_n(MfMesh *mesh, MfRecon **out, int iters, int ckpt_every) {
     int rc = mf_shape_uv_sphere(mesh, mf_v3(0, 0, 0), 0.5f, 16, 8);
     if (rc) return rc;
     MfReconView views[NV];
@@ -46,15 +47,32 @@ static int make_recon(MfMesh *mesh, MfRecon **out) {
     mf_env_free(&env);
     mf_rtscene_free(rt);
     MfReconOpts o = mf_recon_opts_default();
-    o.iters = 6;
+    o.iters = iters > 0 ? iters : 6;
     o.tex_res = 8;
     o.env_w = 8;
     o.env_h = 4;
     o.snapshot_every = 0;
-    o.checkpoint_every = 0;
+    o.checkpoint_every = ckpt_every > 0 ? ckpt_every : 0;
     if (!rc) rc = mf_recon_new(mesh, views, NV, &o, out);
     for (int v = 0; v < NV; ++v) mf_image_free(&views[v].ref);
     return rc;
+}
+
+static int make_recon(MfMesh *mesh, MfRecon **out) { return make_recon_n(mesh, out, 0, 0); }
+
+static MfSds *tiny_sds_opts(const MfSdsOpts *o) {
+    MfPriorConfig cfg;
+    mf_prior_config_tiny(&cfg);
+    MfPrior *p = NULL;
+    if (mf_prior_new(&p, &cfg)) return NULL;
+    mf_ae_init_weights(p->ae, 11);
+    mf_denoiser_init_weights(p->dn, 12);
+    MfSds *s = NULL;
+    if (mf_sds_new(p, o, &s)) {
+        mf_prior_free(p);
+        return NULL;
+    }
+    return s;
 }
 
 static MfSds *tiny_sds_every(int every) {
@@ -188,3 +206,217 @@ MF_TEST(fusion_sds_hook_schedule) {
     mf_recon_free(r);
     mf_mesh_free(&mesh);
 }
+
+/* The term moves the textures toward the prior's targets: plain gradient steps on kd / ORM texels
+ * against fixed targets lower the SDS loss; with both lambdas 0 the hook adds no gradient. */
+MF_TEST(fusion_sds_moves_textures_toward_targets) {
+    MfMesh mesh;
+    MfRecon *r = NULL;
+    CHECK_OK(make_recon(&mesh, &r));
+    MfSds *s = tiny_sds();
+    if (!r || !s) return;
+    MfParamBlock *kd = mf_recon_block(r, MF_BLOCK_KD), *orm = mf_recon_block(r, MF_BLOCK_ORM);
+    MfSdsTargets t;
+    int views[2] = {0, 2};
+    CHECK_OK(mf_sds_targets(s, r, views, 2, 0, &t));
+    double l0 = 0.0, l = 0.0;
+    CHECK_OK(mf_sds_loss(s, r, &t, 1.0f, 0, &l0));
+    for (int step = 0; step < 30; ++step) {
+        mf_param_zero_grad(kd);
+        mf_param_zero_grad(orm);
+        CHECK_OK(mf_sds_loss(s, r, &t, 1.0f, 1, &l));
+        MfParamBlock *b[2] = {kd, orm};
+        for (int k = 0; k < 2; ++k)
+            for (size_t i = 0; i < b[k]->n; ++i) b[k]->p[i] = fminf(1.0f, fmaxf(0.0f, b[k]->p[i] - 20.0f * b[k]->g[i]));
+    }
+    CHECK_OK(mf_sds_loss(s, r, &t, 1.0f, 0, &l));
+    if (getenv("MF_TEST_VERBOSE")) printf("    SDS loss against fixed targets: %.5f -> %.5f after 30 steps\n", l0, l);
+    CHECK_MSG(l < 0.7 * l0, "SDS loss %.5f -> %.5f: the textures did not move toward the targets", l0, l);
+    mf_sds_targets_free(&t);
+    mf_sds_free(s);
+    /* lambdas 0: nothing is added */
+    MfSdsOpts o = mf_sds_opts_default();
+    o.lambda_latent = o.lambda_rgb = 0.0f;
+    s = tiny_sds_opts(&o);
+    mf_param_zero_grad(kd);
+    double h = -1.0;
+    CHECK_OK(mf_sds_hook(s, r, 0, views, 2, &h));
+    double gmax = 0.0;
+    for (size_t i = 0; i < kd->n; ++i) gmax = fmax(gmax, fabs(kd->g[i]));
+    CHECK(h == 0.0 && gmax == 0.0);
+    mf_sds_free(s);
+    mf_recon_free(r);
+    mf_mesh_free(&mesh);
+}
+
+/* gamma_i = 1 - (i/N)^p with p = 2, read off the held term's loss between refreshes. */
+MF_TEST(fusion_sds_schedule_values) {
+    MfMesh mesh;
+    MfRecon *r = NULL;
+    CHECK_OK(make_recon(&mesh, &r));
+    MfSdsOpts o = mf_sds_opts_default();
+    o.k_views = 2, o.every = 8, o.gamma_p = 2.0f;
+    MfSds *s = tiny_sds_opts(&o);
+    if (!r || !s) return;
+    int batch[2] = {0, 1}, N = mf_recon_opts(r)->iters; /* 6 */
+    double l0, l;
+    CHECK_OK(mf_sds_hook(s, r, 0, batch, 2, &l0));
+    CHECK(l0 > 0.0);
+    for (int it = 1; it < N; ++it) {
+        CHECK_OK(mf_sds_hook(s, r, it, batch, 2, &l));
+        double g = 1.0 - ((double)it / N) * ((double)it / N);
+        CHECK_NEAR(l, g * l0, 1e-12 + 1e-9 * l0);
+    }
+    CHECK_OK(mf_sds_hook(s, r, N, batch, 2, &l));
+    CHECK(l == 0.0);
+    mf_sds_free(s);
+    mf_recon_free(r);
+    mf_mesh_free(&mesh);
+}
+
+/* L_rgb on [0, 1] maps is a quarter of the same term on [-1, 1] maps (targets fixed). */
+MF_TEST(fusion_sds_rgb01_scale) {
+    MfMesh mesh;
+    MfRecon *r = NULL;
+    CHECK_OK(make_recon(&mesh, &r));
+    MfSdsOpts o = mf_sds_opts_default();
+    o.k_views = 2, o.lambda_latent = 0.0f;
+    MfSds *s1 = tiny_sds_opts(&o);
+    o.rgb01 = 0;
+    MfSds *s0 = tiny_sds_opts(&o);
+    if (!r || !s0 || !s1) return;
+    MfSdsTargets t;
+    int views[2] = {1, 3};
+    CHECK_OK(mf_sds_targets(s1, r, views, 2, 0, &t));
+    double l1, l0;
+    CHECK_OK(mf_sds_loss(s1, r, &t, 1.0f, 0, &l1));
+    CHECK_OK(mf_sds_loss(s0, r, &t, 1.0f, 0, &l0));
+    CHECK(l0 > 0.0);
+    CHECK_NEAR(l1, 0.25 * l0, 1e-6 * l0);
+    mf_sds_targets_free(&t);
+    mf_sds_free(s0), mf_sds_free(s1);
+    mf_recon_free(r);
+    mf_mesh_free(&mesh);
+}
+
+/* K views beyond the batch: the batch first, then distinct other views, the same for the same
+ * iteration and different across iterations. */
+MF_TEST(fusion_sds_pick_views) {
+    MfMesh mesh;
+    MfRecon *r = NULL;
+    CHECK_OK(make_recon(&mesh, &r));
+    MfSdsOpts o = mf_sds_opts_default();
+    o.k_views = 3;
+    MfSds *s = tiny_sds_opts(&o);
+    if (!r || !s) return;
+    int batch[1] = {2}, v[MF_SDS_MAX_VIEWS], w[MF_SDS_MAX_VIEWS], differ = 0;
+    for (int it = 0; it < 8; ++it) {
+        CHECK(mf_sds_pick_views(s, r, it, batch, 1, v) == 3);
+        CHECK(mf_sds_pick_views(s, r, it, batch, 1, w) == 3);
+        CHECK(v[0] == 2 && !memcmp(v, w, sizeof(int) * 3));
+        CHECK(v[1] != v[0] && v[2] != v[0] && v[2] != v[1] && v[1] >= 0 && v[1] < NV && v[2] >= 0 && v[2] < NV);
+        int u[MF_SDS_MAX_VIEWS];
+        mf_sds_pick_views(s, r, it + 1, batch, 1, u);
+        differ |= memcmp(v, u, sizeof(int) * 3) != 0;
+    }
+    CHECK(differ);
+    mf_sds_free(s);
+    o.k_views = 8; /* more than the scene's 4 views: all of them, once each */
+    s = tiny_sds_opts(&o);
+    int seen = 0;
+    CHECK(mf_sds_pick_views(s, r, 0, batch, 1, v) == NV);
+    for (int i = 0; i < NV; ++i) seen |= 1 << v[i];
+    CHECK(seen == (1 << NV) - 1);
+    mf_sds_free(s);
+    mf_recon_free(r);
+    mf_mesh_free(&mesh);
+}
+
+/* --sds-weight conflict: where the prior's texel gradient opposes the iteration's other gradient,
+ * the opposing part is removed (here: exactly cancelled), elsewhere it is applied in full. */
+MF_TEST(fusion_sds_conflict_weight) {
+    MfMesh mesh;
+    MfRecon *r = NULL;
+    CHECK_OK(make_recon(&mesh, &r));
+    MfSdsOpts o = mf_sds_opts_default();
+    o.k_views = 2;
+    MfSds *s = tiny_sds_opts(&o);
+    o.weight = MF_SDS_WEIGHT_CONFLICT;
+    MfSds *sc = tiny_sds_opts(&o);
+    if (!r || !s || !sc) return;
+    MfParamBlock *kd = mf_recon_block(r, MF_BLOCK_KD);
+    int batch[2] = {0, 1};
+    double l;
+    mf_param_zero_grad(kd);
+    CHECK_OK(mf_sds_hook(s, r, 0, batch, 2, &l));
+    size_t n = kd->n;
+    float *h = malloc(n * sizeof(float)), *g0 = malloc(n * sizeof(float));
+    if (!h || !g0) return;
+    memcpy(h, kd->g, n * sizeof(float));
+    /* the "data" gradient: against the prior on even texels, along it on odd ones */
+    for (size_t i = 0; i < n; ++i) g0[i] = ((i / 3) % 2 ? 0.5f : -2.0f) * h[i];
+    memcpy(kd->g, g0, n * sizeof(float));
+    CHECK_OK(mf_sds_hook(sc, r, 0, batch, 2, &l));
+    double hmax = 0.0, err = 0.0;
+    int conflicts = 0;
+    for (size_t i = 0; i < n; ++i) {
+        hmax = fmax(hmax, fabs(h[i]));
+        double want = (i / 3) % 2 ? g0[i] + h[i] : g0[i]; /* opposing: the prior's part cancelled */
+        err = fmax(err, fabs(kd->g[i] - want));
+        conflicts += (i / 3) % 2 == 0 && h[i] != 0.0f;
+    }
+    CHECK(hmax > 0.0 && conflicts > 0);
+    CHECK_MSG(err <= 1e-5 * hmax, "conflict weighting off by %.3g (prior gradient scale %.3g)", err, hmax);
+    free(h), free(g0);
+    mf_sds_free(s), mf_sds_free(sc);
+    mf_recon_free(r);
+    mf_mesh_free(&mesh);
+}
+
+/* The SDS hook, killed (an error) when iteration `kill_at` begins: the checkpoint of the
+ * iterations before it is on disk, as after a real interruption. */
+typedef struct {
+    MfSds *s;
+    int kill_at;
+} Killed;
+
+static int killed_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double *loss) {
+    Killed *k = ctx;
+    if (it == k->kill_at) return mf_fail(MF_EIO, "killed at iteration %d", it);
+    return mf_sds_hook(k->s, r, it, batch, nb, loss);
+}
+
+/* A MaterialFusion run killed after a checkpoint and resumed in a fresh process state reaches the
+ * bytes of the uninterrupted run (the held prior gradient is refreshed where it was; gamma_i
+ * depends on the run's total iterations, which the resumed run keeps). */
+MF_TEST(fusion_resume_is_exact) {
+    MfSdsOpts o = mf_sds_opts_default();
+    o.k_views = 3, o.every = 3;
+    MfMesh mf, mh, mr;
+    MfRecon *full = NULL, *half = NULL, *res = NULL;
+    MfSds *s1 = tiny_sds_opts(&o), *s2 = tiny_sds_opts(&o), *s3 = tiny_sds_opts(&o);
+    CHECK_OK(make_recon_n(&mf, &full, 8, 4));
+    CHECK_OK(make_recon_n(&mh, &half, 8, 4));
+    if (!full || !half || !s1 || !s2 || !s3) return;
+    char fd[512], hd[512], ck[600];
+    snprintf(fd, sizeof fd, "%s", mf_test_path("mf_full"));
+    snprintf(hd, sizeof hd, "%s", mf_test_path("mf_half"));
+    Killed k = {s2, 6};
+    MfReconHook h1 = {mf_sds_hook, s1}, h2 = {killed_hook, &k}, h3 = {mf_sds_hook, s3};
+    CHECK_OK(mf_recon_run(full, &h1, fd));
+    CHECK_ERR(mf_recon_run(half, &h2, hd), "killed at iteration 6");
+    /* a new process: fresh reconstruction and prior term, then the checkpoint */
+    CHECK_OK(make_recon_n(&mr, &res, 8, 4));
+    snprintf(ck, sizeof ck, "%s/checkpoint.mfck", hd);
+    CHECK_OK(mf_recon_load_checkpoint(res, ck));
+    CHECK(mf_recon_iteration(res) == 4);
+    CHECK_OK(mf_recon_run(res, &h3, hd));
+    for (int b = 0; res && b < MF_NBLOCKS; ++b) {
+        const MfParamBlock *x = mf_recon_block(full, b), *y = mf_recon_block(res, b);
+        CHECK_MSG(x->n == y->n && (x->n == 0 || !memcmp(x->p, y->p, x->n * sizeof(float))), "block %s differs after resume", x->name);
+    }
+    mf_sds_free(s1), mf_sds_free(s2), mf_sds_free(s3);
+    mf_recon_free(full), mf_recon_free(half), mf_recon_free(res);
+    mf_mesh_free(&mf), mf_mesh_free(&mh), mf_mesh_free(&mr);
+}
+

@@ -34,6 +34,8 @@
     "  in-process (--no-render: the layout only): train/ test/ r_NNN.png, gt/albedo/ gt/orm/ r_NNN.png, relight/<env>/r_NNN.exr\n" \
     "  (test-3d-diffuse: diffuse objects, lit views by POV-Ray). Rerunning resumes.\n" \
     "  --scenes N: only the first N scenes; --spp N: env/BSDF samples per pixel sample = N^2.\n" \
+    "  --train N / --test N / --width W: override the split's view counts and image size (e.g. a\n" \
+    "    cheap POV-Ray split: --split test-3d-diffuse --train 24 --width 64; write it to its own DIR).\n" \
     "  --compare-povray FILE.md: render the relit test views (first --views N, at --res R) with both\n" \
     "    renderers and append a table row (PSNR, mean relative error) to FILE.md;\n" \
     "    --pov-radiosity N: POV-Ray radiosity count (default 200).\n" \
@@ -117,7 +119,7 @@ static int gen_envs(const char *dir, int count, int seed, const char *kind, int 
 static int cmd_gen(int argc, char **argv) {
     const char *out = NULL, *fam_name = NULL, *split = NULL, *env_dir = NULL, *compare = NULL, *envs = NULL, *kind = NULL, *train_lights = NULL;
     int env_width = DS_ENV_W;
-    int seed = 1, res = -1, ntrain = 100, ntest = 200, count = 0, img_res = 64, views = -1, spp = -1, pxs = 4, threads = 0, render = 1, nscenes = 0, pov_rad = 0;
+    int seed = 1, width = 0, res = -1, ntrain = 100, ntest = 200, count = 0, img_res = 64, views = -1, spp = -1, pxs = 4, threads = 0, render = 1, nscenes = 0, pov_rad = 0;
     float r_min = 1.5f, r_max = 2.0f, budget = 0;
     for (int i = 1; i < argc; ++i) {
         int r;
@@ -126,7 +128,7 @@ static int cmd_gen(int argc, char **argv) {
         if ((r = mf_opt_str(argc, argv, &i, "-o", &out)) || (r = mf_opt_str(argc, argv, &i, "--out", &out)) ||
             (r = mf_opt_str(argc, argv, &i, "--family", &fam_name)) ||
             (r = mf_opt_int(argc, argv, &i, "--seed", &seed)) || (r = mf_opt_int(argc, argv, &i, "--tex-res", &res)) ||
-            (r = mf_opt_int(argc, argv, &i, "--train", &ntrain)) || (r = mf_opt_int(argc, argv, &i, "--test", &ntest)) ||
+            (r = mf_opt_int(argc, argv, &i, "--train", &ntrain)) || (r = mf_opt_int(argc, argv, &i, "--width", &width)) || (r = mf_opt_int(argc, argv, &i, "--test", &ntest)) ||
             (r = mf_opt_str(argc, argv, &i, "--split", &split)) || (r = mf_opt_str(argc, argv, &i, "--env-dir", &env_dir)) ||
             (r = mf_opt_float(argc, argv, &i, "--r-min", &r_min)) || (r = mf_opt_float(argc, argv, &i, "--r-max", &r_max)) ||
             (r = mf_opt_int(argc, argv, &i, "--count", &count)) || (r = mf_opt_int(argc, argv, &i, "--res", &img_res)) ||
@@ -151,8 +153,12 @@ static int cmd_gen(int argc, char **argv) {
         mf_fail(MF_EARG, "--train-lights applies to --split prior-train or test-2d");
         return MF_EXIT_USAGE;
     }
-    int res_given = 0;
-    for (int i = 1; i < argc; ++i) res_given |= !strcmp(argv[i], "--res");
+    int res_given = 0, train_given = 0, test_given = 0;
+    for (int i = 1; i < argc; ++i) {
+        res_given |= !strcmp(argv[i], "--res");
+        train_given |= !strcmp(argv[i], "--train");
+        test_given |= !strcmp(argv[i], "--test");
+    }
     if (split && (!strcmp(split, "prior-train") || !strcmp(split, "test-2d"))) {
         DsPriorTrainOpts po = !strcmp(split, "test-2d") ? ds_test2d_defaults() : ds_prior_train_defaults();
         if (count > 0) po.count = count;
@@ -180,6 +186,13 @@ static int cmd_gen(int argc, char **argv) {
         spec.r_max = r_max;
         if (spp > 0) spec.spp_sqrt = spp;
         if (nscenes > 0) spec.n_scenes = nscenes;
+        if (train_given) spec.n_train = ntrain;
+        if (test_given) spec.n_test = ntest;
+        if (width > 0) spec.width = width;
+        if (spec.n_train < 1 || spec.n_test < 1 || spec.width < 8 || spec.width > 4096) {
+            mf_fail(MF_EARG, "--train %d / --test %d must be >= 1 and --width %d in 8..4096", spec.n_train, spec.n_test, spec.width);
+            return MF_EXIT_USAGE;
+        }
         spec.pov_radiosity = pov_rad;
         double t0 = mf_now();
         int nv = 0;

@@ -33,13 +33,17 @@ static char usage[8192] =
     "                       committed mf/prior/weights/prior.mfck)\n"
     "  --lambda-latent X    latent term weight (default 0.02)   --lambda-rgb X   RGB term weight (0.5)\n"
     "  --gamma-p P          gamma_i = 1 - (i/N)^P (default 1)    --gamma-const 1  gamma_i = 1 throughout\n"
-    "  --k-views K          views per batch with the prior term (default 4)\n"
+    "  --k-views K          views that get the prior term per step (default 4, 1..16; drawn beyond the batch)\n"
+    "  --sds-weight W       trust in the prior: none (default) | conflict (drop, per texel, the part of the\n"
+    "                       prior's gradient that opposes the images' gradient)\n"
+    "  --sds-rgb01 0|1      L_rgb on [0,1] maps as the official code (1, default) or on [-1,1] (0: 4x)\n"
     "  --sds-every K        recompute the prior term every K iterations, hold its gradient between (default 4)\n"
     "Options of both methods:\n";
 
 static int cmd_recon(int argc, char **argv) {
     const char *data = NULL, *out = NULL, *method = "nvdiffrecmc", *mesh_path = NULL, *config = NULL, *split = "train";
     int res = 0, max_views = 0, resume = 0, gamma_const = 0;
+    const char *sds_weight = NULL;
     MfReconOpts o = bl_nvdiffrecmc_opts();
     MfSdsOpts so = mf_sds_opts_default();
     char wdefault[MF_PATH_MAX];
@@ -60,6 +64,7 @@ static int cmd_recon(int argc, char **argv) {
             (r = mf_opt_float(argc, argv, &i, "--lambda-rgb", &so.lambda_rgb)) || (r = mf_opt_float(argc, argv, &i, "--gamma-p", &so.gamma_p)) ||
             (r = mf_opt_int(argc, argv, &i, "--gamma-const", &gamma_const)) || (r = mf_opt_int(argc, argv, &i, "--k-views", &so.k_views)) ||
             (r = mf_opt_int(argc, argv, &i, "--sds-every", &so.every)) ||
+            (r = mf_opt_str(argc, argv, &i, "--sds-weight", &sds_weight)) || (r = mf_opt_int(argc, argv, &i, "--sds-rgb01", &so.rgb01)) ||
             (r = mf_recon_opts_parse_arg(&o, argc, argv, &i))) {
             if (r < 0) return MF_EXIT_USAGE;
             continue;
@@ -76,6 +81,11 @@ static int cmd_recon(int argc, char **argv) {
         return MF_EXIT_USAGE;
     }
     so.gamma_const = gamma_const != 0;
+    if (sds_weight && (so.weight = mf_sds_weight_parse(sds_weight)) < 0) {
+        mf_fail(MF_EARG, "--sds-weight %s: expected none or conflict", sds_weight);
+        return MF_EXIT_USAGE;
+    }
+    if (so.rgb01 != 0 && so.rgb01 != 1) { mf_fail(MF_EARG, "--sds-rgb01 %d: expected 0 or 1", so.rgb01); return MF_EXIT_USAGE; }
     so.seed = mf_hash64(o.seed, 0x5d5);
     double t0 = mf_now();
     DsViews dv;
@@ -179,6 +189,8 @@ static int cmd_recon(int argc, char **argv) {
             cJSON_AddNumberToObject(opts, "gamma_const", so.gamma_const);
             cJSON_AddNumberToObject(opts, "k_views", so.k_views);
             cJSON_AddNumberToObject(opts, "sds_every", so.every);
+            cJSON_AddStringToObject(opts, "sds_weight", mf_sds_weight_name(so.weight));
+            cJSON_AddNumberToObject(opts, "sds_rgb01", so.rgb01);
         }
         rc = mf_write_run_json(out, argc, argv, o.seed, mf_now() - t0, opts);
     }

@@ -22,14 +22,27 @@ struct MfSds {
 };
 
 MfSdsOpts mf_sds_opts_default(void) {
-    MfSdsOpts o = {4, 0.02f, 0.5f, 1.0f, 0, 3.0f, 20, 980, 4, 7, 4};
+    MfSdsOpts o = {4, 0.02f, 0.5f, 1.0f, 0, 3.0f, 20, 980, 4, 7, 4, 1, MF_SDS_WEIGHT_NONE};
     return o;
 }
 
+static const char *const weight_names[] = {"none", "conflict"};
+
+int mf_sds_weight_parse(const char *s) {
+    for (int i = 0; i < (int)(sizeof weight_names / sizeof weight_names[0]); ++i)
+        if (s && !strcmp(s, weight_names[i])) return i;
+    return -1;
+}
+
+const char *mf_sds_weight_name(int w) { return w >= 0 && w <= MF_SDS_WEIGHT_CONFLICT ? weight_names[w] : "?"; }
+
 int mf_sds_new(MfPrior *prior, const MfSdsOpts *o, MfSds **out) {
-    if (o->k_views < 1 || o->t_min < 1 || o->t_max > 999 || o->t_min > o->t_max || o->aov_samples < 1 || o->every < 1)
-        return mf_fail(MF_EARG, "SDS options: k_views %d, t in [%d, %d], aov_samples %d, every %d are invalid", o->k_views,
-                       o->t_min, o->t_max, o->aov_samples, o->every);
+    if (o->k_views < 1 || o->k_views > MF_SDS_MAX_VIEWS || o->t_min < 1 || o->t_max > 999 || o->t_min > o->t_max ||
+        o->aov_samples < 1 || o->every < 1)
+        return mf_fail(MF_EARG, "SDS options: k_views %d (1..%d), t in [%d, %d] (1..999), aov_samples %d, every %d (>= 1) are invalid",
+                       o->k_views, MF_SDS_MAX_VIEWS, o->t_min, o->t_max, o->aov_samples, o->every);
+    if (o->weight < 0 || o->weight > MF_SDS_WEIGHT_CONFLICT)
+        return mf_fail(MF_EARG, "SDS options: weight %d is not none or conflict", o->weight);
     MfSds *s = calloc(1, sizeof *s);
     if (!s) return mf_fail(MF_ENOMEM, "out of memory");
     s->prior = prior;
@@ -213,11 +226,13 @@ static int loss_of(MfSds *s, MfRecon *r, const MfSdsTargets *t, Maps *m, float s
         lat += (double)d * d;
         dz[i] = scale * s->o.lambda_latent * 2.0f * a * d / (float)nz;
     }
+    /* rgb01: the difference of [0, 1] maps is half that of the [-1, 1] prior maps */
+    float u = s->o.rgb01 ? 0.5f : 1.0f;
     for (size_t i = 0; i < 2 * nm; ++i) {
         size_t j = i % nm; /* index within the albedo or ORM maps: (k, c, p) */
-        float in = i < nm ? ain[j] : oin[j], d = t->mask[(j / (3 * rr)) * rr + j % rr] * t->dhat[i] - in;
+        float in = i < nm ? ain[j] : oin[j], d = u * (t->mask[(j / (3 * rr)) * rr + j % rr] * t->dhat[i] - in);
         rgb += (double)d * d;
-        (i < nm ? dain : doin)[j] += -scale * s->o.lambda_rgb * 2.0f * d / (float)(2 * nm); /* d/d(in) of d^2 */
+        (i < nm ? dain : doin)[j] += -scale * s->o.lambda_rgb * 2.0f * u * d / (float)(2 * nm); /* d/d(in) of d^2 */
     }
     *loss = s->o.lambda_latent * lat / (double)nz + s->o.lambda_rgb * rgb / (double)(2 * nm);
     if (!isfinite(*loss)) {
@@ -254,12 +269,40 @@ int mf_sds_loss(MfSds *s, MfRecon *r, const MfSdsTargets *t, float scale, int gr
     return rc;
 }
 
+int mf_sds_pick_views(const MfSds *s, MfRecon *r, int it, const int *batch, int nb, int *views) {
+    int nv = mf_recon_nviews(r), want = s->o.k_views < nv ? s->o.k_views : nv, k = 0;
+    for (int i = 0; i < nb && k < want; ++i) views[k++] = batch[i];
+    if (k == want) return k;
+    MfRng rng;
+    mf_rng_seed(&rng, view_seed(s, it, -1, 4), 0);
+    for (int tries = 0; k < want; ++tries) { /* random distinct views; a sequential fill after many draws */
+        int v = tries < 64 * MF_SDS_MAX_VIEWS ? (int)mf_rng_below(&rng, (uint32_t)nv) : tries % nv, used = 0;
+        for (int j = 0; j < k && !used; ++j) used = views[j] == v;
+        if (!used) views[k++] = v;
+    }
+    return k;
+}
+
+/* g (n,) += gamma * h, texel by texel over its 3 channels; with MF_SDS_WEIGHT_CONFLICT the part of
+ * h that opposes g (the iteration's image and regulariser gradient) is removed first. */
+static void apply_held(float *g, const float *h, size_t n, float gamma, int weight) {
+    for (size_t i = 0; i + 2 < n; i += 3) {
+        float hv[3] = {h[i], h[i + 1], h[i + 2]};
+        if (weight == MF_SDS_WEIGHT_CONFLICT) {
+            double dot = 0.0, gg = 0.0;
+            for (int c = 0; c < 3; ++c) dot += (double)hv[c] * g[i + c], gg += (double)g[i + c] * g[i + c];
+            if (dot < 0.0 && gg > 0.0)
+                for (int c = 0; c < 3; ++c) hv[c] -= (float)(dot / gg) * g[i + c];
+        }
+        for (int c = 0; c < 3; ++c) g[i + c] += gamma * hv[c];
+    }
+}
+
 int mf_sds_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double *loss) {
     MfSds *s = ctx;
     const MfReconOpts *ro = mf_recon_opts(r);
     double gamma = s->o.gamma_const ? 1.0 : 1.0 - pow((double)it / (double)(ro->iters > 0 ? ro->iters : 1), s->o.gamma_p);
-    int k = nb < s->o.k_views ? nb : s->o.k_views;
-    if (k > MF_SDS_MAX_VIEWS) k = MF_SDS_MAX_VIEWS;
+    int views[MF_SDS_MAX_VIEWS], k = mf_sds_pick_views(s, r, it, batch, nb, views);
     *loss = 0.0;
     if (gamma <= 0.0 || (s->o.lambda_latent == 0.0f && s->o.lambda_rgb == 0.0f)) return MF_OK;
     MfParamBlock *kd = mf_recon_block(r, MF_BLOCK_KD), *orm = mf_recon_block(r, MF_BLOCK_ORM);
@@ -278,7 +321,7 @@ int mf_sds_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double 
         MfSdsTargets t;
         Maps m = {0}; /* the textures do not change between the targets and the loss: one render and encode */
         MfDiffGrads g = {.dkd = s->held_kd, .dorm = s->held_orm};
-        int rc = targets(s, r, batch, k, it, &t, &m);
+        int rc = targets(s, r, views, k, it, &t, &m);
         if (!rc) rc = loss_of(s, r, &t, &m, 1.0f, &g, &s->held_loss);
         maps_free(&m);
         mf_sds_targets_free(&t);
@@ -288,8 +331,8 @@ int mf_sds_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double 
         }
         s->held_it = it;
     }
-    for (size_t i = 0; i < kd->n; ++i) kd->g[i] += (float)gamma * s->held_kd[i];
-    for (size_t i = 0; i < orm->n; ++i) orm->g[i] += (float)gamma * s->held_orm[i];
+    apply_held(kd->g, s->held_kd, kd->n, (float)gamma, s->o.weight);
+    apply_held(orm->g, s->held_orm, orm->n, (float)gamma, s->o.weight);
     *loss = gamma * s->held_loss;
     return MF_OK;
 }

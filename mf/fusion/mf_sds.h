@@ -14,7 +14,17 @@
  *      (guidance 3.0) — the TARGETS;
  *   4. loss = gamma_i (lambda_latent mean((a (z - zhat))^2) + lambda_rgb mean((a D(zhat) - maps)^2)),
  *      means over elements; a = the mask at the matching resolution; gamma_i = 1 - (i/N)^p (or 1
- *      with gamma_const).
+ *      with gamma_const). With rgb01 (default) the RGB term is taken on maps in [0, 1] as the
+ *      official code's textures are, i.e. mean(((a D(zhat) - maps) / 2)^2) of the [-1, 1] prior
+ *      maps: lambda_rgb means what it means there (rgb01 = 0 is the first wave's 4x stronger term).
+ * Views: when the batch has fewer than k_views views, the remaining ones are drawn from the other
+ * training views (seeded by iteration), so K = 4 views get the prior term as in the paper.
+ * Trust (weight): the term's texel gradient is applied as is (none), or with its component that
+ * opposes the rest of the objective's gradient at that texel removed (conflict: per texel over its
+ * channels, h -= min(0, <h, g>) g / |g|^2, g = the image and regulariser gradient of the iteration).
+ * The prior can then move a texel only along directions the images do not contradict: where its
+ * targets are biased (another renderer, another camera) the data term wins; where the images are
+ * ambiguous (albedo vs light, roughness vs metallic) the prior still decides.
  * zhat and D(zhat) are held constant (classic SDS): the latent term back-propagates through the
  * encoder into the maps, the RGB term directly into the maps (as the official code), then through
  * the AOV render into the kd / ORM texels. (The official code also lets zhat depend on z through
@@ -44,7 +54,14 @@ typedef struct {
                             23.24 (every 1), 22.86 (2), 22.19 (4) vs 19.34 for the baseline; scaling
                             a gradient applied only every 4th iteration by 4 instead gave 19.75
                             (Adam's moments do not like spikes). README "MaterialFusion". */
+    int rgb01;           /* 1 (default): L_rgb on [0, 1] maps (official code); 0: on [-1, 1] (4x) */
+    int weight;          /* MF_SDS_WEIGHT_NONE or MF_SDS_WEIGHT_CONFLICT (trust, see above) */
 } MfSdsOpts;
+
+enum { MF_SDS_WEIGHT_NONE = 0, MF_SDS_WEIGHT_CONFLICT = 1 };
+/* "none" | "conflict" -> MF_SDS_WEIGHT_*; -1 for anything else. */
+int mf_sds_weight_parse(const char *s);
+const char *mf_sds_weight_name(int w);
 
 MfSdsOpts mf_sds_opts_default(void);
 
@@ -76,5 +93,8 @@ void mf_sds_targets_free(MfSdsTargets *t);
 /* Loss against fixed targets (without gamma; means over all elements of the batch); when grads is
  * non-zero, adds scale * dLoss/d(texels) into the kd and ORM blocks' gradients. */
 int mf_sds_loss(MfSds *s, MfRecon *r, const MfSdsTargets *t, float scale, int grads, double *loss);
+/* The views of iteration it that get the prior term (the hook's choice): batch's first k_views,
+ * then distinct other views drawn at random (seeded by it). views (MF_SDS_MAX_VIEWS); returns count. */
+int mf_sds_pick_views(const MfSds *s, MfRecon *r, int it, const int *batch, int nb, int *views);
 
 #endif

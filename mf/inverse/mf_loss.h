@@ -11,9 +11,12 @@
  * Texture smoothness (our texel-space form of nvdiffrecmc's jittered-surface smoothness):
  * mean over texel pairs (right and lower neighbours) of |t(p) - t(q)| for the listed channels,
  * restricted to texels where the weight mask (texels the mesh uses) is > 0.
- * Shading regulariser (nvdiffrecmc's "white light" prior): over covered pixels,
- * mean |D_c - luma(D)| of the demodulated diffuse light D (pushes light toward white, so colour
- * goes into albedo), plus lambda_spec * mean(spec) / mean(diffuse) over covered pixels. */
+ * Shading regulariser — OURS, a chroma-only "white light" term, NOT nvdiffrecmc's: over covered
+ * pixels, mean |D_c - luma(D)| of the demodulated diffuse light D (pushes the light toward white,
+ * so colour goes into albedo), plus lambda_spec * mean(spec) / mean(diffuse). nvdiffrecmc's term
+ * (REFERENCE.md) instead compares the log-sRGB luminance of diffuse + specular light with the
+ * max-RGB of the reference image, weighted by the diffuse fraction: it also constrains the light's
+ * brightness against the image, which ours leaves to the image loss. */
 #ifndef MF_LOSS_H
 #define MF_LOSS_H
 
