@@ -89,8 +89,9 @@ MF_TEST(render_white_furnace_diffuse) {
 
 /* Specular-only furnace: a white metal (F = 1) reflects at most what arrives: GGX single
  * scattering loses energy at high roughness, never gains. Mean over covered pixels <= 1 + 0.01
- * (MC) and per pixel <= 1.08; at roughness 0.1 it must still reflect almost all (> 0.9; measured
- * means 1.000, 0.883, 0.394 for roughness 0.1, 0.5, 1 with the single-scattering GGX). */
+ * (MC) and per pixel <= 1.08. The means must match the single-scattering GGX albedo measured for
+ * roughness 0.1, 0.5, 1 (1.000, 0.883, 0.394) within 0.03: a lost Fresnel, pdf or Jacobian term
+ * moves them by more. */
 MF_TEST(render_white_furnace_specular) {
     const float roughs[3] = {0.1f, 0.5f, 1.0f};
     for (int k = 0; k < 3; ++k) {
@@ -115,7 +116,8 @@ MF_TEST(render_white_furnace_specular) {
         }
         double mean = sum / n;
         CHECK_MSG(mean <= 1.01 && mx <= 1.08, "roughness %g: mean %g max %g exceed 1", roughs[k], mean, mx);
-        CHECK_MSG(mean > (k == 0 ? 0.9 : 0.3), "roughness %g: mean %g too dark", roughs[k], mean);
+        const double want[3] = {1.000, 0.883, 0.394};
+        CHECK_MSG(fabs(mean - want[k]) < 0.03, "roughness %g: mean %g, expected %g +- 0.03", roughs[k], mean, want[k]);
         mf_render_out_free(&out);
         sphere_scene_free(&s);
     }
