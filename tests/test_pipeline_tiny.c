@@ -1,8 +1,8 @@
 /* CI regression on the tiny split: generate one scene, render it, reconstruct it with the
  * nvdiffrecmc-style baseline and with MaterialFusion (committed prior weights), relight and
  * evaluate both, all through the `mf` command (MF_BIN); check the baseline's relit PSNR against a
- * threshold set from measured runs and against the trivial guesses, and MaterialFusion against the
- * baseline within a stated noise margin. */
+ * threshold set from measured runs and against the trivial guesses, and that MaterialFusion's prior
+ * term lifts it above the baseline by a stated margin. */
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -56,10 +56,12 @@ MF_TEST(pipeline_tiny_baseline_and_materialfusion) {
     if (getenv("MF_TEST_VERBOSE"))
         printf("    relit PSNR: baseline %.2f, MaterialFusion %.2f, grey %.2f, flat light %.2f\n", nv.mean, mfs.mean, grey.mean, flat.mean);
     CHECK(nv.n == 1 && grey.n == 1 && flat.n == 1 && mfs.n == 1);
-    /* Measured 22.2 dB for MaterialFusion (prior term every 4th iteration, held between; 23.2 dB
-     * every iteration) vs 19.3-19.4 for the baseline on this scene; the stated noise margin of a
-     * single 200-iteration run is 1 dB. */
-    CHECK_MSG(mfs.mean > nv.mean - 1.0, "MaterialFusion relit PSNR %.2f is more than 1 dB below the baseline's %.2f", mfs.mean, nv.mean);
+    /* The prior must act: measured 21.43 dB for MaterialFusion (K = 4, L_rgb on [0, 1], prior term
+     * every 4th iteration) vs 19.34 for the baseline on this scene. Without the SDS term the run IS
+     * the baseline (same seeds: 0 dB difference), so this fails when the prior does nothing; the
+     * margin (1 dB) is half the measured gain. */
+    CHECK_MSG(mfs.mean > nv.mean + 1.0, "MaterialFusion relit PSNR %.2f is not 1 dB above the baseline's %.2f: the prior term does not act",
+              mfs.mean, nv.mean);
     /* Measured 19.8 dB (baseline), 15.2 (grey), 14.3 (flat light) on this scene. */
     CHECK_MSG(nv.mean > 17.5, "baseline relit PSNR %.2f below the recorded threshold 17.5", nv.mean);
     CHECK_MSG(nv.mean > grey.mean + 2.0 && nv.mean > flat.mean + 2.0, "baseline does not beat the trivial guesses by 2 dB");
