@@ -61,17 +61,22 @@ static int list_dirs(const char *dir, char names[][64], int max, int need_test_j
     return n;
 }
 
-/* Wall seconds and peak RSS of a result folder's run.json (0 when absent). With prov, appends the
- * run's provenance as a markdown row: method, scene, revision, seed, threads, time, memory, argv. */
-static void run_cost(const char *result_dir, double *wall, double *rss, MfStrBuf *prov, const char *method, const char *scene) {
+/* Wall seconds, peak RSS and the prior's seconds (MaterialFusion: options.prior_s) of a result
+ * folder's run.json (0 when absent; prior may be NULL). With prov, appends the run's provenance as
+ * a markdown row: method, scene, revision, seed, threads, time, memory, argv. */
+static void run_cost(const char *result_dir, double *wall, double *rss, double *prior, MfStrBuf *prov, const char *method,
+                     const char *scene) {
     char p[MF_PATH_MAX];
     cJSON *root = NULL;
     *wall = *rss = 0.0;
+    if (prior) *prior = 0.0;
     if (mf_path_join(p, sizeof p, result_dir, "run.json") || !mf_file_exists(p) || mf_json_load(p, &root)) return;
     *wall = cJSON_GetNumberValue(cJSON_GetObjectItem(root, "wall_seconds"));
     *rss = cJSON_GetNumberValue(cJSON_GetObjectItem(root, "peak_rss_bytes"));
     if (*wall != *wall) *wall = 0.0;
     if (*rss != *rss) *rss = 0.0;
+    double ps = cJSON_GetNumberValue(cJSON_GetObjectItem(cJSON_GetObjectItem(root, "options"), "prior_s"));
+    if (prior && ps == ps) *prior = ps;
     if (prov) {
         const cJSON *rev = cJSON_GetObjectItem(root, "git_revision"), *av = cJSON_GetObjectItem(root, "argv");
         mf_sb_printf(prov, "| %s | %s | %s | %.0f | %.0f | %.1f | %.0f | `", method, scene, cJSON_IsString(rev) ? rev->valuestring : "?",
@@ -231,15 +236,16 @@ static int cmd_eval(int argc, char **argv) {
                 break;
             }
             ++evaluated;
-            double wall, rss;
-            run_cost(rd, &wall, &rss, &prov, methods[m], scenes[s]);
+            double wall, rss, prior;
+            run_cost(rd, &wall, &rss, &prior, &prov, methods[m], scenes[s]);
             if (wall > 0 && !(rc = ev_table_add(&t, methods[m], dataset, scenes[s], "time_s", wall)))
                 rc = ev_table_add(&t, methods[m], dataset, scenes[s], "mem_mb", rss / 1048576.0);
+            if (!rc && wall > 0 && prior > 0) rc = ev_table_add(&t, methods[m], dataset, scenes[s], "prior_share", prior / wall);
             /* wall time as a multiple of the first method's on the same scene (the baseline in bench) */
             char bd[MF_PATH_MAX];
             double bwall = 0.0, brss;
             if (!rc && wall > 0 && !mf_path_join(md, sizeof md, results, methods[0]) && !mf_path_join(bd, sizeof bd, md, scenes[s]))
-                run_cost(bd, &bwall, &brss, NULL, NULL, NULL);
+                run_cost(bd, &bwall, &brss, NULL, NULL, NULL, NULL);
             if (!rc && wall > 0 && bwall > 0) rc = ev_table_add(&t, methods[m], dataset, scenes[s], "time_x", wall / bwall);
             if (!rc && curves && s == 0) rc = snapshot_curve(sd, rd, &o, cx[m], cy[m], MAX_ITEMS, &series[m].n);
         }
@@ -256,12 +262,12 @@ static int cmd_eval(int argc, char **argv) {
     const char *ds[1] = {dataset};
     const char *relit_m[] = {"relit_psnr", "relit_ssim", "relit_l1", "relit_flip"};
     const char *mat_m[] = {"albedo_psnr", "albedo_ssim", "albedo_l1", "orm_psnr", "orm_l1", "orm3_psnr"};
-    const char *cost_m[] = {"time_s", "time_x", "mem_mb"};
+    const char *cost_m[] = {"time_s", "time_x", "prior_share", "mem_mb"};
     const char *orb_m[] = {"relit_orb_psnr_h", "relit_orb_psnr_l"};
     struct { const char *file, *caption; const char *const *metrics; int nk; } tabs[] = {
         {"relight", "Relighting (test views under novel lights)", relit_m, 4},
         {"materials", "Albedo and ORM (per test view)", mat_m, 6},
-        {"cost", "Wall time (s), wall time as a multiple of the first method's on the same scene (time_x), and peak memory (MB) per scene", cost_m, 3},
+        {"cost", "Wall time (s), wall time as a multiple of the first method's on the same scene (time_x), the prior's share of the wall time (MaterialFusion), and peak memory (MB) per scene", cost_m, 4},
         {"orb", "Stanford-ORB's own relighting metrics (PSNR-H, PSNR-L)", orb_m, 2},
     };
     MfStrBuf page = {0};

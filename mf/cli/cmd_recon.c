@@ -191,6 +191,7 @@ static int cmd_recon(int argc, char **argv) {
             cJSON_AddNumberToObject(opts, "sds_every", so.every);
             cJSON_AddStringToObject(opts, "sds_weight", mf_sds_weight_name(so.weight));
             cJSON_AddNumberToObject(opts, "sds_rgb01", so.rgb01);
+            cJSON_AddNumberToObject(opts, "prior_s", mf_sds_seconds(sds)); /* this process's share of the wall time */
         }
         rc = mf_write_run_json(out, argc, argv, o.seed, mf_now() - t0, opts);
     }

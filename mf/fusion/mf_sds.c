@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "core/mf_error.h"
+#include "core/mf_log.h"
 #include "core/mf_rng.h"
 #include "inverse/mf_diffrender.h"
 #include "io/mf_image.h"
@@ -19,6 +20,7 @@ struct MfSds {
     size_t held_n;
     int held_it;     /* iteration of the last refresh, -1: none */
     double held_loss;
+    double seconds;  /* wall time of the refreshes */
 };
 
 MfSdsOpts mf_sds_opts_default(void) {
@@ -51,6 +53,8 @@ int mf_sds_new(MfPrior *prior, const MfSdsOpts *o, MfSds **out) {
     *out = s;
     return MF_OK;
 }
+
+double mf_sds_seconds(const MfSds *s) { return s ? s->seconds : 0.0; }
 
 void mf_sds_free(MfSds *s) {
     if (!s) return;
@@ -318,6 +322,7 @@ int mf_sds_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double 
         }
         memset(s->held_kd, 0, kd->n * sizeof(float));
         memset(s->held_orm, 0, orm->n * sizeof(float));
+        double t0 = mf_now();
         MfSdsTargets t;
         Maps m = {0}; /* the textures do not change between the targets and the loss: one render and encode */
         MfDiffGrads g = {.dkd = s->held_kd, .dorm = s->held_orm};
@@ -325,6 +330,7 @@ int mf_sds_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double 
         if (!rc) rc = loss_of(s, r, &t, &m, 1.0f, &g, &s->held_loss);
         maps_free(&m);
         mf_sds_targets_free(&t);
+        s->seconds += mf_now() - t0;
         if (rc) {
             s->held_it = -1;
             return mf_fail_prefix(rc, "iteration %d: prior term", it);

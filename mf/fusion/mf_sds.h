@@ -70,6 +70,9 @@ typedef struct MfSds MfSds;
 /* Takes ownership of prior. */
 int mf_sds_new(MfPrior *prior, const MfSdsOpts *o, MfSds **out);
 void mf_sds_free(MfSds *s);
+/* Wall seconds this process spent in the prior's work (the refreshes: AOV render, encode, guided
+ * DDIM, decode, encoder backward), for the cost report. */
+double mf_sds_seconds(const MfSds *s);
 /* The hook for mf_recon_run: ctx is an MfSds. */
 int mf_sds_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double *loss);
 
