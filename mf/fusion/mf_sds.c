@@ -21,11 +21,6 @@ struct MfSds {
     double held_loss;
 };
 
-MfSdsOpts mf_sds_opts_default(void) {
-    MfSdsOpts o = {4, 0.02f, 0.5f, 1.0f, 0, 3.0f, 20, 980, 4, 7, 4};
-    return o;
-}
-
 int mf_sds_new(MfPrior *prior, const MfSdsOpts *o, MfSds **out) {
     if (o->k_views < 1 || o->t_min < 1 || o->t_max > 999 || o->t_min > o->t_max || o->aov_samples < 1 || o->every < 1)
         return mf_fail(MF_EARG, "SDS options: k_views %d, t in [%d, %d], aov_samples %d, every %d are invalid", o->k_views,

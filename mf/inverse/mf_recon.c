@@ -38,41 +38,6 @@ struct MfRecon {
     MfBilateral dn;             /* owned; the denoiser's buffers, reused view after view */
 };
 
-MfReconOpts mf_recon_opts_default(void) {
-    MfReconOpts o;
-    memset(&o, 0, sizeof o);
-    o.iters = 400;
-    o.batch = 2;
-    o.spp_sqrt = 2;
-    o.pixel_samples = 1;
-    o.tex_res = 256;
-    o.env_w = 64;
-    o.env_h = 32;
-    o.lr = 0.02f;
-    o.light_lr_scale = 3.0f;
-    o.w_kd_smooth = 0.1f;
-    o.w_orm_smooth = 0.05f;
-    o.w_shading = 0.15f;
-    o.w_spec_ratio = 0.0025f;
-    /* Off by measurement: on test-3d (GT meshes, default budget) the normal map lowered relit
-     * PSNR by 3.0 / 0.4 / 4.8 dB (000_cup, 001_vase, 007_mug): on a correct mesh it only adds
-     * variance (rarely seen texels random-walk under Adam's per-texel normalisation). */
-    o.normal_map = 0;
-    o.w_nrm_perturb = 0.25f;
-    o.w_nrm_smooth = 0.025f;
-    o.init_kd = 0.5f;
-    o.init_rough = 0.5f;
-    o.init_metal = 0.25f;
-    o.init_light = 0.5f;
-    o.denoise = 0; /* measured (reports/baseline/denoiser.md): +0.5 dB relit at 3x the CPU; off for cost */
-    o.denoise_sigma = 2.0f;
-    o.denoise_decorrelate = 1;
-    o.snapshot_every = 50;
-    o.checkpoint_every = 50;
-    o.seed = 1;
-    return o;
-}
-
 long mf_peak_rss_bytes(void) {
     struct rusage ru;
     if (getrusage(RUSAGE_SELF, &ru) != 0) return 0;
