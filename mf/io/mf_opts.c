@@ -30,6 +30,7 @@ static double get_num(const MfOpt *o, const void *obj) {
     const char *p = (const char *)obj + o->off;
     switch (o->type) {
     case MF_OPT_INT:
+    case MF_OPT_ENUM:
     case MF_OPT_BOOL: return *(const int *)p;
     case MF_OPT_U64: return (double)*(const uint64_t *)p;
     case MF_OPT_FLOAT: return *(const float *)p;
@@ -41,6 +42,7 @@ static void put_num(const MfOpt *o, void *obj, double v) {
     char *p = (char *)obj + o->off;
     switch (o->type) {
     case MF_OPT_INT:
+    case MF_OPT_ENUM:
     case MF_OPT_BOOL: *(int *)p = (int)v; break;
     case MF_OPT_U64: *(uint64_t *)p = (uint64_t)v; break;
     case MF_OPT_FLOAT: *(float *)p = (float)v; break;
@@ -68,21 +70,41 @@ static int set_num(const MfOpt *o, void *obj, double v, const char *who) {
     return MF_OK;
 }
 
-static int choice_ok(const MfOpt *o, const char *s) {
-    if (!o->choices || !s) return 1;
+/* Index of s in o->choices ("a|b|c"), -1 when absent. */
+static int choice_index(const MfOpt *o, const char *s) {
     size_t n = strlen(s);
-    for (const char *c = o->choices; *c;) {
+    int k = 0;
+    for (const char *c = o->choices; *c; ++k) {
         const char *e = strchr(c, '|');
         size_t len = e ? (size_t)(e - c) : strlen(c);
-        if (len == n && !strncmp(c, s, n)) return 1;
+        if (len == n && !strncmp(c, s, n)) return k;
         if (!e) break;
         c = e + 1;
     }
-    return 0;
+    return -1;
+}
+
+static int choice_ok(const MfOpt *o, const char *s) { return !o->choices || !s || choice_index(o, s) >= 0; }
+
+/* Name of choice k into buf ("?" when out of range). */
+static const char *choice_name(const MfOpt *o, int k, char *buf, size_t cap) {
+    const char *c = o->choices;
+    for (int i = 0; i < k && c; ++i) {
+        c = strchr(c, '|');
+        if (c) ++c;
+    }
+    if (!c || k < 0) return "?";
+    const char *e = strchr(c, '|');
+    snprintf(buf, cap, "%.*s", (int)(e ? (size_t)(e - c) : strlen(c)), c);
+    return buf;
 }
 
 static int set_str(const MfOpt *o, void *obj, const char *s, const char *who) {
     if (!choice_ok(o, s)) return mf_fail(MF_EARG, "%s '%s': expected one of %s", who, s, o->choices);
+    if (o->type == MF_OPT_ENUM) {
+        *(int *)((char *)obj + o->off) = choice_index(o, s);
+        return MF_OK;
+    }
     *(const char **)((char *)obj + o->off) = s;
     return MF_OK;
 }
@@ -130,7 +152,7 @@ int mf_opts_parse_arg(const MfOptTable *t, void *obj, int argc, char **argv, int
         }
         if (*i + 1 >= argc) return mf_fail(MF_EARG, "option %s needs a value", a), -1;
         const char *s = argv[++*i];
-        if (o->type == MF_OPT_STR) return set_str(o, obj, s, a) ? -1 : 1;
+        if (o->type == MF_OPT_STR || o->type == MF_OPT_ENUM) return set_str(o, obj, s, a) ? -1 : 1;
         char *end;
         errno = 0;
         double v = strtod(s, &end);
@@ -158,7 +180,7 @@ int mf_opts_apply_json(const MfOptBind *b, int nb, const cJSON *root, const char
         if (!o) return mf_fail(MF_EFORMAT, "%s: unknown option '%s' (keys are the flags' names with underscores)", file, it->string);
         char who[256];
         snprintf(who, sizeof who, "%s: %s", file, it->string);
-        if (o->type == MF_OPT_STR) {
+        if (o->type == MF_OPT_STR || o->type == MF_OPT_ENUM) {
             if (!cJSON_IsString(it)) return mf_fail(MF_EFORMAT, "%s: expected a string", who);
             if (set_str(o, obj, it->valuestring, who)) return MF_EARG;
         } else if (o->type == MF_OPT_BOOL && cJSON_IsBool(it)) {
@@ -219,6 +241,12 @@ int mf_opts_check(const MfOptTable *t, const void *obj) {
             if (!choice_ok(o, s)) return mf_fail(MF_EARG, "%s '%s': expected one of %s", f, s, o->choices);
             continue;
         }
+        if (o->type == MF_OPT_ENUM) {
+            char nb[64];
+            int v = *(const int *)((const char *)obj + o->off);
+            if (!strcmp(choice_name(o, v, nb, sizeof nb), "?")) return mf_fail(MF_EARG, "%s: value %d is not one of %s", f, v, o->choices);
+            continue;
+        }
         double v = get_num(o, obj);
         if (v == o->def) continue; /* the default: in range, or "not given" */
         char vs[32], rs[80];
@@ -235,13 +263,15 @@ void mf_opts_usage(MfStrBuf *b, const MfOptTable *t) {
         const MfOpt *o = &t->opts[k];
         char f[96], left[160], dv[64], rs[80];
         flag_of(o->name, f, sizeof f);
-        const char *meta = o->meta ? o->meta : o->type == MF_OPT_STR ? "S" : o->type == MF_OPT_FLOAT ? "X" : "N";
+        const char *meta = o->meta ? o->meta : o->type == MF_OPT_STR || o->type == MF_OPT_ENUM ? "S" : o->type == MF_OPT_FLOAT ? "X" : "N";
         if (o->type == MF_OPT_BOOL) snprintf(left, sizeof left, "%s%s%s", o->alias ? o->alias : "", o->alias ? ", " : "", f);
         else snprintf(left, sizeof left, "%s%s%s %s", o->alias ? o->alias : "", o->alias ? ", " : "", f, meta);
         mf_sb_printf(b, "  %-24s %s", left, o->doc);
         if (o->type == MF_OPT_STR) {
             if (o->choices) mf_sb_printf(b, " (%s; default %s)", o->choices, o->def_str ? o->def_str : o->unset ? o->unset : "none");
             else if (o->def_str || o->unset) mf_sb_printf(b, " (default %s)", o->def_str ? o->def_str : o->unset);
+        } else if (o->type == MF_OPT_ENUM) {
+            mf_sb_printf(b, " (%s; default %s)", o->choices, choice_name(o, (int)o->def, dv, sizeof dv));
         } else if (o->type == MF_OPT_BOOL) {
             if (o->def != 0) mf_sb_printf(b, " (on by default)");
         } else {
@@ -275,6 +305,9 @@ void mf_opts_to_json(const MfOptTable *t, const void *obj, cJSON *out) {
             const char *s = *(const char *const *)((const char *)obj + o->off);
             if (s) cJSON_AddStringToObject(out, o->name, s);
             else cJSON_AddNullToObject(out, o->name);
+        } else if (o->type == MF_OPT_ENUM) {
+            char nb[64];
+            cJSON_AddStringToObject(out, o->name, choice_name(o, (int)get_num(o, obj), nb, sizeof nb));
         } else if (o->type == MF_OPT_BOOL) {
             cJSON_AddBoolToObject(out, o->name, get_num(o, obj) != 0);
         } else {

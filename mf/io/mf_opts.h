@@ -21,7 +21,8 @@
  *
  * Numbers: MF_OPT_INT (int), MF_OPT_U64 (uint64_t, up to 2^53), MF_OPT_FLOAT (float; finite),
  * MF_OPT_BOOL (int 0/1; a flag without value on the command line, true/false or 0/1 in JSON),
- * MF_OPT_STR (const char *, borrowed from argv or from the parse state's config). Ranges are
+ * MF_OPT_STR (const char *, borrowed from argv or from the parse state's config), MF_OPT_ENUM (an
+ * int or C enum field: the index of the value's name in .choices "a|b|c"). Ranges are
  * inclusive; integers must be whole. Library code never prints: warnings go through mf_log. */
 #ifndef MF_OPTS_H
 #define MF_OPTS_H
@@ -31,7 +32,7 @@
 
 #include "core/mf_strbuf.h"
 
-typedef enum { MF_OPT_INT, MF_OPT_U64, MF_OPT_FLOAT, MF_OPT_BOOL, MF_OPT_STR } MfOptType;
+typedef enum { MF_OPT_INT, MF_OPT_U64, MF_OPT_FLOAT, MF_OPT_BOOL, MF_OPT_STR, MF_OPT_ENUM } MfOptType;
 
 typedef struct {
     const char *name;       /* snake_case: JSON key; the flag is --kebab-case */
@@ -62,6 +63,8 @@ typedef struct {
 #define MF_OPT_BOOL(S, field, def_, doc_, ...) MF_OPT_NAMED(S, #field, field, MF_OPT_BOOL, def_, 0, 1, doc_, __VA_ARGS__)
 #define MF_OPT_STR(S, field, defs, doc_, ...) \
     MF_OPT_NAMED(S, #field, field, MF_OPT_STR, 0, 0, 0, doc_, .def_str = defs, __VA_ARGS__)
+#define MF_OPT_ENUM(S, field, def_, choices_, doc_, ...) \
+    MF_OPT_NAMED(S, #field, field, MF_OPT_ENUM, def_, 0, 0, doc_, .choices = choices_, __VA_ARGS__)
 #define MF_OPT_TABLE(title_, arr) {title_, arr, (int)(sizeof arr / sizeof arr[0])}
 
 /* Shared limits, so every command states the same range for the same quantity. */
