@@ -156,6 +156,10 @@ static int cmd_eval(int argc, char **argv) {
     MfOptBind binds[] = {{&k_args_table, &a}, {&ev_eval_opt_table, &o}};
     MfOptParse p;
     int rc = mf_opts_parse(binds, 2, argc, argv, 1, &p) ? MF_EXIT_USAGE : MF_EXIT_OK;
+    if (!rc && p.print_config) {
+        mf_opts_parse_free(&p);
+        return mf_cli_print_config(binds, 2);
+    }
     if (!rc && (!p.npos || !a.results || !a.out)) {
         mf_fail(MF_EARG, "need DATA_DIR, --results and -o (see mf eval --help)");
         rc = MF_EXIT_USAGE;

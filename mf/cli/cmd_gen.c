@@ -167,7 +167,7 @@ static int cmd_gen(int argc, char **argv) {
     mf_opts_defaults(&k_args_table, &a);
     MfOptBind bind = {&k_args_table, &a};
     MfOptParse p;
-    int rc = mf_opts_parse(&bind, 1, argc, argv, 0, &p) ? MF_EXIT_USAGE : gen_run(&a);
+    int rc = mf_opts_parse(&bind, 1, argc, argv, 0, &p) ? MF_EXIT_USAGE : p.print_config ? mf_cli_print_config(&bind, 1) : gen_run(&a);
     mf_opts_parse_free(&p);
     return rc;
 }

@@ -68,7 +68,7 @@ static int cmd_recon(int argc, char **argv) {
         mf_opts_parse_free(&p);
         return MF_EXIT_USAGE;
     }
-    int rc = cmd_recon_run(argc, argv, &p, &a, &o, &so);
+    int rc = p.print_config ? mf_cli_print_config(binds, 3) : cmd_recon_run(argc, argv, &p, &a, &o, &so);
     mf_opts_parse_free(&p);
     return rc;
 }

@@ -59,6 +59,10 @@ static int cmd_render(int argc, char **argv) {
         mf_opts_parse_free(&p);
         return MF_EXIT_USAGE;
     }
+    if (p.print_config) {
+        mf_opts_parse_free(&p);
+        return mf_cli_print_config(&bind, 1);
+    }
     const char *scene_path = p.npos ? p.pos[0] : NULL, *outdir = a.out;
     if (!scene_path || !outdir) {
         mf_opts_parse_free(&p);

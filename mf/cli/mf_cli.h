@@ -37,4 +37,9 @@ int mf_opt_str(int argc, char **argv, int *i, const char *name, const char **out
 int mf_opt_int(int argc, char **argv, int *i, const char *name, int *out);
 int mf_opt_float(int argc, char **argv, int *i, const char *name, float *out);
 
+/* `mf <cmd> --print-config`: prints the options of the bound tables (after --config and flags)
+ * as one JSON object on stdout, a valid --config file for the same command; returns MF_EXIT_OK. */
+#include "io/mf_opts.h"
+int mf_cli_print_config(const MfOptBind *b, int nb);
+
 #endif

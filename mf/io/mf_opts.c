@@ -180,7 +180,10 @@ int mf_opts_apply_json(const MfOptBind *b, int nb, const cJSON *root, const char
         if (!o) return mf_fail(MF_EFORMAT, "%s: unknown option '%s' (keys are the flags' names with underscores)", file, it->string);
         char who[256];
         snprintf(who, sizeof who, "%s: %s", file, it->string);
-        if (o->type == MF_OPT_STR || o->type == MF_OPT_ENUM) {
+        if (cJSON_IsNull(it)) { /* null: not given (the default) */
+            if (o->type == MF_OPT_STR) *(const char **)((char *)obj + o->off) = o->def_str;
+            else put_num(o, obj, o->def);
+        } else if (o->type == MF_OPT_STR || o->type == MF_OPT_ENUM) {
             if (!cJSON_IsString(it)) return mf_fail(MF_EFORMAT, "%s: expected a string", who);
             if (set_str(o, obj, it->valuestring, who)) return MF_EARG;
         } else if (o->type == MF_OPT_BOOL && cJSON_IsBool(it)) {
@@ -211,6 +214,10 @@ int mf_opts_parse(const MfOptBind *b, int nb, int argc, char **argv, int max_pos
         const char *a = argv[i];
         if (!strcmp(a, "--config")) {
             ++i;
+            continue;
+        }
+        if (!strcmp(a, "--print-config")) {
+            p->print_config = 1;
             continue;
         }
         int r = 0;
@@ -292,6 +299,11 @@ void mf_opts_usage_text(char *buf, size_t cap, const char *head, const MfOptTabl
     MfStrBuf b = {0};
     mf_sb_printf(&b, "%s", head ? head : "");
     for (int i = 0; i < nt; ++i) mf_opts_usage(&b, tables[i]);
+    mf_sb_printf(&b, "Config files:\n"
+                     "  %-24s apply a JSON object of options first (keys: the flags' names with underscores;\n"
+                     "  %-24s null: not given); flags given on the command line override it\n"
+                     "  %-24s print the options after --config and flags as JSON (a config file) and stop\n",
+                 "--config FILE", "", "--print-config");
     if (tail) mf_sb_printf(&b, "%s", tail);
     char *s = mf_sb_take(&b);
     snprintf(buf, cap, "%s", s ? s : "(usage text: out of memory)\n");
@@ -311,7 +323,9 @@ void mf_opts_to_json(const MfOptTable *t, const void *obj, cJSON *out) {
         } else if (o->type == MF_OPT_BOOL) {
             cJSON_AddBoolToObject(out, o->name, get_num(o, obj) != 0);
         } else {
-            cJSON_AddNumberToObject(out, o->name, get_num(o, obj));
+            double v = get_num(o, obj);
+            if (v == o->def && !(o->def >= o->min && o->def <= o->max)) cJSON_AddNullToObject(out, o->name); /* not given */
+            else cJSON_AddNumberToObject(out, o->name, v);
         }
     }
 }

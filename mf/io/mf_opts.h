@@ -87,11 +87,13 @@ typedef struct {
 typedef struct {
     const char *pos[MF_OPTS_MAX_POS];
     int npos;
-    cJSON *config; /* owned */
+    int print_config; /* --print-config was given: the command prints mf_opts_to_json of its tables and stops */
+    cJSON *config;    /* owned */
 } MfOptParse;
 
 /* Parses argv[1..argc-1]: first `--config FILE` (a JSON object whose keys are the options'
- * snake_case names), then every flag in order, so flags override the config. Arguments not
+ * snake_case names; null means "not given"), then every flag in order, so flags override the
+ * config; `--print-config` sets p->print_config. Arguments not
  * starting with '-' are positional (at most max_pos). Unknown options, malformed or out-of-range
  * values are errors naming the option (and the file); returns MF_OK or an error code. */
 int mf_opts_parse(const MfOptBind *b, int nb, int argc, char **argv, int max_pos, MfOptParse *p);
@@ -111,10 +113,12 @@ int mf_opts_check(const MfOptTable *t, const void *obj);
 
 /* Appends the usage lines of t: "  --flag N   doc (default D, range [a, b])". */
 void mf_opts_usage(MfStrBuf *b, const MfOptTable *t);
-/* Writes the usage text of a command into buf (cap bytes): head, then each table's lines. */
+/* Writes the usage text of a command into buf (cap bytes): head, each table's lines, the
+ * --config / --print-config lines, tail. */
 void mf_opts_usage_text(char *buf, size_t cap, const char *head, const MfOptTable *const *tables, int nt, const char *tail);
 
-/* Adds every option's value to obj (numbers, booleans, strings; unset strings as null). */
+/* Adds every option's value to obj (numbers, booleans, strings; options not given whose default
+ * means "not given" as null). The object is a valid config file for the same tables. */
 void mf_opts_to_json(const MfOptTable *t, const void *o, cJSON *obj);
 
 /* The option with this snake_case name, or NULL. */
