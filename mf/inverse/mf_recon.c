@@ -13,6 +13,7 @@
 #include "inverse/mf_denoise.h"
 #include "inverse/mf_diffrender.h"
 #include "inverse/mf_loss.h"
+#include "inverse/mf_recon_opts.h"
 #include "io/mf_exr.h"
 #include "io/mf_gltf.h"
 #include "io/mf_obj.h"
@@ -79,9 +80,8 @@ static void uv_mask_build(const MfMesh *m, int res, float *mask) {
 int mf_recon_new(const MfMesh *mesh, MfReconView *views, int nviews, const MfReconOpts *opts, MfRecon **out) {
     if (!mesh->uv) return mf_fail(MF_EARG, "the mesh has no UVs: reconstruction needs a UV-mapped mesh (unwrap it first, e.g. in Blender)");
     if (nviews < 1) return mf_fail(MF_EARG, "no training views");
-    if (opts->iters < 0 || opts->batch < 1 || opts->tex_res < 4 || opts->env_w < 4 || opts->env_h < 2)
-        return mf_fail(MF_EARG, "invalid reconstruction options (iters %d, batch %d, tex %d, env %dx%d)", opts->iters,
-                       opts->batch, opts->tex_res, opts->env_w, opts->env_h);
+    int rc0 = mf_opts_check(&mf_recon_opt_table, opts); /* names the option, its value and its range */
+    if (rc0) return mf_fail_prefix(rc0, "reconstruction options");
     MfRecon *r = calloc(1, sizeof *r);
     if (!r) return mf_fail(MF_ENOMEM, "out of memory");
     r->mesh = mesh;
