@@ -251,6 +251,7 @@ MF_TEST(opts_cli_out_of_range_refused_no_file) {
         {"recon %s/nodata -o %s --spp 65", "--spp 65: outside the allowed range [1, 64]"},
         {"recon %s/nodata -o %s --lambda-rgb -0.5", "--lambda-rgb -0.5: outside the allowed range [0, 1000]"},
         {"recon %s/nodata -o %s --init-light 1e30", "--init-light 1e+30: outside the allowed range [0.01, 1000]"},
+        {"recon %s/nodata -o %s --t-min 500 --t-max 100", "--t-min 500 is above --t-max 100"},
         {"recon %s/nodata -o %s --method magic", "--method 'magic': expected one of nvdiffrecmc|materialfusion"},
         {"recon %s/nodata -o %s --config " /* cfg */, "denoise_sigma 100: outside the allowed range [0.1, 8]"},
         {"render %s/scene.json -o %s --spp 65", "--spp 65: outside the allowed range [1, 64]"},

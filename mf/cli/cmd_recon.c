@@ -83,6 +83,10 @@ static int cmd_recon_run(int argc, char **argv, const MfOptParse *p, ReconArgs *
     const char *weights = a->prior_weights ? a->prior_weights : wdefault;
     if (!data || !out) { mf_fail(MF_EARG, "need DATASET_DIR and -o RESULT_DIR (see mf recon --help)"); return MF_EXIT_USAGE; }
     int is_mf = !strcmp(method, "materialfusion");
+    if (so.t_min > so.t_max) {
+        mf_fail(MF_EARG, "--t-min %d is above --t-max %d", so.t_min, so.t_max);
+        return MF_EXIT_USAGE;
+    }
     so.seed = mf_hash64(o.seed, 0x5d5);
     double t0 = mf_now();
     DsViews dv;

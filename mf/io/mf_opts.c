@@ -310,6 +310,17 @@ void mf_opts_usage_text(char *buf, size_t cap, const char *head, const MfOptTabl
     free(s);
 }
 
+/* The shortest decimal that reads back as the same float (0.02, not 0.0199999995529651). */
+static double short_float(double v) {
+    for (int digits = 6; digits <= 9; ++digits) {
+        char b[40];
+        snprintf(b, sizeof b, "%.*g", digits, v);
+        double d = strtod(b, NULL);
+        if ((float)d == (float)v) return d;
+    }
+    return v;
+}
+
 void mf_opts_to_json(const MfOptTable *t, const void *obj, cJSON *out) {
     for (int k = 0; k < t->n; ++k) {
         const MfOpt *o = &t->opts[k];
@@ -325,6 +336,7 @@ void mf_opts_to_json(const MfOptTable *t, const void *obj, cJSON *out) {
         } else {
             double v = get_num(o, obj);
             if (v == o->def && !(o->def >= o->min && o->def <= o->max)) cJSON_AddNullToObject(out, o->name); /* not given */
+            else if (o->type == MF_OPT_FLOAT) cJSON_AddNumberToObject(out, o->name, short_float(v));
             else cJSON_AddNumberToObject(out, o->name, v);
         }
     }
