@@ -186,9 +186,9 @@ static int run_mf(const char *args, const char *outf, char *err, size_t cap) {
 MF_TEST(opts_cli_every_flag_is_a_config_key) {
     const char *bin = getenv("MF_BIN");
     if (!bin || !mf_file_exists(bin)) MF_SKIP("MF_BIN not set (run through make test)");
-    const char *cmds[] = {"recon", "render", "eval", "gen", "relight"};
+    const char *cmds[] = {"recon", "render", "eval", "gen", "relight", "bench-render"};
     char err[8192];
-    for (int c = 0; c < 5; ++c) {
+    for (int c = 0; c < 6; ++c) {
         char help[1024], cfg[1024], again[1024], args[4096];
         snprintf(help, sizeof help, "%s", mf_test_path("opts_help.txt"));
         snprintf(cfg, sizeof cfg, "%s", mf_test_path("opts_cfg.json"));
