@@ -52,11 +52,6 @@ void ev_result_free(EvResult *r) {
     memset(r, 0, sizeof *r);
 }
 
-EvEvalOpts ev_eval_opts_default(void) {
-    EvEvalOpts o = {4, 4, EV_ALIGN_MEAN, 0x5eedULL, 0, 0, NULL};
-    return o;
-}
-
 void ev_eval_csv_header(FILE *csv) {
     fprintf(csv, "method,dataset,scene,view,kind,light,psnr,ssim,l1,flip,psnr_masked,ssim_masked,l1_masked\n");
 }

@@ -61,6 +61,7 @@ typedef struct {
 #define EV_TRIVIAL_GREY_DIR ":trivial-grey"
 #define EV_TRIVIAL_FLAT_DIR ":trivial-flat-light"
 
+/* The defaults: the option table of ev_eval_opts.c (render quality, alignment, view limit). */
 EvEvalOpts ev_eval_opts_default(void);
 
 /* Scores result_dir against scene_dir's test split; adds per-scene records to t and per-view rows

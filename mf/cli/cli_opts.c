@@ -1,4 +1,6 @@
+#include <cJSON.h>
 #include <errno.h>
+#include <stdio.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -36,4 +38,15 @@ int mf_opt_float(int argc, char **argv, int *i, const char *name, float *out) {
     if (errno || *end || end == s || !isfinite(v)) return mf_fail(MF_EARG, "option %s: '%s' is not a number", name, s), -1;
     *out = (float)v;
     return 1;
+}
+
+int mf_cli_print_config(const MfOptBind *b, int nb) {
+    cJSON *o = cJSON_CreateObject();
+    for (int i = 0; o && i < nb; ++i) mf_opts_to_json(b[i].table, b[i].obj, o);
+    char *s = o ? cJSON_Print(o) : NULL;
+    cJSON_Delete(o);
+    if (!s) return mf_fail(MF_ENOMEM, "out of memory"), MF_EXIT_FAIL;
+    printf("%s\n", s);
+    cJSON_free(s);
+    return MF_EXIT_OK;
 }

@@ -9,6 +9,7 @@
 #include <time.h>
 
 #include "cli/mf_cli.h"
+#include "io/mf_opts.h"
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "core/mf_log.h"
@@ -17,15 +18,40 @@
 #include "render/mf_rtscene.h"
 #include "scene/mf_shapes.h"
 
-static const char usage[] =
+typedef struct {
+    const char *out, *env, *save;
+    int width, height, spp, threads, pixel_samples, env_width;
+} BenchRenderArgs;
+
+#define A BenchRenderArgs
+static const MfOpt k_args[] = {
+    MF_OPT_STR(A, out, "reports/perf/render.md", "report (markdown, written atomically)", .alias = "-o", .meta = "FILE"),
+    MF_OPT_INT(A, width, 512, 1, MF_OPT_RES_MAX, "image width"),
+    MF_OPT_INT(A, height, 512, 1, MF_OPT_RES_MAX, "image height"),
+    MF_OPT_INT(A, spp, 8, 1, MF_OPT_SPP_MAX, "n: n^2 env-light + n^2 BSDF samples per pixel sample"),
+    MF_OPT_INT(A, pixel_samples, 1, 1, MF_OPT_PIXEL_SAMPLES_MAX, "primary rays per pixel"),
+    MF_OPT_INT(A, threads, 2, 1, 4096, "OpenMP threads"),
+    MF_OPT_STR(A, env, "/usr/share/blender/datafiles/studiolights/world/sunset.exr", "HDR probe (a constant sky when the file is missing)",
+               .meta = "FILE.exr"),
+    MF_OPT_INT(A, env_width, 0, 2, 65536, "box-filter the probe down to at most EW columns (e.g. 512, the inverse pipeline's)",
+               .unset = "full size", .meta = "EW"),
+    MF_OPT_STR(A, save, NULL, "write the rendered AOVs (multi-channel EXR) to compare renderer versions", .meta = "IMG.exr"),
+};
+#undef A
+static const MfOptTable k_args_table = MF_OPT_TABLE("Options (--config FILE: a JSON object with these keys)", k_args);
+
+static char usage[8192];
+static const char k_usage_head[] =
     "usage: mf bench-render [-o reports/perf/render.md] [--width W] [--height H] [--spp N] [--threads T]\n"
     "                       [--pixel-samples P] [--env FILE.exr] [--env-width EW] [--save IMG.exr]\n"
-    "Renders a procedural torus (131072 triangles) under an HDR probe (default Blender's sunset.exr,\n"
-    "else a constant sky) with N^2 light + N^2 BSDF samples per pixel (default 512x512, N = 8,\n"
-    "2 threads; --env-width box-filters the probe down to at most EW columns, e.g. 512 for the\n"
-    "inverse pipeline's env resolution), then replays exactly the renderer's rays (recorded per row) through a bare\n"
-    "rtcIntersect1/rtcOccluded1 loop, and reports path samples/s, rays/s and bare time / render time.\n"
-    "--save writes the rendered AOVs (multi-channel EXR) to compare renderer versions.\n";
+    "Renders a procedural torus (131072 triangles) under an HDR probe with N^2 light + N^2 BSDF\n"
+    "samples per pixel, then replays exactly the renderer's rays (recorded per row) through a bare\n"
+    "rtcIntersect1/rtcOccluded1 loop, and reports path samples/s, rays/s and bare time / render time.\n";
+
+__attribute__((constructor)) static void bench_render_usage(void) {
+    const MfOptTable *t[] = {&k_args_table};
+    mf_opts_usage_text(usage, sizeof usage, k_usage_head, t, 1, NULL);
+}
 
 /* Replays recorded rays; returns the number of occluded shadow rays + primary hits (a checksum). */
 static long replay(RTCScene scene, const MfRayLog *log) {
@@ -85,25 +111,22 @@ static double cpu_now(void) {
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
+static int bench_render_run(const BenchRenderArgs *a);
+
 static int cmd_bench_render(int argc, char **argv) {
-    const char *outp = "reports/perf/render.md", *savep = NULL, *envp = "/usr/share/blender/datafiles/studiolights/world/sunset.exr";
-    int W = 512, H = 512, spp = 8, threads = 2, ps = 1, env_w = 0;
-    for (int i = 1; i < argc; ++i) {
-        int r;
-        if ((r = mf_opt_str(argc, argv, &i, "-o", &outp)) || (r = mf_opt_int(argc, argv, &i, "--width", &W)) ||
-            (r = mf_opt_int(argc, argv, &i, "--height", &H)) || (r = mf_opt_int(argc, argv, &i, "--spp", &spp)) ||
-            (r = mf_opt_int(argc, argv, &i, "--threads", &threads)) || (r = mf_opt_int(argc, argv, &i, "--pixel-samples", &ps)) ||
-            (r = mf_opt_str(argc, argv, &i, "--env", &envp)) || (r = mf_opt_str(argc, argv, &i, "--save", &savep)) || (r = mf_opt_int(argc, argv, &i, "--env-width", &env_w))) {
-            if (r < 0) return MF_EXIT_USAGE;
-            continue;
-        }
-        mf_fail(MF_EARG, "unknown argument %s", argv[i]);
-        return MF_EXIT_USAGE;
-    }
-    if (W < 1 || H < 1 || spp < 1 || threads < 1 || ps < 1) {
-        mf_fail(MF_EARG, "sizes, --spp, --threads and --pixel-samples must be positive");
-        return MF_EXIT_USAGE;
-    }
+    BenchRenderArgs a;
+    mf_opts_defaults(&k_args_table, &a);
+    MfOptBind bind = {&k_args_table, &a};
+    MfOptParse p;
+    int rc = mf_opts_parse(&bind, 1, argc, argv, 0, &p) ? MF_EXIT_USAGE : p.print_config ? mf_cli_print_config(&bind, 1)
+                                                                                          : bench_render_run(&a);
+    mf_opts_parse_free(&p);
+    return rc;
+}
+
+static int bench_render_run(const BenchRenderArgs *a) {
+    const char *outp = a->out, *savep = a->save, *envp = a->env;
+    int W = a->width, H = a->height, spp = a->spp, threads = a->threads, ps = a->pixel_samples, env_w = a->env_width;
     omp_set_num_threads(threads);
     MfMesh mesh;
     if (mf_shape_torus(&mesh, 0.35f, 0.15f, 512, 128)) return MF_EXIT_FAIL;

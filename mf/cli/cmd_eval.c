@@ -14,14 +14,34 @@
 #include "core/mf_log.h"
 #include "core/mf_strbuf.h"
 #include "eval/ev_eval.h"
+#include "eval/ev_eval_opts.h"
 #include "eval/ev_paired.h"
 #include "eval/ev_report.h"
 #include "io/mf_json.h"
 
-static const char usage[] =
+typedef struct {
+    const char *out, *results, *methods, *scenes, *dataset;
+    int no_curves, trivial;
+} EvalArgs;
+
+#define A EvalArgs
+static const MfOpt k_args[] = {
+    MF_OPT_STR(A, results, NULL, "folder of <method>/<scene>/ result folders (required)", .meta = "DIR"),
+    MF_OPT_STR(A, out, NULL, "report folder (required)", .alias = "-o", .meta = "DIR"),
+    MF_OPT_STR(A, methods, NULL, "comma-separated methods to score", .unset = "every folder in RESULTS_DIR", .meta = "a,b,..."),
+    MF_OPT_STR(A, scenes, NULL, "comma-separated scenes to score", .unset = "every scene of DATA_DIR", .meta = "a,b,..."),
+    MF_OPT_STR(A, dataset, NULL, "data set name in the tables", .unset = "DATA_DIR's folder name", .meta = "NAME"),
+    MF_OPT_BOOL(A, no_curves, 0, "skip the speed-vs-error curves from the texture snapshots"),
+    MF_OPT_BOOL(A, trivial, 0, "also score the trivial guesses trivial-grey and trivial-flat-light"),
+};
+#undef A
+static const MfOptTable k_args_table = MF_OPT_TABLE("Options (--config FILE: a JSON object with these keys)", k_args);
+
+static char usage[8192];
+static const char k_usage_head[] =
     "usage: mf eval DATA_DIR --results RESULTS_DIR -o REPORT_DIR [--methods a,b,...] [--dataset NAME]\n"
     "               [--align mean|lsq|none] [--spp N] [--pixel-samples P] [--max-views N] [--no-curves]\n"
-    "               [--trivial] [--scenes a,b,...]\n"
+    "               [--trivial] [--scenes a,b,...] [--config FILE]\n"
     "Scores RESULTS_DIR/<method>/<scene>/ against DATA_DIR (a split folder of bvault scenes, or one\n"
     "scene) with the protocol stated in the README: relit views (every relighting light, test\n"
     "cameras; per-channel scale inside the GT mask (mean: ratio of means, default; lsq: least\n"
@@ -33,6 +53,11 @@ static const char usage[] =
     "t-test and sign-test p; mf compare recomputes it for another reference) and index.html. Methods default to every folder in RESULTS_DIR. --trivial adds two guesses every\n"
     "method must beat: trivial-grey (albedo 0.5 on the GT mesh under the true light) and\n"
     "trivial-flat-light (the true textures under a constant white light).\n";
+
+__attribute__((constructor)) static void eval_usage(void) {
+    const MfOptTable *t[] = {&k_args_table, &ev_eval_opt_table};
+    mf_opts_usage_text(usage, sizeof usage, k_usage_head, t, 2, NULL);
+}
 
 #define MAX_ITEMS 64
 
@@ -129,28 +154,31 @@ static int snapshot_curve(const char *scene_dir, const char *result_dir, const E
     return MF_OK;
 }
 
+static int eval_run(int argc, char **argv, const char *data, const EvalArgs *a, EvEvalOpts o);
+
 static int cmd_eval(int argc, char **argv) {
-    const char *data = NULL, *results = NULL, *out = NULL, *methods_s = NULL, *dataset = NULL, *align_s = "mean";
-    const char *scenes_s = NULL;
-    int curves = 1, trivial = 0;
+    EvalArgs a;
     EvEvalOpts o = ev_eval_opts_default();
-    for (int i = 1; i < argc; ++i) {
-        int r;
-        if ((r = mf_opt_str(argc, argv, &i, "-o", &out)) || (r = mf_opt_str(argc, argv, &i, "--results", &results)) ||
-            (r = mf_opt_str(argc, argv, &i, "--methods", &methods_s)) || (r = mf_opt_str(argc, argv, &i, "--scenes", &scenes_s)) || (r = mf_opt_str(argc, argv, &i, "--dataset", &dataset)) ||
-            (r = mf_opt_str(argc, argv, &i, "--align", &align_s)) || (r = mf_opt_int(argc, argv, &i, "--spp", &o.spp_sqrt)) ||
-            (r = mf_opt_int(argc, argv, &i, "--pixel-samples", &o.pixel_samples)) ||
-            (r = mf_opt_int(argc, argv, &i, "--max-views", &o.max_views))) {
-            if (r < 0) return MF_EXIT_USAGE;
-            continue;
-        }
-        if (!strcmp(argv[i], "--no-curves")) { curves = 0; continue; }
-        if (!strcmp(argv[i], "--trivial")) { trivial = 1; continue; }
-        if (argv[i][0] == '-') { mf_fail(MF_EARG, "unknown option %s (see mf eval --help)", argv[i]); return MF_EXIT_USAGE; }
-        data = argv[i];
+    mf_opts_defaults(&k_args_table, &a);
+    MfOptBind binds[] = {{&k_args_table, &a}, {&ev_eval_opt_table, &o}};
+    MfOptParse p;
+    int rc = mf_opts_parse(binds, 2, argc, argv, 1, &p) ? MF_EXIT_USAGE : MF_EXIT_OK;
+    if (!rc && p.print_config) {
+        mf_opts_parse_free(&p);
+        return mf_cli_print_config(binds, 2);
     }
-    if (!data || !results || !out) { mf_fail(MF_EARG, "need DATA_DIR, --results and -o (see mf eval --help)"); return MF_EXIT_USAGE; }
-    if (ev_align_parse(align_s, &o.align)) return MF_EXIT_USAGE;
+    if (!rc && (!p.npos || !a.results || !a.out)) {
+        mf_fail(MF_EARG, "need DATA_DIR, --results and -o (see mf eval --help)");
+        rc = MF_EXIT_USAGE;
+    }
+    if (!rc) rc = eval_run(argc, argv, p.pos[0], &a, o);
+    mf_opts_parse_free(&p);
+    return rc;
+}
+
+static int eval_run(int argc, char **argv, const char *data, const EvalArgs *a, EvEvalOpts o) {
+    const char *results = a->results, *out = a->out, *methods_s = a->methods, *dataset = a->dataset, *scenes_s = a->scenes;
+    int curves = !a->no_curves, trivial = a->trivial;
     /* scenes: DATA_DIR itself, or its sub-folders with transforms_test.json */
     static char scenes[MAX_ITEMS][64], methods[MAX_ITEMS][64];
     char scene_root[MF_PATH_MAX];

@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "cli/mf_cli.h"
+#include "io/mf_opts.h"
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "core/mf_log.h"
@@ -22,10 +23,6 @@
     "    DIR/gt/kd.png, gt/orm.png    baked base colour (sRGB) and ORM (linear, R = 1)\n" \
     "    DIR/transforms_train.json, transforms_test.json   cameras (camera_angle_x 0.6911,\n" \
     "        azimuth 0-360, elevation -15-90 deg, radius 1.5-2, looking at the origin)\n" \
-    "  --family   cup vase bottle bowl box superquadric torus mug clock displaced (default: from seed)\n" \
-    "  --seed     random seed (default 1); --tex-res texture size (default 512)\n" \
-    "  --train / --test  number of cameras (default 100 / 200)\n" \
-    "  --r-min / --r-max camera distance range (default 1.5 / 2.0; 2.2 / 2.8 cropped no view of 1500 checked)\n" \
     "\n" \
     "       mf gen --split tiny|small|full|test-3d|test-3d-diffuse -o DIR [--no-render] [--seed N] [--env-dir DIR]\n" \
     "  Writes a whole split: DIR/NNN_<family>/ scenes as above plus gt/env.exr (training light),\n" \
@@ -33,12 +30,8 @@
     "  and DIR/manifest.json (counts, seeds, FNV-1a 64 of every file), and renders the images\n" \
     "  in-process (--no-render: the layout only): train/ test/ r_NNN.png, gt/albedo/ gt/orm/ r_NNN.png, relight/<env>/r_NNN.exr\n" \
     "  (test-3d-diffuse: diffuse objects, lit views by POV-Ray). Rerunning resumes.\n" \
-    "  --scenes N: only the first N scenes; --spp N: env/BSDF samples per pixel sample = N^2.\n" \
-    "  --train N / --test N / --width W: override the split's view counts and image size (e.g. a\n" \
-    "    cheap POV-Ray split: --split test-3d-diffuse --train 24 --width 64; write it to its own DIR).\n" \
     "  --compare-povray FILE.md: render the relit test views (first --views N, at --res R) with both\n" \
-    "    renderers and append a table row (PSNR, mean relative error) to FILE.md;\n" \
-    "    --pov-radiosity N: POV-Ray radiosity count (default 200).\n" \
+    "    renderers and append a table row (PSNR, mean relative error) to FILE.md.\n" \
     "  Probes: *.exr of --env-dir (default Blender's studio lights).\n" \
     "\n" \
     "       mf gen --split prior-train|test-2d -o DIR [--count N] [--time-budget SECONDS] [--res 64]\n" \
@@ -116,35 +109,80 @@ static int gen_envs(const char *dir, int count, int seed, const char *kind, int 
     return MF_EXIT_OK;
 }
 
+typedef struct {
+    const char *out, *family, *split, *env_dir, *compare_povray, *envs, *kind, *train_lights;
+    int seed, tex_res, train, test, width, count, res, views, spp, pixel_samples, threads, scenes, pov_radiosity, env_width;
+    int no_render, render;
+    float r_min, r_max, time_budget;
+} GenArgs;
+
+#define A GenArgs
+static const MfOpt k_args[] = {
+    MF_OPT_STR(A, out, NULL, "output folder (required except with --envs)", .alias = "-o", .meta = "DIR"),
+    MF_OPT_INT(A, seed, 1, 0, 2147483647, "random seed"),
+    MF_OPT_STR(A, family, NULL, "object family: cup vase bottle bowl box superquadric torus mug clock displaced",
+               .unset = "from the seed", .meta = "NAME"),
+    MF_OPT_INT(A, tex_res, 0, 4, 8192, "texture size", .unset = "512; a split's own; prior-train 128"),
+    MF_OPT_INT(A, train, 0, 1, 100000, "number of training cameras (one object; a split: overrides its own)",
+               .unset = "100 (one object), the split's own"),
+    MF_OPT_INT(A, test, 0, 1, 100000, "number of test cameras (one object; a split: overrides its own)",
+               .unset = "200 (one object), the split's own"),
+    MF_OPT_INT(A, width, 0, 8, 4096, "split: image size, overriding the split's own (e.g. a cheap POV-Ray split: "
+               "--split test-3d-diffuse --train 24 --width 64, into its own DIR)", .unset = "the split's own"),
+    MF_OPT_FLOAT(A, r_min, 1.5, 0.1, 100, "camera distance, lower end (2.2 / 2.8 cropped no view of 1500 checked)"),
+    MF_OPT_FLOAT(A, r_max, 2.0, 0.1, 100, "camera distance, upper end"),
+    MF_OPT_STR(A, split, NULL, "write a whole split: tiny small full test-3d test-3d-diffuse prior-train test-2d", .meta = "NAME"),
+    MF_OPT_BOOL(A, no_render, 0, "split: write the layout only, render no image"),
+    MF_OPT_BOOL(A, render, 0, "split: render the images (the default; kept for scripts)"),
+    MF_OPT_STR(A, env_dir, NULL, "folder of *.exr light probes", .unset = "Blender's studio lights", .meta = "DIR"),
+    MF_OPT_INT(A, scenes, 0, 0, 100000, "split: only the first N scenes (0: all)"),
+    MF_OPT_INT(A, spp, 0, 1, MF_OPT_SPP_MAX, "n: n^2 env-light + n^2 BSDF samples per pixel sample", .unset = "the split's own"),
+    MF_OPT_STR(A, compare_povray, NULL, "split: render the relit test views with both renderers, append a table row to FILE.md",
+               .meta = "FILE.md"),
+    MF_OPT_INT(A, views, 0, 1, 100000, "--compare-povray: first N test views; prior-train/test-2d: views per object",
+               .unset = "all; 12 (prior-train), 4 (test-2d)"),
+    MF_OPT_INT(A, res, 0, 1, 4096, "--compare-povray: render size; prior-train/test-2d: image size", .unset = "the split's; 64"),
+    MF_OPT_INT(A, pov_radiosity, 0, 1, 100000, "--compare-povray: POV-Ray radiosity count", .unset = "200"),
+    MF_OPT_INT(A, count, 0, 1, 10000000, "prior-train/test-2d: samples; --envs: maps per kind",
+               .unset = "time budget (prior-train), 32 (test-2d), 8 (--envs)"),
+    MF_OPT_FLOAT(A, time_budget, 0, 0, 1e7, "prior-train/test-2d: stop after this many seconds (0: no limit; prior-train without --count: 1800)",
+                 .meta = "SECONDS"),
+    MF_OPT_INT(A, pixel_samples, 0, 1, MF_OPT_PIXEL_SAMPLES_MAX, "prior-train/test-2d: primary rays per pixel", .unset = "4"),
+    MF_OPT_INT(A, threads, 0, 0, 4096, "prior-train/test-2d: worker threads (0: OpenMP's default)"),
+    MF_OPT_STR(A, train_lights, NULL, "prior-train/test-2d: where the env-lit half of the views takes its maps", .choices = "blender|procedural|both",
+               .unset = "blender"),
+    MF_OPT_STR(A, envs, NULL, "write procedural HDR env maps to DIR instead", .meta = "DIR"),
+    MF_OPT_STR(A, kind, NULL, "--envs: which kinds", .choices = "sky|indoor|both", .unset = "both"),
+    MF_OPT_INT(A, env_width, DS_ENV_W, 8, 16384, "--envs: map width (even; height = width / 2)"),
+};
+#undef A
+static const MfOptTable k_args_table = MF_OPT_TABLE("Options (--config FILE: a JSON object with these keys)", k_args);
+
+static char usage[16384];
+__attribute__((constructor)) static void gen_usage(void) {
+    const MfOptTable *t[] = {&k_args_table};
+    mf_opts_usage_text(usage, sizeof usage, K_USAGE, t, 1, NULL);
+}
+
+static int gen_run(const GenArgs *a);
+
 static int cmd_gen(int argc, char **argv) {
-    const char *out = NULL, *fam_name = NULL, *split = NULL, *env_dir = NULL, *compare = NULL, *envs = NULL, *kind = NULL, *train_lights = NULL;
-    int env_width = DS_ENV_W;
-    int seed = 1, width = 0, res = -1, ntrain = 100, ntest = 200, count = 0, img_res = 64, views = -1, spp = -1, pxs = 4, threads = 0, render = 1, nscenes = 0, pov_rad = 0;
-    float r_min = 1.5f, r_max = 2.0f, budget = 0;
-    for (int i = 1; i < argc; ++i) {
-        int r;
-        if (!strcmp(argv[i], "--render")) { render = 1; continue; } /* the default; kept for scripts */
-        if (!strcmp(argv[i], "--no-render")) { render = 0; continue; }
-        if ((r = mf_opt_str(argc, argv, &i, "-o", &out)) || (r = mf_opt_str(argc, argv, &i, "--out", &out)) ||
-            (r = mf_opt_str(argc, argv, &i, "--family", &fam_name)) ||
-            (r = mf_opt_int(argc, argv, &i, "--seed", &seed)) || (r = mf_opt_int(argc, argv, &i, "--tex-res", &res)) ||
-            (r = mf_opt_int(argc, argv, &i, "--train", &ntrain)) || (r = mf_opt_int(argc, argv, &i, "--width", &width)) || (r = mf_opt_int(argc, argv, &i, "--test", &ntest)) ||
-            (r = mf_opt_str(argc, argv, &i, "--split", &split)) || (r = mf_opt_str(argc, argv, &i, "--env-dir", &env_dir)) ||
-            (r = mf_opt_float(argc, argv, &i, "--r-min", &r_min)) || (r = mf_opt_float(argc, argv, &i, "--r-max", &r_max)) ||
-            (r = mf_opt_int(argc, argv, &i, "--count", &count)) || (r = mf_opt_int(argc, argv, &i, "--res", &img_res)) ||
-            (r = mf_opt_int(argc, argv, &i, "--views", &views)) || (r = mf_opt_int(argc, argv, &i, "--spp", &spp)) ||
-            (r = mf_opt_int(argc, argv, &i, "--pixel-samples", &pxs)) || (r = mf_opt_int(argc, argv, &i, "--threads", &threads)) ||
-            (r = mf_opt_int(argc, argv, &i, "--scenes", &nscenes)) || (r = mf_opt_str(argc, argv, &i, "--compare-povray", &compare)) ||
-            (r = mf_opt_int(argc, argv, &i, "--pov-radiosity", &pov_rad)) ||
-            (r = mf_opt_str(argc, argv, &i, "--envs", &envs)) || (r = mf_opt_str(argc, argv, &i, "--kind", &kind)) ||
-            (r = mf_opt_int(argc, argv, &i, "--env-width", &env_width)) || (r = mf_opt_str(argc, argv, &i, "--train-lights", &train_lights)) ||
-            (r = mf_opt_float(argc, argv, &i, "--time-budget", &budget))) {
-            if (r < 0) return MF_EXIT_USAGE;
-            continue;
-        }
-        mf_fail(MF_EARG, "unknown option '%s'", argv[i]);
-        return MF_EXIT_USAGE;
-    }
+    GenArgs a;
+    mf_opts_defaults(&k_args_table, &a);
+    MfOptBind bind = {&k_args_table, &a};
+    MfOptParse p;
+    int rc = mf_opts_parse(&bind, 1, argc, argv, 0, &p) ? MF_EXIT_USAGE : p.print_config ? mf_cli_print_config(&bind, 1) : gen_run(&a);
+    mf_opts_parse_free(&p);
+    return rc;
+}
+
+static int gen_run(const GenArgs *a) {
+    const char *out = a->out, *fam_name = a->family, *split = a->split, *env_dir = a->env_dir, *compare = a->compare_povray;
+    const char *envs = a->envs, *kind = a->kind, *train_lights = a->train_lights;
+    int seed = a->seed, res = a->tex_res, ntrain = a->train > 0 ? a->train : 100, ntest = a->test > 0 ? a->test : 200, count = a->count, img_res = a->res, views = a->views;
+    int spp = a->spp, pxs = a->pixel_samples, threads = a->threads, render = !a->no_render, nscenes = a->scenes, pov_rad = a->pov_radiosity;
+    int env_width = a->env_width;
+    float r_min = a->r_min, r_max = a->r_max, budget = a->time_budget;
     if (envs) return gen_envs(envs, count > 0 ? count : 8, seed, kind, env_width);
     if (!out) { mf_fail(MF_EARG, "missing -o DIR"); return MF_EXIT_USAGE; }
     int tl = train_lights ? ds_train_lights_from_name(train_lights) : DS_LIGHTS_BLENDER;
@@ -153,22 +191,16 @@ static int cmd_gen(int argc, char **argv) {
         mf_fail(MF_EARG, "--train-lights applies to --split prior-train or test-2d");
         return MF_EXIT_USAGE;
     }
-    int res_given = 0, train_given = 0, test_given = 0;
-    for (int i = 1; i < argc; ++i) {
-        res_given |= !strcmp(argv[i], "--res");
-        train_given |= !strcmp(argv[i], "--train");
-        test_given |= !strcmp(argv[i], "--test");
-    }
     if (split && (!strcmp(split, "prior-train") || !strcmp(split, "test-2d"))) {
         DsPriorTrainOpts po = !strcmp(split, "test-2d") ? ds_test2d_defaults() : ds_prior_train_defaults();
         if (count > 0) po.count = count;
         po.time_budget_s = budget;
-        po.res = img_res;
+        if (img_res > 0) po.res = img_res;
         po.seed = (uint64_t)seed;
         if (views > 0) po.views_per_object = views;
         if (res > 0) po.tex_res = res;
         if (spp > 0) po.spp_sqrt = spp;
-        po.pixel_samples = pxs;
+        if (pxs > 0) po.pixel_samples = pxs;
         po.env_dir = env_dir;
         po.train_lights = (DsTrainLights)tl;
         po.threads = threads;
@@ -186,13 +218,9 @@ static int cmd_gen(int argc, char **argv) {
         spec.r_max = r_max;
         if (spp > 0) spec.spp_sqrt = spp;
         if (nscenes > 0) spec.n_scenes = nscenes;
-        if (train_given) spec.n_train = ntrain;
-        if (test_given) spec.n_test = ntest;
-        if (width > 0) spec.width = width;
-        if (spec.n_train < 1 || spec.n_test < 1 || spec.width < 8 || spec.width > 4096) {
-            mf_fail(MF_EARG, "--train %d / --test %d must be >= 1 and --width %d in 8..4096", spec.n_train, spec.n_test, spec.width);
-            return MF_EXIT_USAGE;
-        }
+        if (a->train > 0) spec.n_train = a->train; /* ranges: the option table */
+        if (a->test > 0) spec.n_test = a->test;
+        if (a->width > 0) spec.width = a->width;
         spec.pov_radiosity = pov_rad;
         double t0 = mf_now();
         int nv = 0;
@@ -202,7 +230,7 @@ static int cmd_gen(int argc, char **argv) {
         if (ds_split_manifest(&spec, out, (uint64_t)seed, render, nv, wall)) return MF_EXIT_FAIL;
         if (compare) {
             DsRenderCompare c;
-            int cres = res_given ? img_res : spec.width;
+            int cres = img_res > 0 ? img_res : spec.width;
             if (ds_compare_renderers(&spec, out, nscenes, views > 0 ? views : 0, cres, &c)) return MF_EXIT_FAIL;
             int fresh = !mf_file_exists(compare);
             FILE *f = fopen(compare, "a");
@@ -221,8 +249,7 @@ static int cmd_gen(int argc, char **argv) {
                     render ? "" : " (layout only, --no-render)", nv, wall);
         return MF_EXIT_OK;
     }
-    if (res < 0) res = DS_DEFAULT_TEX_RES;
-    if (ntrain < 1 || ntest < 1) { mf_fail(MF_EARG, "--train and --test must be >= 1"); return MF_EXIT_USAGE; }
+    if (res <= 0) res = DS_DEFAULT_TEX_RES;
     int fam = fam_name ? ds_family_from_name(fam_name) : (int)((unsigned)seed % DS_FAM_COUNT);
     if (fam < 0) { mf_fail(MF_EARG, "--family: unknown family '%s'", fam_name); return MF_EXIT_USAGE; }
     DsObject o;
@@ -245,4 +272,4 @@ static int cmd_gen(int argc, char **argv) {
     return rc ? MF_EXIT_FAIL : MF_EXIT_OK;
 }
 
-MF_COMMAND(gen, "gen", "generate a procedural object, or a data set split (layout, rendered views, prior-train triplets)", K_USAGE, cmd_gen)
+MF_COMMAND(gen, "gen", "generate a procedural object, or a data set split (layout, rendered views, prior-train triplets)", usage, cmd_gen)

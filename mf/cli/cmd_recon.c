@@ -14,10 +14,35 @@
 #include "core/mf_rng.h"
 #include "datasets/ds_load.h"
 #include "fusion/mf_sds.h"
+#include "fusion/mf_sds_opts.h"
 #include "inverse/mf_recon_opts.h"
 #include "io/mf_obj.h"
 
-static char usage[8192] =
+/* The command's own options (the reconstruction's and the prior term's are in their tables:
+ * mf/inverse/mf_recon_opts.c, mf/fusion/mf_sds_opts.c). */
+typedef struct {
+    const char *out, *method, *mesh, *split, *prior_weights;
+    int res, max_views, resume;
+} ReconArgs;
+
+#define A ReconArgs
+static const MfOpt k_args[] = {
+    MF_OPT_STR(A, out, NULL, "result folder (required)", .alias = "-o", .meta = "DIR"),
+    MF_OPT_STR(A, method, "nvdiffrecmc", "method", .choices = "nvdiffrecmc|materialfusion"),
+    MF_OPT_STR(A, mesh, NULL, "mesh with UVs", .unset = "DATASET_DIR/mesh.obj", .meta = "OBJ"),
+    MF_OPT_STR(A, split, "train", "which views to train on"),
+    MF_OPT_INT(A, res, 0, 1, MF_OPT_RES_MAX, "train at N pixels wide (box-downsampled; the images' width must be a multiple)",
+               .unset = "the images' size"),
+    MF_OPT_INT(A, max_views, 0, 0, 1000000, "use at most N views (0: all)"),
+    MF_OPT_BOOL(A, resume, 0, "continue from RESULT_DIR/checkpoint.mfck"),
+    MF_OPT_STR(A, prior_weights, NULL, "materialfusion: prior weights, a .mfck file or its folder",
+               .unset = "$MF_PRIOR_WEIGHTS, else mf/prior/weights/prior.mfck", .meta = "F"),
+};
+#undef A
+static const MfOptTable k_args_table = MF_OPT_TABLE("Command options", k_args);
+
+static char usage[16384];
+static const char k_usage_head[] =
     "usage: mf recon DATASET_DIR -o RESULT_DIR [--method nvdiffrecmc|materialfusion] [--mesh OBJ]\n"
     "                [--config FILE] [--split train] [--res N] [--max-views N] [--resume] [option VALUE ...]\n"
     "Recovers albedo (kd), ORM and the HDR environment light of the scene in DATASET_DIR (any format\n"
@@ -25,67 +50,43 @@ static char usage[8192] =
     "(default DATASET_DIR/mesh.obj; it must have UVs: a mesh without UVs is refused, unwrap it first).\n"
     "Writes RESULT_DIR/ albedo.png orm.png (normal.png) env.exr mesh.obj scene.glb log.csv run.json snapshots/\n"
     "checkpoint.mfck. --resume continues from RESULT_DIR/checkpoint.mfck and reaches the same result\n"
-    "as an uninterrupted run (same build, options and thread count). --res N trains at N pixels\n"
-    "(the images are box-downsampled; their size must be a multiple of N). Options are applied in\n"
-    "order: the method's defaults, --config FILE (JSON, keys as below with underscores), flags.\n"
-    "MaterialFusion (the baseline plus the SDS+ prior term, mf/fusion/mf_sds.h) adds:\n"
-    "  --prior-weights F    prior weights, a .mfck file or its folder (default $MF_PRIOR_WEIGHTS, else the\n"
-    "                       committed mf/prior/weights/prior.mfck)\n"
-    "  --lambda-latent X    latent term weight (default 0.02)   --lambda-rgb X   RGB term weight (0.5)\n"
-    "  --gamma-p P          gamma_i = 1 - (i/N)^P (default 1)    --gamma-const 1  gamma_i = 1 throughout\n"
-    "  --k-views K          views that get the prior term per step (default 4, 1..16; drawn beyond the batch)\n"
-    "  --sds-weight W       trust in the prior: none (default) | conflict (drop, per texel, the part of the\n"
-    "                       prior's gradient that opposes the images' gradient)\n"
-    "  --sds-rgb01 0|1      L_rgb on [0,1] maps as the official code (1, default) or on [-1,1] (0: 4x)\n"
-    "  --sds-every K        recompute the prior term every K iterations, hold its gradient between (default 4)\n"
-    "Options of both methods:\n";
+    "as an uninterrupted run (same build, options and thread count). Options are applied in order:\n"
+    "the defaults, --config FILE (a JSON object; its keys are the flags below with underscores,\n"
+    "e.g. {\"lambda_rgb\": 0.5, \"tex_res\": 128}), then the flags. A value outside its range is refused\n"
+    "before anything is written. run.json records every option's value.\n";
+
+static int cmd_recon_run(int argc, char **argv, const MfOptParse *p, ReconArgs *a, MfReconOpts *po, MfSdsOpts *pso);
 
 static int cmd_recon(int argc, char **argv) {
-    const char *data = NULL, *out = NULL, *method = "nvdiffrecmc", *mesh_path = NULL, *config = NULL, *split = "train";
-    int res = 0, max_views = 0, resume = 0, gamma_const = 0;
-    const char *sds_weight = NULL;
+    ReconArgs a;
     MfReconOpts o = bl_nvdiffrecmc_opts();
     MfSdsOpts so = mf_sds_opts_default();
+    mf_opts_defaults(&k_args_table, &a);
+    MfOptBind binds[] = {{&k_args_table, &a}, {&mf_recon_opt_table, &o}, {&mf_sds_opt_table, &so}};
+    MfOptParse p;
+    if (mf_opts_parse(binds, 3, argc, argv, 1, &p)) {
+        mf_opts_parse_free(&p);
+        return MF_EXIT_USAGE;
+    }
+    int rc = p.print_config ? mf_cli_print_config(binds, 3) : cmd_recon_run(argc, argv, &p, &a, &o, &so);
+    mf_opts_parse_free(&p);
+    return rc;
+}
+
+static int cmd_recon_run(int argc, char **argv, const MfOptParse *p, ReconArgs *a, MfReconOpts *po, MfSdsOpts *pso) {
+    MfReconOpts o = *po;
+    MfSdsOpts so = *pso;
+    const char *data = p->npos ? p->pos[0] : NULL, *out = a->out, *method = a->method, *mesh_path = a->mesh, *split = a->split;
+    int res = a->res, max_views = a->max_views, resume = a->resume;
     char wdefault[MF_PATH_MAX];
     mf_prior_default_weights(wdefault, sizeof wdefault); /* $MF_PRIOR_WEIGHTS, else the committed weights */
-    const char *weights = wdefault;
-    /* config first, so flags given anywhere override it */
-    for (int i = 1; i + 1 < argc; ++i)
-        if (!strcmp(argv[i], "--config")) config = argv[i + 1];
-    if (config && mf_recon_opts_load(&o, config)) return MF_EXIT_USAGE;
-    for (int i = 1; i < argc; ++i) {
-        int r;
-        const char *dummy;
-        if ((r = mf_opt_str(argc, argv, &i, "-o", &out)) || (r = mf_opt_str(argc, argv, &i, "--method", &method)) ||
-            (r = mf_opt_str(argc, argv, &i, "--mesh", &mesh_path)) || (r = mf_opt_str(argc, argv, &i, "--config", &dummy)) ||
-            (r = mf_opt_str(argc, argv, &i, "--split", &split)) || (r = mf_opt_int(argc, argv, &i, "--res", &res)) ||
-            (r = mf_opt_int(argc, argv, &i, "--max-views", &max_views)) || (r = mf_opt_str(argc, argv, &i, "--prior-weights", &weights)) ||
-            (r = mf_opt_float(argc, argv, &i, "--lambda-latent", &so.lambda_latent)) ||
-            (r = mf_opt_float(argc, argv, &i, "--lambda-rgb", &so.lambda_rgb)) || (r = mf_opt_float(argc, argv, &i, "--gamma-p", &so.gamma_p)) ||
-            (r = mf_opt_int(argc, argv, &i, "--gamma-const", &gamma_const)) || (r = mf_opt_int(argc, argv, &i, "--k-views", &so.k_views)) ||
-            (r = mf_opt_int(argc, argv, &i, "--sds-every", &so.every)) ||
-            (r = mf_opt_str(argc, argv, &i, "--sds-weight", &sds_weight)) || (r = mf_opt_int(argc, argv, &i, "--sds-rgb01", &so.rgb01)) ||
-            (r = mf_recon_opts_parse_arg(&o, argc, argv, &i))) {
-            if (r < 0) return MF_EXIT_USAGE;
-            continue;
-        }
-        if (!strcmp(argv[i], "--resume")) { resume = 1; continue; }
-        if (argv[i][0] == '-') { mf_fail(MF_EARG, "unknown option %s (see mf recon --help)", argv[i]); return MF_EXIT_USAGE; }
-        if (data) { mf_fail(MF_EARG, "more than one data set given (%s, %s)", data, argv[i]); return MF_EXIT_USAGE; }
-        data = argv[i];
-    }
+    const char *weights = a->prior_weights ? a->prior_weights : wdefault;
     if (!data || !out) { mf_fail(MF_EARG, "need DATASET_DIR and -o RESULT_DIR (see mf recon --help)"); return MF_EXIT_USAGE; }
     int is_mf = !strcmp(method, "materialfusion");
-    if (!is_mf && strcmp(method, "nvdiffrecmc")) {
-        mf_fail(MF_EARG, "--method %s: unknown method (available: nvdiffrecmc, materialfusion)", method);
+    if (so.t_min > so.t_max) {
+        mf_fail(MF_EARG, "--t-min %d is above --t-max %d", so.t_min, so.t_max);
         return MF_EXIT_USAGE;
     }
-    so.gamma_const = gamma_const != 0;
-    if (sds_weight && (so.weight = mf_sds_weight_parse(sds_weight)) < 0) {
-        mf_fail(MF_EARG, "--sds-weight %s: expected none or conflict", sds_weight);
-        return MF_EXIT_USAGE;
-    }
-    if (so.rgb01 != 0 && so.rgb01 != 1) { mf_fail(MF_EARG, "--sds-rgb01 %d: expected 0 or 1", so.rgb01); return MF_EXIT_USAGE; }
     so.seed = mf_hash64(o.seed, 0x5d5);
     double t0 = mf_now();
     DsViews dv;
@@ -173,26 +174,16 @@ static int cmd_recon(int argc, char **argv) {
     if (!rc) rc = mf_recon_run(r, is_mf ? &hook : NULL, out);
     if (!rc) {
         cJSON *opts = cJSON_CreateObject();
-        mf_recon_opts_to_json(&o, opts);
-        cJSON_AddStringToObject(opts, "method", method);
-        cJSON_AddStringToObject(opts, "mesh", mesh_path);
+        a->mesh = mesh_path, a->prior_weights = weights; /* as resolved */
+        mf_opts_to_json(&k_args_table, a, opts);
+        mf_opts_to_json(&mf_recon_opt_table, &o, opts);
+        if (is_mf) mf_opts_to_json(&mf_sds_opt_table, &so, opts);
         double tf, ta;
         mf_recon_timing(r, &tf, &ta);
         cJSON_AddNumberToObject(opts, "forward_render_s", tf);
         cJSON_AddNumberToObject(opts, "adjoint_render_s", ta);
         cJSON_AddNumberToObject(opts, "adjoint_over_forward", tf > 0 ? ta / tf : 0.0);
-        if (is_mf) {
-            cJSON_AddStringToObject(opts, "prior_weights", weights);
-            cJSON_AddNumberToObject(opts, "lambda_latent", so.lambda_latent);
-            cJSON_AddNumberToObject(opts, "lambda_rgb", so.lambda_rgb);
-            cJSON_AddNumberToObject(opts, "gamma_p", so.gamma_p);
-            cJSON_AddNumberToObject(opts, "gamma_const", so.gamma_const);
-            cJSON_AddNumberToObject(opts, "k_views", so.k_views);
-            cJSON_AddNumberToObject(opts, "sds_every", so.every);
-            cJSON_AddStringToObject(opts, "sds_weight", mf_sds_weight_name(so.weight));
-            cJSON_AddNumberToObject(opts, "sds_rgb01", so.rgb01);
-            cJSON_AddNumberToObject(opts, "prior_s", mf_sds_seconds(sds)); /* this process's share of the wall time */
-        }
+        if (is_mf) cJSON_AddNumberToObject(opts, "prior_s", mf_sds_seconds(sds)); /* wall s of the prior's work */
         rc = mf_write_run_json(out, argc, argv, o.seed, mf_now() - t0, opts);
     }
     mf_recon_free(r);
@@ -202,8 +193,8 @@ static int cmd_recon(int argc, char **argv) {
 }
 
 __attribute__((constructor)) static void recon_usage(void) {
-    MfReconOpts d = bl_nvdiffrecmc_opts();
-    mf_recon_opts_usage(usage, sizeof usage, &d);
+    const MfOptTable *t[] = {&k_args_table, &mf_sds_opt_table, &mf_recon_opt_table};
+    mf_opts_usage_text(usage, sizeof usage, k_usage_head, t, 3, NULL);
 }
 
 MF_COMMAND(recon, "recon", "recover materials and light of a scene on a given mesh", usage, cmd_recon)

@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "cli/mf_cli.h"
+#include "io/mf_opts.h"
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "core/mf_log.h"
@@ -12,32 +13,58 @@
 #include "render/mf_integrator.h"
 #include "render/mf_rtscene.h"
 
-static const char usage[] =
+typedef struct {
+    const char *env, *cameras, *out;
+    int spp, pixel_samples, width, seed, png;
+} RelightArgs;
+
+#define A RelightArgs
+static const MfOpt k_args[] = {
+    MF_OPT_STR(A, env, NULL, "environment map (linear lat-long, Blender mapping; required)", .meta = "MAP.exr"),
+    MF_OPT_STR(A, cameras, NULL, "NeRF-synthetic transforms.json (required)", .meta = "FILE"),
+    MF_OPT_STR(A, out, NULL, "output folder (required)", .alias = "-o", .meta = "DIR"),
+    MF_OPT_INT(A, spp, 8, 1, MF_OPT_SPP_MAX, "n: n^2 env-light + n^2 BSDF samples per pixel sample"),
+    MF_OPT_INT(A, pixel_samples, 4, 1, MF_OPT_PIXEL_SAMPLES_MAX, "primary rays per pixel"),
+    MF_OPT_INT(A, width, 512, 1, MF_OPT_RES_MAX, "image width and height"),
+    MF_OPT_INT(A, seed, 1, 0, 2147483647, "random seed"),
+    MF_OPT_BOOL(A, png, 0, "also write an sRGB PNG per frame"),
+};
+#undef A
+static const MfOptTable k_args_table = MF_OPT_TABLE("Options (--config FILE: a JSON object with these keys)", k_args);
+
+static char usage[8192];
+static const char k_usage_head[] =
     "usage: mf relight RESULT_DIR --env MAP.exr --cameras transforms.json -o OUT_DIR\n"
     "                  [--spp N] [--pixel-samples P] [--width W] [--seed S] [--png]\n"
     "Renders RESULT_DIR (mesh.obj, albedo.png, orm.png, and normal.png when present) under MAP\n"
     "(linear lat-long, Blender mapping) for every frame of the NeRF-synthetic transforms.json:\n"
-    "OUT_DIR/<frame>.exr (multi-layer, as mf render) and with --png an sRGB PNG. Image size:\n"
-    "--width (square), default 512.\n";
+    "OUT_DIR/<frame>.exr (multi-layer, as mf render) and with --png an sRGB PNG.\n";
+
+__attribute__((constructor)) static void relight_usage(void) {
+    const MfOptTable *t[] = {&k_args_table};
+    mf_opts_usage_text(usage, sizeof usage, k_usage_head, t, 1, NULL);
+}
+
+static int relight_run(const char *result, const RelightArgs *a);
 
 static int cmd_relight(int argc, char **argv) {
-    const char *result = NULL, *envp = NULL, *cams = NULL, *out = NULL;
-    int spp = 8, ps = 4, width = 512, seed = 1, png = 0;
-    for (int i = 1; i < argc; ++i) {
-        int r;
-        if ((r = mf_opt_str(argc, argv, &i, "--env", &envp)) || (r = mf_opt_str(argc, argv, &i, "--cameras", &cams)) ||
-            (r = mf_opt_str(argc, argv, &i, "-o", &out)) || (r = mf_opt_int(argc, argv, &i, "--spp", &spp)) ||
-            (r = mf_opt_int(argc, argv, &i, "--pixel-samples", &ps)) || (r = mf_opt_int(argc, argv, &i, "--width", &width)) ||
-            (r = mf_opt_int(argc, argv, &i, "--seed", &seed))) {
-            if (r < 0) return MF_EXIT_USAGE;
-            continue;
-        }
-        if (!strcmp(argv[i], "--png")) { png = 1; continue; }
-        if (argv[i][0] == '-') { mf_fail(MF_EARG, "unknown option %s", argv[i]); return MF_EXIT_USAGE; }
-        result = argv[i];
-    }
-    if (!result || !envp || !cams || !out) { mf_fail(MF_EARG, "need RESULT_DIR, --env, --cameras and -o (see mf relight --help)"); return MF_EXIT_USAGE; }
-    if (width < 1 || width > 16384 || spp < 1 || ps < 1) { mf_fail(MF_EARG, "--width, --spp and --pixel-samples must be positive"); return MF_EXIT_USAGE; }
+    RelightArgs a;
+    mf_opts_defaults(&k_args_table, &a);
+    MfOptBind bind = {&k_args_table, &a};
+    MfOptParse p;
+    int rc = mf_opts_parse(&bind, 1, argc, argv, 1, &p) ? MF_EXIT_USAGE : MF_EXIT_OK;
+    if (!rc && p.print_config) rc = mf_cli_print_config(&bind, 1);
+    else if (!rc && (!p.npos || !a.env || !a.cameras || !a.out)) {
+        mf_fail(MF_EARG, "need RESULT_DIR, --env, --cameras and -o (see mf relight --help)");
+        rc = MF_EXIT_USAGE;
+    } else if (!rc) rc = relight_run(p.pos[0], &a);
+    mf_opts_parse_free(&p);
+    return rc;
+}
+
+static int relight_run(const char *result, const RelightArgs *a) {
+    const char *envp = a->env, *cams = a->cameras, *out = a->out;
+    int spp = a->spp, ps = a->pixel_samples, width = a->width, seed = a->seed, png = a->png;
     cJSON *root = NULL;
     const cJSON *frames = NULL;
     int nf = 0;

@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "cli/mf_cli.h"
+#include "io/mf_opts.h"
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "core/mf_log.h"
@@ -14,43 +15,68 @@
 #include "render/mf_rtscene.h"
 #include "scene/mf_scene.h"
 
-static const char usage[] =
+typedef struct {
+    const char *out, *lobes;
+    int spp, pixel_samples, width, height, seed, png;
+} RenderArgs;
+
+static int render_scene(const char *scene_path, const char *outdir, const RenderArgs *a, int lobes);
+
+#define A RenderArgs
+static const MfOpt k_args[] = {
+    MF_OPT_STR(A, out, NULL, "output folder (required)", .alias = "-o", .meta = "DIR"),
+    MF_OPT_INT(A, spp, 0, 1, MF_OPT_SPP_MAX, "n: n^2 env-light + n^2 BSDF samples per pixel sample",
+               .unset = "the scene's render.spp_sqrt, else 8"),
+    MF_OPT_INT(A, pixel_samples, 0, 1, MF_OPT_PIXEL_SAMPLES_MAX, "primary rays per pixel", .unset = "the scene's, else 4"),
+    MF_OPT_INT(A, width, 0, 1, MF_OPT_RES_MAX, "image width", .unset = "the scene's"),
+    MF_OPT_INT(A, height, 0, 1, MF_OPT_RES_MAX, "image height", .unset = "the scene's"),
+    MF_OPT_INT(A, seed, -1, 0, 2147483647, "random seed", .unset = "the scene's render.seed"),
+    MF_OPT_STR(A, lobes, NULL, "BSDF lobes rendered", .choices = "all|diffuse|specular", .unset = "the scene's, else all"),
+    MF_OPT_BOOL(A, png, 0, "also write DIR/<name>.png (sRGB, straight alpha)"),
+};
+#undef A
+static const MfOptTable k_args_table = MF_OPT_TABLE("Options (override the scene's settings; --config FILE: a JSON object with these keys)", k_args);
+
+static char usage[8192];
+static const char k_usage_head[] =
     "usage: mf render SCENE.json -o DIR [--spp N] [--pixel-samples P] [--width W --height H]\n"
-    "                 [--seed S] [--lobes all|diffuse|specular] [--png]\n"
+    "                 [--seed S] [--lobes all|diffuse|specular] [--png] [--config FILE]\n"
     "Renders each camera of SCENE.json to DIR/<name>.exr (multi-layer: R G B A = radiance\n"
     "premultiplied by coverage, albedo, orm, normal, depth, diffuse, specular) and with --png also\n"
-    "DIR/<name>.png (sRGB, straight alpha). --spp N: N^2 env-light + N^2 BSDF samples per pixel\n"
-    "sample (default from the scene's render.spp_sqrt, else 8); --pixel-samples: primary rays per\n"
-    "pixel (default 4). Options override the scene's settings. Exit code 1 on bad input.\n";
+    "DIR/<name>.png (sRGB, straight alpha). Exit code 1 on bad input, 2 on a bad option.\n";
+
+__attribute__((constructor)) static void render_usage(void) {
+    const MfOptTable *t[] = {&k_args_table};
+    mf_opts_usage_text(usage, sizeof usage, k_usage_head, t, 1, NULL);
+}
 
 static int cmd_render(int argc, char **argv) {
-    const char *scene_path = NULL, *outdir = NULL, *lobes_s = NULL;
-    int spp = 0, ps = 0, w = 0, h = 0, seed = -1, png = 0;
-    for (int i = 1; i < argc; ++i) {
-        int r;
-        if ((r = mf_opt_str(argc, argv, &i, "-o", &outdir)) || (r = mf_opt_int(argc, argv, &i, "--spp", &spp)) ||
-            (r = mf_opt_int(argc, argv, &i, "--pixel-samples", &ps)) || (r = mf_opt_int(argc, argv, &i, "--width", &w)) ||
-            (r = mf_opt_int(argc, argv, &i, "--height", &h)) || (r = mf_opt_int(argc, argv, &i, "--seed", &seed)) ||
-            (r = mf_opt_str(argc, argv, &i, "--lobes", &lobes_s))) {
-            if (r < 0) return MF_EXIT_USAGE;
-            continue;
-        }
-        if (!strcmp(argv[i], "--png")) { png = 1; continue; }
-        if (argv[i][0] == '-') { mf_fail(MF_EARG, "unknown option %s", argv[i]); return MF_EXIT_USAGE; }
-        if (scene_path) { mf_fail(MF_EARG, "more than one scene file given (%s, %s)", scene_path, argv[i]); return MF_EXIT_USAGE; }
-        scene_path = argv[i];
-    }
-    if (!scene_path || !outdir) { mf_fail(MF_EARG, "need SCENE.json and -o DIR\n%s", usage); return MF_EXIT_USAGE; }
-    if (spp < 0 || spp > 1024 || ps < 0 || ps > 1024 || w < 0 || h < 0 || w > 65536 || h > 65536) {
-        mf_fail(MF_EARG, "--spp/--pixel-samples must be in [1, 1024] and --width/--height positive");
+    RenderArgs a;
+    mf_opts_defaults(&k_args_table, &a);
+    MfOptBind bind = {&k_args_table, &a};
+    MfOptParse p;
+    if (mf_opts_parse(&bind, 1, argc, argv, 1, &p)) {
+        mf_opts_parse_free(&p);
         return MF_EXIT_USAGE;
     }
-    int lobes = -1;
-    if (lobes_s && (lobes = mf_lobes_parse(lobes_s)) < 0) {
-        mf_fail(MF_EARG, "--lobes: '%s' is not all, diffuse or specular", lobes_s);
+    if (p.print_config) {
+        mf_opts_parse_free(&p);
+        return mf_cli_print_config(&bind, 1);
+    }
+    const char *scene_path = p.npos ? p.pos[0] : NULL, *outdir = a.out;
+    if (!scene_path || !outdir) {
+        mf_opts_parse_free(&p);
+        mf_fail(MF_EARG, "need SCENE.json and -o DIR (see mf render --help)");
         return MF_EXIT_USAGE;
     }
+    int lobes = a.lobes ? mf_lobes_parse(a.lobes) : -1; /* the table checked the name */
+    int rc = render_scene(scene_path, outdir, &a, lobes);
+    mf_opts_parse_free(&p);
+    return rc;
+}
 
+static int render_scene(const char *scene_path, const char *outdir, const RenderArgs *a, int lobes) {
+    int spp = a->spp, ps = a->pixel_samples, w = a->width, h = a->height, seed = a->seed, png = a->png;
     MfScene sc;
     if (mf_scene_load(scene_path, &sc)) return MF_EXIT_FAIL;
     MfRtScene *rt = NULL;

@@ -5,9 +5,14 @@
  *   MF_COMMAND(render, "render", "render a scene JSON's cameras to EXR/PNG", usage_text, cmd_render)
  * (the first argument is a C identifier, the second the command's name, e.g. "bench-render")
  * `mf help` lists them; `mf <cmd> --help` (or -h) prints the usage text. A command returns the
- * process exit code (0 ok, 1 runtime failure, 2 usage error); main() prints mf_error() on failure. */
+ * process exit code (0 ok, 1 runtime failure, 2 usage error); main() prints mf_error() on failure.
+ * Options: a command declares them in a table (io/mf_opts.h) and parses with mf_opts_parse, which
+ * gives it flags, --config, --print-config, --help lines and range checks in one place (render,
+ * gen, recon, eval, relight, bench-render do); the mf_opt_* helpers below remain for the others. */
 #ifndef MF_CLI_H
 #define MF_CLI_H
+
+#include "io/mf_opts.h"
 
 typedef int (*MfCmdFn)(int argc, char **argv);
 
@@ -31,10 +36,14 @@ void mf_cli_register(const MfCommand *cmd);
 #define MF_EXIT_FAIL 1
 #define MF_EXIT_USAGE 2
 
-/* Option parsing helpers: return 1 and advance *i when argv[*i] is `name` with a value. On a
+/* Older option helpers (commands not yet on a table): return 1 and advance *i when argv[*i] is `name` with a value. On a
  * missing or malformed value they set the error and return -1. */
 int mf_opt_str(int argc, char **argv, int *i, const char *name, const char **out);
 int mf_opt_int(int argc, char **argv, int *i, const char *name, int *out);
 int mf_opt_float(int argc, char **argv, int *i, const char *name, float *out);
+
+/* `mf <cmd> --print-config`: prints the options of the bound tables (after --config and flags)
+ * as one JSON object on stdout, a valid --config file for the same command; returns MF_EXIT_OK. */
+int mf_cli_print_config(const MfOptBind *b, int nb);
 
 #endif

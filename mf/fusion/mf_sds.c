@@ -23,28 +23,13 @@ struct MfSds {
     double seconds;  /* wall time of the refreshes */
 };
 
-MfSdsOpts mf_sds_opts_default(void) {
-    MfSdsOpts o = {4, 0.02f, 0.5f, 1.0f, 0, 3.0f, 20, 980, 4, 7, 4, 1, MF_SDS_WEIGHT_NONE};
-    return o;
-}
-
-static const char *const weight_names[] = {"none", "conflict"};
-
-int mf_sds_weight_parse(const char *s) {
-    for (int i = 0; i < (int)(sizeof weight_names / sizeof weight_names[0]); ++i)
-        if (s && !strcmp(s, weight_names[i])) return i;
-    return -1;
-}
-
-const char *mf_sds_weight_name(int w) { return w >= 0 && w <= MF_SDS_WEIGHT_CONFLICT ? weight_names[w] : "?"; }
-
 int mf_sds_new(MfPrior *prior, const MfSdsOpts *o, MfSds **out) {
     if (o->k_views < 1 || o->k_views > MF_SDS_MAX_VIEWS || o->t_min < 1 || o->t_max > 999 || o->t_min > o->t_max ||
         o->aov_samples < 1 || o->every < 1)
         return mf_fail(MF_EARG, "SDS options: k_views %d (1..%d), t in [%d, %d] (1..999), aov_samples %d, every %d (>= 1) are invalid",
                        o->k_views, MF_SDS_MAX_VIEWS, o->t_min, o->t_max, o->aov_samples, o->every);
-    if (o->weight < 0 || o->weight > MF_SDS_WEIGHT_CONFLICT)
-        return mf_fail(MF_EARG, "SDS options: weight %d is not none or conflict", o->weight);
+    if (o->weight < MF_SDS_WEIGHT_NONE || o->weight > MF_SDS_WEIGHT_CONFLICT)
+        return mf_fail(MF_EARG, "SDS options: weight %d is not none (0) or conflict (1)", o->weight);
     MfSds *s = calloc(1, sizeof *s);
     if (!s) return mf_fail(MF_ENOMEM, "out of memory");
     s->prior = prior;

@@ -37,31 +37,27 @@
 #include "inverse/mf_recon.h"
 #include "prior/mf_prior.h"
 
+/* Defaults, ranges and docs: the option table in mf_sds_opts.c (the only place they are written;
+ * a new field is one line there, which also gives it its flag, config key, help and run.json). */
 typedef struct {
-    int k_views;         /* views per batch that get the prior term (default 4) */
-    float lambda_latent; /* default 0.02 */
-    float lambda_rgb;    /* default 0.5 */
-    float gamma_p;       /* gamma_i = 1 - (i/N)^p, default 1 */
+    int k_views;         /* views per batch that get the prior term */
+    float lambda_latent; /* latent term weight */
+    float lambda_rgb;    /* RGB term weight */
+    float gamma_p;       /* gamma_i = 1 - (i/N)^p */
     int gamma_const;     /* 1: gamma_i = 1 throughout */
-    float guidance;      /* default 3.0 */
-    int t_min, t_max;    /* default 20, 980 */
-    int aov_samples;     /* primary rays per pixel of the AOV render (default 4) */
+    float guidance;      /* classifier-free guidance scale */
+    int t_min, t_max;    /* timestep range */
+    int aov_samples;     /* primary rays per pixel of the AOV render */
     uint64_t seed;
     int every;           /* the term (prior work: render, encode, guided DDIM, decode, encoder
                             backward) is computed every `every` iterations and at checkpoint
                             multiples; its texel gradient is held and applied (times gamma_i) at
-                            every iteration in between. Default 4: on the tiny CI scene relit PSNR
-                            23.24 (every 1), 22.86 (2), 22.19 (4) vs 19.34 for the baseline; scaling
-                            a gradient applied only every 4th iteration by 4 instead gave 19.75
-                            (Adam's moments do not like spikes). README "MaterialFusion". */
-    int rgb01;           /* 1 (default): L_rgb on [0, 1] maps (official code); 0: on [-1, 1] (4x) */
+                            every iteration in between (measured default: mf_sds_opts.c). */
+    int rgb01;           /* 1: L_rgb on [0, 1] maps (official code); 0: on the prior's [-1, 1] maps (4x) */
     int weight;          /* MF_SDS_WEIGHT_NONE or MF_SDS_WEIGHT_CONFLICT (trust, see above) */
 } MfSdsOpts;
 
-enum { MF_SDS_WEIGHT_NONE = 0, MF_SDS_WEIGHT_CONFLICT = 1 };
-/* "none" | "conflict" -> MF_SDS_WEIGHT_*; -1 for anything else. */
-int mf_sds_weight_parse(const char *s);
-const char *mf_sds_weight_name(int w);
+enum { MF_SDS_WEIGHT_NONE = 0, MF_SDS_WEIGHT_CONFLICT = 1 }; /* option table choices "none|conflict" */
 
 MfSdsOpts mf_sds_opts_default(void);
 

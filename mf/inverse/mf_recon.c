@@ -13,6 +13,7 @@
 #include "inverse/mf_denoise.h"
 #include "inverse/mf_diffrender.h"
 #include "inverse/mf_loss.h"
+#include "inverse/mf_recon_opts.h"
 #include "io/mf_exr.h"
 #include "io/mf_gltf.h"
 #include "io/mf_obj.h"
@@ -37,41 +38,6 @@ struct MfRecon {
     double t_forward, t_adjoint; /* seconds in the primal and adjoint renders (this process) */
     MfBilateral dn;             /* owned; the denoiser's buffers, reused view after view */
 };
-
-MfReconOpts mf_recon_opts_default(void) {
-    MfReconOpts o;
-    memset(&o, 0, sizeof o);
-    o.iters = 400;
-    o.batch = 2;
-    o.spp_sqrt = 2;
-    o.pixel_samples = 1;
-    o.tex_res = 256;
-    o.env_w = 64;
-    o.env_h = 32;
-    o.lr = 0.02f;
-    o.light_lr_scale = 3.0f;
-    o.w_kd_smooth = 0.1f;
-    o.w_orm_smooth = 0.05f;
-    o.w_shading = 0.15f;
-    o.w_spec_ratio = 0.0025f;
-    /* Off by measurement: on test-3d (GT meshes, default budget) the normal map lowered relit
-     * PSNR by 3.0 / 0.4 / 4.8 dB (000_cup, 001_vase, 007_mug): on a correct mesh it only adds
-     * variance (rarely seen texels random-walk under Adam's per-texel normalisation). */
-    o.normal_map = 0;
-    o.w_nrm_perturb = 0.25f;
-    o.w_nrm_smooth = 0.025f;
-    o.init_kd = 0.5f;
-    o.init_rough = 0.5f;
-    o.init_metal = 0.25f;
-    o.init_light = 0.5f;
-    o.denoise = 0; /* measured (reports/baseline/denoiser.md): +0.5 dB relit at 3x the CPU; off for cost */
-    o.denoise_sigma = 2.0f;
-    o.denoise_decorrelate = 1;
-    o.snapshot_every = 50;
-    o.checkpoint_every = 50;
-    o.seed = 1;
-    return o;
-}
 
 long mf_peak_rss_bytes(void) {
     struct rusage ru;
@@ -114,9 +80,8 @@ static void uv_mask_build(const MfMesh *m, int res, float *mask) {
 int mf_recon_new(const MfMesh *mesh, MfReconView *views, int nviews, const MfReconOpts *opts, MfRecon **out) {
     if (!mesh->uv) return mf_fail(MF_EARG, "the mesh has no UVs: reconstruction needs a UV-mapped mesh (unwrap it first, e.g. in Blender)");
     if (nviews < 1) return mf_fail(MF_EARG, "no training views");
-    if (opts->iters < 0 || opts->batch < 1 || opts->tex_res < 4 || opts->env_w < 4 || opts->env_h < 2)
-        return mf_fail(MF_EARG, "invalid reconstruction options (iters %d, batch %d, tex %d, env %dx%d)", opts->iters,
-                       opts->batch, opts->tex_res, opts->env_w, opts->env_h);
+    int rc0 = mf_opts_check(&mf_recon_opt_table, opts); /* names the option, its value and its range */
+    if (rc0) return mf_fail_prefix(rc0, "reconstruction options");
     MfRecon *r = calloc(1, sizeof *r);
     if (!r) return mf_fail(MF_ENOMEM, "out of memory");
     r->mesh = mesh;

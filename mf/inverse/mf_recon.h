@@ -81,6 +81,7 @@ typedef struct {
     uint64_t seed;
 } MfReconOpts;
 
+/* The defaults, from the option table (mf_recon_opts.c: defaults, ranges and docs are written there). */
 MfReconOpts mf_recon_opts_default(void);
 
 typedef struct MfRecon MfRecon;

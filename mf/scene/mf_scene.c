@@ -9,6 +9,7 @@
 #include "core/mf_fs.h"
 #include "io/mf_json.h"
 #include "io/mf_obj.h"
+#include "io/mf_opts.h"
 
 int mf_lobes_parse(const char *name) {
     if (!strcmp(name, "all")) return 3;
@@ -244,8 +245,11 @@ static int parse_render(Ctx *c, const cJSON *root) {
     if (!rc) rc = mf_json_number_opt(c->file, "render", o, "seed", 0, &s);
     if (!rc) rc = mf_json_string_opt(c->file, "render", o, "lobes", "all", &lobes);
     if (rc) return rc;
-    if (a < 1 || a > 1024 || a != floor(a)) return mf_fail(MF_EFORMAT, "%s: render.spp_sqrt: expected an integer in [1, 1024]", c->file);
-    if (b < 1 || b > 1024 || b != floor(b)) return mf_fail(MF_EFORMAT, "%s: render.pixel_samples: expected an integer in [1, 1024]", c->file);
+    /* the same limits as every command's --spp and --pixel-samples (mf_opts.h) */
+    if (a < 1 || a > MF_OPT_SPP_MAX || a != floor(a))
+        return mf_fail(MF_EFORMAT, "%s: render.spp_sqrt: expected an integer in [1, %d]", c->file, MF_OPT_SPP_MAX);
+    if (b < 1 || b > MF_OPT_PIXEL_SAMPLES_MAX || b != floor(b))
+        return mf_fail(MF_EFORMAT, "%s: render.pixel_samples: expected an integer in [1, %d]", c->file, MF_OPT_PIXEL_SAMPLES_MAX);
     if (s < 0 || s != floor(s)) return mf_fail(MF_EFORMAT, "%s: render.seed: expected a non-negative integer", c->file);
     int l = mf_lobes_parse(lobes);
     if (l < 0) return mf_fail(MF_EFORMAT, "%s: render.lobes: '%s' is not all, diffuse or specular", c->file, lobes);
