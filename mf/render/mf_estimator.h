@@ -12,7 +12,8 @@
  *     the balance heuristic (each sample contributes f L V / (n^2 (p_light + p_bsdf))); n = spp_sqrt;
  *   - point and sun lights (delta lights): one shadow ray each, no MIS.
  * Shadow rays start at mf_est_ray_origin (offset along the geometric normal on the side of the
- * ray). No indirect bounces. Misses contribute nothing (transparent film).
+ * ray by p's rounding-error bound: scale-free). No indirect bounces. Misses contribute nothing
+ * (transparent film).
  *
  * Sampling and evaluation parameters may differ (the differentiable renderer's gradient checks
  * freeze sampling): directions, pdfs and MIS weights come from mats_s / env_s and the sampling
@@ -101,7 +102,13 @@ void mf_est_render_rows(const MfEstimator *e, const MfCamera *cam, int y0, int y
  * the forward pass draws its shading numbers in between. hits (pixel_samples,); returns their count. */
 int mf_est_primary_hits(const MfEstimator *e, const MfCamera *cam, int x, int y, MfHit *hits);
 
-/* Origin of a ray leaving hit h in direction d: h->p offset along the geometric normal, on d's side. */
+/* Origin of a ray leaving hit h in direction d: h->p offset along the geometric normal, on d's
+ * side, by MF_RAY_OFFSET_SAFETY times the projection of h->perr (p's error bound) onto it, then
+ * rounded one ulp away from p (pbrt-v4's OffsetRayOrigin; "A Fast and Robust Method for Avoiding
+ * Self-Intersection", Ray Tracing Gems ch. 6, for the motivation). Proportional to the
+ * magnitudes of the triangle's coordinates, so a scene and its cameras scaled by any factor
+ * render the same (mf_render of a scene x 1e-4 .. x 1e4 is within float precision of x 1). */
+#define MF_RAY_OFFSET_SAFETY 4.0f
 MfVec3 mf_est_ray_origin(const MfHit *h, MfVec3 d);
 
 #endif
