@@ -1,6 +1,5 @@
 #include "render/mf_integrator.h"
 
-#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
