@@ -10,7 +10,7 @@
 #include "core/mf_error.h"
 #include "core/mf_rng.h"
 #include "inverse/mf_denoise.h"
-#include "inverse/mf_diffrender.h"
+#include "render/mf_diffrender.h"
 #include "mf_test.h"
 #include "scene/mf_shapes.h"
 

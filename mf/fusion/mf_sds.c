@@ -7,7 +7,7 @@
 #include "core/mf_error.h"
 #include "core/mf_log.h"
 #include "core/mf_rng.h"
-#include "inverse/mf_diffrender.h"
+#include "render/mf_diffrender.h"
 #include "io/mf_image.h"
 
 struct MfSds {

@@ -11,7 +11,7 @@
 #include "core/mf_log.h"
 #include "core/mf_rng.h"
 #include "inverse/mf_denoise.h"
-#include "inverse/mf_diffrender.h"
+#include "render/mf_diffrender.h"
 #include "inverse/mf_loss.h"
 #include "inverse/mf_recon_opts.h"
 #include "io/mf_exr.h"

@@ -1,14 +1,14 @@
 /* mf_integrator: the forward Monte Carlo renderer (nvdiffrecmc's direct-lighting estimator).
  *
- * For every pixel, `pixel_samples` primary rays through jittered positions inside the pixel
- * (box filter; x and y each stratified into pixel_samples strata, paired by a random
- * permutation, i.e. N-rooks). At each hit, direct light only:
+ * The estimator itself is render/mf_estimator.h, shared with the differentiable renderer
+ * (mf_diffrender.h): per pixel, `pixel_samples` primary rays through jittered positions inside
+ * the pixel (box filter; N-rooks stratified). At each hit, direct light only:
  *   - environment map: n^2 light samples (mf_env_sample) and n^2 BSDF samples (mf_brdf_sample),
  *     both stratified on an n x n grid, combined with the balance heuristic (multi-sample MIS:
  *     each sample contributes f L V / (n^2 (p_light + p_bsdf))); n = spp_sqrt;
  *   - point and sun lights (delta lights): one shadow ray each, no MIS.
- * Shadow rays start at p + 0.001 ng (ng = geometric normal on the side of the sampled
- * direction). No indirect bounces. Misses contribute nothing (transparent film).
+ * Shadow rays start at p offset along the geometric normal ng on the side of the sampled
+ * direction (mf_est_ray_origin). No indirect bounces. Misses contribute nothing (transparent film).
  *
  * Outputs (MfRenderOut, per pixel, all (h, w, c) row 0 at the top):
  *   alpha             fraction of pixel samples that hit the mesh (coverage)

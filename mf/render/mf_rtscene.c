@@ -1,6 +1,7 @@
 #include "render/mf_rtscene.h"
 
 #include <embree3/rtcore.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -79,6 +80,7 @@ void *mf_rtscene_handle(const MfRtScene *s) { return (void *)s->scene; }
 const MfMesh *mf_rtscene_mesh(const MfRtScene *s) { return s->mesh; }
 
 static MfVec3 v3at(const float *a, uint32_t i) { return mf_v3(a[3 * i], a[3 * i + 1], a[3 * i + 2]); }
+static MfVec3 abs3(MfVec3 v) { return mf_v3(fabsf(v.x), fabsf(v.y), fabsf(v.z)); }
 
 int mf_rtscene_intersect(const MfRtScene *s, MfVec3 org, MfVec3 dir, float tnear, float tfar, MfHit *hit) {
     struct RTCIntersectContext ctx;
@@ -104,6 +106,14 @@ int mf_rtscene_intersect(const MfRtScene *s, MfVec3 org, MfVec3 dir, float tnear
     h.b1 = b1;
     h.b2 = b2;
     h.p = mf_add(mf_add(mf_scale(p0, b0), mf_scale(p1, b1)), mf_scale(p2, b2));
+    /* Error bound of p: the interpolation's, gamma(7) sum |b_i p_i| (pbrt-v4,
+     * Triangle::InteractionFromIntersection), plus gamma(7) max |vertex coordinate| on every axis
+     * for Embree's plane test from an origin that close (it subtracts the origin from the
+     * vertices; exact zeros, e.g. a plane z = 0, otherwise give a zero bound). */
+    const float g7 = 7.0f * 0x1p-24f / (1.0f - 7.0f * 0x1p-24f);
+    MfVec3 a0 = abs3(p0), a1 = abs3(p1), a2 = abs3(p2);
+    float vmax = fmaxf(fmaxf(mf_maxc(a0), mf_maxc(a1)), mf_maxc(a2));
+    h.perr = mf_scale(mf_add(mf_add(mf_add(abs3(mf_scale(p0, b0)), abs3(mf_scale(p1, b1))), abs3(mf_scale(p2, b2))), mf_v3s(vmax)), g7);
     MfVec3 wo = mf_neg(dir);
     MfVec3 ng = mf_cross(mf_sub(p1, p0), mf_sub(p2, p0));
     float lg = mf_len(ng);

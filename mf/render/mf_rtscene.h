@@ -8,6 +8,10 @@
  * Hits (mf_rtscene_intersect) give the triangle id, barycentrics (b1, b2 of vertices 1 and 2),
  * the distance t along the (unit) ray direction, and the surface attributes at the hit:
  *   p   position (interpolated from the triangle, not org + t dir, for accuracy)
+ *   perr  per-component error bound of p: gamma(7) (|b0 p0| + |b1 p1| + |b2 p2| + m), m the
+ *       largest |coordinate| of the triangle's vertices (pbrt-v4's interpolation bound, plus a
+ *       term for Embree's own plane test); rays leaving the hit start outside it
+ *       (render/mf_estimator.h, mf_est_ray_origin). Proportional to the coordinates: scale-free.
  *   ng  geometric (face) normal, flipped to face the ray origin (dot(ng, dir) <= 0)
  *   ns  shading normal: interpolated vertex normals (face normal when the mesh has none),
  *       flipped together with ng so that both lie on the viewer's side; when the interpolated
@@ -32,6 +36,7 @@ typedef struct {
     int tri;      /* triangle index */
     float b1, b2; /* barycentrics of vertices 1 and 2 */
     MfVec3 p;     /* hit position */
+    MfVec3 perr;  /* (>= 0) rounding-error bound of p, per component */
     MfVec3 ng;    /* unit geometric normal, facing the ray origin */
     MfVec3 ns;    /* unit shading normal, on the viewer's side */
     MfVec2 uv;

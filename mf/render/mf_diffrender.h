@@ -1,10 +1,10 @@
 /* mf_diffrender: the differentiable renderer of the inverse pipeline (forward + adjoint).
  *
- * The estimator is the forward integrator's (render/mf_integrator.h): per pixel, `pixel_samples`
- * stratified primary rays; at each hit n^2 env-map light samples and n^2 BSDF samples combined
- * with the balance heuristic, shadow rays offset 0.001 along the geometric normal, direct
- * environment light only. It is re-implemented here (rather than called) because the adjoint
- * needs two things the forward renderer does not have:
+ * It runs the forward renderer's estimator (render/mf_estimator.h, the one behind mf_render):
+ * per pixel, `pixel_samples` stratified primary rays; at each hit n^2 env-map light samples and
+ * n^2 BSDF samples combined with the balance heuristic, direct environment light only, all lobes.
+ * With the sampling copies absent (or equal), mf_diff_forward gives the bytes of mf_render for
+ * the same scene as one textured material, seed and sample counts. What it adds:
  *  - separate parameters for SAMPLING (where directions are drawn, their pdfs and MIS weights)
  *    and for EVALUATION (the BRDF values and the radiance that are differentiated). Gradients are
  *    taken with sampling detached, as nvdiffrecmc does: d/dθ E[f L / p] = E[d(f L)/dθ / p]
@@ -21,10 +21,11 @@
  * a map every output is bit-identical to the renderer without this feature.
  * The visibility boundary's gradient is ignored (geometry is fixed here), as in nvdiffrecmc.
  *
- * Outputs of the forward pass use MfRenderOut's arrays rgb, alpha, diffuse, specular (all
- * premultiplied by coverage, as the forward renderer's). Given dLoss/d(rgb, diffuse, specular)
- * the backward pass accumulates (+=) dLoss/d(kd texels, ORM texels, env texels). Memory does
- * not grow with samples: each thread owns one gradient buffer, reduced in thread order
+ * Outputs of the forward pass are MfRenderOut's (rgb, diffuse, specular premultiplied by
+ * coverage; albedo, orm, depth averaged over the hits; normal the renormalised average of the
+ * hits' shading normals, mapped when a normal map is given). Given dLoss/d(rgb, diffuse,
+ * specular) the backward pass accumulates (+=) dLoss/d(kd texels, ORM texels, env texels). Memory
+ * does not grow with samples: each thread owns one gradient buffer, reduced in thread order
  * (deterministic for a given seed and thread count). Decorrelation: the caller passes a
  * different seed to the backward pass than to the forward pass whose image produced dLoss/drgb
  * (the primal and adjoint samples are then independent, which removes the bias of
@@ -56,8 +57,8 @@ typedef struct {
 } MfDiffScene;
 
 typedef struct {
-    int spp_sqrt;      /* n: n^2 light + n^2 BSDF samples per pixel sample */
-    int pixel_samples; /* primary rays per pixel */
+    int spp_sqrt;      /* n: n^2 light + n^2 BSDF samples per pixel sample, [1, 1024] */
+    int pixel_samples; /* primary rays per pixel, [1, 1024] */
     uint64_t seed;
 } MfDiffOpts;
 
@@ -74,16 +75,14 @@ typedef struct {
     float *dnormal; /* (th, tw, 3) += normal-map texels, or NULL (ignored without a normal map) */
 } MfDiffGrads;
 
-/* out must be allocated for cam->w x cam->h (mf_render_out_alloc); fills rgb, alpha, diffuse,
- * specular, albedo, orm, normal and depth (albedo/orm/depth averaged over hit samples, normal
- * the renormalised average of the hits' shading normals, as the forward renderer). */
+/* out must be allocated for cam->w x cam->h (mf_render_out_alloc); fills every AOV, as mf_render. */
 int mf_diff_forward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, MfRenderOut *out);
 int mf_diff_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, const MfDiffAdjoint *adj,
                      MfDiffGrads *g);
 
 /* Material AOVs for the prior term: per pixel, the mean over its primary-ray hits of kd (albedo)
  * and ORM at the hit's UV, and the coverage. Samples are stratified like the forward pass
- * (seed o->seed); lighting is not evaluated. albedo, orm (h, w, 3), alpha (h, w). */
+ * (seed o->seed; mf_est_primary_hits: the forward pass's first sample); lighting is not evaluated. albedo, orm (h, w, 3), alpha (h, w). */
 int mf_diff_aov_forward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, float *albedo, float *orm,
                         float *alpha);
 /* Adjoint of mf_diff_aov_forward (same seed: same hits): g->dkd += from dalbedo (h, w, 3),

@@ -1,0 +1,184 @@
+/* mf_diffrender: the differentiable renderer's API over the shared estimator (mf_estimator.h):
+ * argument checks, per-thread gradient buffers and their reduction in thread order. */
+#include "render/mf_diffrender.h"
+
+#include <omp.h>
+#include <stdlib.h>
+
+#include "core/mf_error.h"
+#include "render/mf_estimator.h"
+#include "scene/mf_texture.h"
+
+/* The scene as the estimator's one material (evaluated and sampling copies). */
+typedef struct {
+    MfTexMaterial m, m_s;
+    MfEstimator e;
+} Est;
+
+static void estimator_of(const MfDiffScene *s, const MfDiffOpts *o, const float *tan, Est *r) {
+    r->m = (MfTexMaterial){.kd = s->kd, .orm = s->orm, .normal = s->normal};
+    r->m_s = (MfTexMaterial){.kd = s->kd_s ? s->kd_s : s->kd, .orm = s->orm_s ? s->orm_s : s->orm,
+                             .normal = s->normal_s ? s->normal_s : s->normal};
+    r->e = (MfEstimator){.rt = s->rt, .mesh = mf_rtscene_mesh(s->rt), .mats = &r->m, .mats_s = &r->m_s, .nmat = 1,
+                         .env = s->env, .env_s = s->env_s ? s->env_s : s->env, .tan = tan, .spp_sqrt = o->spp_sqrt,
+                         .pixel_samples = o->pixel_samples, .lobes = MF_LOBE_ALL, .seed = o->seed};
+}
+
+static int check(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o) {
+    if (!s || !s->rt || !s->kd || !s->orm || !s->env) return mf_fail(MF_EARG, "diffrender: incomplete scene");
+    if (s->kd->c < 3 || s->orm->c < 3) return mf_fail(MF_EARG, "diffrender: kd and ORM textures need 3 channels");
+    if (s->normal) {
+        if (s->normal->c != 3) return mf_fail(MF_EARG, "diffrender: the normal map needs 3 channels");
+        if (s->normal_s && s->normal_s->c != 3) return mf_fail(MF_EARG, "diffrender: the sampling normal map needs 3 channels");
+        if (!mf_rtscene_mesh(s->rt)->uv) return mf_fail(MF_EARG, "diffrender: a normal map needs a mesh with UVs");
+    }
+    Est est;
+    estimator_of(s, o, NULL, &est);
+    return mf_est_check(&est.e, cam, "diffrender");
+}
+
+/* check, then the estimator with its tangents (*owned: computed here, freed by the caller). */
+static int setup(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, Est *est, float **owned) {
+    *owned = NULL;
+    int rc = check(s, cam, o);
+    if (rc) return rc;
+    const float *tan;
+    MfTexMaterial m = {.normal = s->normal};
+    if ((rc = mf_est_tangents(mf_rtscene_mesh(s->rt), &m, 1, s->tangent, &tan, owned))) return rc;
+    estimator_of(s, o, tan, est);
+    return MF_OK;
+}
+
+int mf_diff_forward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, MfRenderOut *out) {
+    Est est;
+    float *tan_owned;
+    int rc = setup(s, cam, o, &est, &tan_owned);
+    if (rc) return rc;
+    if (out->w != cam->w || out->h != cam->h) {
+        free(tan_owned);
+        return mf_fail(MF_EARG, "diffrender: output size does not match the camera");
+    }
+    mf_est_render_rows(&est.e, cam, 0, cam->h, out, NULL, NULL);
+    free(tan_owned);
+    return MF_OK;
+}
+
+int mf_diff_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, const MfDiffAdjoint *adj,
+                     MfDiffGrads *g) {
+    Est est;
+    float *tan_owned;
+    int rc = setup(s, cam, o, &est, &tan_owned);
+    if (rc) return rc;
+    size_t nkd = g->dkd ? (size_t)s->kd->w * s->kd->h * 3 : 0;
+    size_t norm = g->dorm ? (size_t)s->orm->w * s->orm->h * 3 : 0;
+    size_t nenv = g->denv ? (size_t)s->env->img.w * s->env->img.h * 3 : 0;
+    size_t nnm = (g->dnormal && s->normal) ? (size_t)s->normal->w * s->normal->h * 3 : 0;
+    size_t per = nkd + norm + nenv + nnm;
+    int nt = omp_get_max_threads();
+    float *buf = calloc((size_t)nt * per + 1, sizeof(float));
+    if (!buf) {
+        free(tan_owned);
+        return mf_fail(MF_ENOMEM, "diffrender: out of memory for %d gradient buffers of %zu floats", nt, per);
+    }
+#pragma omp parallel num_threads(nt)
+    {
+        float *b = buf + (size_t)omp_get_thread_num() * per;
+        MfEstAdjoint a = {adj->drgb, adj->ddiffuse, adj->dspecular, nkd ? b : NULL, norm ? b + nkd : NULL,
+                          nnm ? b + nkd + norm + nenv : NULL, nenv ? b + nkd + norm : NULL};
+        /* static schedule: the rows a thread handles, and so the summation order, are fixed */
+#pragma omp for schedule(static, 1)
+        for (int y = 0; y < cam->h; ++y)
+            for (int x = 0; x < cam->w; ++x) mf_est_pixel(&est.e, cam, x, y, NULL, &a, NULL);
+    }
+    for (int t = 0; t < nt; ++t) {
+        const float *b = buf + (size_t)t * per;
+        for (size_t i = 0; i < nkd; ++i) g->dkd[i] += b[i];
+        for (size_t i = 0; i < norm; ++i) g->dorm[i] += b[nkd + i];
+        for (size_t i = 0; i < nenv; ++i) g->denv[i] += b[nkd + norm + i];
+        for (size_t i = 0; i < nnm; ++i) g->dnormal[i] += b[nkd + norm + nenv + i];
+    }
+    free(buf);
+    free(tan_owned);
+    return MF_OK;
+}
+
+/* ---- material AOVs ---- */
+
+int mf_diff_aov_forward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, float *albedo, float *orm,
+                        float *alpha) {
+    int rc = check(s, cam, o);
+    if (rc) return rc;
+    Est est;
+    estimator_of(s, o, NULL, &est);
+    MfHit *hits_all = malloc((size_t)omp_get_max_threads() * o->pixel_samples * sizeof(MfHit));
+    if (!hits_all) return mf_fail(MF_ENOMEM, "diffrender: out of memory for primary hits");
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int y = 0; y < cam->h; ++y) {
+        MfHit *hits = hits_all + (size_t)omp_get_thread_num() * o->pixel_samples;
+        for (int x = 0; x < cam->w; ++x) {
+            size_t i = (size_t)y * cam->w + x;
+            int n = mf_est_primary_hits(&est.e, cam, x, y, hits);
+            float a[3] = {0, 0, 0}, m[3] = {0, 0, 0}, b[4];
+            for (int k = 0; k < n; ++k) {
+                mf_tex_sample(s->kd, hits[k].uv.x, hits[k].uv.y, MF_WRAP_REPEAT, b);
+                for (int c = 0; c < 3; ++c) a[c] += b[c] / (float)n;
+                mf_tex_sample(s->orm, hits[k].uv.x, hits[k].uv.y, MF_WRAP_REPEAT, b);
+                for (int c = 0; c < 3; ++c) m[c] += b[c] / (float)n;
+            }
+            for (int c = 0; c < 3; ++c) {
+                if (albedo) albedo[3 * i + c] = a[c];
+                if (orm) orm[3 * i + c] = m[c];
+            }
+            if (alpha) alpha[i] = (float)n / (float)o->pixel_samples;
+        }
+    }
+    free(hits_all);
+    return MF_OK;
+}
+
+int mf_diff_aov_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, const float *dalbedo,
+                         const float *dorm, MfDiffGrads *g) {
+    int rc = check(s, cam, o);
+    if (rc) return rc;
+    Est est;
+    estimator_of(s, o, NULL, &est);
+    size_t nkd = (g->dkd && dalbedo) ? (size_t)s->kd->w * s->kd->h * 3 : 0;
+    size_t norm = (g->dorm && dorm) ? (size_t)s->orm->w * s->orm->h * 3 : 0;
+    size_t per = nkd + norm;
+    int nt = omp_get_max_threads();
+    float *buf = calloc((size_t)nt * per + 1, sizeof(float));
+    MfHit *hits_all = malloc((size_t)nt * o->pixel_samples * sizeof(MfHit));
+    if (!buf || !hits_all) {
+        free(buf);
+        free(hits_all);
+        return mf_fail(MF_ENOMEM, "diffrender: out of memory for AOV gradient buffers");
+    }
+#pragma omp parallel num_threads(nt)
+    {
+        float *b = buf + (size_t)omp_get_thread_num() * per;
+        MfHit *hits = hits_all + (size_t)omp_get_thread_num() * o->pixel_samples;
+#pragma omp for schedule(static, 1)
+        for (int y = 0; y < cam->h; ++y)
+            for (int x = 0; x < cam->w; ++x) {
+                size_t i = (size_t)y * cam->w + x;
+                int n = mf_est_primary_hits(&est.e, cam, x, y, hits);
+                for (int k = 0; k < n; ++k) {
+                    float ga[3], gm[3];
+                    for (int c = 0; c < 3; ++c) {
+                        ga[c] = nkd ? dalbedo[3 * i + c] / (float)n : 0.0f;
+                        gm[c] = norm ? dorm[3 * i + c] / (float)n : 0.0f;
+                    }
+                    if (nkd) mf_tex_sample_backward(s->kd, hits[k].uv.x, hits[k].uv.y, MF_WRAP_REPEAT, ga, b);
+                    if (norm) mf_tex_sample_backward(s->orm, hits[k].uv.x, hits[k].uv.y, MF_WRAP_REPEAT, gm, b + nkd);
+                }
+            }
+    }
+    for (int t = 0; t < nt; ++t) {
+        const float *b = buf + (size_t)t * per;
+        for (size_t i = 0; i < nkd; ++i) g->dkd[i] += b[i];
+        for (size_t i = 0; i < norm; ++i) g->dorm[i] += b[nkd + i];
+    }
+    free(buf);
+    free(hits_all);
+    return MF_OK;
+}
