@@ -107,7 +107,7 @@ static void check_recovery(int denoise) {
     for (int y = 0; y < EH; ++y)
         for (int x = 0; x < EW; ++x)
             for (int c = 0; c < 3; ++c) {
-                double v = env->p[(y * EW + x) * 3 + c] / s, g = mf_image_px(&ge, x, y)[c];
+                double v = env->p[(y * EW + x) * 3 + c] * mf_recon_exposure(r) / s, g = mf_image_px(&ge, x, y)[c];
                 if (y < EH / 2) up[c] += v, gup[c] += g;
                 else lo[c] += v, glo[c] += g;
             }
@@ -421,5 +421,83 @@ MF_TEST(inverse_recon_resume_refuses_nonfinite_checkpoint) {
     free(meta);
     mf_recon_free(r);
     mf_recon_free(r2);
+    mf_mesh_free(&mesh);
+}
+
+/* Exposure: views scaled by 16 or 1/16 (a float loader's input at another exposure) give the same
+ * optimisation bit for bit (the loop works on views divided by a power of two near their mean
+ * radiance), and env.exr comes out scaled by the same factor. */
+MF_TEST(inverse_recon_exposure_invariant) {
+    MfMesh mesh;
+    CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
+    static const float scales[3] = {1.0f, 16.0f, 1.0f / 16.0f};
+    MfRecon *r[3] = {NULL, NULL, NULL};
+    MfReconOpts o = small_opts();
+    o.iters = 6;
+    o.checkpoint_every = 0;
+    o.snapshot_every = 0;
+    for (int k = 0; k < 3; ++k) {
+        MfReconView v[NV];
+        memset(v, 0, sizeof v);
+        CHECK_OK(make_views(&mesh, v));
+        for (int i = 0; i < NV; ++i)
+            for (size_t p = 0; p < (size_t)RES * RES; ++p)
+                for (int c = 0; c < 3; ++c) v[i].ref.data[4 * p + c] *= scales[k];
+        double mean = 0.0;
+        float e = mf_recon_exposure_of(v, NV, &mean);
+        CHECK(mean > 0.0 && e > 0.0f && frexpf(e, &(int){0}) == 0.5f); /* a power of two */
+        CHECK(e <= 2.0f * (float)mean / MF_RECON_EXPOSURE_REF && e >= 0.5f * (float)mean / MF_RECON_EXPOSURE_REF);
+        CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r[k]));
+        char dir[64];
+        snprintf(dir, sizeof dir, "expo%d", k);
+        if (r[k]) CHECK_OK(mf_recon_run(r[k], NULL, mf_test_path(dir)));
+    }
+    if (r[0] && r[1] && r[2]) {
+        CHECK(mf_recon_exposure(r[1]) == 16.0f * mf_recon_exposure(r[0]));
+        CHECK(mf_recon_exposure(r[2]) * 16.0f == mf_recon_exposure(r[0]));
+        for (int k = 1; k < 3; ++k)
+            for (int b = 0; b < 3; ++b) {
+                const MfParamBlock *x = mf_recon_block(r[0], b), *y = mf_recon_block(r[k], b);
+                CHECK_MSG(!memcmp(x->p, y->p, x->n * sizeof(float)), "block %s differs at scale %g", x->name, scales[k]);
+            }
+        /* env.exr in the views' units */
+        for (int k = 0; k < 3; ++k) {
+            char p[1024];
+            snprintf(p, sizeof p, "%s/env.exr", mf_test_path(k == 0 ? "expo0" : k == 1 ? "expo1" : "expo2"));
+            MfImage e = {0};
+            CHECK_OK(mf_image_read(p, MF_ENC_LINEAR, &e));
+            const MfParamBlock *eb = mf_recon_block(r[k], MF_BLOCK_ENV);
+            if (e.data)
+                for (size_t i = 0; i < eb->n; ++i)
+                    if (e.data[i] != eb->p[i] * mf_recon_exposure(r[k])) {
+                        CHECK_MSG(0, "env.exr[%zu] = %g, block %g x exposure %g", i, e.data[i], eb->p[i], mf_recon_exposure(r[k]));
+                        break;
+                    }
+            mf_image_free(&e);
+        }
+    }
+    for (int k = 0; k < 3; ++k) mf_recon_free(r[k]);
+    mf_mesh_free(&mesh);
+}
+
+/* Invalid options are refused by name, value and range (mf_recon_new). */
+MF_TEST(inverse_recon_options_named_in_errors) {
+    MfMesh mesh;
+    CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
+    MfReconView v[NV];
+    memset(v, 0, sizeof v);
+    CHECK_OK(make_views(&mesh, v));
+    MfRecon *r = NULL;
+    MfReconOpts o = small_opts();
+    o.lr = -1.0f;
+    CHECK_ERR(mf_recon_new(&mesh, v, NV, &o, &r), "reconstruction option lr = -1 is outside (0, 1e+30]");
+    o = small_opts();
+    o.env_h = 1;
+    CHECK_ERR(mf_recon_new(&mesh, v, NV, &o, &r), "reconstruction option env_h = 1 is outside [2, 4096]");
+    o = small_opts();
+    o.init_light = NAN;
+    CHECK_ERR(mf_recon_new(&mesh, v, NV, &o, &r), "init_light = nan is outside (0, 1e+30]");
+    CHECK(r == NULL && v[0].ref.data != NULL); /* views untouched on failure */
+    for (int i = 0; i < NV; ++i) mf_image_free(&v[i].ref);
     mf_mesh_free(&mesh);
 }

@@ -39,6 +39,7 @@ struct MfRecon {
     MfParamSnapshot good;       /* owned; the last good state (lowest loss so far) */
     MfDivGuard guard;           /* the loss watch (running minimum, streak) */
     float lr_scale;             /* learning-rate multiplier, MF_RECON_RECOVERY_LR per recovery */
+    float exposure;             /* 2^k: views' radiance / exposure (refs and env are held divided by it) */
     MfReconRecovery rec[64];    /* this process's recoveries (the first 64) */
     int nrec;                   /* recoveries in this process */
     int nrec_total;             /* recoveries including earlier (resumed) runs */
@@ -145,6 +146,24 @@ static int check_opts(const MfReconOpts *o) {
     return MF_OK;
 }
 
+float mf_recon_exposure_of(const MfReconView *views, int nviews, double *mean) {
+    double sum = 0.0;
+    size_t cnt = 0;
+    for (int i = 0; i < nviews; ++i) {
+        const MfImage *im = &views[i].ref;
+        for (size_t p = 0; p < (size_t)im->w * im->h; ++p) {
+            const float *px = im->data + 4 * p;
+            if (px[3] > 0.5f) sum += ((double)px[0] + px[1] + px[2]) / (3.0 * px[3]), cnt++;
+        }
+    }
+    double m = cnt ? sum / (double)cnt : 0.0;
+    if (mean) *mean = m;
+    if (!(m > 0.0) || !isfinite(m)) return 1.0f; /* black or empty views: no information */
+    long k = lround(log2(m / MF_RECON_EXPOSURE_REF));
+    k = k < -100 ? -100 : (k > 100 ? 100 : k);
+    return ldexpf(1.0f, (int)k);
+}
+
 int mf_recon_new(const MfMesh *mesh, MfReconView *views, int nviews, const MfReconOpts *opts, MfRecon **out) {
     if (!mesh->uv) return mf_fail(MF_EARG, "the mesh has no UVs: reconstruction needs a UV-mapped mesh (unwrap it first, e.g. in Blender)");
     if (nviews < 1) return mf_fail(MF_EARG, "no training views");
@@ -201,6 +220,17 @@ int mf_recon_new(const MfMesh *mesh, MfReconView *views, int nviews, const MfRec
         memset(&views[i].ref, 0, sizeof views[i].ref);
     }
     r->nviews = nviews;
+    /* exposure: the loop works on views divided by a power of two (exact in float) near their
+     * mean radiance; the env it learns is multiplied back on output */
+    double mean = 0.0;
+    r->exposure = mf_recon_exposure_of(r->views, nviews, &mean);
+    for (int i = 0; i < nviews && r->exposure != 1.0f; ++i) {
+        MfImage *im = &r->views[i].ref;
+        for (size_t p = 0; p < (size_t)im->w * im->h; ++p)
+            for (int c = 0; c < 3; ++c) im->data[4 * p + c] /= r->exposure;
+    }
+    mf_log_info("recon: the views' mean radiance inside their masks is %.4g: working in units of 2^%d (env.exr is "
+                    "written in the views' units)", mean, (int)lroundf(log2f(r->exposure)));
     *out = r;
     return MF_OK;
 }
@@ -225,6 +255,7 @@ const MfReconRecovery *mf_recon_recoveries(const MfRecon *r, int *n) {
     return r->rec;
 }
 float mf_recon_lr_scale(const MfRecon *r) { return r->lr_scale; }
+float mf_recon_exposure(const MfRecon *r) { return r->exposure; }
 MfParamBlock *mf_recon_block(MfRecon *r, MfBlockId id) { return &r->blocks[id]; }
 const MfReconOpts *mf_recon_opts(const MfRecon *r) { return &r->o; }
 const MfReconView *mf_recon_view(const MfRecon *r, int i) { return &r->views[i]; }
@@ -280,9 +311,9 @@ static int save_checkpoint(const MfRecon *r, const char *path, double wall) {
     char meta[384];
     snprintf(meta, sizeof meta,
              "{\"kind\":\"mf-recon\",\"iteration\":%d,\"adam_t\":%ld,\"wall_s\":%.17g,\"tex_res\":%d,\"env_w\":%d,\"env_h\":%d,"
-             "\"lr_scale\":%.9g,\"loss_min\":%.17g,\"recoveries\":%d}",
+             "\"lr_scale\":%.9g,\"loss_min\":%.17g,\"recoveries\":%d,\"exposure\":%.9g}",
              r->it, r->adam.t, wall, r->o.tex_res, r->o.env_w, r->o.env_h, r->lr_scale,
-             isfinite(r->guard.loss_min) ? r->guard.loss_min : -1.0, r->nrec_total);
+             isfinite(r->guard.loss_min) ? r->guard.loss_min : -1.0, r->nrec_total, r->exposure);
     int rc = mf_ckpt_save(path, specs, r->nblocks * 3, buf, meta);
     free(buf);
     return rc;
@@ -331,6 +362,15 @@ int mf_recon_load_checkpoint(MfRecon *r, const char *path) {
     if (pl) sscanf(pl, "\"lr_scale\":%f", &lr_scale);
     if (pm) sscanf(pm, "\"loss_min\":%lf", &loss_min);
     if (pr) sscanf(pr, "\"recoveries\":%d", &nrec);
+    float expo = 1.0f;
+    const char *pe = meta ? strstr(meta, "\"exposure\":") : NULL;
+    if (pe) sscanf(pe, "\"exposure\":%f", &expo);
+    if (expo != r->exposure) {
+        free(buf);
+        free(meta);
+        return mf_fail(MF_EARG, "%s: written for views of exposure %g, these views have %g (other images?)", path, expo,
+                       r->exposure);
+    }
     if (!isfinite(lr_scale) || lr_scale <= 0.0f) {
         free(buf);
         free(meta);
@@ -474,11 +514,16 @@ static int write_textures(const MfRecon *r, const char *dir) {
     int T = r->o.tex_res, rc = mf_mkdirs(dir);
     if (rc) return rc;
     MfImage kd = mf_recon_kd_image(r), orm = mf_recon_orm_image(r);
-    MfImage env = block_image(&r->blocks[MF_BLOCK_ENV], r->o.env_w, r->o.env_h);
+    MfImage envn = block_image(&r->blocks[MF_BLOCK_ENV], r->o.env_w, r->o.env_h), env = {0};
     (void)T;
     if ((rc = mf_path_join(p, sizeof p, dir, "albedo.png")) || (rc = mf_image_write(p, &kd, MF_ENC_SRGB, 8))) return rc;
     if ((rc = mf_path_join(p, sizeof p, dir, "orm.png")) || (rc = mf_image_write(p, &orm, MF_ENC_LINEAR, 8))) return rc;
-    if ((rc = mf_path_join(p, sizeof p, dir, "env.exr")) || (rc = mf_image_write(p, &env, MF_ENC_LINEAR, 32))) return rc;
+    /* the env in the views' units (the loop's are divided by the exposure) */
+    if ((rc = mf_image_alloc(&env, envn.w, envn.h, 3))) return rc;
+    for (size_t i = 0; i < (size_t)envn.w * envn.h * 3; ++i) env.data[i] = envn.data[i] * r->exposure;
+    if (!(rc = mf_path_join(p, sizeof p, dir, "env.exr"))) rc = mf_image_write(p, &env, MF_ENC_LINEAR, 32);
+    mf_image_free(&env);
+    if (rc) return rc;
     if (r->o.normal_map) {
         MfImage nm = mf_recon_normal_image(r);
         if ((rc = mf_path_join(p, sizeof p, dir, "normal.png")) || (rc = mf_image_write(p, &nm, MF_ENC_LINEAR, 8))) return rc;

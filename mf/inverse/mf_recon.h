@@ -23,7 +23,7 @@
  *      (with a normal map: its smoothness and its perturbation from flat, too);
  *   5. the method hook (MaterialFusion's SDS+ term) may add loss and gradients;
  *   6. Adam step with bounds: kd in [0,1], ORM R = 1 (frozen), G in [0.08,1], B in [0,1],
- *      light >= 0.01, normal-map texels in [0,1] (initialised flat, (0.5, 0.5, 1)). A non-finite gradient is an event of the guard
+ *      light >= 0.01 (in the exposure's working units, below), normal-map texels in [0,1] (initialised flat, (0.5, 0.5, 1)). A non-finite gradient is an event of the guard
  *      below (recover, or stop with the last good checkpoint kept and no texture written from
  *      the bad state).
  * Guard (mf_optim.h): after the loss of an iteration is known and again after the Adam step, the
@@ -124,6 +124,23 @@ int mf_recon_load_checkpoint(MfRecon *r, const char *path);
 int mf_recon_run(MfRecon *r, const MfReconHook *hook, const char *out_dir);
 /* Writes albedo.png, orm.png (normal.png), env.exr, mesh.obj (+mtl), scene.glb into dir. */
 int mf_recon_write_result(const MfRecon *r, const char *dir);
+
+/* Exposure (mf_recon_new): the views' mean linear radiance over pixels with alpha > 0.5, m, sets
+ * the working scale E = 2^round(log2(m / MF_RECON_EXPOSURE_REF)); the loop works on the views
+ * divided by E, so init_light, the env's 0.01 floor and Adam's absolute steps are relative to
+ * the images' level (within half a stop of MF_RECON_EXPOSURE_REF) instead of absolute. env.exr
+ * (and snapshots) are written multiplied by E, in the views' units; the env block, the env map
+ * of mf_recon_env and the checkpoint hold the working units. A power of two divides exactly, so
+ * float views scaled by 2^k give the same optimisation bit for bit, and views already near the
+ * reference level (E = 1) are not changed at all. Black views: E = 1. The reference 0.25 is the
+ * level the default start renders at (albedo 0.5 under light 0.5 gives a diffuse surface about
+ * 0.25); measured means: tiny/000_cup 0.20 (E = 1), tiny/001_vase 0.68 (E = 2), tiny/002_bottle
+ * 0.050 (E = 1/4), the sphere of tests/test_inverse_recon.c 0.33 (E = 1). */
+#define MF_RECON_EXPOSURE_REF 0.25f
+/* E for views (their ref images); mean (may be NULL) receives m. */
+float mf_recon_exposure_of(const MfReconView *views, int nviews, double *mean);
+/* E of this run. */
+float mf_recon_exposure(const MfRecon *r);
 
 /* Learning-rate multiplier after each recovery (see "Guard"). */
 #define MF_RECON_RECOVERY_LR 0.1f

@@ -38,7 +38,7 @@ static const OptField k_fields[] = {
     F(init_kd, T_FLOAT, "initial albedo"),
     F(init_rough, T_FLOAT, "initial roughness"),
     F(init_metal, T_FLOAT, "initial metallic"),
-    F(init_light, T_FLOAT, "initial env radiance"),
+    F(init_light, T_FLOAT, "initial env radiance, in the views' units / 2^k near their mean (see mf_recon.h)"),
     F(denoise, T_INT, "1: bilateral denoiser of the demodulated diffuse/specular light (nvdiffrecmc)"),
     F(denoise_sigma, T_FLOAT, "denoiser spatial sigma in pixels (window 2*ceil(2.5 sigma)+1 each side)"),
     F(denoise_decorrelate, T_INT, "1: kd's adjoint takes the denoised light of an independent render (0: the primal's)"),
