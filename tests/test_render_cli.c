@@ -177,4 +177,30 @@ MF_TEST(render_cli_bad_inputs) {
     snprintf(p, sizeof p, "%s/badlight.json", dir);
     put(p, buf);
     expect_failure(p, out, "lights[0].dir");
+    /* a field of view outside the real limits says them */
+    snprintf(p, sizeof p, "%s/widecams.json", dir);
+    put(p, "{\"camera_angle_x\": 3.12, \"frames\": [{\"file_path\": \"./r_0\", \"transform_matrix\": "
+           "[[1,0,0,0],[0,1,0,0],[0,0,1,2.5],[0,0,0,1]]}]}");
+    snprintf(buf, sizeof buf, k_scene, "quad.obj", "widecams.json");
+    snprintf(p, sizeof p, "%s/wide.json", dir);
+    put(p, buf);
+    expect_failure(p, out, "camera_angle_x 3.12 rad is outside (1e-4, 3.1) rad");
+    /* an env strength that overflows float is reported as that strength, with the limit */
+    MfImage env = {0};
+    CHECK_OK(mf_image_alloc(&env, 8, 4, 3));
+    for (size_t i = 0; i < 8 * 4 * 3; ++i) env.data[i] = i == 5 ? 100.0f : 1.0f;
+    snprintf(p, sizeof p, "%s/env.exr", dir);
+    CHECK_OK(mf_image_write(p, &env, MF_ENC_LINEAR, 32));
+    mf_image_free(&env);
+    snprintf(buf, sizeof buf, k_scene, "quad.obj", "transforms.json");
+    m = strstr(buf, "\"env\": null");
+    if (m) {
+        char tail[2048];
+        snprintf(tail, sizeof tail, "%s", m + strlen("\"env\": null"));
+        snprintf(m, sizeof buf - (size_t)(m - buf), "\"env\": {\"file\": \"env.exr\", \"strength\": 1e36}%s", tail);
+    }
+    snprintf(p, sizeof p, "%s/strong.json", dir);
+    put(p, buf);
+    expect_failure(p, out, "env.strength 1e+36 times the brightest texel");
+    expect_failure(p, out, "at most 2.13e+35 for this map");
 }
