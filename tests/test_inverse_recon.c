@@ -365,6 +365,8 @@ MF_TEST(inverse_recon_guard_keeps_inf_out_of_checkpoints) {
     mf_recon_recoveries(r, &n);
     CHECK(n >= 1);
     if (rc) CHECK_MSG(strstr(mf_error(), "overflows") && strstr(mf_error(), "stopping after"), "%s", mf_error());
+    char bad0[96];
+    CHECK_MSG(!mf_params_find_nonfinite(mf_recon_block(r, 0), 3, bad0, sizeof bad0), "in memory: %s", bad0);
     CHECK(mf_file_exists(ck)); /* checkpoints were written between the recoveries */
     CHECK_OK(mf_recon_new(&mesh, v2, NV, &o, &r2));
     if (r2) {

@@ -552,6 +552,9 @@ int mf_recon_write_result(const MfRecon *r, const char *dir) {
 /* Goes back to the last good state and cuts the learning rate, or stops after max_recoveries. */
 static int recover(MfRecon *r, int it, const char *why, const char *ckpt) {
     if (r->nrec_total >= r->o.max_recoveries) {
+        /* stopping: the in-memory state goes back to the last good one too (for callers that
+         * inspect or write it); no file is written from here */
+        mf_param_snapshot_restore(&r->good, r->blocks, r->nblocks, &r->adam);
         if (mf_file_exists(ckpt))
             return mf_fail(MF_ENAN, "iteration %d: %s; stopping after %d recoveries (learning rate x%g); the last good checkpoint is %s",
                            it, why, r->nrec_total, r->lr_scale, ckpt);

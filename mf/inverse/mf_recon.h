@@ -34,7 +34,8 @@
  * iteration with the lowest loss so far, or the starting state), multiplies the learning rate by
  * MF_RECON_RECOVERY_LR (0.1) from then on, logs a warning and records {iter, reason, lr_scale}
  * (mf_recon_recoveries; mf recon writes them into run.json). After max_recoveries (default 4)
- * the next event stops the run with an error naming it; checkpoints already written are kept.
+ * the next event stops the run with an error naming it; checkpoints already written are kept
+ * and the in-memory state returns to the last good one (nothing is written from the bad one).
  * Normal runs stay far from the threshold (tiny scenes: loss at most 4.4x the running minimum,
  * above 4x for 1 iteration in a row). A checkpoint is never written with a non-finite value, and
  * a checkpoint holding one is refused on resume, naming the tensor ("kd.v[12] = inf"). The
