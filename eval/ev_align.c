@@ -29,6 +29,9 @@ int ev_color_channels(int c) { return c == 4 ? 3 : (c == 2 ? 1 : c); }
 static int check_inputs(const MfImage *pred, const MfImage *gt, const MfImage *mask) {
     int rc;
     if ((rc = ev_check_finite(pred, "prediction")) || (rc = ev_check_finite(gt, "ground truth"))) return rc;
+    if (pred->c < 1 || pred->c > 4 || gt->c < 1 || gt->c > 4)
+        return mf_fail(MF_EARG, "prediction has %d and ground truth %d channels; 1 to 4 can be scored (pick one layer)",
+                       pred->c, gt->c);
     if (pred->w != gt->w || pred->h != gt->h || pred->c != gt->c)
         return mf_fail(MF_EARG, "prediction is %dx%dx%d but ground truth is %dx%dx%d", pred->w, pred->h, pred->c,
                        gt->w, gt->h, gt->c);

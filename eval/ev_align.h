@@ -12,7 +12,9 @@
  *   2. Linear → sRGB with the exact piecewise curve (IEC 61966-2-1), then clip to [0, 1].
  *   3. Composite on black: value · m, m = mask coverage clamped to [0, 1] (no mask: m = 1).
  * Colour channels are the first 3 of an RGBA image (c = 4), the first of a grey+alpha image
- * (c = 2), all of them otherwise; alpha is dropped from the outputs. Scores are then computed
+ * (c = 2), all of them otherwise (c = 1 or 3); alpha is dropped from the outputs. Images with more
+ * than 4 channels (a whole multi-layer EXR) are refused with MF_EARG: read one layer first
+ * (eval/ev_image.h). Scores are then computed
  * by ev_metrics.h on the outputs (values in [0, 1], sRGB).
  *
  * Mask images follow ev_metrics.h: coverage is the alpha channel for c = 2 or 4, else channel 0. */

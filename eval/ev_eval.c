@@ -1,4 +1,5 @@
 #include "eval/ev_eval.h"
+#include "eval/ev_image.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -289,7 +290,7 @@ int ev_eval_grid_row(const char *scene_dir, const char *result_dir, const EvEval
         if (!rc && v->albedo.data) rc = grid_cell(&v->albedo, -1, 0, 0, &cells[1]);
         if (!rc && v->orm.data) rc = grid_cell(&v->orm, 1, 0, 0, &cells[2]);
         if (!rc && v->orm.data) rc = grid_cell(&v->orm, 2, 0, 0, &cells[3]);
-        if (!rc && dv.env_path[0] && !(rc = mf_image_read(dv.env_path, MF_ENC_LINEAR, &env))) rc = grid_cell(&env, -1, 1, 0, &cells[4]);
+        if (!rc && dv.env_path[0] && !(rc = ev_image_read(dv.env_path, "", MF_ENC_LINEAR, &env))) rc = grid_cell(&env, -1, 1, 0, &cells[4]);
     } else {
         EvResult res;
         if (!(rc = ev_result_load(result_dir, o->mesh_path, &res))) {

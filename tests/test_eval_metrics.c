@@ -717,7 +717,7 @@ MF_TEST(eval_cli_metrics) {
     CHECK(mf_oiio_write(pn, 32, 28, 4, nanimg.data, 32, err, sizeof err) == 0);
     snprintf(args, sizeof args, "'%s' '%s'", pn, pg);
     CHECK(run_mf(args, out, sizeof out) == 1);
-    CHECK_MSG(strstr(out, "cli_nan.exr") && strstr(out, "NaN"), "%s", out);
+    CHECK_MSG(strstr(out, "cli_nan.exr") && (strstr(out, "NaN") || strstr(out, "not finite")), "%s", out);
     mf_image_free(&nanimg);
     snprintf(args, sizeof args, "'%s' '%s'", pp, mf_test_path("missing.exr"));
     CHECK(run_mf(args, out, sizeof out) == 1);

@@ -8,6 +8,8 @@
 #include "core/mf_fs.h"
 #include "inverse/mf_recon.h"
 #include "mf_test.h"
+#include "nn/mf_nn.h"
+#include "nn/mf_nn_ckpt.h"
 #include "render/mf_rtscene.h"
 #include "scene/mf_shapes.h"
 
@@ -105,7 +107,7 @@ static void check_recovery(int denoise) {
     for (int y = 0; y < EH; ++y)
         for (int x = 0; x < EW; ++x)
             for (int c = 0; c < 3; ++c) {
-                double v = env->p[(y * EW + x) * 3 + c] / s, g = mf_image_px(&ge, x, y)[c];
+                double v = env->p[(y * EW + x) * 3 + c] * mf_recon_exposure(r) / s, g = mf_image_px(&ge, x, y)[c];
                 if (y < EH / 2) up[c] += v, gup[c] += g;
                 else lo[c] += v, glo[c] += g;
             }
@@ -233,12 +235,14 @@ MF_TEST(inverse_recon_nan_gradient_stops_cleanly) {
     o.iters = 8;
     o.checkpoint_every = 2;
     o.snapshot_every = 0;
+    o.max_recoveries = 0; /* stop at the first event */
     MfRecon *r = NULL;
     CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r));
     if (!r) return;
     const char *dir = mf_test_path("nanrun");
     MfReconHook hook = {nan_hook, NULL};
-    CHECK_ERR(mf_recon_run(r, &hook, dir), "iteration 4: stopping; the last good checkpoint is");
+    CHECK_ERR(mf_recon_run(r, &hook, dir), "stopping after 0 recoveries (learning rate x1); the last good checkpoint is");
+    CHECK_MSG(strstr(mf_error(), "iteration 4: parameter block kd: gradient of element 5 is nan"), "%s", mf_error());
     CHECK(mf_recon_iteration(r) == 4);
     /* no texture was written from the bad state, the checkpoint of iteration 4 is there and finite */
     char p[1024];
@@ -249,5 +253,264 @@ MF_TEST(inverse_recon_nan_gradient_stops_cleanly) {
     const MfParamBlock *kd = mf_recon_block(r, MF_BLOCK_KD);
     for (size_t i = 0; i < kd->n; ++i) CHECK(isfinite(kd->p[i]));
     mf_recon_free(r);
+    mf_mesh_free(&mesh);
+}
+
+/* The guard recovers from a NaN gradient: the state before it comes back, the learning rate is
+ * cut, the run finishes, and the recovery is recorded. */
+MF_TEST(inverse_recon_guard_recovers_nan_gradient) {
+    MfMesh mesh;
+    CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
+    MfReconView v[NV];
+    memset(v, 0, sizeof v);
+    CHECK_OK(make_views(&mesh, v));
+    MfReconOpts o = small_opts();
+    o.iters = 8;
+    o.checkpoint_every = 0;
+    o.snapshot_every = 0;
+    MfRecon *r = NULL;
+    CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r));
+    if (!r) return;
+    MfReconHook hook = {nan_hook, NULL};
+    CHECK_OK(mf_recon_run(r, &hook, mf_test_path("nanrecover")));
+    int n = 0;
+    const MfReconRecovery *rec = mf_recon_recoveries(r, &n);
+    CHECK(n == 1);
+    if (n == 1) {
+        CHECK(rec[0].iter == 4);
+        CHECK_MSG(strstr(rec[0].reason, "kd: gradient of element 5 is nan"), "%s", rec[0].reason);
+        CHECK_NEAR(rec[0].lr_scale, MF_RECON_RECOVERY_LR, 1e-9);
+    }
+    CHECK_NEAR(mf_recon_lr_scale(r), MF_RECON_RECOVERY_LR, 1e-9);
+    CHECK(mf_recon_iteration(r) == 8);
+    mf_recon_free(r);
+    mf_mesh_free(&mesh);
+}
+
+/* Reads log.csv's loss_total column into loss (at most cap rows); returns the row count. */
+static int read_losses(const char *dir, double *loss, int cap) {
+    char p[1024], *text = NULL;
+    snprintf(p, sizeof p, "%s/log.csv", dir);
+    if (mf_read_file(p, &text, NULL)) return 0;
+    int n = 0;
+    char *save = NULL;
+    for (char *ln = strtok_r(text, "\n", &save); ln && n < cap; ln = strtok_r(NULL, "\n", &save)) {
+        int it;
+        double wall, l;
+        if (sscanf(ln, "%d,%lf,%lf", &it, &wall, &l) == 3) loss[n++] = l;
+    }
+    free(text);
+    return n;
+}
+
+/* --lr 10 sends the loss up by orders of magnitude (measured: 0.031 -> 12.3 on a tiny scene
+ * before the guard). The guard notices it, restores the best state with a lower learning rate
+ * and the run ends near its best loss instead of far above it. */
+MF_TEST(inverse_recon_guard_recovers_lr_blowup) {
+    MfMesh mesh;
+    CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
+    MfReconView v[NV];
+    memset(v, 0, sizeof v);
+    CHECK_OK(make_views(&mesh, v));
+    MfReconOpts o = small_opts();
+    o.iters = 60;
+    o.lr = 1.0f; /* the top of lr's range */
+    o.checkpoint_every = 0;
+    o.snapshot_every = 0;
+    MfRecon *r = NULL;
+    CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r));
+    if (!r) return;
+    const char *dir = mf_test_path("lr10");
+    CHECK_OK(mf_recon_run(r, NULL, dir));
+    int n = 0;
+    const MfReconRecovery *rec = mf_recon_recoveries(r, &n);
+    CHECK_MSG(n >= 1 && n <= o.max_recoveries, "%d recoveries", n);
+    if (n >= 1) CHECK_MSG(strstr(rec[0].reason, "running minimum"), "%s", rec[0].reason);
+    CHECK(mf_recon_lr_scale(r) < 1.0f);
+    double loss[128];
+    int rows = read_losses(dir, loss, 128);
+    CHECK(rows == 60);
+    double lo = 1e30;
+    for (int i = 0; i < rows; ++i) lo = fmin(lo, loss[i]);
+    /* the last 10 iterations stay within the guard's band around the best loss */
+    for (int i = rows - 10; i >= 0 && i < rows; ++i) CHECK_MSG(loss[i] <= o.div_factor * lo, "loss[%d] %g, best %g", i, loss[i], lo);
+    mf_recon_free(r);
+    mf_mesh_free(&mesh);
+}
+
+/* A hook that adds a finite but huge gradient (1e30) to a few kd elements from iteration 3 on:
+ * g^2 overflows Adam's second moments to +Inf (as --init-light 1e30 did before that option got
+ * its range). */
+static int huge_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double *loss) {
+    (void)ctx, (void)batch, (void)nb;
+    *loss = 0.0;
+    if (it >= 3)
+        for (int i = 0; i < 6; ++i) mf_recon_block(r, MF_BLOCK_KD)->g[i] += 1e30f;
+    return MF_OK;
+}
+
+/* Before the guard, overflowing Adam moments (+Inf) were written into checkpoint.mfck. Now the run
+ * recovers or stops, and every checkpoint written holds finite values only (it loads: loading
+ * refuses non-finite ones). */
+MF_TEST(inverse_recon_guard_keeps_inf_out_of_checkpoints) {
+    MfMesh mesh;
+    CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
+    MfReconView v[NV], v2[NV];
+    memset(v, 0, sizeof v);
+    memset(v2, 0, sizeof v2);
+    CHECK_OK(make_views(&mesh, v));
+    CHECK_OK(make_views(&mesh, v2));
+    MfReconOpts o = small_opts();
+    o.iters = 8;
+    o.checkpoint_every = 1;
+    o.snapshot_every = 0;
+    MfRecon *r = NULL, *r2 = NULL;
+    CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r));
+    if (!r) return;
+    char dir[512], ck[1024];
+    snprintf(dir, sizeof dir, "%s", mf_test_path("init1e30"));
+    snprintf(ck, sizeof ck, "%s/checkpoint.mfck", dir);
+    MfReconHook huge = {huge_hook, NULL};
+    int rc = mf_recon_run(r, &huge, dir);
+    int n = 0;
+    mf_recon_recoveries(r, &n);
+    CHECK(n >= 1);
+    if (rc) CHECK_MSG(strstr(mf_error(), "stopping after"), "%s", mf_error());
+    char bad0[96];
+    CHECK_MSG(!mf_params_find_nonfinite(mf_recon_block(r, 0), 3, bad0, sizeof bad0), "in memory: %s", bad0);
+    CHECK(mf_file_exists(ck)); /* checkpoints were written between the recoveries */
+    CHECK_OK(mf_recon_new(&mesh, v2, NV, &o, &r2));
+    if (r2) {
+        CHECK_OK(mf_recon_load_checkpoint(r2, ck));
+        char bad[96];
+        CHECK_MSG(!mf_params_find_nonfinite(mf_recon_block(r2, 0), 3, bad, sizeof bad), "%s", bad);
+    }
+    mf_recon_free(r);
+    mf_recon_free(r2);
+    mf_mesh_free(&mesh);
+}
+
+/* --resume refuses a checkpoint that holds a NaN or Inf, naming the tensor and element. */
+MF_TEST(inverse_recon_resume_refuses_nonfinite_checkpoint) {
+    MfMesh mesh;
+    CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
+    MfReconView v[NV], v2[NV];
+    memset(v, 0, sizeof v);
+    memset(v2, 0, sizeof v2);
+    CHECK_OK(make_views(&mesh, v));
+    CHECK_OK(make_views(&mesh, v2));
+    MfReconOpts o = small_opts();
+    o.iters = 2;
+    o.checkpoint_every = 0;
+    o.snapshot_every = 0;
+    MfRecon *r = NULL, *r2 = NULL;
+    CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r));
+    if (!r) return;
+    char dir[512], ck[1024];
+    snprintf(dir, sizeof dir, "%s", mf_test_path("ckbad"));
+    snprintf(ck, sizeof ck, "%s/checkpoint.mfck", dir);
+    CHECK_OK(mf_recon_run(r, NULL, dir));
+    /* the checkpoint's table, as mf_recon writes it: per block p, m, v */
+    MfTensorSpec specs[9];
+    static const char *part[3] = {"p", "m", "v"};
+    for (int b = 0; b < 3; ++b)
+        for (int k = 0; k < 3; ++k) {
+            int shape[1] = {(int)mf_recon_block(r, b)->n};
+            mf_spec_set(&specs[b * 3 + k], mf_recon_block(r, b)->name, part[k], 1, shape);
+        }
+    size_t total = mf_specs_numel(specs, 9);
+    float *buf = malloc(total * sizeof(float));
+    char *meta = NULL;
+    CHECK_OK(mf_ckpt_load(ck, specs, 9, buf, &meta));
+    size_t nkd = mf_recon_block(r, MF_BLOCK_KD)->n, norm = mf_recon_block(r, MF_BLOCK_ORM)->n;
+    buf[3 * nkd + 2 * norm + 7] = NAN; /* orm.v[7] */
+    CHECK_OK(mf_ckpt_save(ck, specs, 9, buf, meta));
+    CHECK_OK(mf_recon_new(&mesh, v2, NV, &o, &r2));
+    if (r2) {
+        CHECK_ERR(mf_recon_load_checkpoint(r2, ck), "tensor orm.v element 7 is nan");
+        CHECK(mf_recon_iteration(r2) == 0); /* nothing taken from it */
+    }
+    free(buf);
+    free(meta);
+    mf_recon_free(r);
+    mf_recon_free(r2);
+    mf_mesh_free(&mesh);
+}
+
+/* Exposure: views scaled by 16 or 1/16 (a float loader's input at another exposure) give the same
+ * optimisation bit for bit (the loop works on views divided by a power of two near their mean
+ * radiance), and env.exr comes out scaled by the same factor. */
+MF_TEST(inverse_recon_exposure_invariant) {
+    MfMesh mesh;
+    CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
+    static const float scales[3] = {1.0f, 16.0f, 1.0f / 16.0f};
+    MfRecon *r[3] = {NULL, NULL, NULL};
+    MfReconOpts o = small_opts();
+    o.iters = 6;
+    o.checkpoint_every = 0;
+    o.snapshot_every = 0;
+    for (int k = 0; k < 3; ++k) {
+        MfReconView v[NV];
+        memset(v, 0, sizeof v);
+        CHECK_OK(make_views(&mesh, v));
+        for (int i = 0; i < NV; ++i)
+            for (size_t p = 0; p < (size_t)RES * RES; ++p)
+                for (int c = 0; c < 3; ++c) v[i].ref.data[4 * p + c] *= scales[k];
+        double mean = 0.0;
+        float e = mf_recon_exposure_of(v, NV, &mean);
+        CHECK(mean > 0.0 && e > 0.0f && frexpf(e, &(int){0}) == 0.5f); /* a power of two */
+        CHECK(e <= 2.0f * (float)mean / MF_RECON_EXPOSURE_REF && e >= 0.5f * (float)mean / MF_RECON_EXPOSURE_REF);
+        CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r[k]));
+        char dir[64];
+        snprintf(dir, sizeof dir, "expo%d", k);
+        if (r[k]) CHECK_OK(mf_recon_run(r[k], NULL, mf_test_path(dir)));
+    }
+    if (r[0] && r[1] && r[2]) {
+        CHECK(mf_recon_exposure(r[1]) == 16.0f * mf_recon_exposure(r[0]));
+        CHECK(mf_recon_exposure(r[2]) * 16.0f == mf_recon_exposure(r[0]));
+        for (int k = 1; k < 3; ++k)
+            for (int b = 0; b < 3; ++b) {
+                const MfParamBlock *x = mf_recon_block(r[0], b), *y = mf_recon_block(r[k], b);
+                CHECK_MSG(!memcmp(x->p, y->p, x->n * sizeof(float)), "block %s differs at scale %g", x->name, scales[k]);
+            }
+        /* env.exr in the views' units */
+        for (int k = 0; k < 3; ++k) {
+            char p[1024];
+            snprintf(p, sizeof p, "%s/env.exr", mf_test_path(k == 0 ? "expo0" : k == 1 ? "expo1" : "expo2"));
+            MfImage e = {0};
+            CHECK_OK(mf_image_read(p, MF_ENC_LINEAR, &e));
+            const MfParamBlock *eb = mf_recon_block(r[k], MF_BLOCK_ENV);
+            if (e.data)
+                for (size_t i = 0; i < eb->n; ++i)
+                    if (e.data[i] != eb->p[i] * mf_recon_exposure(r[k])) {
+                        CHECK_MSG(0, "env.exr[%zu] = %g, block %g x exposure %g", i, e.data[i], eb->p[i], mf_recon_exposure(r[k]));
+                        break;
+                    }
+            mf_image_free(&e);
+        }
+    }
+    for (int k = 0; k < 3; ++k) mf_recon_free(r[k]);
+    mf_mesh_free(&mesh);
+}
+
+/* Invalid options are refused by name, value and range (mf_recon_new). */
+MF_TEST(inverse_recon_options_named_in_errors) {
+    MfMesh mesh;
+    CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
+    MfReconView v[NV];
+    memset(v, 0, sizeof v);
+    CHECK_OK(make_views(&mesh, v));
+    MfRecon *r = NULL;
+    MfReconOpts o = small_opts();
+    o.lr = -1.0f;
+    CHECK_ERR(mf_recon_new(&mesh, v, NV, &o, &r), "--lr -1: outside the allowed range [0, 1]");
+    o = small_opts();
+    o.env_h = 1;
+    CHECK_ERR(mf_recon_new(&mesh, v, NV, &o, &r), "--env-h 1: outside the allowed range [2, 4096]");
+    o = small_opts();
+    o.init_light = NAN;
+    CHECK_ERR(mf_recon_new(&mesh, v, NV, &o, &r), "--init-light nan: outside the allowed range [0.01, 1000]");
+    CHECK(r == NULL && v[0].ref.data != NULL); /* views untouched on failure */
+    for (int i = 0; i < NV; ++i) mf_image_free(&v[i].ref);
     mf_mesh_free(&mesh);
 }

@@ -103,6 +103,29 @@ MF_TEST(render_cli_ok) {
     CHECK_OK(mf_exr_read_layer(scene, "depth", "Z", &img));
     if (img.data) CHECK_NEAR(mf_image_px(&img, 10, 5)[0], 2.5, 1e-3);
     mf_image_free(&img);
+
+    /* mf metrics scores the multi-layer EXR against itself: the RGBA layer by default (the file
+     * has 17 channels; indexing them as colour channels once overran 4-entry arrays), another
+     * layer by name; an unknown layer is an error naming the layers the file has. */
+    char cmd[4096], line[256];
+    snprintf(args, sizeof args, "render %s/scene.json -o %s/big --width 24 --height 16", dir, dir); /* SSIM: >= 11x11 */
+    rc = run_mf(args, buf, sizeof buf);
+    CHECK_MSG(rc == 0, "mf render failed (%d): %s", rc, buf);
+    snprintf(scene, sizeof scene, "%s/big/r_0.exr", dir);
+    const char *metric_layers[4] = {"", "--layer albedo", "--layer orm", "--layer normal"};
+    for (int k = 0; k < 4; ++k) {
+        snprintf(cmd, sizeof cmd, "%s metrics %s %s %s 2>&1", getenv("MF_BIN"), scene, scene, metric_layers[k]);
+        FILE *p = popen(cmd, "r");
+        double psnr = -1.0;
+        while (p && fgets(line, sizeof line, p))
+            if (!strncmp(line, "psnr ", 5)) psnr = atof(line + 5);
+        int st = p ? pclose(p) : -1;
+        CHECK_MSG(WIFEXITED(st) && WEXITSTATUS(st) == 0, "mf metrics r_0.exr r_0.exr %s failed", metric_layers[k]);
+        CHECK_MSG(psnr == 100.0, "mf metrics %s: psnr %g, want 100", metric_layers[k], psnr);
+    }
+    snprintf(args, sizeof args, "metrics %s %s --layer nosuch", scene, scene);
+    rc = run_mf(args, buf, sizeof buf);
+    CHECK_MSG(rc == 1 && strstr(buf, "no layer 'nosuch'") && strstr(buf, "albedo"), "rc %d: %s", rc, buf);
 }
 
 /* Runs a failing render and checks exit code, message and the absence of outputs. */
@@ -154,4 +177,30 @@ MF_TEST(render_cli_bad_inputs) {
     snprintf(p, sizeof p, "%s/badlight.json", dir);
     put(p, buf);
     expect_failure(p, out, "lights[0].dir");
+    /* a field of view outside the real limits says them */
+    snprintf(p, sizeof p, "%s/widecams.json", dir);
+    put(p, "{\"camera_angle_x\": 3.12, \"frames\": [{\"file_path\": \"./r_0\", \"transform_matrix\": "
+           "[[1,0,0,0],[0,1,0,0],[0,0,1,2.5],[0,0,0,1]]}]}");
+    snprintf(buf, sizeof buf, k_scene, "quad.obj", "widecams.json");
+    snprintf(p, sizeof p, "%s/wide.json", dir);
+    put(p, buf);
+    expect_failure(p, out, "camera_angle_x 3.12 rad is outside (1e-4, 3.1) rad");
+    /* an env strength that overflows float is reported as that strength, with the limit */
+    MfImage env = {0};
+    CHECK_OK(mf_image_alloc(&env, 8, 4, 3));
+    for (size_t i = 0; i < 8 * 4 * 3; ++i) env.data[i] = i == 5 ? 100.0f : 1.0f;
+    snprintf(p, sizeof p, "%s/env.exr", dir);
+    CHECK_OK(mf_image_write(p, &env, MF_ENC_LINEAR, 32));
+    mf_image_free(&env);
+    snprintf(buf, sizeof buf, k_scene, "quad.obj", "transforms.json");
+    m = strstr(buf, "\"env\": null");
+    if (m) {
+        char tail[2048];
+        snprintf(tail, sizeof tail, "%s", m + strlen("\"env\": null"));
+        snprintf(m, sizeof buf - (size_t)(m - buf), "\"env\": {\"file\": \"env.exr\", \"strength\": 1e36}%s", tail);
+    }
+    snprintf(p, sizeof p, "%s/strong.json", dir);
+    put(p, buf);
+    expect_failure(p, out, "env.strength 1e+36 times the brightest texel");
+    expect_failure(p, out, "at most 2.13e+35 for this map");
 }

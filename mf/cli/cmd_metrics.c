@@ -6,11 +6,12 @@
 #include "core/mf_error.h"
 #include "core/mf_log.h"
 #include "eval/ev_align.h"
+#include "eval/ev_image.h"
 #include "eval/ev_metrics.h"
 #include "io/mf_image.h"
 
 static const char usage[] =
-    "usage: mf metrics PRED GT [--mask M|alpha] [--align none|mean|lsq] [--linear] [--orm]\n"
+    "usage: mf metrics PRED GT [--mask M|alpha] [--align none|mean|lsq] [--linear] [--orm] [--layer NAME]\n"
     "\n"
     "Scores the prediction PRED against the ground truth GT with the evaluation protocol:\n"
     "per-channel scale alignment in linear space inside the mask (default mean: ratio of means;\n"
@@ -26,6 +27,9 @@ static const char usage[] =
     "  --linear      PNG/JPEG inputs hold linear values (default: sRGB colour). EXR/HDR are linear.\n"
     "  --orm         ORM images (linear, glTF order): scores roughness G and metallic B only, no\n"
     "                alignment, no sRGB curve (clip, composite); prints psnr, ssim, l1 (no flip)\n"
+    "  --layer NAME  EXR layer of PRED and GT to score (default: the R, G, B[, A] layer; e.g. albedo,\n"
+    "                orm, diffuse, specular of a file written by mf render). Multi-layer EXR files\n"
+    "                are read one layer at a time; other formats have no layers.\n"
     "Alpha channels of PRED and GT are dropped before scoring. Exit code 1 on bad images (sizes\n"
     "differ, NaN pixels, empty mask), 2 on bad usage.\n";
 
@@ -41,7 +45,7 @@ static int color_only(const MfImage *src, MfImage *dst) {
 }
 
 static int cmd_metrics(int argc, char **argv) {
-    const char *pos[2] = {NULL, NULL}, *mask_path = NULL, *align_s = "mean";
+    const char *pos[2] = {NULL, NULL}, *mask_path = NULL, *align_s = "mean", *layer = "";
     int npos = 0, linear = 0, orm = 0, align_given = 0;
     for (int i = 1; i < argc; i++) {
         int r;
@@ -50,6 +54,8 @@ static int cmd_metrics(int argc, char **argv) {
         } else if ((r = mf_opt_str(argc, argv, &i, "--align", &align_s)) != 0) {
             if (r < 0) return MF_EXIT_USAGE;
             align_given = 1;
+        } else if ((r = mf_opt_str(argc, argv, &i, "--layer", &layer)) != 0) {
+            if (r < 0) return MF_EXIT_USAGE;
         } else if (!strcmp(argv[i], "--orm")) {
             orm = 1;
         } else if (!strcmp(argv[i], "--linear")) {
@@ -80,7 +86,7 @@ static int cmd_metrics(int argc, char **argv) {
     MfImage pred = {0}, gt = {0}, mask = {0}, pc = {0}, gc = {0}, po = {0}, go = {0};
     const MfImage *maskp = NULL;
     int ret = MF_EXIT_FAIL, rc;
-    if (mf_image_read(pred_path, enc, &pred) || mf_image_read(gt_path, enc, &gt)) goto done;
+    if (ev_image_read(pred_path, layer, enc, &pred) || ev_image_read(gt_path, layer, enc, &gt)) goto done;
     if (pred.w != gt.w || pred.h != gt.h) {
         mf_fail(MF_EARG, "%s is %dx%d but %s is %dx%d: sizes differ", pred_path, pred.w, pred.h, gt_path, gt.w,
                 gt.h);
@@ -99,7 +105,7 @@ static int cmd_metrics(int argc, char **argv) {
         maskp = &gt; /* coverage = GT's alpha */
         mask_path = gt_path;
     } else if (mask_path) {
-        if (mf_image_read(mask_path, MF_ENC_LINEAR, &mask)) goto done;
+        if (ev_image_read(mask_path, "", MF_ENC_LINEAR, &mask)) goto done;
         if (mask.w != gt.w || mask.h != gt.h) {
             mf_fail(MF_EARG, "mask %s is %dx%d but %s is %dx%d: sizes differ", mask_path, mask.w, mask.h, gt_path,
                     gt.w, gt.h);

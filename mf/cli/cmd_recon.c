@@ -171,8 +171,11 @@ static int cmd_recon_run(int argc, char **argv, const MfOptParse *p, ReconArgs *
     if (!rc) mf_log_info("recon: %d views %dx%d, %d iterations, batch %d, textures %d^2, env %dx%d", nviews,
                          mf_recon_view(r, 0)->cam.w, mf_recon_view(r, 0)->cam.h, o.iters, o.batch, o.tex_res, o.env_w, o.env_h);
     MfReconHook hook = {mf_sds_hook, sds};
-    if (!rc) rc = mf_recon_run(r, is_mf ? &hook : NULL, out);
-    if (!rc) {
+    int ran = 0;
+    if (!rc) rc = mf_recon_run(r, is_mf ? &hook : NULL, out), ran = 1;
+    if (ran) { /* run.json also when the guard stopped the run: what happened, and why */
+        char stopped[1024];
+        snprintf(stopped, sizeof stopped, "%s", rc ? mf_error() : "");
         cJSON *opts = cJSON_CreateObject();
         a->mesh = mesh_path, a->prior_weights = weights; /* as resolved */
         mf_opts_to_json(&k_args_table, a, opts);
@@ -184,7 +187,21 @@ static int cmd_recon_run(int argc, char **argv, const MfOptParse *p, ReconArgs *
         cJSON_AddNumberToObject(opts, "adjoint_render_s", ta);
         cJSON_AddNumberToObject(opts, "adjoint_over_forward", tf > 0 ? ta / tf : 0.0);
         if (is_mf) cJSON_AddNumberToObject(opts, "prior_s", mf_sds_seconds(sds)); /* wall s of the prior's work */
-        rc = mf_write_run_json(out, argc, argv, o.seed, mf_now() - t0, opts);
+        int nrec;
+        const MfReconRecovery *rec = mf_recon_recoveries(r, &nrec);
+        cJSON *ra = cJSON_AddArrayToObject(opts, "recoveries");
+        for (int k = 0; k < nrec && k < 64; ++k) {
+            cJSON *e = cJSON_CreateObject();
+            cJSON_AddNumberToObject(e, "iter", rec[k].iter);
+            cJSON_AddStringToObject(e, "reason", rec[k].reason);
+            cJSON_AddNumberToObject(e, "lr_scale", rec[k].lr_scale);
+            cJSON_AddItemToArray(ra, e);
+        }
+        cJSON_AddNumberToObject(opts, "lr_scale", mf_recon_lr_scale(r));
+        if (rc) cJSON_AddStringToObject(opts, "stopped", stopped);
+        int wrc = mf_write_run_json(out, argc, argv, o.seed, mf_now() - t0, opts);
+        if (rc) mf_fail(rc, "%s", stopped); /* the run's error, not run.json's */
+        else rc = wrc;
     }
     mf_recon_free(r);
     mf_sds_free(sds);

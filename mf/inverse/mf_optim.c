@@ -87,3 +87,79 @@ int mf_adam_step(MfAdam *a, MfParamBlock *blocks, int nblocks, float lr) {
     }
     return MF_OK;
 }
+
+int mf_params_find_nonfinite(const MfParamBlock *blocks, int nblocks, char *msg, size_t cap) {
+    for (int k = 0; k < nblocks; ++k) {
+        const MfParamBlock *b = &blocks[k];
+        const float *arr[3] = {b->p, b->m, b->v};
+        static const char part[3] = {'p', 'm', 'v'};
+        for (int a = 0; a < 3; ++a)
+            for (size_t i = 0; i < b->n; ++i)
+                if (!isfinite(arr[a][i])) {
+                    snprintf(msg, cap, "%s.%c[%zu] = %g", b->name, part[a], i, arr[a][i]);
+                    return 1;
+                }
+    }
+    return 0;
+}
+
+int mf_param_snapshot_save(MfParamSnapshot *s, const MfParamBlock *blocks, int nblocks, const MfAdam *a) {
+    size_t len = 0;
+    for (int k = 0; k < nblocks; ++k) len += 3 * blocks[k].n;
+    if (!s->buf) {
+        if (!(s->buf = malloc(len * sizeof(float) + 1))) return mf_fail(MF_ENOMEM, "out of memory for a %zu-value snapshot", len);
+        s->len = len;
+    }
+    if (s->len != len) return mf_fail(MF_EARG, "snapshot of %zu values, blocks now hold %zu", s->len, len);
+    size_t off = 0;
+    for (int k = 0; k < nblocks; ++k) {
+        const MfParamBlock *b = &blocks[k];
+        memcpy(s->buf + off, b->p, b->n * sizeof(float)), off += b->n;
+        memcpy(s->buf + off, b->m, b->n * sizeof(float)), off += b->n;
+        memcpy(s->buf + off, b->v, b->n * sizeof(float)), off += b->n;
+    }
+    s->t = a->t;
+    return MF_OK;
+}
+
+void mf_param_snapshot_restore(const MfParamSnapshot *s, MfParamBlock *blocks, int nblocks, MfAdam *a) {
+    size_t off = 0;
+    for (int k = 0; k < nblocks; ++k) {
+        MfParamBlock *b = &blocks[k];
+        memcpy(b->p, s->buf + off, b->n * sizeof(float)), off += b->n;
+        memcpy(b->m, s->buf + off, b->n * sizeof(float)), off += b->n;
+        memcpy(b->v, s->buf + off, b->n * sizeof(float)), off += b->n;
+    }
+    a->t = s->t;
+}
+
+void mf_param_snapshot_free(MfParamSnapshot *s) {
+    if (!s) return;
+    free(s->buf);
+    memset(s, 0, sizeof *s);
+}
+
+void mf_divguard_init(MfDivGuard *g, double factor, int patience) {
+    g->factor = factor;
+    g->patience = patience;
+    g->loss_min = INFINITY;
+    g->streak = 0;
+}
+
+MfDivState mf_divguard_observe(MfDivGuard *g, double loss) {
+    if (!isfinite(loss)) return MF_DIV_NONFINITE;
+    if (loss < g->loss_min) {
+        g->loss_min = loss;
+        g->streak = 0;
+        return MF_DIV_NEW_MIN;
+    }
+    if (loss > g->factor * g->loss_min) {
+        if (++g->streak >= g->patience) {
+            g->streak = 0;
+            return MF_DIV_DIVERGED;
+        }
+    } else {
+        g->streak = 0;
+    }
+    return MF_DIV_OK;
+}

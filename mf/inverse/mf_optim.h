@@ -8,7 +8,13 @@
  * Learning-rate schedule as nvdiffrecmc: lr(it) = lr0 * 10^(-0.0002 it).
  * Adam (Kingma & Ba) with bias correction; betas (0.9, 0.999), eps 1e-8 as torch's default.
  * Steps refuse non-finite gradients (MF_ENAN, naming the block and element) and leave the
- * parameters untouched, so the caller can stop and keep the last good checkpoint. */
+ * parameters untouched, so the caller can stop and keep the last good checkpoint.
+ *
+ * Guarding a run (used by mf_recon): mf_params_find_nonfinite scans values and both moments
+ * (a gradient beyond ~1.8e19 overflows g^2 in the second moment to +Inf and freezes the
+ * element); MfDivGuard watches the loss for divergence (not finite, or above `factor` times its
+ * running minimum for `patience` iterations in a row); MfParamSnapshot keeps the last good
+ * state (values, moments, Adam's step count) to go back to. */
 #ifndef MF_OPTIM_H
 #define MF_OPTIM_H
 
@@ -49,5 +55,40 @@ float mf_lr_schedule(float lr0, long it);
 /* One Adam step on each block with learning rate lr * block->lr_scale, then projection.
  * Checks every gradient first: on a non-finite one nothing changes and MF_ENAN is returned. */
 int mf_adam_step(MfAdam *a, MfParamBlock *blocks, int nblocks, float lr);
+
+/* Finds the first non-finite value among the blocks' values (p) and Adam moments (m, v). Returns 1
+ * and describes it in msg ("kd.v[1234] = inf", the checkpoint's tensor name), else 0. */
+int mf_params_find_nonfinite(const MfParamBlock *blocks, int nblocks, char *msg, size_t cap);
+
+/* A copy of the blocks' values and moments and of Adam's step count. */
+typedef struct {
+    float *buf; /* owned; for each block in order: p (n), m (n), v (n) */
+    size_t len; /* floats in buf */
+    long t;     /* Adam steps at the time of the copy */
+} MfParamSnapshot;
+
+/* Copies the state into s (allocating on first use; the blocks' sizes must not change). */
+int mf_param_snapshot_save(MfParamSnapshot *s, const MfParamBlock *blocks, int nblocks, const MfAdam *a);
+/* Copies s back into the blocks and Adam. */
+void mf_param_snapshot_restore(const MfParamSnapshot *s, MfParamBlock *blocks, int nblocks, MfAdam *a);
+void mf_param_snapshot_free(MfParamSnapshot *s);
+
+/* Divergence watch on a scalar loss. */
+typedef struct {
+    double factor;   /* diverging: loss > factor * loss_min ... */
+    int patience;    /* ... for this many iterations in a row */
+    double loss_min; /* running minimum (+inf before the first loss) */
+    int streak;      /* iterations in a row above factor * loss_min */
+} MfDivGuard;
+
+typedef enum {
+    MF_DIV_OK = 0,       /* finite, not a new minimum, not diverging */
+    MF_DIV_NEW_MIN = 1,  /* finite and the lowest loss so far (loss_min updated) */
+    MF_DIV_NONFINITE = 2,/* NaN or Inf */
+    MF_DIV_DIVERGED = 3  /* above factor * loss_min for patience iterations (streak reset) */
+} MfDivState;
+
+void mf_divguard_init(MfDivGuard *g, double factor, int patience);
+MfDivState mf_divguard_observe(MfDivGuard *g, double loss);
 
 #endif

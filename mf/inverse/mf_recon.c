@@ -37,6 +37,13 @@ struct MfRecon {
     double wall_offset;         /* wall seconds of earlier (resumed) runs */
     double t_forward, t_adjoint; /* seconds in the primal and adjoint renders (this process) */
     MfBilateral dn;             /* owned; the denoiser's buffers, reused view after view */
+    MfParamSnapshot good;       /* owned; the last good state (lowest loss so far) */
+    MfDivGuard guard;           /* the loss watch (running minimum, streak) */
+    float lr_scale;             /* learning-rate multiplier, MF_RECON_RECOVERY_LR per recovery */
+    float exposure;             /* 2^k: views' radiance / exposure (refs and env are held divided by it) */
+    MfReconRecovery rec[64];    /* this process's recoveries (the first 64) */
+    int nrec;                   /* recoveries in this process */
+    int nrec_total;             /* recoveries including earlier (resumed) runs */
 };
 
 long mf_peak_rss_bytes(void) {
@@ -77,18 +84,39 @@ static void uv_mask_build(const MfMesh *m, int res, float *mask) {
     }
 }
 
+/* Ranges of the options mf_recon_new checks; a message names the option, its value and range. */
+float mf_recon_exposure_of(const MfReconView *views, int nviews, double *mean) {
+    double sum = 0.0;
+    size_t cnt = 0;
+    for (int i = 0; i < nviews; ++i) {
+        const MfImage *im = &views[i].ref;
+        for (size_t p = 0; p < (size_t)im->w * im->h; ++p) {
+            const float *px = im->data + 4 * p;
+            if (px[3] > 0.5f) sum += ((double)px[0] + px[1] + px[2]) / (3.0 * px[3]), cnt++;
+        }
+    }
+    double m = cnt ? sum / (double)cnt : 0.0;
+    if (mean) *mean = m;
+    if (!(m > 0.0) || !isfinite(m)) return 1.0f; /* black or empty views: no information */
+    long k = lround(log2(m / MF_RECON_EXPOSURE_REF));
+    k = k < -100 ? -100 : (k > 100 ? 100 : k);
+    return ldexpf(1.0f, (int)k);
+}
+
 int mf_recon_new(const MfMesh *mesh, MfReconView *views, int nviews, const MfReconOpts *opts, MfRecon **out) {
     if (!mesh->uv) return mf_fail(MF_EARG, "the mesh has no UVs: reconstruction needs a UV-mapped mesh (unwrap it first, e.g. in Blender)");
     if (nviews < 1) return mf_fail(MF_EARG, "no training views");
-    int rc0 = mf_opts_check(&mf_recon_opt_table, opts); /* names the option, its value and its range */
-    if (rc0) return mf_fail_prefix(rc0, "reconstruction options");
+    int rc = mf_opts_check(&mf_recon_opt_table, opts); /* names the option, its value and its range */
+    if (rc) return mf_fail_prefix(rc, "reconstruction options");
     MfRecon *r = calloc(1, sizeof *r);
     if (!r) return mf_fail(MF_ENOMEM, "out of memory");
     r->mesh = mesh;
     r->o = *opts;
+    r->lr_scale = 1.0f;
+    mf_divguard_init(&r->guard, opts->div_factor, opts->div_patience);
     int T = opts->tex_res;
     size_t ntex = (size_t)T * T * 3, nenv = (size_t)opts->env_w * opts->env_h * 3;
-    int rc = mf_rtscene_new(mesh, &r->rt);
+    rc = mf_rtscene_new(mesh, &r->rt);
     if (!rc) rc = mf_param_init(&r->blocks[MF_BLOCK_KD], "kd", ntex, 3, NULL);
     if (!rc) rc = mf_param_init(&r->blocks[MF_BLOCK_ORM], "orm", ntex, 3, NULL);
     if (!rc) rc = mf_param_init(&r->blocks[MF_BLOCK_ENV], "env", nenv, 3, NULL);
@@ -131,6 +159,17 @@ int mf_recon_new(const MfMesh *mesh, MfReconView *views, int nviews, const MfRec
         memset(&views[i].ref, 0, sizeof views[i].ref);
     }
     r->nviews = nviews;
+    /* exposure: the loop works on views divided by a power of two (exact in float) near their
+     * mean radiance; the env it learns is multiplied back on output */
+    double mean = 0.0;
+    r->exposure = mf_recon_exposure_of(r->views, nviews, &mean);
+    for (int i = 0; i < nviews && r->exposure != 1.0f; ++i) {
+        MfImage *im = &r->views[i].ref;
+        for (size_t p = 0; p < (size_t)im->w * im->h; ++p)
+            for (int c = 0; c < 3; ++c) im->data[4 * p + c] /= r->exposure;
+    }
+    mf_log_info("recon: the views' mean radiance inside their masks is %.4g: working in units of 2^%d (env.exr is "
+                    "written in the views' units)", mean, (int)lroundf(log2f(r->exposure)));
     *out = r;
     return MF_OK;
 }
@@ -141,6 +180,7 @@ void mf_recon_free(MfRecon *r) {
     for (int b = 0; b < MF_NBLOCKS; ++b) mf_param_free(&r->blocks[b]);
     mf_env_free(&r->env);
     mf_bilateral_free(&r->dn);
+    mf_param_snapshot_free(&r->good);
     for (int i = 0; r->views && i < r->nviews; ++i) mf_image_free(&r->views[i].ref);
     free(r->views);
     free(r->uv_mask);
@@ -149,6 +189,12 @@ void mf_recon_free(MfRecon *r) {
 }
 
 int mf_recon_iteration(const MfRecon *r) { return r->it; }
+const MfReconRecovery *mf_recon_recoveries(const MfRecon *r, int *n) {
+    *n = r->nrec;
+    return r->rec;
+}
+float mf_recon_lr_scale(const MfRecon *r) { return r->lr_scale; }
+float mf_recon_exposure(const MfRecon *r) { return r->exposure; }
 MfParamBlock *mf_recon_block(MfRecon *r, MfBlockId id) { return &r->blocks[id]; }
 const MfReconOpts *mf_recon_opts(const MfRecon *r) { return &r->o; }
 const MfReconView *mf_recon_view(const MfRecon *r, int i) { return &r->views[i]; }
@@ -187,6 +233,9 @@ static void ckpt_specs(const MfRecon *r, MfTensorSpec *specs) {
 }
 
 static int save_checkpoint(const MfRecon *r, const char *path, double wall) {
+    char bad[96];
+    if (mf_params_find_nonfinite(r->blocks, r->nblocks, bad, sizeof bad))
+        return mf_fail(MF_ENAN, "%s: not written at iteration %d: %s is not finite", path, r->it, bad);
     MfTensorSpec specs[MF_NBLOCKS * 3];
     ckpt_specs(r, specs);
     size_t total = mf_specs_numel(specs, r->nblocks * 3), off = 0;
@@ -198,9 +247,12 @@ static int save_checkpoint(const MfRecon *r, const char *path, double wall) {
         memcpy(buf + off, pb->m, pb->n * sizeof(float)), off += pb->n;
         memcpy(buf + off, pb->v, pb->n * sizeof(float)), off += pb->n;
     }
-    char meta[256];
-    snprintf(meta, sizeof meta, "{\"kind\":\"mf-recon\",\"iteration\":%d,\"adam_t\":%ld,\"wall_s\":%.17g,\"tex_res\":%d,\"env_w\":%d,\"env_h\":%d}",
-             r->it, r->adam.t, wall, r->o.tex_res, r->o.env_w, r->o.env_h);
+    char meta[384];
+    snprintf(meta, sizeof meta,
+             "{\"kind\":\"mf-recon\",\"iteration\":%d,\"adam_t\":%ld,\"wall_s\":%.17g,\"tex_res\":%d,\"env_w\":%d,\"env_h\":%d,"
+             "\"lr_scale\":%.9g,\"loss_min\":%.17g,\"recoveries\":%d,\"exposure\":%.9g}",
+             r->it, r->adam.t, wall, r->o.tex_res, r->o.env_w, r->o.env_h, r->lr_scale,
+             isfinite(r->guard.loss_min) ? r->guard.loss_min : -1.0, r->nrec_total, r->exposure);
     int rc = mf_ckpt_save(path, specs, r->nblocks * 3, buf, meta);
     free(buf);
     return rc;
@@ -229,6 +281,40 @@ int mf_recon_load_checkpoint(MfRecon *r, const char *path) {
         return mf_fail(MF_EFORMAT, "%s: not a reconstruction checkpoint (no iteration in its header)", path);
     }
     if (pw) sscanf(pw, "\"wall_s\":%lf", &wall);
+    /* a non-finite value never resumes: name the tensor (block.part) and element */
+    for (int b = 0, o = 0; b < r->nblocks; ++b)
+        for (int k = 0; k < 3; ++k)
+            for (size_t i = 0; i < r->blocks[b].n; ++i, ++o)
+                if (!isfinite(buf[o])) {
+                    float v = buf[o];
+                    free(buf);
+                    free(meta);
+                    return mf_fail(MF_ENAN, "%s: tensor %s.%c element %zu is %g; refusing to resume from it", path,
+                                   r->blocks[b].name, "pmv"[k], i, v);
+                }
+    /* the guard's state (absent in checkpoints of older builds: defaults) */
+    float lr_scale = 1.0f;
+    double loss_min = -1.0;
+    int nrec = 0;
+    const char *pl = meta ? strstr(meta, "\"lr_scale\":") : NULL, *pm = meta ? strstr(meta, "\"loss_min\":") : NULL;
+    const char *pr = meta ? strstr(meta, "\"recoveries\":") : NULL;
+    if (pl) sscanf(pl, "\"lr_scale\":%f", &lr_scale);
+    if (pm) sscanf(pm, "\"loss_min\":%lf", &loss_min);
+    if (pr) sscanf(pr, "\"recoveries\":%d", &nrec);
+    float expo = 1.0f;
+    const char *pe = meta ? strstr(meta, "\"exposure\":") : NULL;
+    if (pe) sscanf(pe, "\"exposure\":%f", &expo);
+    if (expo != r->exposure) {
+        free(buf);
+        free(meta);
+        return mf_fail(MF_EARG, "%s: written for views of exposure %g, these views have %g (other images?)", path, expo,
+                       r->exposure);
+    }
+    if (!isfinite(lr_scale) || lr_scale <= 0.0f) {
+        free(buf);
+        free(meta);
+        return mf_fail(MF_EFORMAT, "%s: lr_scale %g in its header is not a positive number", path, lr_scale);
+    }
     for (int b = 0; b < r->nblocks; ++b) {
         MfParamBlock *pb = &r->blocks[b];
         memcpy(pb->p, buf + off, pb->n * sizeof(float)), off += pb->n;
@@ -238,6 +324,10 @@ int mf_recon_load_checkpoint(MfRecon *r, const char *path) {
     r->it = it;
     r->adam.t = t;
     r->wall_offset = wall;
+    r->lr_scale = lr_scale;
+    r->nrec_total = nrec;
+    mf_divguard_init(&r->guard, r->o.div_factor, r->o.div_patience);
+    if (isfinite(loss_min) && loss_min >= 0.0) r->guard.loss_min = loss_min;
     free(buf);
     free(meta);
     return MF_OK;
@@ -363,11 +453,16 @@ static int write_textures(const MfRecon *r, const char *dir) {
     int T = r->o.tex_res, rc = mf_mkdirs(dir);
     if (rc) return rc;
     MfImage kd = mf_recon_kd_image(r), orm = mf_recon_orm_image(r);
-    MfImage env = block_image(&r->blocks[MF_BLOCK_ENV], r->o.env_w, r->o.env_h);
+    MfImage envn = block_image(&r->blocks[MF_BLOCK_ENV], r->o.env_w, r->o.env_h), env = {0};
     (void)T;
     if ((rc = mf_path_join(p, sizeof p, dir, "albedo.png")) || (rc = mf_image_write(p, &kd, MF_ENC_SRGB, 8))) return rc;
     if ((rc = mf_path_join(p, sizeof p, dir, "orm.png")) || (rc = mf_image_write(p, &orm, MF_ENC_LINEAR, 8))) return rc;
-    if ((rc = mf_path_join(p, sizeof p, dir, "env.exr")) || (rc = mf_image_write(p, &env, MF_ENC_LINEAR, 32))) return rc;
+    /* the env in the views' units (the loop's are divided by the exposure) */
+    if ((rc = mf_image_alloc(&env, envn.w, envn.h, 3))) return rc;
+    for (size_t i = 0; i < (size_t)envn.w * envn.h * 3; ++i) env.data[i] = envn.data[i] * r->exposure;
+    if (!(rc = mf_path_join(p, sizeof p, dir, "env.exr"))) rc = mf_image_write(p, &env, MF_ENC_LINEAR, 32);
+    mf_image_free(&env);
+    if (rc) return rc;
     if (r->o.normal_map) {
         MfImage nm = mf_recon_normal_image(r);
         if ((rc = mf_path_join(p, sizeof p, dir, "normal.png")) || (rc = mf_image_write(p, &nm, MF_ENC_LINEAR, 8))) return rc;
@@ -391,6 +486,35 @@ int mf_recon_write_result(const MfRecon *r, const char *dir) {
         gm.normal_png = n;
     }
     return mf_gltf_write_glb(p, r->mesh, &gm);
+}
+
+/* Goes back to the last good state and cuts the learning rate, or stops after max_recoveries. */
+static int recover(MfRecon *r, int it, const char *why, const char *ckpt) {
+    if (r->nrec_total >= r->o.max_recoveries) {
+        /* stopping: the in-memory state goes back to the last good one too (for callers that
+         * inspect or write it); no file is written from here */
+        mf_param_snapshot_restore(&r->good, r->blocks, r->nblocks, &r->adam);
+        if (mf_file_exists(ckpt))
+            return mf_fail(MF_ENAN, "iteration %d: %s; stopping after %d recoveries (learning rate x%g); the last good checkpoint is %s",
+                           it, why, r->nrec_total, r->lr_scale, ckpt);
+        return mf_fail(MF_ENAN, "iteration %d: %s; stopping after %d recoveries (learning rate x%g); no checkpoint was written yet",
+                       it, why, r->nrec_total, r->lr_scale);
+    }
+    mf_param_snapshot_restore(&r->good, r->blocks, r->nblocks, &r->adam);
+    r->lr_scale *= MF_RECON_RECOVERY_LR;
+    r->guard.streak = 0;
+    r->nrec_total++;
+    if (r->nrec < (int)(sizeof r->rec / sizeof r->rec[0])) {
+        MfReconRecovery *e = &r->rec[r->nrec];
+        e->iter = it;
+        snprintf(e->reason, sizeof e->reason, "%s", why);
+        e->lr_scale = r->lr_scale;
+    }
+    r->nrec++;
+    mf_log_warn("recon: iteration %d: %s; restored the state of the lowest loss (%.4g) and cut the learning rate to x%g "
+                "(recovery %d of at most %d)",
+                it, why, r->guard.loss_min, r->lr_scale, r->nrec_total, r->o.max_recoveries);
+    return MF_OK;
 }
 
 int mf_recon_run(MfRecon *r, const MfReconHook *hook, const char *out_dir) {
@@ -421,6 +545,11 @@ int mf_recon_run(MfRecon *r, const MfReconHook *hook, const char *out_dir) {
         free(old);
     }
     if (!log) return mf_fail(MF_EIO, "%s: cannot write", logp);
+    /* the first good state is the starting one (fresh or resumed) */
+    if ((rc = mf_param_snapshot_save(&r->good, r->blocks, r->nblocks, &r->adam))) {
+        fclose(log);
+        return rc;
+    }
     MfProgress prog;
     mf_progress_begin(&prog, "recon", (size_t)(r->o.iters - r->it));
     double t0 = mf_now();
@@ -468,10 +597,24 @@ int mf_recon_run(MfRecon *r, const MfReconHook *hook, const char *out_dir) {
             }
         }
         if (hook && hook->fn && (rc = hook->fn(hook->ctx, r, it, batch, n, &st.sds))) break;
-        if ((rc = mf_adam_step(&r->adam, r->blocks, r->nblocks, mf_lr_schedule(r->o.lr, it)))) {
-            mf_fail_prefix(rc, "iteration %d: stopping; the last good checkpoint is %s", it, ckpt);
-            break;
+        /* the guard: the loss of the current state, then the step's gradients, values, moments */
+        double loss = st.image + st.reg + st.sds;
+        char why[192] = "", bad[96];
+        MfDivState dst = mf_divguard_observe(&r->guard, loss);
+        if (dst == MF_DIV_NEW_MIN && (rc = mf_param_snapshot_save(&r->good, r->blocks, r->nblocks, &r->adam))) break;
+        if (dst == MF_DIV_NONFINITE) {
+            snprintf(why, sizeof why, "the loss is %g", loss);
+        } else if (dst == MF_DIV_DIVERGED) {
+            snprintf(why, sizeof why, "loss %.4g above %g x its running minimum %.4g for %d iterations", loss,
+                     r->guard.factor, r->guard.loss_min, r->guard.patience);
+        } else {
+            int arc = mf_adam_step(&r->adam, r->blocks, r->nblocks, r->lr_scale * mf_lr_schedule(r->o.lr, it));
+            if (arc == MF_ENAN) snprintf(why, sizeof why, "%s", mf_error());
+            else if (arc) rc = arc;
+            else if (mf_params_find_nonfinite(r->blocks, r->nblocks, bad, sizeof bad))
+                snprintf(why, sizeof why, "after the Adam step %s (a gradient beyond ~1.8e19 overflows g^2)", bad);
         }
+        if (rc || (why[0] && (rc = recover(r, it, why, ckpt)))) break;
         r->it = it + 1;
         double wall = r->wall_offset + mf_now() - t0;
         fprintf(log, "%d,%.3f,%.6g,%.6g,%.6g,%.6g,%.4f\n", r->it, wall, st.image + st.reg + st.sds, st.image, st.reg,

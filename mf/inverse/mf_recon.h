@@ -23,8 +23,24 @@
  *      (with a normal map: its smoothness and its perturbation from flat, too);
  *   5. the method hook (MaterialFusion's SDS+ term) may add loss and gradients;
  *   6. Adam step with bounds: kd in [0,1], ORM R = 1 (frozen), G in [0.08,1], B in [0,1],
- *      light >= 0.01, normal-map texels in [0,1] (initialised flat, (0.5, 0.5, 1)). A non-finite gradient stops the run (MF_ENAN) with the last good
- *      checkpoint kept and no texture written from the bad state.
+ *      light >= 0.01 (in the exposure's working units, below), normal-map texels in [0,1] (initialised flat, (0.5, 0.5, 1)). A non-finite gradient is an event of the guard
+ *      below (recover, or stop with the last good checkpoint kept and no texture written from
+ *      the bad state).
+ * Guard (mf_optim.h): after the loss of an iteration is known and again after the Adam step, the
+ * run checks for (a) a non-finite loss, (b) divergence: the loss above div_factor (default 4) x
+ * its running minimum for div_patience (default 10) iterations in a row, (c) a non-finite
+ * gradient, value or Adam moment (a gradient beyond ~1.8e19 overflows the second moment to +Inf).
+ * On any of them it restores the last good state (values, moments and Adam's step count of the
+ * iteration with the lowest loss so far, or the starting state), multiplies the learning rate by
+ * MF_RECON_RECOVERY_LR (0.1) from then on, logs a warning and records {iter, reason, lr_scale}
+ * (mf_recon_recoveries; mf recon writes them into run.json). After max_recoveries (default 4)
+ * the next event stops the run with an error naming it; checkpoints already written are kept
+ * and the in-memory state returns to the last good one (nothing is written from the bad one).
+ * Normal runs stay far from the threshold (tiny scenes: loss at most 4.4x the running minimum,
+ * above 4x for 1 iteration in a row). A checkpoint is never written with a non-finite value, and
+ * a checkpoint holding one is refused on resume, naming the tensor ("kd.v[12] = inf"). The
+ * learning-rate scale and the running minimum are stored in the checkpoint, so a resumed run
+ * goes on with them.
  * Parameter blocks are kept in an array (MF_BLOCK_*) so a geometry block can join later
  * without changing the loop. Determinism: every random choice derives from (seed, iteration,
  * view), so a run resumed from a checkpoint reaches the same bytes as an uninterrupted run
@@ -76,6 +92,9 @@ typedef struct {
     int denoise;          /* 1: bilateral denoiser of the demodulated light (mf_denoise.h) */
     float denoise_sigma;  /* its spatial sigma in pixels (nvdiffrecmc: 2, 23x23 window) */
     int denoise_decorrelate; /* 1: kd's adjoint uses the denoised light of an independent render */
+    float div_factor;     /* divergence: loss above div_factor x its running minimum ... */
+    int div_patience;     /* ... for div_patience iterations in a row (see "Guard" above) */
+    int max_recoveries;   /* recoveries before the run stops with an error (0: stop at once) */
     int snapshot_every;   /* 0: none */
     int checkpoint_every; /* 0: only at the end */
     uint64_t seed;
@@ -107,6 +126,38 @@ int mf_recon_load_checkpoint(MfRecon *r, const char *path);
 int mf_recon_run(MfRecon *r, const MfReconHook *hook, const char *out_dir);
 /* Writes albedo.png, orm.png (normal.png), env.exr, mesh.obj (+mtl), scene.glb into dir. */
 int mf_recon_write_result(const MfRecon *r, const char *dir);
+
+/* Exposure (mf_recon_new): the views' mean linear radiance over pixels with alpha > 0.5, m, sets
+ * the working scale E = 2^round(log2(m / MF_RECON_EXPOSURE_REF)); the loop works on the views
+ * divided by E, so init_light, the env's 0.01 floor and Adam's absolute steps are relative to
+ * the images' level (within half a stop of MF_RECON_EXPOSURE_REF) instead of absolute. env.exr
+ * (and snapshots) are written multiplied by E, in the views' units; the env block, the env map
+ * of mf_recon_env and the checkpoint hold the working units. A power of two divides exactly, so
+ * float views scaled by 2^k give the same optimisation bit for bit, and views already near the
+ * reference level (E = 1) are not changed at all. Black views: E = 1. The reference 0.25 is the
+ * level the default start renders at (albedo 0.5 under light 0.5 gives a diffuse surface about
+ * 0.25); measured means: tiny/000_cup 0.20 (E = 1), tiny/001_vase 0.68 (E = 2), tiny/002_bottle
+ * 0.050 (E = 1/4), the sphere of tests/test_inverse_recon.c 0.33 (E = 1). */
+#define MF_RECON_EXPOSURE_REF 0.25f
+/* E for views (their ref images); mean (may be NULL) receives m. */
+float mf_recon_exposure_of(const MfReconView *views, int nviews, double *mean);
+/* E of this run. */
+float mf_recon_exposure(const MfRecon *r);
+
+/* Learning-rate multiplier after each recovery (see "Guard"). */
+#define MF_RECON_RECOVERY_LR 0.1f
+
+/* One recovery of the guard. */
+typedef struct {
+    int iter;         /* the iteration whose check failed (0-based, as the hook's it) */
+    char reason[192]; /* e.g. "loss 12.3 above 4 x its running minimum 0.031 for 10 iterations" */
+    float lr_scale;   /* learning-rate multiplier from then on */
+} MfReconRecovery;
+
+/* The recoveries of this process's run (borrowed; n receives their count; at most 64 kept). */
+const MfReconRecovery *mf_recon_recoveries(const MfRecon *r, int *n);
+/* The current learning-rate multiplier (1 until a recovery; restored from a checkpoint). */
+float mf_recon_lr_scale(const MfRecon *r);
 
 /* Accessors for hooks and tests. */
 int mf_recon_iteration(const MfRecon *r);

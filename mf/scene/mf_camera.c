@@ -6,7 +6,7 @@
 
 int mf_camera_init(MfCamera *cam, int w, int h, double camera_angle_x, const double c2w[16], const char *what) {
     if (w <= 0 || h <= 0) return mf_fail(MF_EARG, "%s: image size %dx%d is invalid", what, w, h);
-    if (!(camera_angle_x > 1e-4 && camera_angle_x < 3.1)) return mf_fail(MF_EARG, "%s: camera_angle_x %g is outside (0, pi)", what, camera_angle_x);
+    if (!(camera_angle_x > 1e-4 && camera_angle_x < 3.1)) return mf_fail(MF_EARG, "%s: camera_angle_x %g rad is outside (1e-4, 3.1) rad", what, camera_angle_x);
     for (int i = 0; i < 16; ++i)
         if (!isfinite(c2w[i])) return mf_fail(MF_EARG, "%s: transform_matrix has a non-finite entry", what);
     /* Rigid: columns of the 3x3 part orthonormal, last row (0,0,0,1). */

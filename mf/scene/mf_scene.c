@@ -1,5 +1,6 @@
 #include "scene/mf_scene.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -116,6 +117,14 @@ static int parse_env(Ctx *c, const cJSON *e) {
     if ((rc = resolve(c->file, rel, p, sizeof p))) return rc;
     MfImage img;
     if ((rc = mf_image_read(p, MF_ENC_LINEAR, &img))) return mf_fail_prefix(rc, "%s: env.file", c->file);
+    /* an overflow is the strength's doing: say so, with the largest strength this map allows */
+    float peak = 0.0f;
+    for (size_t i = 0; i < (size_t)img.w * img.h * img.c; ++i) peak = fmaxf(peak, img.data[i]);
+    if (strength > 0.0 && (double)peak * strength > (double)FLT_MAX / 16.0) {
+        mf_image_free(&img);
+        return mf_fail(MF_EARG, "%s: env.strength %g times the brightest texel of %s (%g) exceeds float's range; at most %.3g for this map",
+                       c->file, strength, p, peak, (double)FLT_MAX / 16.0 / peak);
+    }
     for (size_t i = 0; i < (size_t)img.w * img.h * img.c; ++i) img.data[i] *= (float)strength;
     if ((rc = mf_env_init(&c->s->env, &img))) return mf_fail_prefix(rc, "%s: env.file", c->file);
     c->s->has_env = 1;
