@@ -111,6 +111,8 @@ static int parse_env(Ctx *c, const cJSON *e) {
     if (!rc) rc = mf_json_number_opt(c->file, "env", e, "strength", 1.0, &strength);
     if (rc) return rc;
     if (!(strength >= 0.0)) return mf_fail(MF_EFORMAT, "%s: env.strength: must be >= 0", c->file);
+    if (!isfinite(rot)) return mf_fail(MF_EFORMAT, "%s: env.rotation_z_deg: must be finite", c->file);
+    rot = fmod(rot, 360.0); /* exact; 2e40 degrees as a float radian angle was inf */
     char p[MF_PATH_MAX];
     if ((rc = resolve(c->file, rel, p, sizeof p))) return rc;
     MfImage img;
