@@ -11,6 +11,9 @@
 
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
+#include "datasets/ds_load.h"
+#include "eval/ev_eval.h"
+#include "eval/ev_table.h"
 #include "io/mf_image.h"
 #include "io/mf_obj.h"
 #include "scene/mf_camera.h"
@@ -201,4 +204,70 @@ MF_TEST(hostile_env_rotation) {
     CHECK_ERR(mf_env_rotate_z(&e1, NAN), "not finite");
     mf_env_free(&e1);
     mf_env_free(&e2);
+}
+
+/* A w x h image with c channels, every value v (alpha 1), written to path. */
+static void write_flat(const char *path, int w, int h, int c, float v, MfEncoding enc) {
+    MfImage im = {0};
+    mf_image_alloc(&im, w, h, c);
+    for (size_t i = 0; i < (size_t)w * h; ++i)
+        for (int k = 0; k < c; ++k) im.data[i * c + k] = (k == 3) ? 1.0f : v;
+    mf_mkdirs_for(path);
+    mf_image_write(path, &im, enc, strstr(path, ".exr") ? 32 : 8);
+    mf_image_free(&im);
+}
+
+static const char *pj2(const char *a, const char *b) {
+    static char buf[4][MF_PATH_MAX];
+    static int k;
+    char *o = buf[k++ & 3];
+    snprintf(o, MF_PATH_MAX, "%s/%s", a, b);
+    return o;
+}
+
+/* (c) Per-view GT albedo / ORM / relit images smaller than the views were read past their end
+ * by eval (a heap overflow; without ASan a wrong score and exit 0). Now the loader refuses them
+ * naming both files, and eval names the relit file and the view image. */
+MF_TEST(hostile_eval_gt_size) {
+    char scene[512], res[512];
+    snprintf(scene, sizeof scene, "%s", mf_test_path("hostile_gt/scene"));
+    snprintf(res, sizeof res, "%s", mf_test_path("hostile_gt/result"));
+    CHECK_OK(mf_mkdirs(scene));
+    CHECK_OK(mf_mkdirs(res));
+    put(pj2(scene, "transforms_test.json"),
+        "{\"camera_angle_x\": 0.6911, \"frames\": [{\"file_path\": \"./test/r_0\", \"transform_matrix\": "
+        "[[1,0,0,0],[0,1,0,0],[0,0,1,2.5],[0,0,0,1]]}]}");
+    put(pj2(scene, "mesh.obj"), k_quad);
+    write_flat(pj2(scene, "test/r_0.png"), 16, 16, 4, 0.5f, MF_ENC_SRGB);
+    write_flat(pj2(scene, "gt/albedo/r_0.png"), 8, 8, 3, 0.5f, MF_ENC_SRGB);
+    put(pj2(res, "mesh.obj"), k_quad);
+    write_flat(pj2(res, "albedo.png"), 4, 4, 3, 0.5f, MF_ENC_SRGB);
+    write_flat(pj2(res, "orm.png"), 4, 4, 3, 0.5f, MF_ENC_LINEAR);
+
+    DsViews v;
+    CHECK_ERR(ds_load(scene, "test", NULL, &v), "gt/albedo/r_0.png: GT albedo is 8x8, the view image");
+    CHECK_MSG(strstr(mf_error(), "test/r_0.png is 16x16") != NULL, "message: %s", mf_error());
+    EvEvalOpts o = ev_eval_opts_default();
+    o.spp_sqrt = 1;
+    o.pixel_samples = 1;
+    EvTable t;
+    ev_table_init(&t);
+    CHECK_ERR(ev_eval_scene(scene, res, "m", "d", "s", &o, &t, NULL, NULL), "gt/albedo/r_0.png: GT albedo is 8x8");
+    /* ORM GT too small */
+    write_flat(pj2(scene, "gt/albedo/r_0.png"), 16, 16, 3, 0.5f, MF_ENC_SRGB);
+    write_flat(pj2(scene, "gt/orm/r_0.png"), 16, 8, 3, 0.5f, MF_ENC_LINEAR);
+    CHECK_ERR(ev_eval_scene(scene, res, "m", "d", "s", &o, &t, NULL, NULL), "gt/orm/r_0.png: GT ORM is 16x8, the view image");
+    /* relit GT too small */
+    write_flat(pj2(scene, "gt/orm/r_0.png"), 16, 16, 3, 0.5f, MF_ENC_LINEAR);
+    write_flat(pj2(scene, "relight/sky.exr"), 8, 4, 3, 1.0f, MF_ENC_LINEAR);
+    write_flat(pj2(scene, "relight/sky/r_0.exr"), 8, 8, 4, 0.25f, MF_ENC_LINEAR);
+    CHECK_ERR(ev_eval_scene(scene, res, "m", "d", "s", &o, &t, NULL, NULL), "relight/sky/r_0.exr: relit GT is 8x8, the view image");
+    CHECK_MSG(strstr(mf_error(), "test/r_0.png is 16x16") != NULL, "message: %s", mf_error());
+    /* all sizes right: scored */
+    write_flat(pj2(scene, "relight/sky/r_0.exr"), 16, 16, 4, 0.25f, MF_ENC_LINEAR);
+    int ex = 0;
+    CHECK_OK(ev_eval_scene(scene, res, "m", "d", "s", &o, &t, NULL, &ex));
+    CHECK_MSG(ev_table_stat(&t, "m", "d", "relit_psnr").n == 1, "excluded %d, records %zu", ex, t.n);
+    CHECK(ev_table_stat(&t, "m", "d", "albedo_psnr").n == 1);
+    ev_table_free(&t);
 }
