@@ -14,6 +14,7 @@
 #include "datasets/ds_load.h"
 #include "eval/ev_eval.h"
 #include "eval/ev_table.h"
+#include "io/mf_exr.h"
 #include "io/mf_image.h"
 #include "io/mf_obj.h"
 #include "prior/mf_prior.h"
@@ -350,4 +351,119 @@ MF_TEST(hostile_prior_meta) {
     /* the library's own guard, for configurations built in code */
     cfg.dn.heads = 0;
     CHECK_ERR(mf_prior_new(&p, &cfg), "heads 0");
+}
+
+/* Item 2: a path naming a directory where a file is expected was read as a file of LONG_MAX
+ * bytes ("out of memory (9223372036854775807 bytes)"); now every reader refuses it by name. */
+MF_TEST(hostile_directory_as_file) {
+    char dir[512];
+    snprintf(dir, sizeof dir, "%s", mf_test_path("hostile_dirs/looks_like.png"));
+    CHECK_OK(mf_mkdirs(dir));
+    char *d = NULL;
+    size_t len = 0;
+    CHECK_ERR(mf_read_file(dir, &d, &len), "looks_like.png: is a directory, expected a file");
+    MfImage im = {0};
+    CHECK_ERR(mf_image_read(dir, MF_ENC_SRGB, &im), "looks_like.png: is a directory, expected a file");
+    MfExrImage ex = {0};
+    CHECK_ERR(mf_exr_read(dir, &ex), "looks_like.png: is a directory, expected a file");
+    MfMesh m = {0};
+    CHECK_ERR(mf_obj_read(dir, &m), "looks_like.png: is a directory, expected a file");
+    MfScene sc = {0};
+    CHECK_ERR(mf_scene_load(dir, &sc), "is a directory, expected a file");
+    MfPrior *q = NULL;
+    CHECK_ERR(mf_prior_load(dir, &q), "looks_like.png: is a directory, expected a file");
+    CHECK_ERR(mf_input_file(mf_test_path("hostile_dirs/none.png"), NULL), "none.png: no such file");
+    unsigned long long sz = 1;
+    put(mf_test_path("hostile_dirs/empty.txt"), "");
+    CHECK_OK(mf_input_file(mf_test_path("hostile_dirs/empty.txt"), &sz));
+    CHECK(sz == 0);
+
+    if (!getenv("MF_BIN")) MF_SKIP("MF_BIN not set");
+    char args[4096], err[4096], out[1024];
+    snprintf(out, sizeof out, "%s", mf_test_path("hostile_dirs/out"));
+    const char *cmds[][2] = {
+        {"metrics %s %s", "looks_like.png: is a directory, expected a file"},
+        {"render %s -o %s", "looks_like.png: is a directory, expected a file"},
+        {"prior %s -o %s", "looks_like.png: is a directory, expected a file"},
+    };
+    for (int k = 0; k < 3; ++k) {
+        snprintf(args, sizeof args, cmds[k][0], dir, out);
+        int rc = run_mf(args, err, sizeof err);
+        CHECK_MSG(rc == 1, "mf %s: exit %d (expected 1): %s", args, rc, err);
+        CHECK_MSG(strstr(err, cmds[k][1]) && !strstr(err, "out of memory"), "mf %s: message %s", args, err);
+        CHECK(count_files(out) == 0);
+    }
+}
+
+/* CRC-32 as PNG chunks use it (ISO 3309, reflected 0xEDB88320). */
+static uint32_t crc32_png(const unsigned char *p, size_t n) {
+    uint32_t c = 0xFFFFFFFFu;
+    for (size_t i = 0; i < n; ++i) {
+        c ^= p[i];
+        for (int k = 0; k < 8; ++k) c = (c >> 1) ^ (0xEDB88320u & (0u - (c & 1u)));
+    }
+    return c ^ 0xFFFFFFFFu;
+}
+
+/* Reads path, finds the EXR header attribute `name` of type box2i and sets its max corner. */
+static int patch_exr_box(char *buf, size_t len, const char *name, int32_t xmax, int32_t ymax) {
+    char key[64];
+    size_t kl = (size_t)snprintf(key, sizeof key, "%s", name) + 1; /* with the NUL */
+    char *a = memmem(buf, len, key, kl);
+    if (!a || (size_t)(a - buf) + kl + 6 + 4 + 16 > len || memcmp(a + kl, "box2i", 6)) return 0;
+    char *v = a + kl + 6 + 4; /* name\0 type\0 size(4) value: xmin ymin xmax ymax */
+    memcpy(v + 8, &xmax, 4);
+    memcpy(v + 12, &ymax, 4);
+    return 1;
+}
+
+/* Item 2: an EXR of a few KB whose data window asks for gigabytes was allocated before anything
+ * was checked; now the header's size is checked against the file's length first. */
+MF_TEST(hostile_exr_header_size) {
+    const char *good = mf_test_path("hostile_small.exr"), *bad = mf_test_path("hostile_huge_window.exr");
+    MfImage im = {0};
+    CHECK_OK(mf_image_alloc(&im, 16, 16, 2));
+    CHECK_OK(mf_image_write(good, &im, MF_ENC_LINEAR, 32));
+    mf_image_free(&im);
+    char *d = NULL;
+    size_t len = 0;
+    CHECK_OK(mf_read_file(good, &d, &len));
+    if (!d) return;
+    CHECK(len < 16384);
+    /* 30000 x 30000 x 2 channels of float: 7.2 GB */
+    CHECK(patch_exr_box(d, len, "dataWindow", 29999, 29999));
+    CHECK(patch_exr_box(d, len, "displayWindow", 29999, 29999));
+    CHECK_OK(mf_write_file(bad, d, len));
+    free(d);
+    /* OpenImageIO's EXR reader itself stops at the missing chunk table; ours must not allocate first */
+    CHECK_ERR(mf_image_read(bad, MF_ENC_LINEAR, &im), "hostile_huge_window.exr");
+    CHECK(im.data == NULL);
+    MfExrImage ex = {0};
+    CHECK_ERR(mf_exr_read(bad, &ex), "hostile_huge_window.exr: header asks for 30000x30000 x 2 channels (7200000000 bytes");
+    CHECK(ex.data == NULL);
+    /* a PNG whose IHDR (CRC fixed) says 30000 x 30000 RGBA: the OpenImageIO path allocated 14.4 GB
+     * of floats from the header before decoding a row */
+    const char *png = mf_test_path("hostile_small.png"), *bpng = mf_test_path("hostile_huge_ihdr.png");
+    CHECK_OK(mf_image_alloc(&im, 16, 16, 4));
+    CHECK_OK(mf_image_write(png, &im, MF_ENC_SRGB, 8));
+    mf_image_free(&im);
+    CHECK_OK(mf_read_file(png, &d, &len));
+    if (d && len > 33 && !memcmp(d + 12, "IHDR", 4)) {
+        unsigned char *u = (unsigned char *)d;
+        u[16] = 0, u[17] = 0, u[18] = 0x75, u[19] = 0x30; /* width 30000, big-endian */
+        u[20] = 0, u[21] = 0, u[22] = 0x75, u[23] = 0x30;
+        uint32_t crc = crc32_png(u + 12, 17);
+        u[29] = (unsigned char)(crc >> 24), u[30] = (unsigned char)(crc >> 16), u[31] = (unsigned char)(crc >> 8), u[32] = (unsigned char)crc;
+        CHECK_OK(mf_write_file(bpng, d, len));
+        CHECK_ERR(mf_image_read(bpng, MF_ENC_SRGB, &im), "hostile_huge_ihdr.png: header asks for 30000x30000 x 4 channels");
+        CHECK(im.data == NULL);
+    } else {
+        CHECK_MSG(0, "%s: not a PNG with IHDR first", png);
+    }
+    free(d);
+    /* the limit itself: floor for small files, proportional above */
+    CHECK(mf_image_decode_limit(100) == MF_IMAGE_DECODE_FLOOR);
+    CHECK(mf_image_decode_limit(1ull << 20) == (1ull << 20) * MF_IMAGE_DECODE_RATIO);
+    CHECK_OK(mf_image_check_decode("x.png", 4096, 4096, 4, 300000)); /* 256 MiB from 300 KB: ratio 895 */
+    CHECK_ERR(mf_image_check_decode("x.png", 4096, 4096, 4, 3000), "x.png: header asks for 4096x4096 x 4 channels");
 }

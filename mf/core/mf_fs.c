@@ -2,6 +2,7 @@
 #include "mf_fs.h"
 
 #include <ctype.h>
+#include <limits.h>
 #include <errno.h>
 #include <stdatomic.h>
 #include <stdio.h>
@@ -72,13 +73,32 @@ int mf_file_exists(const char *path) {
     return stat(path, &st) == 0;
 }
 
+static int check_stat(const char *path, const struct stat *st, unsigned long long *size) {
+    if (S_ISDIR(st->st_mode)) return mf_fail(MF_EIO, "%s: is a directory, expected a file", path);
+    if (!S_ISREG(st->st_mode)) return mf_fail(MF_EIO, "%s: is not a regular file", path);
+    if (size) *size = (unsigned long long)st->st_size;
+    return MF_OK;
+}
+
+int mf_input_file(const char *path, unsigned long long *size) {
+    struct stat st;
+    if (stat(path, &st) != 0) {
+        if (errno == ENOENT) return mf_fail(MF_EIO, "%s: no such file", path);
+        return mf_fail(MF_EIO, "%s: cannot open: %s", path, strerror(errno));
+    }
+    return check_stat(path, &st, size);
+}
+
 int mf_read_file(const char *path, char **data, size_t *len) {
     FILE *f = fopen(path, "rb");
     if (!f) return mf_fail(MF_EIO, "%s: cannot open: %s", path, strerror(errno));
-    if (fseek(f, 0, SEEK_END) != 0) { fclose(f); return mf_fail(MF_EIO, "%s: cannot seek", path); }
-    long sz = ftell(f);
-    if (sz < 0) { fclose(f); return mf_fail(MF_EIO, "%s: cannot tell size", path); }
-    rewind(f);
+    /* a directory opens fine on Linux and "seeks" to LONG_MAX: check what was opened */
+    struct stat st;
+    unsigned long long usz = 0;
+    int rc = fstat(fileno(f), &st) != 0 ? mf_fail(MF_EIO, "%s: cannot stat: %s", path, strerror(errno)) : check_stat(path, &st, &usz);
+    if (rc) { fclose(f); return rc; }
+    if (usz > (unsigned long long)LONG_MAX - 1) { fclose(f); return mf_fail(MF_EIO, "%s: too large (%llu bytes)", path, usz); }
+    long sz = (long)usz;
     char *buf = malloc((size_t)sz + 1);
     if (!buf) { fclose(f); return mf_fail(MF_ENOMEM, "%s: out of memory (%ld bytes)", path, sz); }
     size_t got = fread(buf, 1, (size_t)sz, f);

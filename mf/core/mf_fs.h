@@ -22,7 +22,12 @@ int mf_mkdirs(const char *dir);
 /* mkdir -p of the directory part of a file path. */
 int mf_mkdirs_for(const char *path);
 int mf_file_exists(const char *path);
-/* Reads a whole file into a NUL-terminated heap buffer (*len excludes the NUL). */
+/* Checks that path names a regular file to read (the one place that refuses a directory where a
+ * file is expected: "x: is a directory, expected a file"; "x: no such file"); *size (may be NULL)
+ * receives its length in bytes. Every reader calls it before opening. */
+int mf_input_file(const char *path, unsigned long long *size);
+/* Reads a whole file into a NUL-terminated heap buffer (*len excludes the NUL); refuses what
+ * mf_input_file refuses. */
 int mf_read_file(const char *path, char **data, size_t *len);
 /* Writes a buffer atomically (tmp + rename). */
 int mf_write_file(const char *path, const void *data, size_t len);

@@ -14,8 +14,8 @@ static void set_err(char *err, size_t cap, const std::string &msg) {
     std::snprintf(err, cap, "%s", msg.empty() ? "unknown OpenImageIO error" : msg.c_str());
 }
 
-extern "C" int mf_oiio_read(const char *path, int *w, int *h, int *c, int *is_int, int *alpha_channel,
-                            float **data, char *err, size_t errcap) {
+extern "C" int mf_oiio_read(const char *path, unsigned long long max_bytes, int *w, int *h, int *c, int *is_int,
+                            int *alpha_channel, float **data, char *err, size_t errcap) {
     ImageSpec config;
     config.attribute("oiio:UnassociatedAlpha", 1);
     auto in = ImageInput::open(path, &config);
@@ -27,6 +27,14 @@ extern "C" int mf_oiio_read(const char *path, int *w, int *h, int *c, int *is_in
     if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || spec.depth > 1) {
         set_err(err, errcap, "unsupported image dimensions");
         return -1;
+    }
+    unsigned long long px = (unsigned long long)spec.width * (unsigned long long)spec.height;
+    if (px > (1ull << 28) || px * (unsigned long long)spec.nchannels * 4ull > max_bytes) {
+        char msg[256];
+        std::snprintf(msg, sizeof msg, "header asks for %dx%d x %d channels (%llu bytes decoded), more than the limit of %llu bytes",
+                      spec.width, spec.height, spec.nchannels, px * (unsigned long long)spec.nchannels * 4ull, max_bytes);
+        set_err(err, errcap, msg);
+        return -2;
     }
     size_t n = (size_t)spec.width * spec.height * spec.nchannels;
     float *buf = (float *)std::malloc(n * sizeof(float));

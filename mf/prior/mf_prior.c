@@ -143,6 +143,8 @@ int mf_prior_save(const MfPrior *p, const char *path, const char *extra_json) {
 #define EXPECT "expected prior weights: an MFCK version 1 checkpoint with mf-prior format 1, written by `mf train-prior`"
 
 int mf_prior_read_meta(const char *path, char **meta) {
+    int rc0 = mf_file_exists(path) ? mf_input_file(path, NULL) : MF_OK; /* a directory: refused by name */
+    if (rc0) return rc0;
     FILE *f = fopen(path, "rb");
     if (!f) return mf_fail(MF_EIO, "%s: cannot open prior weights (%s)", path, EXPECT);
     unsigned char h[16];
