@@ -467,3 +467,59 @@ MF_TEST(hostile_exr_header_size) {
     CHECK_OK(mf_image_check_decode("x.png", 4096, 4096, 4, 300000)); /* 256 MiB from 300 KB: ratio 895 */
     CHECK_ERR(mf_image_check_decode("x.png", 4096, 4096, 4, 3000), "x.png: header asks for 4096x4096 x 4 channels");
 }
+
+/* Item 3: two frames whose file_path share a base name wrote the same output file, the second
+ * silently replacing the first; now `mf render` and `mf relight` refuse them before writing. */
+MF_TEST(hostile_duplicate_output_names) {
+    char dir[512], out[1024], args[4096], err[4096];
+    snprintf(dir, sizeof dir, "%s", mf_test_path("hostile_dup"));
+    CHECK_OK(mf_mkdirs(dir));
+    const char *cams =
+        "{\"camera_angle_x\": 0.6911, \"frames\": ["
+        "{\"file_path\": \"./a/r_0\", \"transform_matrix\": [[1,0,0,0],[0,1,0,0],[0,0,1,2.5],[0,0,0,1]]},"
+        "{\"file_path\": \"./b/r_1\", \"transform_matrix\": [[1,0,0,0],[0,1,0,0],[0,0,1,3],[0,0,0,1]]},"
+        "{\"file_path\": \"./b/r_0.png\", \"transform_matrix\": [[1,0,0,0],[0,1,0,0],[0,0,1,3.5],[0,0,0,1]]}]}";
+    put(pj2(dir, "dup_cams.json"), cams);
+    put(pj2(dir, "quad.obj"), k_quad);
+    char buf[2048];
+    snprintf(buf, sizeof buf, k_scene_fmt, "quad.obj", "dup_cams.json");
+    put(pj2(dir, "dup.json"), buf);
+    MfScene sc = {0};
+    CHECK_ERR(mf_scene_load(pj2(dir, "dup.json"), &sc), "dup_cams.json: frames[0] and frames[2] both name the output 'r_0'");
+    mf_scene_free(&sc);
+    const char *names[3] = {"x", "y", "z"};
+    char nm[3][8] = {"x", "y", "x"};
+    int i = -1, j = -1;
+    CHECK(!mf_find_duplicate_name(names[0], 0, 1, &i, &j));
+    CHECK(mf_find_duplicate_name(nm[0], sizeof nm[0], 3, &i, &j) && i == 0 && j == 2);
+    CHECK(!mf_find_duplicate_name(nm[0], sizeof nm[0], 2, &i, &j));
+
+    if (!getenv("MF_BIN")) MF_SKIP("MF_BIN not set");
+    snprintf(out, sizeof out, "%s/out", dir);
+    snprintf(args, sizeof args, "render %s -o %s --png", pj2(dir, "dup.json"), out);
+    int rc = run_mf(args, err, sizeof err);
+    CHECK_MSG(rc == 1, "mf render with duplicate names: exit %d: %s", rc, err);
+    CHECK_MSG(strstr(err, "frames[0] and frames[2] both name the output 'r_0'"), "message: %s", err);
+    CHECK(count_files(out) == 0);
+    /* mf relight: a result folder and an env map */
+    char res[1024];
+    snprintf(res, sizeof res, "%s/result", dir);
+    CHECK_OK(mf_mkdirs(res));
+    put(pj2(res, "mesh.obj"), k_quad);
+    write_flat(pj2(res, "albedo.png"), 4, 4, 3, 0.5f, MF_ENC_SRGB);
+    write_flat(pj2(res, "orm.png"), 4, 4, 3, 0.5f, MF_ENC_LINEAR);
+    write_flat(pj2(dir, "sky.exr"), 8, 4, 3, 1.0f, MF_ENC_LINEAR);
+    snprintf(args, sizeof args, "relight %s --env %s --cameras %s -o %s --width 8 --spp 1 --pixel-samples 1", res,
+             pj2(dir, "sky.exr"), pj2(dir, "dup_cams.json"), out);
+    rc = run_mf(args, err, sizeof err);
+    CHECK_MSG(rc == 1, "mf relight with duplicate names: exit %d: %s", rc, err);
+    CHECK_MSG(strstr(err, "dup_cams.json: frames[0] and frames[2] both name the output 'r_0'"), "message: %s", err);
+    CHECK(count_files(out) == 0);
+    /* distinct names: both commands write every view */
+    put(pj2(dir, "dup_cams.json"), "{\"camera_angle_x\": 0.6911, \"frames\": ["
+        "{\"file_path\": \"./a/r_0\", \"transform_matrix\": [[1,0,0,0],[0,1,0,0],[0,0,1,2.5],[0,0,0,1]]},"
+        "{\"file_path\": \"./b/r_1\", \"transform_matrix\": [[1,0,0,0],[0,1,0,0],[0,0,1,3],[0,0,0,1]]}]}");
+    rc = run_mf(args, err, sizeof err);
+    CHECK_MSG(rc == 0, "mf relight: exit %d: %s", rc, err);
+    CHECK(count_files(out) == 2);
+}

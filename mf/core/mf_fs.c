@@ -122,6 +122,16 @@ int mf_write_file(const char *path, const void *data, size_t len) {
     return mf_commit_file(tmp, path);
 }
 
+int mf_find_duplicate_name(const char *first, size_t stride, int n, int *i, int *j) {
+    for (int b = 1; b < n; ++b)
+        for (int a = 0; a < b; ++a)
+            if (!strcmp(first + (size_t)a * stride, first + (size_t)b * stride)) {
+                *i = a, *j = b;
+                return 1;
+            }
+    return 0;
+}
+
 int mf_path_join(char *out, size_t cap, const char *a, const char *b) {
     size_t la = strlen(a);
     int w = (la == 0 || a[la - 1] == '/') ? snprintf(out, cap, "%s%s", a, b) : snprintf(out, cap, "%s/%s", a, b);

@@ -31,6 +31,10 @@ int mf_input_file(const char *path, unsigned long long *size);
 int mf_read_file(const char *path, char **data, size_t *len);
 /* Writes a buffer atomically (tmp + rename). */
 int mf_write_file(const char *path, const void *data, size_t len);
+/* Duplicate output names, found before anything is written: n NUL-terminated names laid out
+ * `stride` bytes apart from `first` (an array of structs or of char[N]); returns 1 with the first
+ * pair *i < *j of equal names, 0 when all differ. */
+int mf_find_duplicate_name(const char *first, size_t stride, int n, int *i, int *j);
 /* Joins a and b with '/' into out; returns MF_EARG if it does not fit. */
 int mf_path_join(char *out, size_t cap, const char *a, const char *b);
 /* Extension of path in lower case without the dot ("" if none), written to ext (cap >= 8). */

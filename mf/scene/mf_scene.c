@@ -226,6 +226,10 @@ static int parse_cameras(Ctx *c, const cJSON *root) {
         }
         c->s->nviews = k + 1;
     }
+    int di, dj;
+    if (!rc && mf_find_duplicate_name(c->s->views[0].name, sizeof c->s->views[0], c->s->nviews, &di, &dj))
+        rc = mf_fail(MF_EFORMAT, "%s: %sframes[%d] and %sframes[%d] both name the output '%s' (their files would overwrite each other: give them distinct file_path base names)",
+                     file, prefix, di, prefix, dj, c->s->views[di].name);
     if (own) cJSON_Delete(own);
     return rc;
 }
