@@ -8,6 +8,7 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
@@ -522,4 +523,74 @@ MF_TEST(hostile_duplicate_output_names) {
     rc = run_mf(args, err, sizeof err);
     CHECK_MSG(rc == 0, "mf relight: exit %d: %s", rc, err);
     CHECK(count_files(out) == 2);
+}
+
+/* A pid that is not running: a child that has exited and been reaped. */
+static long dead_pid(void) {
+    pid_t c = fork();
+    if (c == 0) _exit(0);
+    int st;
+    waitpid(c, &st, 0);
+    return (long)c;
+}
+
+/* Item 3: a killed run left hidden temporaries (".albedo.tmp1234_0.png") that neither a fresh run
+ * nor --resume reused or removed; now runs remove those of dead processes on start. */
+MF_TEST(hostile_stale_temporaries) {
+    char tmp[MF_PATH_MAX];
+    CHECK_OK(mf_tmp_path("res/snapshots/albedo.png", tmp, sizeof tmp));
+    long pid = 0;
+    CHECK(mf_is_tmp_name(strrchr(tmp, '/') + 1, &pid) && pid == (long)getpid());
+    CHECK_OK(mf_tmp_path("res/log", tmp, sizeof tmp));
+    CHECK(mf_is_tmp_name(strrchr(tmp, '/') + 1, NULL));
+    CHECK(mf_is_tmp_name(".a.tmp.b.tmp12_3.exr", &pid) && pid == 12);
+    CHECK(!mf_is_tmp_name("albedo.tmp12_3.png", NULL));   /* not hidden */
+    CHECK(!mf_is_tmp_name(".albedo.tmp12.png", NULL));    /* no counter */
+    CHECK(!mf_is_tmp_name(".albedo.tmpx_3.png", NULL));
+    CHECK(!mf_is_tmp_name(".albedo.tmp12_3.png.bak", NULL));
+    CHECK(!mf_is_tmp_name(".notes.txt", NULL));
+
+    char dir[512], p[2048];
+    snprintf(dir, sizeof dir, "%s", mf_test_path("hostile_stale"));
+    CHECK_OK(mf_mkdirs(pj2(dir, "snapshots/iter_00010")));
+    long dead = dead_pid();
+    char stale1[2048], stale2[2048], live[1024], own[1024];
+    snprintf(stale1, sizeof stale1, "%s/.albedo.tmp%ld_0.png", dir, dead);
+    snprintf(stale2, sizeof stale2, "%s/snapshots/iter_00010/.env.tmp%ld_7.exr", dir, dead);
+    snprintf(live, sizeof live, "%s/.orm.tmp%ld_1.png", dir, (long)getppid());
+    snprintf(own, sizeof own, "%s/.kd.tmp%ld_1.png", dir, (long)getpid());
+    put(stale1, "x"), put(stale2, "x"), put(live, "x"), put(own, "x");
+    put(pj2(dir, ".user_notes.txt"), "keep");
+    int removed = 0;
+    CHECK_OK(mf_remove_stale_tmp(dir, 0, &removed));
+    CHECK(removed == 1 && !mf_file_exists(stale1) && mf_file_exists(stale2));
+    CHECK_OK(mf_remove_stale_tmp(dir, 3, &removed));
+    CHECK(removed == 2 && !mf_file_exists(stale2));
+    CHECK(mf_file_exists(live) && mf_file_exists(own) && mf_file_exists(pj2(dir, ".user_notes.txt")));
+    CHECK_OK(mf_remove_stale_tmp(pj2(dir, "missing"), 3, NULL));
+    remove(live), remove(own);
+
+    if (!getenv("MF_BIN")) MF_SKIP("MF_BIN not set");
+    /* mf recon --resume on a result folder holding a killed run's temporaries */
+    char data[1024], out[1024], args[4096], err[4096];
+    snprintf(data, sizeof data, "%s/data", dir);
+    snprintf(out, sizeof out, "%s/out", dir);
+    CHECK_OK(mf_mkdirs(pj2(out, "snapshots/iter_00000")));
+    CHECK_OK(mf_mkdirs(data));
+    put(pj2(data, "mesh.obj"), k_quad);
+    put(pj2(data, "transforms_train.json"),
+        "{\"camera_angle_x\": 0.6911, \"frames\": [{\"file_path\": \"./train/r_0\", \"transform_matrix\": "
+        "[[1,0,0,0],[0,1,0,0],[0,0,1,2.5],[0,0,0,1]]}]}");
+    write_flat(pj2(data, "train/r_0.png"), 16, 16, 4, 0.5f, MF_ENC_SRGB);
+    snprintf(stale1, sizeof stale1, "%s/.albedo.tmp%ld_0.png", out, dead);
+    snprintf(stale2, sizeof stale2, "%s/snapshots/iter_00000/.env.tmp%ld_3.exr", out, dead);
+    put(stale1, "partial"), put(stale2, "partial");
+    snprintf(p, sizeof p, "%s/.keep.txt", out);
+    put(p, "user file");
+    snprintf(args, sizeof args, "recon %s -o %s --iters 2 --tex-res 16 --env-w 8 --env-h 4 --resume", data, out);
+    int rc = run_mf(args, err, sizeof err);
+    CHECK_MSG(rc == 0, "mf recon --resume: exit %d: %s", rc, err);
+    CHECK_MSG(!mf_file_exists(stale1) && !mf_file_exists(stale2), "stale temporaries survived mf recon --resume");
+    CHECK(mf_file_exists(p));
+    CHECK(mf_file_exists(pj2(out, "albedo.png")) && mf_file_exists(pj2(out, "env.exr")));
 }

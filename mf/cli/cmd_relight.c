@@ -89,6 +89,7 @@ static int cmd_relight(int argc, char **argv) {
         rc = mf_fail(MF_EFORMAT, "%s: frames[%d] and frames[%d] both name the output '%s' (their files would overwrite each other: give them distinct file_path base names)",
                      cams, di, dj, fs[di].name);
     if (!rc) rc = mf_mkdirs(out);
+    if (!rc) rc = mf_remove_stale_tmp(out, 0, NULL); /* left by an interrupted run */
     for (int k = 0; k < nf && !rc; ++k) {
         char what[MF_PATH_MAX + 64], path[MF_PATH_MAX];
         MfRenderOut o;

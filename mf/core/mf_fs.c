@@ -2,8 +2,10 @@
 #include "mf_fs.h"
 
 #include <ctype.h>
+#include <dirent.h>
 #include <limits.h>
 #include <errno.h>
+#include <signal.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -26,6 +28,48 @@ int mf_tmp_path(const char *path, char *out, size_t cap) {
                      (long)getpid(), n, dot ? dot : "");
     if (w < 0 || (size_t)w >= cap) return mf_fail(MF_EARG, "%s: path too long", path);
     return MF_OK;
+}
+
+int mf_is_tmp_name(const char *name, long *pid) {
+    if (name[0] != '.') return 0;
+    /* the stem may itself hold ".tmp": try every occurrence */
+    for (const char *t = strstr(name + 1, ".tmp"); t; t = strstr(t + 1, ".tmp")) {
+        if (t == name + 1) continue; /* empty stem: mf_tmp_path never writes it */
+        const char *p = t + 4, *d0 = p;
+        while (isdigit((unsigned char)*p)) ++p;
+        if (p == d0 || *p != '_') continue;
+        const char *n0 = ++p;
+        while (isdigit((unsigned char)*p)) ++p;
+        if (p == n0 || (*p != '\0' && *p != '.')) continue;
+        if (*p == '.' && strchr(p + 1, '.')) continue; /* one extension at most */
+        if (pid) *pid = strtol(d0, NULL, 10);
+        return 1;
+    }
+    return 0;
+}
+
+int mf_remove_stale_tmp(const char *dir, int depth, int *removed) {
+    DIR *d = opendir(dir);
+    if (!d) return errno == ENOENT || errno == ENOTDIR ? MF_OK : mf_fail(MF_EIO, "%s: cannot list: %s", dir, strerror(errno));
+    int rc = MF_OK;
+    for (struct dirent *e; rc == MF_OK && (e = readdir(d));) {
+        if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, "..")) continue;
+        char p[MF_PATH_MAX];
+        if (mf_path_join(p, sizeof p, dir, e->d_name)) continue;
+        struct stat st;
+        if (lstat(p, &st) != 0) continue;
+        if (S_ISDIR(st.st_mode)) {
+            if (depth > 0) rc = mf_remove_stale_tmp(p, depth - 1, removed);
+            continue;
+        }
+        long pid = 0;
+        if (!S_ISREG(st.st_mode) || !mf_is_tmp_name(e->d_name, &pid)) continue;
+        if (pid == (long)getpid() || (pid > 0 && (kill((pid_t)pid, 0) == 0 || errno == EPERM))) continue; /* live */
+        if (remove(p) != 0) rc = mf_fail(MF_EIO, "%s: cannot remove a stale temporary file: %s", p, strerror(errno));
+        else if (removed) ++*removed;
+    }
+    closedir(d);
+    return rc;
 }
 
 int mf_commit_file(const char *tmp, const char *path) {

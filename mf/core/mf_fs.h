@@ -14,6 +14,14 @@
 /* "dir/.name.tmp.PID.N" beside path, keeping path's extension last so writers that pick a
  * format from the extension still work ("a/b.png" -> "a/.b.tmp123_0.png"). */
 int mf_tmp_path(const char *path, char *out, size_t cap);
+/* 1 when name (a file name, no folder) has the form mf_tmp_path gives: ".stem.tmpPID_N[.ext]";
+ * *pid (may be NULL) receives PID. */
+int mf_is_tmp_name(const char *name, long *pid);
+/* Removes the temporaries of our own naming (mf_is_tmp_name) that a killed run left in dir and,
+ * with depth > 0, its subfolders down to that depth (symbolic links are not followed). A file
+ * whose PID is a live process, this one included, is kept: it may be another run's file in
+ * progress. *removed (may be NULL) counts the files removed. A missing dir is not an error. */
+int mf_remove_stale_tmp(const char *dir, int depth, int *removed);
 /* rename(tmp, path); on failure removes tmp and sets the error. */
 int mf_commit_file(const char *tmp, const char *path);
 void mf_discard_file(const char *tmp);
