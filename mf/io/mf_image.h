@@ -45,7 +45,8 @@ unsigned long long mf_image_decode_limit(unsigned long long file_bytes);
  * naming path and both sizes. */
 int mf_image_check_decode(const char *path, long long w, long long h, long long c, unsigned long long file_bytes);
 /* Writes by extension: .png (bits 8 or 16), .jpg (8), .exr (bits 16 = half, 32 = float),
- * .hdr. Values are clamped to [0,1] only for integer formats. */
+ * .hdr. Values are clamped to [0,1] only for integer formats. The same image gives the same
+ * bytes whenever it is written (no date or time in the header). */
 int mf_image_write(const char *path, const MfImage *img, MfEncoding enc, int bits);
 
 #endif

@@ -81,7 +81,12 @@ extern "C" int mf_oiio_write(const char *path, int w, int h, int c, const float 
     if (c == 4) spec.alpha_channel = 3;
     if (c == 2) spec.alpha_channel = 1;
     spec.attribute("oiio:UnassociatedAlpha", 1);
-    if (fmt == "openexr") spec.attribute("compression", "zip");
+    if (fmt == "openexr") {
+        spec.attribute("compression", "zip");
+        /* OpenImageIO stamps the time of writing into the EXR header (capDate) unless DateTime is
+         * given: an empty one keeps identical runs byte-identical (env.exr of mf recon) */
+        spec.attribute("DateTime", "");
+    }
     if (!out->open(path, spec)) {
         set_err(err, errcap, out->geterror());
         return -1;
