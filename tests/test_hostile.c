@@ -624,3 +624,35 @@ MF_TEST(hostile_exr_bytes_reproducible) {
     }
     free(da), free(db);
 }
+
+/* Strengths whose squares overflow float (env strength 1e31 ended in "texel not finite", a sun of
+ * 1e30 in NaN pixels) and far-away point lights are refused by the field that gives them. */
+MF_TEST(hostile_huge_strengths) {
+    char dir[512], buf[2048];
+    snprintf(dir, sizeof dir, "%s", mf_test_path("hostile_strength"));
+    CHECK_OK(mf_mkdirs(dir));
+    write_render_scene(dir, "s", k_quad, "2.5");
+    write_flat(pj2(dir, "env.exr"), 8, 4, 3, 2.0f, MF_ENC_LINEAR);
+    const char *cases[][2] = {
+        {"\"env\": {\"file\": \"env.exr\", \"strength\": 1e31}", "env.strength: 1e+31 is out of range"},
+        {"\"env\": {\"file\": \"env.exr\", \"strength\": 9e17}", "env.strength: 9e+17 times the brightest texel"},
+        {"\"lights\": [{\"type\": \"sun\", \"dir\": [0, 0, 1], \"strength\": 1e30}]", "lights[0].strength: 1e+30 is out of range"},
+        {"\"lights\": [{\"type\": \"point\", \"pos\": [0, 0, 1], \"power\": 1e25}]", "lights[0].power: 1e+25 is out of range"},
+        {"\"lights\": [{\"type\": \"point\", \"pos\": [0, 3e38, 1], \"power\": 1}]", "lights[0].pos: y = 3e+38 is out of range"},
+        {"\"lights\": [{\"type\": \"sun\", \"dir\": [0, 0, 1], \"strength\": 1, \"color\": [1, 1e20, 1]}]", "lights[0].color: 1e+20 is out of range"},
+    };
+    for (int k = 0; k < 6; ++k) {
+        snprintf(buf, sizeof buf, "{\"mesh\": \"s.obj\", %s, \"cameras\": \"s_cams.json\", \"width\": 8, \"height\": 8}\n", cases[k][0]);
+        put(pj2(dir, "strength.json"), buf);
+        MfScene sc = {0};
+        CHECK_ERR(mf_scene_load(pj2(dir, "strength.json"), &sc), cases[k][1]);
+        mf_scene_free(&sc);
+    }
+    /* in range: loads */
+    snprintf(buf, sizeof buf, "{\"mesh\": \"s.obj\", \"env\": {\"file\": \"env.exr\", \"strength\": 1e3}, \"lights\": [{\"type\": \"sun\", "
+             "\"dir\": [0, 0, 1], \"strength\": 1e6}], \"cameras\": \"s_cams.json\", \"width\": 8, \"height\": 8}\n");
+    put(pj2(dir, "strength.json"), buf);
+    MfScene sc = {0};
+    CHECK_OK(mf_scene_load(pj2(dir, "strength.json"), &sc));
+    mf_scene_free(&sc);
+}

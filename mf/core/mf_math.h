@@ -18,6 +18,10 @@
  * and it is below Embree's own limit on ray origins (FLT_LARGE = 1.844e18: a ray from farther
  * aborts inside Embree with "Assertion ray.valid() failed"). Loaders refuse larger values by name. */
 #define MF_COORD_MAX 1e18
+/* Largest light strength, power, colour factor or scaled env radiance a scene file may give (the
+ * same reasoning: its square stays finite in float); larger ones are refused by name instead of
+ * ending in "texel not finite" or an all-NaN render. */
+#define MF_STRENGTH_MAX 1e18
 
 typedef struct { float x, y, z; } MfVec3;
 typedef struct { float x, y; } MfVec2;
