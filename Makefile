@@ -73,8 +73,17 @@ $(BUILD)/mf: $(CLI_OBJ) $(BUILD)/libmf.a
 $(BUILD)/mf_tests: $(TEST_OBJ) $(BUILD)/libmf.a
 	$(CC) $(LDFLAGS) -o $@ $(TEST_OBJ) $(BUILD)/libmf.a $(LDLIBS)
 
-# The tests find the mf binary through MF_BIN and ../shared through MF_SHARED.
+# The tests find the mf binary through MF_BIN and ../shared through MF_SHARED. The .glb files
+# they write are checked with the Khronos glTF validator when node and the npm package
+# gltf-validator are present (found through NODE_PATH or GLTF_VALIDATOR_MODULES=<dir>/node_modules,
+# e.g. after `npm install gltf-validator` in <dir>); otherwise that check is skipped with a message.
+GLTF_VALIDATOR_MODULES ?=
 test: $(BUILD)/mf $(BUILD)/mf_tests
+	@NODE_PATH="$(GLTF_VALIDATOR_MODULES)$${NODE_PATH:+:$$NODE_PATH}"; export NODE_PATH; \
+	if command -v node >/dev/null 2>&1 && node -e "require('gltf-validator')" >/dev/null 2>&1; then \
+	  export MF_GLTF_VALIDATOR="node $(abspath tests/gltf_validate.js)"; \
+	else echo "gltf-validator: node or the npm package gltf-validator not found; .glb files are not checked by the Khronos validator (see GLTF_VALIDATOR_MODULES in the Makefile)"; fi; \
+	echo MF_BIN=$(abspath $(BUILD)/mf) MF_SHARED=$(abspath ../shared) OMP_NUM_THREADS=$${OMP_NUM_THREADS:-2} ./$(BUILD)/mf_tests $(T); \
 	MF_BIN=$(abspath $(BUILD)/mf) MF_SHARED=$(abspath ../shared) OMP_NUM_THREADS=$${OMP_NUM_THREADS:-2} ./$(BUILD)/mf_tests $(T)
 
 asan: export LSAN_OPTIONS = suppressions=$(abspath tests/lsan.supp):print_suppressions=0

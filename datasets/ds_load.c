@@ -135,17 +135,29 @@ static void free_views(DsView *views, int n) {
 /* Reads optional per-view GT of a bvault scene: gt/albedo/<name>.png (sRGB) and gt/orm/<name>.png
  * (linear); when those are absent but the split's image has a multi-layer EXR beside it
  * (<split>/<name>.exr with albedo.* / orm.* layers, as `mf render` writes), the layers are used. */
+/* A per-view GT image (read from gt_path) must have the view image's size: eval renders the
+ * view's camera and scores the GT pixel by pixel (a smaller GT once overflowed a heap buffer). */
+static int check_gt_size(const MfImage *gt, const char *gt_path, const char *what, const DsView *view) {
+    if (!gt->data || (gt->w == view->rgba.w && gt->h == view->rgba.h)) return MF_OK;
+    return mf_fail(MF_EFORMAT, "%s: %s is %dx%d, the view image %s is %dx%d", gt_path, what, gt->w, gt->h, view->image_path,
+                   view->rgba.w, view->rgba.h);
+}
+
 static int bvault_view_gt(const char *dir, const char *split, DsView *view) {
     char p[MF_PATH_MAX], exr[MF_PATH_MAX];
     int rc;
     if ((rc = joinf(exr, "%s/%s/%s.exr", dir, split, view->name))) return rc;
     int has_exr = mf_file_exists(exr);
     if ((rc = joinf(p, "%s/gt/albedo/%s.png", dir, view->name))) return rc;
-    if (mf_file_exists(p)) { if ((rc = read_image(p, MF_ENC_SRGB, 3, &view->albedo))) return rc; }
-    else if (has_exr && mf_exr_read_layer(exr, "albedo", "RGB", &view->albedo)) mf_error_clear();
+    if (mf_file_exists(p)) {
+        if ((rc = read_image(p, MF_ENC_SRGB, 3, &view->albedo)) || (rc = check_gt_size(&view->albedo, p, "GT albedo", view))) return rc;
+    } else if (has_exr && mf_exr_read_layer(exr, "albedo", "RGB", &view->albedo)) mf_error_clear();
+    else if ((rc = check_gt_size(&view->albedo, exr, "albedo layer", view))) return rc;
     if ((rc = joinf(p, "%s/gt/orm/%s.png", dir, view->name))) return rc;
-    if (mf_file_exists(p)) { if ((rc = read_image(p, MF_ENC_LINEAR, 3, &view->orm))) return rc; }
-    else if (has_exr && mf_exr_read_layer(exr, "orm", "RGB", &view->orm)) mf_error_clear();
+    if (mf_file_exists(p)) {
+        if ((rc = read_image(p, MF_ENC_LINEAR, 3, &view->orm)) || (rc = check_gt_size(&view->orm, p, "GT ORM", view))) return rc;
+    } else if (has_exr && mf_exr_read_layer(exr, "orm", "RGB", &view->orm)) mf_error_clear();
+    else if ((rc = check_gt_size(&view->orm, exr, "orm layer", view))) return rc;
     return MF_OK;
 }
 
@@ -477,9 +489,11 @@ int ds_load_nerfactor(const char *dir, const char *split, const DsLoadOptions *o
         if (!r && o.load_gt) {
             r = join(p, job->base_dir, "albedo.png");
             if (!r && mf_file_exists(p)) r = read_image(p, MF_ENC_LINEAR, 3, &view->albedo);
+            if (!r) r = check_gt_size(&view->albedo, p, "GT albedo", view);
             if (!r) r = join(p, job->base_dir, "normal.png");
             if (!r && mf_file_exists(p)) {
                 r = read_image(p, MF_ENC_LINEAR, 3, &view->normal);
+                if (!r) r = check_gt_size(&view->normal, p, "GT normal map", view);
                 for (size_t k = 0; !r && k < (size_t)view->normal.w * view->normal.h * 3; ++k)
                     view->normal.data[k] = 2.0f * view->normal.data[k] - 1.0f;
             }
@@ -595,13 +609,22 @@ int ds_load(const char *dir, const char *split, const DsLoadOptions *opt, DsView
     }
 }
 
-int ds_load_relit(const DsViews *v, int i, int k, MfImage *out) {
+int ds_relit_path(const DsViews *v, int i, int k, char *out, size_t cap) {
     if (i < 0 || i >= v->n) return mf_fail(MF_EARG, "view %d out of range (%d views)", i, v->n);
     if (k < 0 || k >= v->n_relight) return mf_fail(MF_EARG, "relighting light %d out of range (%d lights)", k, v->n_relight);
+    int n;
+    if (v->format == DS_FMT_BVAULT) n = snprintf(out, cap, "%s/relight/%s/%s.exr", v->dir, v->relight_name[k], v->views[i].name);
+    else if (v->format == DS_FMT_NERFACTOR) n = snprintf(out, cap, "%s/%s/rgba_%s.png", v->dir, v->views[i].name, v->relight_name[k]);
+    else return mf_fail(MF_EARG, "%s: format %s has no relit views", v->dir, ds_format_name(v->format));
+    if (n < 0 || (size_t)n >= cap) return mf_fail(MF_EARG, "%s: path too long", v->dir);
+    return MF_OK;
+}
+
+int ds_load_relit(const DsViews *v, int i, int k, MfImage *out) {
     char p[MF_PATH_MAX];
     int rc;
+    if ((rc = ds_relit_path(v, i, k, p, sizeof p))) return rc;
     if (v->format == DS_FMT_BVAULT) {
-        if ((rc = joinf(p, "%s/relight/%s/%s.exr", v->dir, v->relight_name[k], v->views[i].name))) return rc;
         if (!mf_file_exists(p)) return mf_fail(MF_EIO, "%s: no such file", p);
         MfExrImage ex = {0};
         if ((rc = mf_exr_read(p, &ex))) return rc;
@@ -624,11 +647,7 @@ int ds_load_relit(const DsViews *v, int i, int k, MfImage *out) {
         *out = im;
         return MF_OK;
     }
-    if (v->format == DS_FMT_NERFACTOR) {
-        if ((rc = joinf(p, "%s/%s/rgba_%s.png", v->dir, v->views[i].name, v->relight_name[k]))) return rc;
-        return read_image(p, MF_ENC_SRGB, 4, out);
-    }
-    return mf_fail(MF_EARG, "%s: format %s has no relit views", v->dir, ds_format_name(v->format));
+    return read_image(p, MF_ENC_SRGB, 4, out); /* NeRFactor */
 }
 
 /* Blender lat-long mapping (DESIGN.md). */

@@ -32,6 +32,7 @@
  * Errors name the file and the JSON path: "x/transforms_train.json: frames[2].transform_matrix:
  * missing", "...: expected 4x4 numbers", "x/train/r_3.png: no such file", a truncated PNG
  * ("cannot read image"), "x/train/r_2.png: image is 16x8, the split's first image is 8x8",
+ * "x/gt/albedo/r_1.png: GT albedo is 8x8, the view image x/test/r_1.png is 16x16",
  * NaN in an EXR (named by the image reader). On failure *out is untouched.
  *
  * Loading: the JSON/metadata are parsed and every camera checked first (serial), then images are
@@ -117,6 +118,8 @@ void ds_views_free(DsViews *v);
  * premultiplied by A, the EXR convention `mf render` follows); NeRFactor:
  * <view folder>/rgba_<probe>.png, sRGB decoded, straight alpha. */
 int ds_load_relit(const DsViews *v, int i, int k, MfImage *out);
+/* The file ds_load_relit reads for view i under light k, for messages. */
+int ds_relit_path(const DsViews *v, int i, int k, char *out, size_t cap);
 
 /* Stanford-ORB's ground-truth env maps are lat-long maps in each test view's CAMERA frame,
  * laid out as ORB's own orb/utils/env_map.py reads them: for a camera-frame direction

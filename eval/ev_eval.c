@@ -158,8 +158,11 @@ int ev_eval_scene(const char *scene_dir, const char *result_dir, const char *met
             if ((rc = ds_load_relit(&dv, i, k, &gt))) break;
             rc = mf_render(&in, &dv.views[i].cam, &ro, &out, NULL);
             if (!rc) rc = aov_rgba(out.rgb, out.alpha, out.w, out.h, &pred);
-            if (!rc) {
-                if (gt.w != pred.w || gt.h != pred.h) rc = mf_fail(MF_EFORMAT, "%s: relit GT of %s is %dx%d, the camera %dx%d", scene_dir, dv.views[i].name, gt.w, gt.h, pred.w, pred.h);
+            if (!rc && (gt.w != pred.w || gt.h != pred.h)) {
+                char rp[MF_PATH_MAX];
+                if (ds_relit_path(&dv, i, k, rp, sizeof rp)) snprintf(rp, sizeof rp, "%s", scene_dir);
+                rc = mf_fail(MF_EFORMAT, "%s: relit GT is %dx%d, the view image %s is %dx%d", rp, gt.w, gt.h,
+                             dv.views[i].image_path, pred.w, pred.h);
             }
             if (!rc) {
                 unpremultiply(&gt);
@@ -189,6 +192,13 @@ int ev_eval_scene(const char *scene_dir, const char *result_dir, const char *met
     for (int i = 0; i < dv.n && !rc && !flat && !grey; ++i) { /* trivial guesses: relighting only */
         const DsView *v = &dv.views[i];
         if (!v->albedo.data && !v->orm.data) continue;
+        /* the loaders check this (naming the GT file); a GT that does not match would be read
+         * past its end below */
+        if ((v->albedo.data && (v->albedo.w != v->cam.w || v->albedo.h != v->cam.h)) ||
+            (v->orm.data && (v->orm.w != v->cam.w || v->orm.h != v->cam.h))) {
+            rc = mf_fail(MF_EFORMAT, "%s: per-view GT albedo/ORM size differs from the view's %dx%d", v->image_path, v->cam.w, v->cam.h);
+            break;
+        }
         MfRenderOut out;
         if ((rc = mf_render(&ain, &v->cam, &ao, &out, NULL))) break;
         /* GT mask: the view's alpha */

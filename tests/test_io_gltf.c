@@ -1,5 +1,6 @@
 /* Tests of mf/io/mf_gltf: a small .glb validator (header, chunk alignment and padding, JSON,
- * bufferView/accessor bounds and counts, POSITION min/max, embedded PNG bytes, flipped UVs). */
+ * bufferView/accessor bounds and counts, POSITION min/max, embedded PNG bytes, flipped UVs,
+ * positions and normals rotated from our +Z up to glTF's +Y up). */
 #include <cJSON.h>
 #include <float.h>
 #include <stdint.h>
@@ -122,15 +123,18 @@ MF_TEST(io_gltf_glb_structure) {
             const float *uv = (const float *)(bin + num(cJSON_GetArrayItem(views, num(at, "bufferView", 0)), "byteOffset", 0));
             const float *nrm = (const float *)(bin + num(cJSON_GetArrayItem(views, num(an, "bufferView", 0)), "byteOffset", 0));
             const uint32_t *idx = (const uint32_t *)(bin + num(cJSON_GetArrayItem(views, num(ai, "bufferView", 0)), "byteOffset", 0));
-            CHECK(memcmp(pos, m.pos, 5 * 12) == 0 && memcmp(idx, m.tri, 18 * 4) == 0);
+            /* +Z up (ours) written +Y up (glTF's): (x, y, z) -> (x, z, -y), exactly */
+            CHECK(memcmp(idx, m.tri, 18 * 4) == 0);
+            for (int i = 0; i < 5; ++i)
+                CHECK(pos[3 * i] == m.pos[3 * i] && pos[3 * i + 1] == m.pos[3 * i + 2] && pos[3 * i + 2] == -m.pos[3 * i + 1]);
             for (int i = 0; i < 5; ++i) {
                 CHECK(uv[2 * i] == m.uv[2 * i] && uv[2 * i + 1] == 1.0f - m.uv[2 * i + 1]);
                 CHECK_NEAR(nrm[3 * i] * nrm[3 * i] + nrm[3 * i + 1] * nrm[3 * i + 1] + nrm[3 * i + 2] * nrm[3 * i + 2], 1.0, 1e-5);
             }
-            CHECK(nrm[3 * 4 + 2] > 0.99f); /* apex normal points up */
+            CHECK(nrm[3 * 4 + 1] > 0.99f); /* apex normal points up: +Y in glTF */
             const cJSON *mn = cJSON_GetObjectItem(ap, "min"), *mx = cJSON_GetObjectItem(ap, "max");
             CHECK(cJSON_GetArraySize(mn) == 3 && cJSON_GetArraySize(mx) == 3);
-            float emn[3] = {-1, -1, 0}, emx[3] = {1, 1, 1.5f};
+            float emn[3] = {-1, 0, -1}, emx[3] = {1, 1.5f, 1}; /* rotated to +Y up */
             for (int k = 0; k < 3 && cJSON_GetArraySize(mn) == 3; ++k) {
                 CHECK((float)cJSON_GetArrayItem(mn, k)->valuedouble == emn[k]);
                 CHECK((float)cJSON_GetArrayItem(mx, k)->valuedouble == emx[k]);

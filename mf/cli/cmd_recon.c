@@ -157,6 +157,11 @@ static int cmd_recon_run(int argc, char **argv, const MfOptParse *p, ReconArgs *
     if (!rc) rc = mf_recon_new(&mesh, views, nviews, &o, &r);
     for (int i = 0; views && i < nviews; ++i) mf_image_free(&views[i].ref); /* moved into r on success */
     free(views);
+    /* temporaries a killed run left in the result folder (its snapshots included) are of no
+     * use to anyone: resume rewrites every output, so they are removed, not reused */
+    int stale = 0;
+    if (!rc && !(rc = mf_remove_stale_tmp(out, 3, &stale)) && stale)
+        mf_log_info("%s: removed %d temporary file%s left by an interrupted run", out, stale, stale == 1 ? "" : "s");
     if (!rc && resume) {
         char ck[MF_PATH_MAX];
         if (!(rc = mf_path_join(ck, sizeof ck, out, "checkpoint.mfck"))) {

@@ -1,6 +1,7 @@
 /* mf relight: renders a reconstruction (a result folder) under a novel environment map from the
  * cameras of a transforms.json, with the project's renderer. */
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "cli/mf_cli.h"
@@ -80,40 +81,55 @@ static int relight_run(const char *result, const RelightArgs *a) {
     if (!rc && !(rc = ev_result_load(result, NULL, &res))) have_res = 1;
     if (!rc && !(rc = mf_env_load(&env, envp))) have_env = 1;
     if (!rc) rc = mf_rtscene_new(&res.mesh, &rt);
-    if (!rc) rc = mf_mkdirs(out);
     MfTexMaterial mat = {have_res ? &res.kd : NULL, have_res ? &res.orm : NULL, mf_v3s(0.5f), mf_v3(1, 0.5f, 0),
                          have_res && res.has_normal ? &res.normal : NULL};
     MfRenderInput in = {rt, have_res ? &res.mesh : NULL, &mat, 1, have_env ? &env : NULL, NULL, 0};
     MfRenderOpts ro = {spp, ps, (uint64_t)seed, MF_LOBE_ALL};
+    /* every frame's camera and output name first: a bad frame or two frames with the same
+     * output name are refused before anything is written */
+    typedef struct { char name[256]; MfCamera cam; } Frame;
+    Frame *fs = rc ? NULL : calloc(nf > 0 ? (size_t)nf : 1, sizeof *fs);
+    if (!rc && !fs) rc = mf_fail(MF_ENOMEM, "%s: out of memory", cams);
     for (int k = 0; k < nf && !rc; ++k) {
         const cJSON *fr = cJSON_GetArrayItem(frames, k);
-        char where[64], name[256], path[MF_PATH_MAX];
+        char where[64];
         snprintf(where, sizeof where, "frames[%d]", k);
         double m[16];
         const char *fp = NULL;
         if ((rc = mf_json_numbers(cams, where, fr, "transform_matrix", 4, 4, m))) break;
+        char *name = fs[k].name;
         if (mf_json_string(cams, where, fr, "file_path", &fp) == MF_OK) {
             const char *b = strrchr(fp, '/');
-            snprintf(name, sizeof name, "%s", b ? b + 1 : fp);
+            snprintf(name, sizeof fs[k].name, "%s", b ? b + 1 : fp);
             char *dot = strrchr(name, '.');
             if (dot) *dot = '\0';
         } else {
-            snprintf(name, sizeof name, "r_%03d", k);
+            mf_error_clear();
+            snprintf(name, sizeof fs[k].name, "r_%03d", k);
         }
-        MfCamera cam;
         char what[MF_PATH_MAX + 64];
         snprintf(what, sizeof what, "%s: %s", cams, where);
-        if ((rc = mf_camera_init(&cam, width, width, ax, m, what))) break;
+        rc = mf_camera_init(&fs[k].cam, width, width, ax, m, what);
+    }
+    int di, dj;
+    if (!rc && mf_find_duplicate_name(fs[0].name, sizeof fs[0], nf, &di, &dj))
+        rc = mf_fail(MF_EFORMAT, "%s: frames[%d] and frames[%d] both name the output '%s' (their files would overwrite each other: give them distinct file_path base names)",
+                     cams, di, dj, fs[di].name);
+    if (!rc) rc = mf_mkdirs(out);
+    if (!rc) rc = mf_remove_stale_tmp(out, 0, NULL); /* left by an interrupted run */
+    for (int k = 0; k < nf && !rc; ++k) {
+        char what[MF_PATH_MAX + 64], path[MF_PATH_MAX];
         MfRenderOut o;
-        if ((rc = mf_render(&in, &cam, &ro, &o, NULL))) break;
-        snprintf(what, sizeof what, "%s.exr", name);
+        if ((rc = mf_render(&in, &fs[k].cam, &ro, &o, NULL))) break;
+        snprintf(what, sizeof what, "%s.exr", fs[k].name);
         if (!(rc = mf_path_join(path, sizeof path, out, what))) rc = mf_render_out_write_exr(path, &o);
         if (!rc && png) {
-            snprintf(what, sizeof what, "%s.png", name);
+            snprintf(what, sizeof what, "%s.png", fs[k].name);
             if (!(rc = mf_path_join(path, sizeof path, out, what))) rc = mf_render_out_write_png(path, &o);
         }
         mf_render_out_free(&o);
     }
+    free(fs);
     if (!rc) mf_log_info("relight: %d views -> %s", nf, out);
     mf_rtscene_free(rt);
     if (have_env) mf_env_free(&env);

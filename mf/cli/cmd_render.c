@@ -85,6 +85,7 @@ static int render_scene(const char *scene_path, const char *outdir, const Render
     if (rc) mf_fail_prefix(rc, "%s: mesh", scene_path);
     if (!rc && !(mats = calloc((size_t)sc.nmat, sizeof *mats))) rc = mf_fail(MF_ENOMEM, "out of memory");
     if (!rc) rc = mf_mkdirs(outdir);
+    if (!rc) rc = mf_remove_stale_tmp(outdir, 0, NULL); /* left by an interrupted run */
     if (rc) {
         mf_rtscene_free(rt);
         mf_scene_free(&sc);

@@ -2,7 +2,10 @@
 #include "mf_fs.h"
 
 #include <ctype.h>
+#include <dirent.h>
+#include <limits.h>
 #include <errno.h>
+#include <signal.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -25,6 +28,48 @@ int mf_tmp_path(const char *path, char *out, size_t cap) {
                      (long)getpid(), n, dot ? dot : "");
     if (w < 0 || (size_t)w >= cap) return mf_fail(MF_EARG, "%s: path too long", path);
     return MF_OK;
+}
+
+int mf_is_tmp_name(const char *name, long *pid) {
+    if (name[0] != '.') return 0;
+    /* the stem may itself hold ".tmp": try every occurrence */
+    for (const char *t = strstr(name + 1, ".tmp"); t; t = strstr(t + 1, ".tmp")) {
+        if (t == name + 1) continue; /* empty stem: mf_tmp_path never writes it */
+        const char *p = t + 4, *d0 = p;
+        while (isdigit((unsigned char)*p)) ++p;
+        if (p == d0 || *p != '_') continue;
+        const char *n0 = ++p;
+        while (isdigit((unsigned char)*p)) ++p;
+        if (p == n0 || (*p != '\0' && *p != '.')) continue;
+        if (*p == '.' && strchr(p + 1, '.')) continue; /* one extension at most */
+        if (pid) *pid = strtol(d0, NULL, 10);
+        return 1;
+    }
+    return 0;
+}
+
+int mf_remove_stale_tmp(const char *dir, int depth, int *removed) {
+    DIR *d = opendir(dir);
+    if (!d) return errno == ENOENT || errno == ENOTDIR ? MF_OK : mf_fail(MF_EIO, "%s: cannot list: %s", dir, strerror(errno));
+    int rc = MF_OK;
+    for (struct dirent *e; rc == MF_OK && (e = readdir(d));) {
+        if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, "..")) continue;
+        char p[MF_PATH_MAX];
+        if (mf_path_join(p, sizeof p, dir, e->d_name)) continue;
+        struct stat st;
+        if (lstat(p, &st) != 0) continue;
+        if (S_ISDIR(st.st_mode)) {
+            if (depth > 0) rc = mf_remove_stale_tmp(p, depth - 1, removed);
+            continue;
+        }
+        long pid = 0;
+        if (!S_ISREG(st.st_mode) || !mf_is_tmp_name(e->d_name, &pid)) continue;
+        if (pid == (long)getpid() || (pid > 0 && (kill((pid_t)pid, 0) == 0 || errno == EPERM))) continue; /* live */
+        if (remove(p) != 0) rc = mf_fail(MF_EIO, "%s: cannot remove a stale temporary file: %s", p, strerror(errno));
+        else if (removed) ++*removed;
+    }
+    closedir(d);
+    return rc;
 }
 
 int mf_commit_file(const char *tmp, const char *path) {
@@ -72,13 +117,32 @@ int mf_file_exists(const char *path) {
     return stat(path, &st) == 0;
 }
 
+static int check_stat(const char *path, const struct stat *st, unsigned long long *size) {
+    if (S_ISDIR(st->st_mode)) return mf_fail(MF_EIO, "%s: is a directory, expected a file", path);
+    if (!S_ISREG(st->st_mode)) return mf_fail(MF_EIO, "%s: is not a regular file", path);
+    if (size) *size = (unsigned long long)st->st_size;
+    return MF_OK;
+}
+
+int mf_input_file(const char *path, unsigned long long *size) {
+    struct stat st;
+    if (stat(path, &st) != 0) {
+        if (errno == ENOENT) return mf_fail(MF_EIO, "%s: no such file", path);
+        return mf_fail(MF_EIO, "%s: cannot open: %s", path, strerror(errno));
+    }
+    return check_stat(path, &st, size);
+}
+
 int mf_read_file(const char *path, char **data, size_t *len) {
     FILE *f = fopen(path, "rb");
     if (!f) return mf_fail(MF_EIO, "%s: cannot open: %s", path, strerror(errno));
-    if (fseek(f, 0, SEEK_END) != 0) { fclose(f); return mf_fail(MF_EIO, "%s: cannot seek", path); }
-    long sz = ftell(f);
-    if (sz < 0) { fclose(f); return mf_fail(MF_EIO, "%s: cannot tell size", path); }
-    rewind(f);
+    /* a directory opens fine on Linux and "seeks" to LONG_MAX: check what was opened */
+    struct stat st;
+    unsigned long long usz = 0;
+    int rc = fstat(fileno(f), &st) != 0 ? mf_fail(MF_EIO, "%s: cannot stat: %s", path, strerror(errno)) : check_stat(path, &st, &usz);
+    if (rc) { fclose(f); return rc; }
+    if (usz > (unsigned long long)LONG_MAX - 1) { fclose(f); return mf_fail(MF_EIO, "%s: too large (%llu bytes)", path, usz); }
+    long sz = (long)usz;
     char *buf = malloc((size_t)sz + 1);
     if (!buf) { fclose(f); return mf_fail(MF_ENOMEM, "%s: out of memory (%ld bytes)", path, sz); }
     size_t got = fread(buf, 1, (size_t)sz, f);
@@ -100,6 +164,16 @@ int mf_write_file(const char *path, const void *data, size_t len) {
     int bad = fclose(f) != 0 || put != len;
     if (bad) { mf_discard_file(tmp); return mf_fail(MF_EIO, "%s: write failed", path); }
     return mf_commit_file(tmp, path);
+}
+
+int mf_find_duplicate_name(const char *first, size_t stride, int n, int *i, int *j) {
+    for (int b = 1; b < n; ++b)
+        for (int a = 0; a < b; ++a)
+            if (!strcmp(first + (size_t)a * stride, first + (size_t)b * stride)) {
+                *i = a, *j = b;
+                return 1;
+            }
+    return 0;
 }
 
 int mf_path_join(char *out, size_t cap, const char *a, const char *b) {

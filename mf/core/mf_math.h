@@ -13,6 +13,15 @@
 #define MF_INV_PI 0.31830988618379067154f
 #define MF_INV_2PI 0.15915494309189533577f
 #define MF_INV_4PI 0.07957747154594766788f
+/* Largest world coordinate (camera position, mesh vertex) the renderer accepts, in absolute value.
+ * Squares and squared distances of such coordinates stay finite in float (3 * (2e18)^2 < FLT_MAX),
+ * and it is below Embree's own limit on ray origins (FLT_LARGE = 1.844e18: a ray from farther
+ * aborts inside Embree with "Assertion ray.valid() failed"). Loaders refuse larger values by name. */
+#define MF_COORD_MAX 1e18
+/* Largest light strength, power, colour factor or scaled env radiance a scene file may give (the
+ * same reasoning: its square stays finite in float); larger ones are refused by name instead of
+ * ending in "texel not finite" or an all-NaN render. */
+#define MF_STRENGTH_MAX 1e18
 
 typedef struct { float x, y, z; } MfVec3;
 typedef struct { float x, y; } MfVec2;

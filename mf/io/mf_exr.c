@@ -8,6 +8,7 @@
 
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
+#include "io/mf_image.h"
 
 /* OpenEXR reports details through a per-context callback (the default one prints to stderr);
  * we keep the last message of this thread and put it into our own error instead. */
@@ -157,7 +158,9 @@ static exr_result_t decode_chunk(exr_context_t f, exr_decode_pipeline_t *dec, in
 
 int mf_exr_read(const char *path, MfExrImage *out) {
     g_exr_msg[0] = '\0';
-    if (!mf_file_exists(path)) return mf_fail(MF_EIO, "%s: no such file", path);
+    unsigned long long fsize = 0;
+    int frc = mf_input_file(path, &fsize);
+    if (frc) return frc;
     exr_context_initializer_t ci = exr_init();
     exr_context_t f = NULL;
     exr_result_t rv = exr_start_read(&f, path, &ci);
@@ -182,10 +185,12 @@ int mf_exr_read(const char *path, MfExrImage *out) {
         goto done;
     }
     long long w = (long long)dw.max.x - dw.min.x + 1, h = (long long)dw.max.y - dw.min.y + 1;
-    if (w <= 0 || h <= 0 || w * h > (1LL << 31) || !cl || cl->num_channels <= 0) {
+    if (w <= 0 || h <= 0 || w > (1LL << 30) || h > (1LL << 30) || w * h > (1LL << 31) || !cl || cl->num_channels <= 0) {
         code = mf_fail(MF_EFORMAT, "%s: bad data window or no channels", path);
         goto done;
     }
+    /* the data window comes from the header: check it against the file's length before allocating */
+    if ((code = mf_image_check_decode(path, w, h, cl->num_channels, fsize))) goto done;
     r.w = (int)w;
     r.h = (int)h;
     r.n = cl->num_channels;

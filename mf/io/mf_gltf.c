@@ -67,6 +67,14 @@ static int add_accessor(cJSON *acc, int view, int ctype, size_t count, const cha
     return cJSON_GetArraySize(acc) - 1;
 }
 
+/* Our world is +Z up (DESIGN.md), glTF's is +Y up: (x, y, z) -> (x, z, -y), the rotation by
+ * -90 degrees about +X (determinant +1, so winding and tangent handedness are kept). */
+static void to_y_up(float *v) {
+    float y = v[1], z = v[2];
+    v[1] = z;
+    v[2] = -y;
+}
+
 static int is_png(const char *data, size_t len) {
     static const unsigned char sig[8] = {0x89, 'P', 'N', 'G', 0x0d, 0x0a, 0x1a, 0x0a};
     return len >= 8 && memcmp(data, sig, 8) == 0;
@@ -96,6 +104,7 @@ int mf_gltf_write_glb(const char *path, const MfMesh *m, const MfGltfMaterial *m
     if (png[2]) {
         if (!(tan = malloc(sizeof(float) * 4 * nv))) { rc = mf_fail(MF_ENOMEM, "%s: out of memory", path); goto out_png; }
         if ((rc = mf_mesh_tangents(m, tan))) goto out_png;
+        for (size_t i = 0; i < nv; ++i) to_y_up(tan + 4 * i); /* w (handedness) unchanged: a rotation */
     }
 
     /* Normals: the mesh's (normalised) or smooth ones computed on a copy. */
@@ -113,6 +122,7 @@ int mf_gltf_write_glb(const char *path, const MfMesh *m, const MfGltfMaterial *m
         float l = sqrtf(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
         if (!(l > 0.0f) || !isfinite(l)) { n[0] = 0.0f; n[1] = 0.0f; n[2] = 1.0f; }
         else if (fabsf(l - 1.0f) > 1e-6f) { n[0] /= l; n[1] /= l; n[2] /= l; }
+        to_y_up(n);
     }
 
     /* BIN chunk layout. */
@@ -131,7 +141,16 @@ int mf_gltf_write_glb(const char *path, const MfMesh *m, const MfGltfMaterial *m
     if (binlen > 0xFFFFFFF0u) { free(nrm); rc = mf_fail(MF_EARG, "%s: mesh too large for a .glb (%zu bytes)", path, binlen); goto out_png; }
     unsigned char *bin = calloc(binlen + 4, 1);
     if (!bin) { free(nrm); rc = mf_fail(MF_ENOMEM, "%s: out of memory", path); goto out_png; }
-    memcpy(bin + o_pos, m->pos, l_pos);
+    float mn[3] = {FLT_MAX, FLT_MAX, FLT_MAX}, mx[3] = {-FLT_MAX, -FLT_MAX, -FLT_MAX};
+    for (size_t i = 0; i < nv; ++i) {
+        float p[3] = {m->pos[3 * i], m->pos[3 * i + 1], m->pos[3 * i + 2]};
+        to_y_up(p);
+        memcpy(bin + o_pos + 12 * i, p, 12);
+        for (int k = 0; k < 3; ++k) {
+            mn[k] = fminf(mn[k], p[k]);
+            mx[k] = fmaxf(mx[k], p[k]);
+        }
+    }
     memcpy(bin + o_nrm, nrm, l_nrm);
     free(nrm);
     for (size_t i = 0; m->uv && i < nv; ++i) {
@@ -143,12 +162,6 @@ int mf_gltf_write_glb(const char *path, const MfMesh *m, const MfGltfMaterial *m
         if (png[k]) memcpy(bin + o_img[k], png[k], pnglen[k]);
     if (tan) memcpy(bin + o_tan, tan, l_tan);
 
-    float mn[3] = {FLT_MAX, FLT_MAX, FLT_MAX}, mx[3] = {-FLT_MAX, -FLT_MAX, -FLT_MAX};
-    for (size_t i = 0; i < nv; ++i)
-        for (int k = 0; k < 3; ++k) {
-            mn[k] = fminf(mn[k], m->pos[3 * i + k]);
-            mx[k] = fmaxf(mx[k], m->pos[3 * i + k]);
-        }
 
     /* JSON. */
     const char *name = mat.name ? mat.name : "material";

@@ -40,13 +40,34 @@ static int is_alpha(int ch, int c, int alpha_channel) {
     return (c == 4 && ch == 3) || (c == 2 && ch == 1);
 }
 
+unsigned long long mf_image_decode_limit(unsigned long long file_bytes) {
+    unsigned long long lim = file_bytes > (~0ull / MF_IMAGE_DECODE_RATIO) ? ~0ull : file_bytes * MF_IMAGE_DECODE_RATIO;
+    return lim < MF_IMAGE_DECODE_FLOOR ? MF_IMAGE_DECODE_FLOOR : lim;
+}
+
+int mf_image_check_decode(const char *path, long long w, long long h, long long c, unsigned long long file_bytes) {
+    if (w <= 0 || h <= 0 || c <= 0 || w > (1ll << 30) || h > (1ll << 30) || c > 4096)
+        return mf_fail(MF_EFORMAT, "%s: bad image size %lldx%lld x %lld channels in the header", path, w, h, c);
+    unsigned long long px = (unsigned long long)w * (unsigned long long)h, bytes = px * (unsigned long long)c * 4ull;
+    unsigned long long lim = mf_image_decode_limit(file_bytes);
+    if (px > MF_IMAGE_MAX_PIXELS || bytes > lim)
+        return mf_fail(MF_EFORMAT,
+                       "%s: header asks for %lldx%lld x %lld channels (%llu bytes decoded) but the file has %llu bytes "
+                       "(limit %llu bytes, %llu pixels): corrupt or hostile header",
+                       path, w, h, c, bytes, file_bytes, lim, MF_IMAGE_MAX_PIXELS);
+    return MF_OK;
+}
+
 int mf_image_read(const char *path, MfEncoding enc, MfImage *out) {
     int w, h, c, is_int, ach;
     float *data = NULL;
     char err[512];
-    if (!mf_file_exists(path)) return mf_fail(MF_EIO, "%s: no such file", path);
-    if (mf_oiio_read(path, &w, &h, &c, &is_int, &ach, &data, err, sizeof err) != 0)
-        return mf_fail(MF_EFORMAT, "%s: cannot read image: %s", path, err);
+    unsigned long long fsize = 0;
+    int rc = mf_input_file(path, &fsize);
+    if (rc) return rc;
+    rc = mf_oiio_read(path, mf_image_decode_limit(fsize), &w, &h, &c, &is_int, &ach, &data, err, sizeof err);
+    if (rc == -2) return mf_fail(MF_EFORMAT, "%s: %s (file of %llu bytes)", path, err, fsize);
+    if (rc != 0) return mf_fail(MF_EFORMAT, "%s: cannot read image: %s", path, err);
     size_t npx = (size_t)w * h;
     for (size_t i = 0; i < npx * (size_t)c; ++i)
         if (!isfinite(data[i])) {

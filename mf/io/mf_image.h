@@ -29,10 +29,24 @@ static inline float *mf_image_px(const MfImage *img, int x, int y) { return img-
 float mf_srgb_to_linear(float s);
 float mf_linear_to_srgb(float l);
 
-/* Reads any format OpenImageIO knows (PNG 8/16, JPEG, EXR half/float, HDR, ...). */
+/* Reads any format OpenImageIO knows (PNG 8/16, JPEG, EXR half/float, HDR, ...). A directory
+ * is refused by name; so is a header whose size asks for more decoded bytes than the file can
+ * hold (mf_image_decode_limit), before anything is allocated. */
 int mf_image_read(const char *path, MfEncoding enc, MfImage *out);
+/* Most bytes of decoded float32 pixels a reader allocates for an image file of file_bytes bytes:
+ * max(64 MiB, 8192 x file_bytes), and never more than MF_IMAGE_MAX_PIXELS pixels. No lossless
+ * coding in our formats expands further (deflate, as PNG and EXR ZIP use it, stops near 1032:1,
+ * and float32 is at most 4x an 8-bit sample), so a 16 KB file asking for gigabytes is corrupt. */
+#define MF_IMAGE_DECODE_RATIO 8192ull
+#define MF_IMAGE_DECODE_FLOOR (64ull << 20)
+#define MF_IMAGE_MAX_PIXELS (1ull << 28)
+unsigned long long mf_image_decode_limit(unsigned long long file_bytes);
+/* MF_OK when a w x h x c float32 image fits mf_image_decode_limit(file_bytes), else an error
+ * naming path and both sizes. */
+int mf_image_check_decode(const char *path, long long w, long long h, long long c, unsigned long long file_bytes);
 /* Writes by extension: .png (bits 8 or 16), .jpg (8), .exr (bits 16 = half, 32 = float),
- * .hdr. Values are clamped to [0,1] only for integer formats. */
+ * .hdr. Values are clamped to [0,1] only for integer formats. The same image gives the same
+ * bytes whenever it is written (no date or time in the header). */
 int mf_image_write(const char *path, const MfImage *img, MfEncoding enc, int bits);
 
 #endif

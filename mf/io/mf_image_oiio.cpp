@@ -14,8 +14,8 @@ static void set_err(char *err, size_t cap, const std::string &msg) {
     std::snprintf(err, cap, "%s", msg.empty() ? "unknown OpenImageIO error" : msg.c_str());
 }
 
-extern "C" int mf_oiio_read(const char *path, int *w, int *h, int *c, int *is_int, int *alpha_channel,
-                            float **data, char *err, size_t errcap) {
+extern "C" int mf_oiio_read(const char *path, unsigned long long max_bytes, int *w, int *h, int *c, int *is_int,
+                            int *alpha_channel, float **data, char *err, size_t errcap) {
     ImageSpec config;
     config.attribute("oiio:UnassociatedAlpha", 1);
     auto in = ImageInput::open(path, &config);
@@ -27,6 +27,14 @@ extern "C" int mf_oiio_read(const char *path, int *w, int *h, int *c, int *is_in
     if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || spec.depth > 1) {
         set_err(err, errcap, "unsupported image dimensions");
         return -1;
+    }
+    unsigned long long px = (unsigned long long)spec.width * (unsigned long long)spec.height;
+    if (px > (1ull << 28) || px * (unsigned long long)spec.nchannels * 4ull > max_bytes) {
+        char msg[256];
+        std::snprintf(msg, sizeof msg, "header asks for %dx%d x %d channels (%llu bytes decoded), more than the limit of %llu bytes",
+                      spec.width, spec.height, spec.nchannels, px * (unsigned long long)spec.nchannels * 4ull, max_bytes);
+        set_err(err, errcap, msg);
+        return -2;
     }
     size_t n = (size_t)spec.width * spec.height * spec.nchannels;
     float *buf = (float *)std::malloc(n * sizeof(float));
@@ -73,7 +81,12 @@ extern "C" int mf_oiio_write(const char *path, int w, int h, int c, const float 
     if (c == 4) spec.alpha_channel = 3;
     if (c == 2) spec.alpha_channel = 1;
     spec.attribute("oiio:UnassociatedAlpha", 1);
-    if (fmt == "openexr") spec.attribute("compression", "zip");
+    if (fmt == "openexr") {
+        spec.attribute("compression", "zip");
+        /* OpenImageIO stamps the time of writing into the EXR header (capDate) unless DateTime is
+         * given: an empty one keeps identical runs byte-identical (env.exr of mf recon) */
+        spec.attribute("DateTime", "");
+    }
     if (!out->open(path, spec)) {
         set_err(err, errcap, out->geterror());
         return -1;

@@ -390,6 +390,10 @@ int mf_obj_read_ex(const char *path, const MfObjOptions *opt, MfMesh *out, MfObj
             float *d = vec_push(&P.v, 1);
             if (!d) { rc = mf_fail(MF_ENOMEM, "%s: out of memory", path); break; }
             if (parse_floats(&cx, s + 1, d, 3, 0, "v")) rc = MF_EFORMAT;
+            for (int k = 0; !rc && k < 3; ++k)
+                if (!(fabsf(d[k]) <= (float)MF_COORD_MAX))
+                    rc = mf_fail(MF_EFORMAT, "%s:%ld: vertex %c = %g is out of range (|coordinate| <= %g)", path,
+                                 cx.line, "xyz"[k], (double)d[k], MF_COORD_MAX);
         } else if (s[0] == 'v' && s[1] == 't' && is_ws(s[2])) {
             float *d = vec_push(&P.vt, 1), w[3];
             if (!d) { rc = mf_fail(MF_ENOMEM, "%s: out of memory", path); break; }

@@ -16,6 +16,9 @@ static size_t add_res(MfSpecTab *t, MfResBlockDims *d, const char *name, int Cin
 
 int mf_denoiser_new(MfDenoiser **out, const MfDenoiserConfig *cfg) {
     const MfDenoiserConfig *c = cfg;
+    if (c->groups < 1 || c->heads < 1 || c->c1 < 1 || c->c2 < 1 || c->ct < 1 || c->zc < 1) /* before any % */
+        return mf_fail(MF_EARG, "denoiser: bad configuration (c1 %d, c2 %d, ct %d, zc %d, groups %d, heads %d: all must be >= 1)",
+                       c->c1, c->c2, c->ct, c->zc, c->groups, c->heads);
     if (c->h < 4 || c->h % 2 || c->c1 % c->groups || c->c2 % c->groups || c->c2 % c->heads || c->tfreq % 2 ||
         c->c2 < c->c1 || (c->c1 + c->c2) % c->groups || c->img_res % 8 || c->i1 < 1 || c->i2 < 1 || c->i3 < 1)
         return mf_fail(MF_EARG, "denoiser: bad configuration (h %d, c1 %d, c2 %d, groups %d, heads %d)", c->h, c->c1,

@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "core/mf_error.h"
@@ -142,6 +143,8 @@ int mf_prior_save(const MfPrior *p, const char *path, const char *extra_json) {
 #define EXPECT "expected prior weights: an MFCK version 1 checkpoint with mf-prior format 1, written by `mf train-prior`"
 
 int mf_prior_read_meta(const char *path, char **meta) {
+    int rc0 = mf_file_exists(path) ? mf_input_file(path, NULL) : MF_OK; /* a directory: refused by name */
+    if (rc0) return rc0;
     FILE *f = fopen(path, "rb");
     if (!f) return mf_fail(MF_EIO, "%s: cannot open prior weights (%s)", path, EXPECT);
     unsigned char h[16];
@@ -153,6 +156,15 @@ int mf_prior_read_meta(const char *path, char **meta) {
         memcpy(&ver, h + 4, 4), memcpy(&mlen, h + 12, 4);
         if (ver != MF_CKPT_VERSION)
             rc = mf_fail(MF_EFORMAT, "%s: unsupported checkpoint version %u (%s)", path, ver, EXPECT);
+    }
+    /* the meta length comes from the file: check it against the file's real length (and a sane
+     * bound) before allocating */
+    if (!rc) {
+        long flen = fseek(f, 0, SEEK_END) == 0 ? ftell(f) : -1;
+        if (flen < 0 || fseek(f, 16, SEEK_SET) != 0) rc = mf_fail(MF_EIO, "%s: cannot seek", path);
+        else if (mlen > MF_PRIOR_META_MAX || (uint64_t)mlen > (uint64_t)flen - 16)
+            rc = mf_fail(MF_EFORMAT, "%s: meta length %u exceeds the file (%ld bytes) or %u bytes (%s)", path, mlen,
+                         flen, (unsigned)MF_PRIOR_META_MAX, EXPECT);
     }
     char *m = NULL;
     if (!rc) {
@@ -172,9 +184,22 @@ int mf_prior_read_meta(const char *path, char **meta) {
 
 static int jint(const cJSON *o, const char *k, int *out) {
     const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, k);
-    if (!cJSON_IsNumber(v)) return 0;
+    if (!cJSON_IsNumber(v) || !(v->valuedouble >= -1e9 && v->valuedouble <= 1e9)) return 0;
     *out = (int)v->valuedouble;
     return 1;
+}
+
+/* One size of the model configuration in the meta, range-checked before anything is built from
+ * it (zero groups or heads once divided by zero in the layers; huge channel counts would be
+ * allocated before the checksum is looked at). Names the field: "meta: dn.groups = 0 ...". */
+static int meta_int(const char *path, const cJSON *o, const char *prefix, const char *k, int lo, int hi, int *out) {
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, k);
+    if (!cJSON_IsNumber(v)) return mf_fail(MF_EFORMAT, "%s: meta lacks the model configuration: %s%s (%s)", path, prefix, k, EXPECT);
+    double d = v->valuedouble;
+    if (!(d >= lo && d <= hi) || d != floor(d))
+        return mf_fail(MF_EFORMAT, "%s: meta: %s%s = %g is out of range (an integer %d..%d) (%s)", path, prefix, k, d, lo, hi, EXPECT);
+    *out = (int)d;
+    return MF_OK;
 }
 
 int mf_prior_load(const char *path, MfPrior **out) {
@@ -196,21 +221,44 @@ int mf_prior_load(const char *path, MfPrior **out) {
     MfPriorConfig c;
     mf_prior_config_default(&c, 64);
     const cJSON *ae = cJSON_GetObjectItemCaseSensitive(m, "ae"), *dn = cJSON_GetObjectItemCaseSensitive(m, "dn");
-    int ok = jint(m, "resolution", &res) && jint(m, "latent_channels", &zc) && jint(m, "downsample", &ds) && ds == 4 &&
-             ae && dn && jint(ae, "c1", &c.ae.c1) && jint(ae, "c2", &c.ae.c2) && jint(ae, "groups", &c.ae.groups) &&
-             jint(dn, "c1", &c.dn.c1) && jint(dn, "c2", &c.dn.c2) && jint(dn, "ct", &c.dn.ct) &&
-             jint(dn, "tfreq", &c.dn.tfreq) && jint(dn, "heads", &c.dn.heads) && jint(dn, "groups", &c.dn.groups) &&
-             jint(dn, "i1", &c.dn.i1) && jint(dn, "i2", &c.dn.i2) && jint(dn, "i3", &c.dn.i3);
+    const int CH = MF_PRIOR_MAX_CHANNELS;
+    rc = (!ae || !dn) ? mf_fail(MF_EFORMAT, "%s: meta lacks the model configuration: ae, dn (%s)", path, EXPECT) : MF_OK;
+    if (!rc) rc = meta_int(path, m, "", "resolution", 8, 1024, &res);
+    if (!rc) rc = meta_int(path, m, "", "latent_channels", 1, 64, &zc);
+    if (!rc) rc = meta_int(path, m, "", "downsample", 4, 4, &ds);
+    if (!rc) rc = meta_int(path, ae, "ae.", "c1", 1, CH, &c.ae.c1);
+    if (!rc) rc = meta_int(path, ae, "ae.", "c2", 1, CH, &c.ae.c2);
+    if (!rc) rc = meta_int(path, ae, "ae.", "groups", 1, CH, &c.ae.groups);
+    if (!rc) rc = meta_int(path, dn, "dn.", "c1", 1, CH, &c.dn.c1);
+    if (!rc) rc = meta_int(path, dn, "dn.", "c2", 1, CH, &c.dn.c2);
+    if (!rc) rc = meta_int(path, dn, "dn.", "ct", 1, CH, &c.dn.ct);
+    if (!rc) rc = meta_int(path, dn, "dn.", "tfreq", 2, CH, &c.dn.tfreq);
+    if (!rc) rc = meta_int(path, dn, "dn.", "heads", 1, CH, &c.dn.heads);
+    if (!rc) rc = meta_int(path, dn, "dn.", "groups", 1, CH, &c.dn.groups);
+    if (!rc) rc = meta_int(path, dn, "dn.", "i1", 1, CH, &c.dn.i1);
+    if (!rc) rc = meta_int(path, dn, "dn.", "i2", 1, CH, &c.dn.i2);
+    if (!rc) rc = meta_int(path, dn, "dn.", "i3", 1, CH, &c.dn.i3);
+    if (!rc && res % 8) rc = mf_fail(MF_EFORMAT, "%s: meta: resolution %d is not a multiple of 8 (%s)", path, res, EXPECT);
     const cJSON *ls = cJSON_GetObjectItemCaseSensitive(m, "latent_scale"),
                 *sd = cJSON_GetObjectItemCaseSensitive(m, "data_seed");
-    ok = ok && cJSON_IsNumber(ls) && res >= 8 && res % 8 == 0;
-    float lscale = ok ? (float)ls->valuedouble : 1.0f;
-    uint64_t dseed = cJSON_IsNumber(sd) ? (uint64_t)sd->valuedouble : 0;
+    double lsd = cJSON_IsNumber(ls) ? ls->valuedouble : NAN, sdd = cJSON_IsNumber(sd) ? sd->valuedouble : 0.0;
+    if (!rc && !(lsd > 0.0 && lsd < 1e30))
+        rc = mf_fail(MF_EFORMAT, "%s: meta: latent_scale is missing or not a positive finite number (%s)", path, EXPECT);
+    float lscale = (float)lsd;
+    uint64_t dseed = (sdd >= 0.0 && sdd < 18446744073709551616.0) ? (uint64_t)sdd : 0;
     cJSON_Delete(m);
-    if (!ok) return mf_fail(MF_EFORMAT, "%s: meta lacks the model configuration (%s)", path, EXPECT);
+    if (rc) return rc;
     c.ae.res = res, c.ae.zc = zc, c.dn.h = res / 4, c.dn.zc = zc, c.dn.img_res = res;
     MfPrior *p;
     if ((rc = mf_prior_new(&p, &c))) return mf_fail_prefix(rc, "%s", path);
+    /* the configuration's weights must fit in the file before a buffer for them is allocated */
+    struct stat st;
+    size_t need = (p->ae->tab.numel + p->dn->tab.numel) * sizeof(float);
+    if (stat(path, &st) == 0 && (uint64_t)st.st_size < need) {
+        mf_prior_free(p);
+        return mf_fail(MF_EFORMAT, "%s: truncated: the meta's configuration has %zu weights (%zu bytes), the file has %lld bytes (%s)",
+                       path, need / sizeof(float), need, (long long)st.st_size, EXPECT);
+    }
     MfTensorSpec *specs;
     float *data;
     int n;

@@ -32,6 +32,10 @@
 #include "prior/mf_diffusion.h"
 
 #define MF_PRIOR_FORMAT_VERSION 1
+/* Loading refuses (by field) meta text longer than this, and configurations with more channels
+ * (or groups, heads) than this in any layer: both are checked before anything is allocated. */
+#define MF_PRIOR_META_MAX (1u << 20)
+#define MF_PRIOR_MAX_CHANNELS 1024
 #define MF_PRIOR_ENC_ALBEDO "sRGB kd in [-1,1] x mask"
 #define MF_PRIOR_ENC_ORM "linear in [-1,1] x mask"
 #define MF_PRIOR_ENC_COND "sRGB RGB in [-1,1] x mask"

@@ -27,6 +27,8 @@ int mf_rtscene_new(const MfMesh *mesh, MfRtScene **out) {
             return mf_fail(MF_EARG, "rtscene: triangle %zu uses vertex %u of %d", i / 3, mesh->tri[i], mesh->nv);
     for (size_t i = 0; i < (size_t)mesh->nv * 3; ++i)
         if (!isfinite(mesh->pos[i])) return mf_fail(MF_ENAN, "rtscene: vertex %zu has a non-finite position", i / 3);
+        else if (!(fabsf(mesh->pos[i]) <= (float)MF_COORD_MAX))
+            return mf_fail(MF_EARG, "rtscene: vertex %zu has a coordinate %g beyond %g", i / 3, (double)mesh->pos[i], MF_COORD_MAX);
     MfRtScene *s = calloc(1, sizeof *s);
     if (!s) return mf_fail(MF_ENOMEM, "rtscene: out of memory");
     s->mesh = mesh;

@@ -19,6 +19,10 @@ int mf_camera_init(MfCamera *cam, int w, int h, double camera_angle_x, const dou
         }
     if (fabs(c2w[12]) > 1e-6 || fabs(c2w[13]) > 1e-6 || fabs(c2w[14]) > 1e-6 || fabs(c2w[15] - 1.0) > 1e-6)
         return mf_fail(MF_EARG, "%s: transform_matrix is not a rigid transform (last row is not 0 0 0 1)", what);
+    for (int r = 0; r < 3; ++r)
+        if (!(fabs(c2w[r * 4 + 3]) <= MF_COORD_MAX))
+            return mf_fail(MF_EARG, "%s: transform_matrix: camera position %c = %g is out of range (|coordinate| <= %g)",
+                           what, "xyz"[r], c2w[r * 4 + 3], MF_COORD_MAX);
     double f = (double)w / (2.0 * tan(camera_angle_x / 2.0));
     cam->w = w;
     cam->h = h;

@@ -16,7 +16,9 @@ typedef struct {
 
 /* Builds a camera; fails with MF_EARG ("... is not a rigid transform") when the 3x3 part is not
  * orthonormal within 1e-3 or the last row is not (0,0,0,1). `what` names the source for messages
- * (e.g. "x/transforms_train.json: frames[3]"). Rigid check is done in double. */
+ * (e.g. "x/transforms_train.json: frames[3]"). Rigid check is done in double. A camera position
+ * with a coordinate beyond MF_COORD_MAX (mf_math.h) is refused: "... camera position z = 1e+39 is
+ * out of range". */
 int mf_camera_init(MfCamera *cam, int w, int h, double camera_angle_x, const double c2w[16], const char *what);
 /* Ray through continuous pixel position (px, py) (pixel units, origin top-left): origin and unit dir. */
 void mf_camera_ray(const MfCamera *cam, float px, float py, MfVec3 *org, MfVec3 *dir);

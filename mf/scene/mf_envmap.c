@@ -273,15 +273,19 @@ void mf_env_free(MfEnvMap *env) {
 }
 
 int mf_env_rotate_z(MfEnvMap *env, float angle) {
+    if (!isfinite(angle)) return mf_fail(MF_EARG, "env map: rotation angle %g is not finite", (double)angle);
     int W = env->img.w, H = env->img.h;
+    /* new(x) = old(x + angle W / (2 pi)) in texel-centre coordinates, linear in u, wrapped. The
+     * angle is reduced to (-2 pi, 2 pi) first (fmod is exact), so a huge angle cannot push the
+     * shift beyond int range (it once indexed outside the image). */
+    double shift = fmod((double)angle, 2.0 * M_PI) * W / (2.0 * M_PI);
+    shift -= floor(shift / W) * W;
+    int s0 = (int)floor(shift);
+    if (s0 < 0 || s0 >= W) s0 = 0, shift = 0.0; /* rounding of a shift within 1 ulp of 0 or W */
     size_t n = (size_t)W * H * 3;
     float *old = malloc(sizeof(float) * n);
     if (!old) return mf_fail(MF_ENOMEM, "env map: out of memory for rotation");
     memcpy(old, env->img.data, sizeof(float) * n);
-    /* new(x) = old(x + angle W / (2 pi)) in texel-centre coordinates, linear in u, wrapped. */
-    double shift = (double)angle * W / (2.0 * M_PI);
-    shift -= floor(shift / W) * W;
-    int s0 = (int)floor(shift);
     float t = (float)(shift - s0);
     for (int y = 0; y < H; ++y)
         for (int x = 0; x < W; ++x) {

@@ -46,7 +46,8 @@ void mf_env_free(MfEnvMap *env);
 /* Rebuilds the sampling tables after the texels changed. */
 int mf_env_update(MfEnvMap *env);
 /* Rotates the map about +Z by angle (radians, right-handed: a feature at azimuth phi moves to
- * phi + angle), resampling columns with linear interpolation in u. */
+ * phi + angle), resampling columns with linear interpolation in u. The angle is taken modulo
+ * 2 pi; a non-finite angle fails with MF_EARG. */
 int mf_env_rotate_z(MfEnvMap *env, float angle);
 
 void mf_env_dir_to_uv(MfVec3 d, float *u, float *v);

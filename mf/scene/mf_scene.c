@@ -113,17 +113,21 @@ static int parse_env(Ctx *c, const cJSON *e) {
     if (!rc) rc = mf_json_number_opt(c->file, "env", e, "strength", 1.0, &strength);
     if (rc) return rc;
     if (!(strength >= 0.0)) return mf_fail(MF_EFORMAT, "%s: env.strength: must be >= 0", c->file);
+    if (!(strength <= MF_STRENGTH_MAX))
+        return mf_fail(MF_EFORMAT, "%s: env.strength: %g is out of range (0..%g)", c->file, strength, MF_STRENGTH_MAX);
+    if (!isfinite(rot)) return mf_fail(MF_EFORMAT, "%s: env.rotation_z_deg: must be finite", c->file);
+    rot = fmod(rot, 360.0); /* exact; 2e40 degrees as a float radian angle was inf */
     char p[MF_PATH_MAX];
     if ((rc = resolve(c->file, rel, p, sizeof p))) return rc;
     MfImage img;
     if ((rc = mf_image_read(p, MF_ENC_LINEAR, &img))) return mf_fail_prefix(rc, "%s: env.file", c->file);
     /* an overflow is the strength's doing: say so, with the largest strength this map allows */
     float peak = 0.0f;
-    for (size_t i = 0; i < (size_t)img.w * img.h * img.c; ++i) peak = fmaxf(peak, img.data[i]);
-    if (strength > 0.0 && (double)peak * strength > (double)FLT_MAX / 16.0) {
+    for (size_t i = 0; i < (size_t)img.w * img.h * img.c; ++i) peak = fmaxf(peak, fabsf(img.data[i]));
+    if (!((double)peak * strength <= MF_STRENGTH_MAX)) {
         mf_image_free(&img);
-        return mf_fail(MF_EARG, "%s: env.strength %g times the brightest texel of %s (%g) exceeds float's range; at most %.3g for this map",
-                       c->file, strength, p, peak, (double)FLT_MAX / 16.0 / peak);
+        return mf_fail(MF_EFORMAT, "%s: env.strength: %g times the brightest texel of %s (%g) exceeds %g; at most %.3g for this map",
+                       c->file, strength, p, (double)peak, MF_STRENGTH_MAX, MF_STRENGTH_MAX / (double)peak);
     }
     for (size_t i = 0; i < (size_t)img.w * img.h * img.c; ++i) img.data[i] *= (float)strength;
     if ((rc = mf_env_init(&c->s->env, &img))) return mf_fail_prefix(rc, "%s: env.file", c->file);
@@ -151,6 +155,9 @@ static int parse_lights(Ctx *c, const cJSON *root) {
         MfLight *L = &c->s->lights[k];
         float col[3] = {1, 1, 1};
         if (cJSON_GetObjectItemCaseSensitive(l, "color") && (rc = mf_json_floats(c->file, w, l, "color", 0, 3, col))) return rc;
+        for (int q = 0; q < 3; ++q)
+            if (!(fabsf(col[q]) <= (float)MF_STRENGTH_MAX))
+                return mf_fail(MF_EFORMAT, "%s: %s.color: %g is out of range (|value| <= %g)", c->file, w, (double)col[q], MF_STRENGTH_MAX);
         L->color = mf_v3(col[0], col[1], col[2]);
         double v;
         float d[3];
@@ -165,11 +172,18 @@ static int parse_lights(Ctx *c, const cJSON *root) {
             L->kind = MF_LIGHT_POINT;
             if ((rc = mf_json_floats(c->file, w, l, "pos", 0, 3, d))) return rc;
             if ((rc = mf_json_number(c->file, w, l, "power", &v))) return rc;
+            for (int q = 0; q < 3; ++q)
+                if (!(fabsf(d[q]) <= (float)MF_COORD_MAX))
+                    return mf_fail(MF_EFORMAT, "%s: %s.pos: %c = %g is out of range (|coordinate| <= %g)", c->file, w, "xyz"[q],
+                                   (double)d[q], MF_COORD_MAX);
             L->pos = mf_v3(d[0], d[1], d[2]);
         } else {
             return mf_fail(MF_EFORMAT, "%s: %s.type: unknown light type '%s' (sun, point)", c->file, w, type);
         }
         if (!(v >= 0.0)) return mf_fail(MF_EFORMAT, "%s: %s: strength/power must be >= 0", c->file, w);
+        if (!(v <= MF_STRENGTH_MAX))
+            return mf_fail(MF_EFORMAT, "%s: %s.%s: %g is out of range (0..%g)", c->file, w, L->kind == MF_LIGHT_SUN ? "strength" : "power", v,
+                           MF_STRENGTH_MAX);
         L->strength = (float)v;
         c->s->nlights = k + 1;
     }
@@ -234,6 +248,10 @@ static int parse_cameras(Ctx *c, const cJSON *root) {
         }
         c->s->nviews = k + 1;
     }
+    int di, dj;
+    if (!rc && mf_find_duplicate_name(c->s->views[0].name, sizeof c->s->views[0], c->s->nviews, &di, &dj))
+        rc = mf_fail(MF_EFORMAT, "%s: %sframes[%d] and %sframes[%d] both name the output '%s' (their files would overwrite each other: give them distinct file_path base names)",
+                     file, prefix, di, prefix, dj, c->s->views[di].name);
     if (own) cJSON_Delete(own);
     return rc;
 }

@@ -22,7 +22,8 @@
  *   "cameras": "transforms.json" | {...},      required; NeRF-synthetic: camera_angle_x and
  *                                              frames[].transform_matrix (4x4 camera-to-world,
  *                                              OpenGL axes), optional frames[].file_path whose
- *                                              base name names the output ("view_000" otherwise)
+ *                                              base name names the output ("view_000" otherwise;
+ *                                              two frames naming the same output are refused)
  *   "width": 256, "height": 256,               output size (defaults 256 x 256)
  *   "render": {"spp_sqrt": 8,                  optional renderer settings (MfRenderOpts):
  *              "pixel_samples": 4,             n^2 env + n^2 BSDF samples, primary rays per
