@@ -53,6 +53,8 @@
     "    procedural: a clear sky with sun or a lit room generated in memory from each view's seed\n" \
     "    (datasets/ds_envgen.h; --env-dir is not read), so test-3d's Blender relighting probes are\n" \
     "    lights the prior never saw; both: half probes, half procedural.\n" \
+    "  --diffuse 1: diffuse-dominant objects (metallic 0, roughness >= 0.6); --renderer ours|povray:\n" \
+    "    povray renders the lit views with POV-Ray (same objects, cameras, lights; GT albedo/ORM ours).\n" \
     "\n" \
     "       mf gen --envs DIR [--count N] [--seed S] [--kind sky|indoor|both] [--env-width W]\n" \
     "  Writes N procedural HDR env maps per kind (default 8, both kinds), DIR/sky_NNN.exr and\n" \
@@ -117,7 +119,8 @@ static int gen_envs(const char *dir, int count, int seed, const char *kind, int 
 }
 
 static int cmd_gen(int argc, char **argv) {
-    const char *out = NULL, *fam_name = NULL, *split = NULL, *env_dir = NULL, *compare = NULL, *envs = NULL, *kind = NULL, *train_lights = NULL;
+    const char *out = NULL, *fam_name = NULL, *split = NULL, *env_dir = NULL, *compare = NULL, *envs = NULL, *kind = NULL, *train_lights = NULL, *renderer = "ours";
+    int diffuse = 0;
     int env_width = DS_ENV_W;
     int seed = 1, width = 0, res = -1, ntrain = 100, ntest = 200, count = 0, img_res = 64, views = -1, spp = -1, pxs = 4, threads = 0, render = 1, nscenes = 0, pov_rad = 0;
     float r_min = 1.5f, r_max = 2.0f, budget = 0;
@@ -138,7 +141,8 @@ static int cmd_gen(int argc, char **argv) {
             (r = mf_opt_int(argc, argv, &i, "--pov-radiosity", &pov_rad)) ||
             (r = mf_opt_str(argc, argv, &i, "--envs", &envs)) || (r = mf_opt_str(argc, argv, &i, "--kind", &kind)) ||
             (r = mf_opt_int(argc, argv, &i, "--env-width", &env_width)) || (r = mf_opt_str(argc, argv, &i, "--train-lights", &train_lights)) ||
-            (r = mf_opt_float(argc, argv, &i, "--time-budget", &budget))) {
+            (r = mf_opt_float(argc, argv, &i, "--time-budget", &budget)) || (r = mf_opt_int(argc, argv, &i, "--diffuse", &diffuse)) ||
+            (r = mf_opt_str(argc, argv, &i, "--renderer", &renderer))) {
             if (r < 0) return MF_EXIT_USAGE;
             continue;
         }
@@ -172,6 +176,9 @@ static int cmd_gen(int argc, char **argv) {
         po.env_dir = env_dir;
         po.train_lights = (DsTrainLights)tl;
         po.threads = threads;
+        po.diffuse = diffuse != 0;
+        po.pov_radiosity = pov_rad;
+        if ((int)(po.renderer = (DsRenderer)ds_renderer_from_name(renderer)) < 0) { mf_fail(MF_EARG, "--renderer: expected ours or povray, not '%s'", renderer); return MF_EXIT_USAGE; }
         if (po.count <= 0 && budget <= 0) po.time_budget_s = 1800; /* prior-train: as much as 30 minutes give */
         DsGenStats st;
         if (ds_gen_prior_train(&po, out, &st)) return MF_EXIT_FAIL;
