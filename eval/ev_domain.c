@@ -62,6 +62,11 @@ int ev_domain_row(const EvTable *t, const char *label, EvDomainRow *out) {
     out->sm_albedo = ev_table_stat(t, m, DS_NAME, "albedo_psnr");
     out->sm_orm = ev_table_stat(t, m, DS_NAME, "orm_psnr");
     snprintf(out->base_method, sizeof out->base_method, "%s", best_baseline(t, label, &out->base_albedo));
+    if (out->base_method[0]) {
+        char mb[128];
+        qualified(mb, sizeof mb, label, out->base_method);
+        ev_paired(t, m, mb, DS_NAME, "albedo_psnr", &out->sm_vs_base);
+    }
     if (!out->sm_albedo.n) return mf_fail(MF_EARG, "generalisation matrix: no StableMaterial records for cell '%s'", label);
     return MF_OK;
 }
@@ -115,7 +120,8 @@ int ev_domain_write(const EvDomainCell *cells, int nc, const char *const *pairs,
     for (int i = 0; i < ncaption; ++i) mf_sb_printf(&md, "%s\n", caption[i]);
     if (ncaption) mf_sb_printf(&md, "\n");
     mf_sb_printf(&md, "| cell (renderer / content) | views | StableMaterial albedo PSNR (dB, masked) | StableMaterial ORM PSNR (dB, masked) "
-                      "| best training-free albedo PSNR (dB, masked) | that baseline |\n|---|---|---|---|---|---|\n");
+                      "| best training-free albedo PSNR (dB, masked) | that baseline | StableMaterial − that baseline, albedo (dB, paired) |\n"
+                      "|---|---|---|---|---|---|---|\n");
     mf_sb_printf(&csv, "kind,cell,ref,metric,method,n,mean,ci95_or_lo,hi,wins,p_t\n");
     for (int c = 0; c < nc && !rc; ++c) {
         EvDomainRow r;
@@ -124,10 +130,13 @@ int ev_domain_write(const EvDomainCell *cells, int nc, const char *const *pairs,
         md_stat(&md, r.sm_albedo);
         md_stat(&md, r.sm_orm);
         md_stat(&md, r.base_albedo);
-        mf_sb_printf(&md, " %s |\n", r.base_method[0] ? r.base_method : "–");
+        mf_sb_printf(&md, " %s |", r.base_method[0] ? r.base_method : "–");
+        md_paired(&md, &r.sm_vs_base);
+        mf_sb_printf(&md, "\n");
         csv_stat(&csv, cells[c].label, "albedo_psnr", kSM, r.sm_albedo);
         csv_stat(&csv, cells[c].label, "orm_psnr", kSM, r.sm_orm);
         csv_stat(&csv, cells[c].label, "albedo_psnr", r.base_method, r.base_albedo);
+        if (r.base_method[0]) csv_paired(&csv, cells[c].label, r.base_method, "albedo_psnr", kSM, &r.sm_vs_base);
     }
     if (!rc && npairs > 0) {
         mf_sb_printf(&md, "\nPaired differences over the views the two cells share (the same objects, cameras and lights: view i of one "

@@ -8,7 +8,8 @@
  *
  * Per cell: StableMaterial's albedo PSNR and ORM PSNR, and the best training-free albedo baseline
  * (of "Input image" and "Retinex", the one with the higher mean albedo PSNR in that cell), each as
- * the mean over views with its 95% CI (Student t, ev_table_stat). Per pair of cells (a, ref) whose
+ * the mean over views with its 95% CI (Student t, ev_table_stat), and StableMaterial - that
+ * baseline paired over the cell's views (ev_paired). Per pair of cells (a, ref) whose
  * views correspond one to one (same generator seed: same objects, cameras and lights, view index
  * = scene name): the paired difference a - ref of each of those metrics over the shared views
  * (ev_paired: mean, 95% CI, wins, paired t-test p); the baseline column compares the baseline that
@@ -29,6 +30,7 @@ typedef struct {
 typedef struct {
     EvStat sm_albedo, sm_orm, base_albedo; /* masked PSNR, mean over views and 95% CI half-width */
     char base_method[64];                  /* the best training-free albedo baseline of the cell */
+    EvPaired sm_vs_base;                   /* StableMaterial - that baseline, albedo PSNR, paired over views */
 } EvDomainRow;
 
 typedef struct {
@@ -46,7 +48,9 @@ int ev_domain_gap(const EvTable *t, const char *a, const char *ref, EvDomainGap 
 
 /* Writes md_path (Markdown: the caption lines, the matrix table, the paired-gap table of each
  * (pairs[2k], pairs[2k+1]) = (a, ref) label pair, then the note lines) and csv_path (may be NULL:
- * kind,cell,ref,metric,method,n,mean,ci95_or_lo,hi,wins,p_t), atomically. */
+ * kind,cell,ref,metric,method,n,mean,ci95_or_lo,hi,wins,p_t: kind "cell" = a mean with its CI
+ * half-width; kind "gap" = paired method(cell) - method(ref) with ref a cell label, or, within a
+ * cell, StableMaterial - the baseline named in ref), atomically. */
 int ev_domain_write(const EvDomainCell *cells, int nc, const char *const *pairs, int npairs, const char *const *caption,
                     int ncaption, const char *const *notes, int nnotes, const char *md_path, const char *csv_path);
 

@@ -41,6 +41,8 @@ MF_TEST(ev_domain_rows_and_gaps) {
     CHECK_NEAR(r.sm_albedo.ci95, 3.18245 * 1.290994 / 2.0, 1e-4);
     CHECK(!strcmp(r.base_method, "Retinex"));
     CHECK_NEAR(r.base_albedo.mean, 18.5, 1e-9);
+    CHECK(r.sm_vs_base.n == 4 && r.sm_vs_base.wins == 4); /* StableMaterial - Retinex = +3 on every view */
+    CHECK_NEAR(r.sm_vs_base.mean, 3.0, 1e-9);
     CHECK_OK(ev_domain_row(&t, "pov", &r));
     CHECK(!strcmp(r.base_method, "Input image"));
     /* pov - ours: -2 dB on every view (CI degenerate: all differences equal), 0 wins */
@@ -63,7 +65,7 @@ MF_TEST(ev_domain_rows_and_gaps) {
           strstr(txt, "Cycles: skipped"));
     free(txt);
     CHECK_OK(mf_read_file(csv, &txt, NULL));
-    CHECK(txt && strstr(txt, "gap,pov,ours,albedo_psnr,StableMaterial,4,-2,"));
+    CHECK(txt && strstr(txt, "gap,pov,ours,albedo_psnr,StableMaterial,4,-2,") && strstr(txt, "gap,ours,Retinex,albedo_psnr,StableMaterial,4,3,"));
     free(txt);
 }
 
