@@ -7,6 +7,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
@@ -14,6 +15,7 @@
 #include "core/mf_rng.h"
 #include "datasets/ds_cameras.h"
 #include "datasets/ds_envgen.h"
+#include "datasets/ds_povray.h"
 #include "datasets/ds_shapes.h"
 #include "datasets/ds_split.h"
 #include "io/mf_json.h"
@@ -27,12 +29,12 @@ uint64_t ds_object_seed(DsSeedStream stream, uint64_t seed, uint64_t k) {
 }
 
 DsPriorTrainOpts ds_prior_train_defaults(void) {
-    DsPriorTrainOpts o = {0, 64, 1, 0.0, 12, 128, 2, 4, NULL, 0, DS_STREAM_PRIOR, "prior-train", DS_LIGHTS_BLENDER};
+    DsPriorTrainOpts o = {0, 64, 1, 0.0, 12, 128, 2, 4, NULL, 0, DS_STREAM_PRIOR, "prior-train", DS_LIGHTS_BLENDER, 0, DS_RENDERER_OURS, 0};
     return o;
 }
 
 DsPriorTrainOpts ds_test2d_defaults(void) {
-    DsPriorTrainOpts o = {32, 64, 1, 0.0, 4, 128, 4, 4, NULL, 0, DS_STREAM_TEST2D, "test-2d", DS_LIGHTS_BLENDER};
+    DsPriorTrainOpts o = {32, 64, 1, 0.0, 4, 128, 4, 4, NULL, 0, DS_STREAM_TEST2D, "test-2d", DS_LIGHTS_BLENDER, 0, DS_RENDERER_OURS, 0};
     return o;
 }
 
@@ -46,6 +48,23 @@ int ds_train_lights_from_name(const char *name) {
 
 const char *ds_train_lights_name(DsTrainLights t) {
     return t == DS_LIGHTS_PROCEDURAL ? "procedural" : (t == DS_LIGHTS_BOTH ? "both" : "blender");
+}
+
+int ds_renderer_from_name(const char *name) {
+    if (!name) return -1;
+    if (!strcmp(name, "ours")) return DS_RENDERER_OURS;
+    if (!strcmp(name, "povray")) return DS_RENDERER_POVRAY;
+    return -1;
+}
+
+const char *ds_renderer_name(DsRenderer r) { return r == DS_RENDERER_POVRAY ? "povray" : "ours"; }
+
+void ds_object_make_diffuse(DsObject *o) {
+    for (size_t i = 0; i < (size_t)o->orm.w * (size_t)o->orm.h; ++i) {
+        float *t = o->orm.data + i * (size_t)o->orm.c;
+        if (t[1] < DS_DIFFUSE_ROUGHNESS_MIN) t[1] = DS_DIFFUSE_ROUGHNESS_MIN;
+        t[2] = 0.0f;
+    }
 }
 
 static int cmp_str(const void *a, const void *b) { return strcmp(*(char *const *)a, *(char *const *)b); }
@@ -84,14 +103,15 @@ static int file_fnv(const char *path, uint64_t *h) {
     return rc;
 }
 
-/* Writes an (res, res, 4) image from an AOV (3 channels, straight) and alpha. */
-static int write_rgba(const char *path, const float *rgb, const float *alpha, int w, int h, int premult, MfEncoding enc) {
+/* Writes an (res, res, 4) image from colour (rs floats per pixel, first 3 used) and alpha (as
+ * floats per pixel): our AOVs (3, 1) or POV-Ray's premultiplied RGBA (4, 4). */
+static int write_rgba(const char *path, const float *rgb, int rs, const float *alpha, int as, int w, int h, int premult, MfEncoding enc) {
     MfImage img;
     int rc = mf_image_alloc(&img, w, h, 4);
     if (rc) return rc;
     for (int i = 0; i < w * h; ++i) {
-        float a = alpha[i], s = (premult && a > 0) ? 1.0f / a : 1.0f;
-        for (int c = 0; c < 3; ++c) img.data[4 * i + c] = a > 0 ? rgb[3 * i + c] * s : 0.0f;
+        float a = alpha[(size_t)i * as], s = (premult && a > 0) ? 1.0f / a : 1.0f;
+        for (int c = 0; c < 3; ++c) img.data[4 * i + c] = a > 0 ? rgb[(size_t)i * rs + c] * s : 0.0f;
         img.data[4 * i + 3] = a;
     }
     rc = mf_image_write(path, &img, enc, 8);
@@ -112,6 +132,7 @@ static int render_object(const DsPriorTrainOpts *o, const char *out, const Probe
     DsObject obj;
     int rc = ds_object_generate(&obj, fam, oseed, o->tex_res);
     if (rc) return rc;
+    if (o->diffuse) ds_object_make_diffuse(&obj);
     MfRtScene *rt = NULL;
     MfMat4 *c2w = malloc(sizeof(MfMat4) * (size_t)o->views_per_object);
     char *marker = NULL;
@@ -125,6 +146,15 @@ static int render_object(const DsPriorTrainOpts *o, const char *out, const Probe
     MfRng rng;
     mf_rng_seed(&rng, oseed, 0x119447u);
     MfRenderOut ro = {0};
+    /* POV-Ray: the camera-independent assets once per object, in a scratch folder of its own */
+    int pov = o->renderer == DS_RENDERER_POVRAY;
+    char pdir[MF_PATH_MAX] = "";
+    DsPovScene pscene = {&obj.mesh, &obj.kd, {0.5f, 0.5f, 0.5f}, NULL, NULL, 0, o->pov_radiosity > 0 ? o->pov_radiosity : DS_SPLIT_POV_RADIOSITY, 1, 1};
+    if (!rc && pov) {
+        char rel[64];
+        snprintf(rel, sizeof rel, ".povray/%06d", k);
+        if (!(rc = mf_path_join(pdir, sizeof pdir, out, rel)) && !(rc = mf_mkdirs(pdir))) rc = ds_povray_export_assets(&pscene, pdir);
+    }
     for (int v = 0; v < o->views_per_object && !rc; ++v) {
         MfCamera cam;
         double m[16];
@@ -187,23 +217,54 @@ static int render_object(const DsPriorTrainOpts *o, const char *out, const Probe
         }
         MfRenderOpts ropt = {o->spp_sqrt, o->pixel_samples, mf_hash64(oseed, (uint64_t)v + 1000), MF_LOBE_ALL};
         rc = mf_render(&in, &cam, &ropt, &ro, NULL);
+        MfImage pimg = {0}; /* POV-Ray's lit view: (res, res, 4) linear, premultiplied */
+        if (!rc && pov) {
+            /* the same light: the view's (rotated) env map and its sun or point light */
+            DsPovScene envonly = {NULL, NULL, {0, 0, 0}, in.env ? &env.img : NULL, NULL, 0, 0, 0, 1};
+            pscene.env = in.env ? &env.img : NULL;
+            pscene.lights = in.lights;
+            pscene.nlights = in.nlights;
+            char vname[32];
+            snprintf(vname, sizeof vname, "v%03d", v);
+            if (!(rc = ds_povray_export_assets(&envonly, pdir)) && !(rc = ds_povray_write_view(&pscene, &cam, pdir, vname)))
+                rc = ds_povray_run(pdir, vname, o->res, o->res, pscene.aa_depth, &pimg);
+            static const char *const ext[3] = {"pov", "log", "exr"};
+            for (int e = 0; e < 3 && !rc; ++e) {
+                char f[64], fp[MF_PATH_MAX];
+                snprintf(f, sizeof f, "%s.%s", vname, ext[e]);
+                if (!mf_path_join(fp, sizeof fp, pdir, f)) unlink(fp);
+            }
+        }
         if (in.env) mf_env_free(&env);
-        if (rc) break;
+        if (rc) {
+            mf_image_free(&pimg);
+            break;
+        }
         int idx = k * o->views_per_object + v;
         static const char *const sub[3] = {"rgb", "albedo", "orm"};
         for (int j = 0; j < 3 && !rc; ++j) {
             char rel[64], p[MF_PATH_MAX];
             snprintf(rel, sizeof rel, "%s/%06d.png", sub[j], idx);
             if ((rc = mf_path_join(p, sizeof p, out, rel))) break;
-            if (j == 0) rc = write_rgba(p, ro.rgb, ro.alpha, o->res, o->res, 1, MF_ENC_SRGB);
-            else if (j == 1) rc = write_rgba(p, ro.albedo, ro.alpha, o->res, o->res, 0, MF_ENC_SRGB);
-            else rc = write_rgba(p, ro.orm, ro.alpha, o->res, o->res, 0, MF_ENC_LINEAR);
+            if (j == 0 && pov) rc = write_rgba(p, pimg.data, 4, pimg.data + 3, 4, o->res, o->res, 1, MF_ENC_SRGB);
+            else if (j == 0) rc = write_rgba(p, ro.rgb, 3, ro.alpha, 1, o->res, o->res, 1, MF_ENC_SRGB);
+            else if (j == 1) rc = write_rgba(p, ro.albedo, 3, ro.alpha, 1, o->res, o->res, 0, MF_ENC_SRGB);
+            else rc = write_rgba(p, ro.orm, 3, ro.alpha, 1, o->res, o->res, 0, MF_ENC_LINEAR);
             uint64_t h = 0;
             if (!rc) rc = file_fnv(p, &h);
             if (!rc) mlen += (size_t)snprintf(marker + mlen, mcap - mlen, "%s %016llx\n", rel, (unsigned long long)h);
         }
         mf_render_out_free(&ro);
+        mf_image_free(&pimg);
         if (!rc) ++*nviews;
+    }
+    if (pov && pdir[0]) { /* scratch: the assets and the folder (a failed view's files stay for its log) */
+        static const char *const assets[3] = {"mesh.inc", "kd.hdr", "env.hdr"};
+        for (int e = 0; e < 3 && !rc; ++e) {
+            char fp[MF_PATH_MAX];
+            if (!mf_path_join(fp, sizeof fp, pdir, assets[e])) unlink(fp);
+        }
+        if (!rc) rmdir(pdir);
     }
     if (!rc) {
         char rel[64], p[MF_PATH_MAX];
@@ -243,6 +304,12 @@ static int write_manifest(const DsPriorTrainOpts *o, const char *out, const Prob
         "25% HDR probe rotated about +Z, 25% procedural env map (12.5% sky, 12.5% room) rotated about +Z, 25% point light at the camera, 25% sun along the view"};
     cJSON_AddStringToObject(r, "lights", kLights[o->train_lights == DS_LIGHTS_PROCEDURAL ? 1 : (o->train_lights == DS_LIGHTS_BOTH ? 2 : 0)]);
     cJSON_AddStringToObject(r, "train_lights", ds_train_lights_name(o->train_lights));
+    if (o->diffuse || o->renderer != DS_RENDERER_OURS) { /* only then: the default manifest keeps its keys */
+        cJSON_AddBoolToObject(r, "diffuse", o->diffuse != 0);
+        cJSON_AddStringToObject(r, "renderer", o->renderer == DS_RENDERER_POVRAY ? "povray (lit views), mf (GT albedo/ORM AOVs)" : "mf");
+        if (o->renderer == DS_RENDERER_POVRAY)
+            cJSON_AddNumberToObject(r, "pov_radiosity", o->pov_radiosity > 0 ? o->pov_radiosity : DS_SPLIT_POV_RADIOSITY);
+    }
     snprintf(buf, sizeof buf, "[%g, %g]", (double)DS_POINT_W_MIN, (double)DS_POINT_W_MAX);
     cJSON_AddStringToObject(r, "point_power_w", buf);
     snprintf(buf, sizeof buf, "[%g, %g]", (double)DS_SUN_MIN, (double)DS_SUN_MAX);
@@ -279,6 +346,11 @@ int ds_gen_prior_train(const DsPriorTrainOpts *o, const char *out_dir, DsGenStat
     if (o->res < 8 || o->res > 4096) return mf_fail(MF_EARG, "prior-train: resolution %d outside [8, 4096]", o->res);
     if (o->views_per_object < 1 || o->spp_sqrt < 1 || o->pixel_samples < 1) return mf_fail(MF_EARG, "prior-train: views, spp and pixel samples must be >= 1");
     if (o->count <= 0 && o->time_budget_s <= 0) return mf_fail(MF_EARG, "prior-train: give a count or a time budget");
+    if (o->renderer != DS_RENDERER_OURS && o->renderer != DS_RENDERER_POVRAY)
+        return mf_fail(MF_EARG, "prior-train: unknown renderer %d", (int)o->renderer);
+    if (o->renderer == DS_RENDERER_POVRAY && !ds_povray_available())
+        return mf_fail(MF_EEXT, "%s: renderer povray needs POV-Ray: povray (/usr/bin/povray or $MF_POVRAY) cannot be run (install Debian's povray: make deps)",
+                       o->split ? o->split : "prior-train");
     double t0 = mf_now();
     const char *env_dir = o->env_dir ? o->env_dir : DS_DEFAULT_ENV_DIR;
     static const char *const subs[4] = {"rgb", "albedo", "orm", "done"};
@@ -336,6 +408,10 @@ int ds_gen_prior_train(const DsPriorTrainOpts *o, const char *out_dir, DsGenStat
         }
     }
     mf_progress_end(&prog);
+    if (o->renderer == DS_RENDERER_POVRAY) { /* the scratch root, empty when every object finished */
+        char p[MF_PATH_MAX];
+        if (!mf_path_join(p, sizeof p, out_dir, ".povray")) rmdir(p);
+    }
     if (!rc && first_err) rc = mf_fail(first_err, "%s", errmsg);
     DsGenStats st = {0};
     st.rendered_views = views_total;

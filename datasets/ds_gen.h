@@ -29,6 +29,20 @@
  *                          file written for that object (written last, atomically)
  *   out/manifest.json      split, resolution, count, seed, objects, views_per_object, lights,
  *                          wall time and views/s of the last run, FNV-1a 64 of every file
+ * Renderer axis (issue 12, the generalisation matrix; both off by default, and then the bytes
+ * are those of the code before them: no new random draw, no new manifest key):
+ *   diffuse = 1: every object made diffuse-dominant by ds_object_make_diffuse (metallic 0,
+ *     roughness >= DS_DIFFUSE_ROUGHNESS_MIN), as test-3d-diffuse's objects;
+ *   renderer = DS_RENDERER_POVRAY: the lit view out/rgb/ is rendered by POV-Ray (ds_povray.h:
+ *     Lambert with kd, the view's env map through radiosity with hide_env = 1, its sun or point
+ *     light; every light kind the generator draws is one the export supports), antialiasing
+ *     depth 1, radiosity count pov_radiosity (0: DS_SPLIT_POV_RADIOSITY). The same object,
+ *     camera and light as our renderer's view; albedo/ and orm/ stay our renderer's AOVs, so a
+ *     POV-Ray split and an ours split of the same seed hold the same GT files. POV-Ray has no
+ *     GGX lobe: use it with diffuse = 1 (the lit images then differ from ours by the F0 = 0.04
+ *     specular lobe and the renderers' own approximations). Scratch files in
+ *     out/.povray/OOOOOO/, removed when the object is done; no POV-Ray: MF_EEXT naming the tool
+ *     before anything is written.
  * Every file is written to a temporary name and renamed. A run resumes: objects with a marker
  * are skipped (their checksums are read from the marker), the others are (re)rendered; the
  * bytes do not depend on interruptions or thread count (deterministic from the seed).
@@ -45,10 +59,20 @@
 
 #include <stdint.h>
 
+#include "datasets/ds_shapes.h"
+
 #define DS_POINT_W_MIN 30.0f
 #define DS_POINT_W_MAX 60.0f
 #define DS_SUN_MIN 1.5f
 #define DS_SUN_MAX 3.0f
+
+/* Which renderer makes the lit view of prior-train / test-2d (see above). */
+typedef enum { DS_RENDERER_OURS = 0, DS_RENDERER_POVRAY = 1 } DsRenderer;
+/* "ours", "povray" -> renderer; -1 for another name. */
+int ds_renderer_from_name(const char *name);
+const char *ds_renderer_name(DsRenderer r);
+
+#define DS_DIFFUSE_ROUGHNESS_MIN 0.6f
 
 typedef enum { DS_STREAM_TEST = 0, DS_STREAM_PRIOR = 1, DS_STREAM_TEST2D = 2 } DsSeedStream;
 
@@ -76,6 +100,9 @@ typedef struct {
     DsSeedStream stream;  /* DS_STREAM_PRIOR (test-2d: DS_STREAM_TEST2D) */
     const char *split;    /* name written into the manifest ("prior-train", "test-2d") */
     DsTrainLights train_lights; /* DS_LIGHTS_BLENDER (default) */
+    int diffuse;          /* 0 (default); 1: diffuse-dominant objects (ds_object_make_diffuse) */
+    DsRenderer renderer;  /* DS_RENDERER_OURS (default) or DS_RENDERER_POVRAY for the lit view */
+    int pov_radiosity;    /* POV-Ray radiosity count (0: DS_SPLIT_POV_RADIOSITY) */
 } DsPriorTrainOpts;
 
 DsPriorTrainOpts ds_prior_train_defaults(void);
@@ -93,6 +120,10 @@ typedef struct {
 
 /* Writes or resumes the prior-train split in out_dir. stats may be NULL. */
 int ds_gen_prior_train(const DsPriorTrainOpts *o, const char *out_dir, DsGenStats *stats);
+
+/* Makes an object diffuse-dominant in place: metallic 0 and roughness >= DS_DIFFUSE_ROUGHNESS_MIN
+ * in every texel of its ORM texture (test-3d-diffuse, test-2d --diffuse 1). */
+void ds_object_make_diffuse(DsObject *o);
 
 /* Sorted *.exr and *.hdr names of a folder (caller frees each and the array). */
 int ds_list_probes(const char *dir, char ***names, int *n);

@@ -110,12 +110,7 @@ int ds_write_split(DsSplitSpec *s, const char *out_dir, const char *env_dir, uin
         if ((rc = mf_path_join(sdir, sizeof sdir, out_dir, name))) break;
         DsObject o;
         if ((rc = ds_object_generate(&o, fam, oseed, s->tex_res))) break;
-        if (s->diffuse) /* diffuse-dominant: metallic 0, roughness >= 0.6 */
-            for (size_t i = 0; i < (size_t)o.orm.w * (size_t)o.orm.h; ++i) {
-                float *t = o.orm.data + i * (size_t)o.orm.c;
-                if (t[1] < 0.6f) t[1] = 0.6f;
-                t[2] = 0.0f;
-            }
+        if (s->diffuse) ds_object_make_diffuse(&o); /* metallic 0, roughness >= 0.6 */
         rc = ds_object_write(&o, sdir);
         ds_object_free(&o);
         if (rc) break;

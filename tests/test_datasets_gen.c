@@ -350,3 +350,142 @@ MF_TEST(ds_gen_test2d) {
     CHECK(mf_file_exists(path));
     CHECK(!same_files(a, b, 12));
 }
+
+/* Reads sub/NNNNNN.png of a generated split (RGBA, linear codes / 255 for orm, sRGB decoded otherwise). */
+static int read_view(const char *dir, const char *sub, int i, MfImage *out) {
+    char p[MF_PATH_MAX];
+    snprintf(p, sizeof p, "%s/%s/%06d.png", dir, sub, i);
+    return mf_image_read(p, strcmp(sub, "orm") ? MF_ENC_SRGB : MF_ENC_LINEAR, out);
+}
+
+/* 1 when sub/NNNNNN.png has the same bytes in a and b. */
+static int same_view_bytes(const char *a, const char *b, const char *sub, int i) {
+    char pa[MF_PATH_MAX], pb[MF_PATH_MAX], *da = NULL, *db = NULL;
+    size_t la = 0, lb = 0;
+    snprintf(pa, sizeof pa, "%s/%s/%06d.png", a, sub, i);
+    snprintf(pb, sizeof pb, "%s/%s/%06d.png", b, sub, i);
+    int ok = !mf_read_file(pa, &da, &la) && !mf_read_file(pb, &db, &lb) && la == lb && !memcmp(da, db, la);
+    free(da);
+    free(db);
+    return ok;
+}
+
+MF_TEST(ds_gen_renderer_axis_defaults_off) {
+    /* the new options default off in both splits, so the default outputs keep their bytes (checked at
+     * full size: test-2d regenerated before/after, the 96 manifest checksums equal; reports/generalisation) */
+    DsPriorTrainOpts t = ds_test2d_defaults(), p = ds_prior_train_defaults();
+    CHECK(t.diffuse == 0 && t.renderer == DS_RENDERER_OURS && t.pov_radiosity == 0);
+    CHECK(p.diffuse == 0 && p.renderer == DS_RENDERER_OURS && p.pov_radiosity == 0);
+    CHECK(ds_renderer_from_name("ours") == DS_RENDERER_OURS && ds_renderer_from_name("povray") == DS_RENDERER_POVRAY);
+    CHECK(ds_renderer_from_name("cycles") == -1 && ds_renderer_from_name(NULL) == -1);
+    CHECK(!strcmp(ds_renderer_name(DS_RENDERER_POVRAY), "povray") && !strcmp(ds_renderer_name(DS_RENDERER_OURS), "ours"));
+    /* the default manifest has no new key */
+    DsPriorTrainOpts o = tiny_opts(2);
+    const char *a = mf_test_path("axis_default");
+    CHECK_OK(ds_gen_prior_train(&o, a, NULL));
+    char path[MF_PATH_MAX];
+    snprintf(path, sizeof path, "%s/manifest.json", a);
+    cJSON *m = NULL;
+    CHECK_OK(mf_json_load(path, &m));
+    CHECK(m && !cJSON_GetObjectItem(m, "diffuse") && !cJSON_GetObjectItem(m, "renderer"));
+    cJSON_Delete(m);
+}
+
+MF_TEST(ds_gen_test2d_diffuse) {
+    /* 3 objects x 2 views: the default objects have glossy or metallic texels, the diffuse ones none */
+    DsPriorTrainOpts o = tiny_opts(6);
+    o.stream = DS_STREAM_TEST2D;
+    o.split = "test-2d";
+    const char *a = mf_test_path("t2d_axis_plain"), *b = mf_test_path("t2d_axis_diffuse");
+    CHECK_OK(ds_gen_prior_train(&o, a, NULL));
+    o.diffuse = 1;
+    CHECK_OK(ds_gen_prior_train(&o, b, NULL));
+    int cov = 0, glossy_plain = 0, rgb_differs = 0;
+    for (int i = 0; i < 6; ++i) {
+        MfImage pa = {0}, pb = {0};
+        CHECK_OK(read_view(a, "orm", i, &pa));
+        CHECK_OK(read_view(b, "orm", i, &pb));
+        for (int q = 0; pa.data && pb.data && q < pb.w * pb.h; ++q) {
+            if (pb.data[4 * q + 3] <= 0.0f) continue;
+            ++cov;
+            /* 8-bit linear codes: 0.6 is code 153 = 0.6 exactly; metallic code 0 */
+            CHECK_MSG(pb.data[4 * q + 2] == 0.0f && pb.data[4 * q + 1] >= 0.6f - 1e-6f, "view %d px %d: roughness %.4f metallic %.4f", i, q,
+                      pb.data[4 * q + 1], pb.data[4 * q + 2]);
+            glossy_plain += pa.data[4 * q + 1] < 0.59f || pa.data[4 * q + 2] > 0.01f;
+        }
+        mf_image_free(&pa);
+        mf_image_free(&pb);
+        /* same objects, cameras and lights: the albedo AOV keeps its bytes (no new random draw) */
+        CHECK_MSG(same_view_bytes(a, b, "albedo", i), "view %d: albedo differs between the default and diffuse objects", i);
+        rgb_differs += !same_view_bytes(a, b, "rgb", i);
+    }
+    CHECK(cov > 50);
+    CHECK_MSG(glossy_plain > 0, "the test's default objects must have glossy/metallic texels for the check to mean something");
+    CHECK(rgb_differs > 0);
+    char path[MF_PATH_MAX];
+    snprintf(path, sizeof path, "%s/manifest.json", b);
+    cJSON *m = NULL;
+    CHECK_OK(mf_json_load(path, &m));
+    CHECK(m && cJSON_IsTrue(cJSON_GetObjectItem(m, "diffuse")));
+    cJSON_Delete(m);
+}
+
+MF_TEST(ds_gen_test2d_povray_missing) {
+    /* no POV-Ray: a clear error naming the tool, before anything is written */
+    const char *old = getenv("MF_POVRAY");
+    char *saved = old ? strdup(old) : NULL;
+    setenv("MF_POVRAY", "/nonexistent/povray", 1);
+    DsPriorTrainOpts o = tiny_opts(2);
+    o.renderer = DS_RENDERER_POVRAY;
+    o.diffuse = 1;
+    const char *a = mf_test_path("t2d_axis_nopov");
+    CHECK_ERR(ds_gen_prior_train(&o, a, NULL), "POV-Ray");
+    CHECK(!mf_file_exists(a));
+    if (saved) setenv("MF_POVRAY", saved, 1);
+    else unsetenv("MF_POVRAY");
+    free(saved);
+}
+
+MF_TEST(ds_gen_test2d_povray) {
+    if (!ds_povray_available()) MF_SKIP("povray not installed");
+    /* 1 object x 2 views at 32 px: POV-Ray's lit view differs from ours, the GT AOVs are ours */
+    DsPriorTrainOpts o = tiny_opts(2);
+    o.stream = DS_STREAM_TEST2D;
+    o.split = "test-2d";
+    o.res = 32;
+    o.diffuse = 1;
+    o.pov_radiosity = 50;
+    const char *a = mf_test_path("t2d_axis_ours"), *b = mf_test_path("t2d_axis_pov");
+    CHECK_OK(ds_gen_prior_train(&o, a, NULL));
+    o.renderer = DS_RENDERER_POVRAY;
+    CHECK_OK(ds_gen_prior_train(&o, b, NULL));
+    for (int i = 0; i < 2; ++i) {
+        CHECK_MSG(same_view_bytes(a, b, "albedo", i) && same_view_bytes(a, b, "orm", i), "view %d: GT albedo/ORM must be our AOVs", i);
+        CHECK_MSG(!same_view_bytes(a, b, "rgb", i), "view %d: the POV-Ray view has our renderer's bytes", i);
+        /* the same object seen from the same camera: coverage agrees, shading is the same order */
+        MfImage ra = {0}, rb = {0};
+        CHECK_OK(read_view(a, "rgb", i, &ra));
+        CHECK_OK(read_view(b, "rgb", i, &rb));
+        int both = 0, either = 0;
+        double sa = 0, sb = 0;
+        for (int q = 0; ra.data && rb.data && q < 32 * 32; ++q) {
+            int ca = ra.data[4 * q + 3] > 0.5f, cb = rb.data[4 * q + 3] > 0.5f;
+            both += ca && cb, either += ca || cb;
+            if (ca && cb)
+                for (int c = 0; c < 3; ++c) sa += ra.data[4 * q + c], sb += rb.data[4 * q + c];
+        }
+        CHECK_MSG(both > 30 && both >= 0.9 * either, "view %d: coverage %d of %d", i, both, either);
+        CHECK_MSG(sb > 0.3 * sa && sb < 3.0 * sa, "view %d: mean colour ours %.3f vs POV-Ray %.3f", i, sa / (both ? both : 1), sb / (both ? both : 1));
+        mf_image_free(&ra);
+        mf_image_free(&rb);
+    }
+    char path[MF_PATH_MAX];
+    snprintf(path, sizeof path, "%s/.povray", b);
+    CHECK_MSG(!mf_file_exists(path), "%s: scratch folder left behind", path);
+    snprintf(path, sizeof path, "%s/manifest.json", b);
+    cJSON *m = NULL;
+    CHECK_OK(mf_json_load(path, &m));
+    const cJSON *r = m ? cJSON_GetObjectItem(m, "renderer") : NULL;
+    CHECK(cJSON_IsString(r) && strstr(r->valuestring, "povray"));
+    cJSON_Delete(m);
+}

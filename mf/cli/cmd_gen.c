@@ -46,6 +46,8 @@
     "    procedural: a clear sky with sun or a lit room generated in memory from each view's seed\n" \
     "    (datasets/ds_envgen.h; --env-dir is not read), so test-3d's Blender relighting probes are\n" \
     "    lights the prior never saw; both: half probes, half procedural.\n" \
+    "  --diffuse 1: diffuse-dominant objects (metallic 0, roughness >= 0.6); --renderer ours|povray:\n" \
+    "    povray renders the lit views with POV-Ray (same objects, cameras, lights; GT albedo/ORM ours).\n" \
     "\n" \
     "       mf gen --envs DIR [--count N] [--seed S] [--kind sky|indoor|both] [--env-width W]\n" \
     "  Writes N procedural HDR env maps per kind (default 8, both kinds), DIR/sky_NNN.exr and\n" \
@@ -110,7 +112,8 @@ static int gen_envs(const char *dir, int count, int seed, const char *kind, int 
 }
 
 typedef struct {
-    const char *out, *family, *split, *env_dir, *compare_povray, *envs, *kind, *train_lights;
+    const char *out, *family, *split, *env_dir, *compare_povray, *envs, *kind, *train_lights, *renderer;
+    int diffuse;
     int seed, tex_res, train, test, width, count, res, views, spp, pixel_samples, threads, scenes, pov_radiosity, env_width;
     int no_render, render;
     float r_min, r_max, time_budget;
@@ -142,7 +145,7 @@ static const MfOpt k_args[] = {
     MF_OPT_INT(A, views, 0, 1, 100000, "--compare-povray: first N test views; prior-train/test-2d: views per object",
                .unset = "all; 12 (prior-train), 4 (test-2d)"),
     MF_OPT_INT(A, res, 0, 1, 4096, "--compare-povray: render size; prior-train/test-2d: image size", .unset = "the split's; 64"),
-    MF_OPT_INT(A, pov_radiosity, 0, 1, 100000, "--compare-povray: POV-Ray radiosity count", .unset = "200"),
+    MF_OPT_INT(A, pov_radiosity, 0, 1, 100000, "--compare-povray, and --renderer povray: POV-Ray radiosity count", .unset = "200"),
     MF_OPT_INT(A, count, 0, 1, 10000000, "prior-train/test-2d: samples; --envs: maps per kind",
                .unset = "time budget (prior-train), 32 (test-2d), 8 (--envs)"),
     MF_OPT_FLOAT(A, time_budget, 0, 0, 1e7, "prior-train/test-2d: stop after this many seconds (0: no limit; prior-train without --count: 1800)",
@@ -151,6 +154,9 @@ static const MfOpt k_args[] = {
     MF_OPT_INT(A, threads, 0, 0, 4096, "prior-train/test-2d: worker threads (0: OpenMP's default)"),
     MF_OPT_STR(A, train_lights, NULL, "prior-train/test-2d: where the env-lit half of the views takes its maps", .choices = "blender|procedural|both",
                .unset = "blender"),
+    MF_OPT_INT(A, diffuse, 0, 0, 1, "prior-train/test-2d: 1 = diffuse-dominant objects (metallic 0, roughness >= 0.6)"),
+    MF_OPT_STR(A, renderer, "ours", "prior-train/test-2d: who renders the lit view (GT albedo/ORM are always our AOVs)",
+               .choices = "ours|povray"),
     MF_OPT_STR(A, envs, NULL, "write procedural HDR env maps to DIR instead", .meta = "DIR"),
     MF_OPT_STR(A, kind, NULL, "--envs: which kinds", .choices = "sky|indoor|both", .unset = "both"),
     MF_OPT_INT(A, env_width, DS_ENV_W, 8, 16384, "--envs: map width (even; height = width / 2)"),
@@ -178,7 +184,8 @@ static int cmd_gen(int argc, char **argv) {
 
 static int gen_run(const GenArgs *a) {
     const char *out = a->out, *fam_name = a->family, *split = a->split, *env_dir = a->env_dir, *compare = a->compare_povray;
-    const char *envs = a->envs, *kind = a->kind, *train_lights = a->train_lights;
+    const char *envs = a->envs, *kind = a->kind, *train_lights = a->train_lights, *renderer = a->renderer;
+    int diffuse = a->diffuse;
     int seed = a->seed, res = a->tex_res, ntrain = a->train > 0 ? a->train : 100, ntest = a->test > 0 ? a->test : 200, count = a->count, img_res = a->res, views = a->views;
     int spp = a->spp, pxs = a->pixel_samples, threads = a->threads, render = !a->no_render, nscenes = a->scenes, pov_rad = a->pov_radiosity;
     int env_width = a->env_width;
@@ -204,6 +211,9 @@ static int gen_run(const GenArgs *a) {
         po.env_dir = env_dir;
         po.train_lights = (DsTrainLights)tl;
         po.threads = threads;
+        po.diffuse = diffuse != 0;
+        po.pov_radiosity = pov_rad;
+        if ((int)(po.renderer = (DsRenderer)ds_renderer_from_name(renderer)) < 0) { mf_fail(MF_EARG, "--renderer: expected ours or povray, not '%s'", renderer); return MF_EXIT_USAGE; }
         if (po.count <= 0 && budget <= 0) po.time_budget_s = 1800; /* prior-train: as much as 30 minutes give */
         DsGenStats st;
         if (ds_gen_prior_train(&po, out, &st)) return MF_EXIT_FAIL;
