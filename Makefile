@@ -203,7 +203,7 @@ bench-prior: $(BUILD)/mf
 DOMAIN_REPORT    ?= reports/generalisation
 DOMAIN_SPLITS    := test-2d test-2d-diffuse test-2d-pov test-2d-pov1000
 DOMAIN_TRAIN     ?= $(DATA)/prior-train-mean
-DOMAIN_EVAL_ARGS ?= --samples 4 --no-mv
+DOMAIN_EVAL_ARGS ?= --samples 10 --no-mv
 GEN2D_ARGS_test-2d-diffuse := --diffuse 1
 GEN2D_ARGS_test-2d-pov     := --diffuse 1 --renderer povray
 # the same with POV-Ray's radiosity count 1000 (default 200): how much of the POV-Ray gap is its own sampling error
