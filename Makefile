@@ -206,13 +206,13 @@ bench-prior: $(BUILD)/mf
 # seed, so the same cameras and lights, view for view; GT albedo/ORM are our AOVs in both), each
 # scored by mf eval-prior with the committed prior; then one table (mf domain-table, eval/ev_domain.h).
 # DOMAIN_TRAIN: the first 240 samples of prior-train (seed 1), read only for eval-prior's
-# training-set-mean ORM baseline (not in the matrix). DOMAIN_EVAL_ARGS: 4 samples per view and no
+# training-set-mean ORM baseline (not in the matrix). DOMAIN_EVAL_ARGS: samples per view and no
 # multi-view pass (the committed reports/prior table: 10 samples and MV), so it fits a shared 2-core
 # machine. Rerunning redoes only what is missing or out of date.
 DOMAIN_REPORT    ?= reports/generalisation
 DOMAIN_SPLITS    := test-2d test-2d-diffuse test-2d-pov test-2d-pov1000
 DOMAIN_TRAIN     ?= $(DATA)/prior-train-mean
-DOMAIN_EVAL_ARGS ?= --samples 4 --no-mv
+DOMAIN_EVAL_ARGS ?= --samples 10 --no-mv
 GEN2D_ARGS_test-2d-diffuse := --diffuse 1
 GEN2D_ARGS_test-2d-pov     := --diffuse 1 --renderer povray
 # the same with POV-Ray's radiosity count 1000 (default 200): how much of the POV-Ray gap is its own sampling error
@@ -247,7 +247,7 @@ bench-domain: $(BUILD)/mf $(foreach s,$(DOMAIN_SPLITS),$(DOMAIN_REPORT)/$(s)/tab
 	  --note "" \
 	  --note "$(DOMAIN_CYCLES)." \
 	  --note "" \
-	  --note "Settings: mf eval-prior $(DOMAIN_EVAL_ARGS) (mean of 4 DDIM samples, 50 steps, guidance 3; StableMaterial single-view only) to fit the shared 2-core machine; the committed reports/prior table uses 10 samples and the multi-view pass (StableMaterial albedo 20.63 dB there vs the 4-sample value here). Training-free baselines: Input image and Retinex (albedo); the best of the two per cell is shown." \
+	  --note "Settings: mf eval-prior $(DOMAIN_EVAL_ARGS) (each view's prediction the mean of that many DDIM samples, 50 steps, guidance 3; StableMaterial single-view only, no multi-view pass) to fit the shared 2-core machine; the committed reports/prior table (10 samples, with the multi-view pass) has StableMaterial albedo 20.63 dB on the same test-2d. Training-free baselines: Input image and Retinex (albedo); the best of the two per cell is shown." \
 	  --note "" \
 	  --note "Commands (from the repository root): \`make bench-domain\`, i.e. \`mf gen --split test-2d -o data/test-2d\`; \`mf gen --split test-2d --diffuse 1 -o data/test-2d-diffuse\`; \`mf gen --split test-2d --diffuse 1 --renderer povray -o data/test-2d-pov\`; \`mf gen --split prior-train --count 240 --seed 1 -o data/prior-train-mean\`; for each split S: \`mf eval-prior data/S --train data/prior-train-mean $(DOMAIN_EVAL_ARGS) -o $(DOMAIN_REPORT)/S\`; then \`mf domain-table\` (this file and matrix.csv). When the --diffuse/--renderer options were added, test-2d regenerated with the defaults by the builds before and after had equal manifest checksums (all 96 files); the test ds_gen_test2d_diffuse checks that the diffuse variant keeps every albedo file's bytes (no new random draw)."
 
