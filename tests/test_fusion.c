@@ -76,21 +76,10 @@ static MfSds *tiny_sds_opts(const MfSdsOpts *o) {
 }
 
 static MfSds *tiny_sds_every(int every) {
-    MfPriorConfig cfg;
-    mf_prior_config_tiny(&cfg);
-    MfPrior *p = NULL;
-    if (mf_prior_new(&p, &cfg)) return NULL;
-    mf_ae_init_weights(p->ae, 11);
-    mf_denoiser_init_weights(p->dn, 12);
     MfSdsOpts o = mf_sds_opts_default();
     o.k_views = 2;
     o.every = every;
-    MfSds *s = NULL;
-    if (mf_sds_new(p, &o, &s)) {
-        mf_prior_free(p);
-        return NULL;
-    }
-    return s;
+    return tiny_sds_opts(&o);
 }
 
 static MfSds *tiny_sds(void) { return tiny_sds_every(1); }
