@@ -23,6 +23,9 @@ int mf_test_failed_now(void);
 const char *mf_test_tmpdir(void);
 /* "tmpdir/name" in a static rotating buffer. */
 const char *mf_test_path(const char *name);
+/* Runs `$MF_BIN args` with stdout to stdout_path (NULL: /dev/null) and stderr captured into err
+ * (cap bytes); returns the exit code, -1 when killed by a signal (e.g. an abort in a library). */
+int mf_test_run_mf(const char *args, const char *stdout_path, char *err, size_t cap);
 
 #define MF_TEST(name)                                                                  \
     static void test_##name(void);                                                     \

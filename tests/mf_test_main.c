@@ -2,6 +2,7 @@
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include "core/mf_fs.h"
@@ -52,6 +53,21 @@ const char *mf_test_path(const char *name) {
     char *b = bufs[k++ & 7];
     snprintf(b, 1024, "%s/%s", mf_test_tmpdir(), name);
     return b;
+}
+
+int mf_test_run_mf(const char *args, const char *stdout_path, char *err, size_t cap) {
+    char cmd[8192], errf[1024];
+    snprintf(errf, sizeof errf, "%s", mf_test_path("mf_stderr.txt"));
+    snprintf(cmd, sizeof cmd, "%s %s >%s 2>%s", getenv("MF_BIN"), args, stdout_path ? stdout_path : "/dev/null", errf);
+    int st = system(cmd);
+    err[0] = 0;
+    FILE *f = fopen(errf, "r");
+    if (f) {
+        size_t n = fread(err, 1, cap - 1, f);
+        err[n] = 0;
+        fclose(f);
+    }
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
 }
 
 static int cmp_entry(const void *a, const void *b) {

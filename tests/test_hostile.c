@@ -50,24 +50,6 @@ static int count_files(const char *dir) {
     return n;
 }
 
-/* Runs `$MF_BIN args` with stderr captured into err; returns the exit code (-1 when killed by a
- * signal, e.g. an abort inside a library). */
-static int run_mf(const char *args, char *err, size_t cap) {
-    const char *bin = getenv("MF_BIN");
-    char cmd[8192], errf[1024];
-    snprintf(errf, sizeof errf, "%s", mf_test_path("hostile_stderr.txt"));
-    snprintf(cmd, sizeof cmd, "%s %s >/dev/null 2>%s", bin, args, errf);
-    int st = system(cmd);
-    err[0] = 0;
-    FILE *f = fopen(errf, "r");
-    if (f) {
-        size_t n = fread(err, 1, cap - 1, f);
-        err[n] = 0;
-        fclose(f);
-    }
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-}
-
 static const char *k_quad =
     "v -0.5 -0.5 0\nv 0.5 -0.5 0\nv 0.5 0.5 0\nv -0.5 0.5 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
     "f 1/1 2/2 3/3\nf 1/1 3/3 4/4\n";
@@ -126,13 +108,13 @@ MF_TEST(hostile_huge_coordinates) {
     snprintf(out, sizeof out, "%s/out", dir);
     const char *scene = write_render_scene(dir, "farcam", k_quad, "1e39");
     snprintf(args, sizeof args, "render %s -o %s", scene, out);
-    int rc = run_mf(args, err, sizeof err);
+    int rc = mf_test_run_mf(args, NULL, err, sizeof err);
     CHECK_MSG(rc == 1, "mf render with a camera at 1e39: exit %d (expected 1): %s", rc, err);
     CHECK_MSG(strstr(err, "farcam_cams.json: frames[0]: transform_matrix: camera position z"), "message: %s", err);
     CHECK(count_files(out) == 0);
     scene = write_render_scene(dir, "farvert", "v 0 0 0\nv 1 0 0\nv 0 1 1e30\nf 1 2 3\n", "2.5");
     snprintf(args, sizeof args, "render %s -o %s", scene, out);
-    rc = run_mf(args, err, sizeof err);
+    rc = mf_test_run_mf(args, NULL, err, sizeof err);
     CHECK_MSG(rc == 1, "mf render with a vertex at 1e30: exit %d (expected 1): %s", rc, err);
     CHECK_MSG(strstr(err, "farvert.obj:3: vertex z = 1e+30 is out of range"), "message: %s", err);
     CHECK(count_files(out) == 0);
@@ -390,7 +372,7 @@ MF_TEST(hostile_directory_as_file) {
     };
     for (int k = 0; k < 3; ++k) {
         snprintf(args, sizeof args, cmds[k][0], dir, out);
-        int rc = run_mf(args, err, sizeof err);
+        int rc = mf_test_run_mf(args, NULL, err, sizeof err);
         CHECK_MSG(rc == 1, "mf %s: exit %d (expected 1): %s", args, rc, err);
         CHECK_MSG(strstr(err, cmds[k][1]) && !strstr(err, "out of memory"), "mf %s: message %s", args, err);
         CHECK(count_files(out) == 0);
@@ -499,7 +481,7 @@ MF_TEST(hostile_duplicate_output_names) {
     if (!getenv("MF_BIN")) MF_SKIP("MF_BIN not set");
     snprintf(out, sizeof out, "%s/out", dir);
     snprintf(args, sizeof args, "render %s -o %s --png", pj2(dir, "dup.json"), out);
-    int rc = run_mf(args, err, sizeof err);
+    int rc = mf_test_run_mf(args, NULL, err, sizeof err);
     CHECK_MSG(rc == 1, "mf render with duplicate names: exit %d: %s", rc, err);
     CHECK_MSG(strstr(err, "frames[0] and frames[2] both name the output 'r_0'"), "message: %s", err);
     CHECK(count_files(out) == 0);
@@ -513,7 +495,7 @@ MF_TEST(hostile_duplicate_output_names) {
     write_flat(pj2(dir, "sky.exr"), 8, 4, 3, 1.0f, MF_ENC_LINEAR);
     snprintf(args, sizeof args, "relight %s --env %s --cameras %s -o %s --width 8 --spp 1 --pixel-samples 1", res,
              pj2(dir, "sky.exr"), pj2(dir, "dup_cams.json"), out);
-    rc = run_mf(args, err, sizeof err);
+    rc = mf_test_run_mf(args, NULL, err, sizeof err);
     CHECK_MSG(rc == 1, "mf relight with duplicate names: exit %d: %s", rc, err);
     CHECK_MSG(strstr(err, "dup_cams.json: frames[0] and frames[2] both name the output 'r_0'"), "message: %s", err);
     CHECK(count_files(out) == 0);
@@ -521,7 +503,7 @@ MF_TEST(hostile_duplicate_output_names) {
     put(pj2(dir, "dup_cams.json"), "{\"camera_angle_x\": 0.6911, \"frames\": ["
         "{\"file_path\": \"./a/r_0\", \"transform_matrix\": [[1,0,0,0],[0,1,0,0],[0,0,1,2.5],[0,0,0,1]]},"
         "{\"file_path\": \"./b/r_1\", \"transform_matrix\": [[1,0,0,0],[0,1,0,0],[0,0,1,3],[0,0,0,1]]}]}");
-    rc = run_mf(args, err, sizeof err);
+    rc = mf_test_run_mf(args, NULL, err, sizeof err);
     CHECK_MSG(rc == 0, "mf relight: exit %d: %s", rc, err);
     CHECK(count_files(out) == 2);
 }
@@ -589,7 +571,7 @@ MF_TEST(hostile_stale_temporaries) {
     snprintf(p, sizeof p, "%s/.keep.txt", out);
     put(p, "user file");
     snprintf(args, sizeof args, "recon %s -o %s --iters 2 --tex-res 16 --env-w 8 --env-h 4 --resume", data, out);
-    int rc = run_mf(args, err, sizeof err);
+    int rc = mf_test_run_mf(args, NULL, err, sizeof err);
     CHECK_MSG(rc == 0, "mf recon --resume: exit %d: %s", rc, err);
     CHECK_MSG(!mf_file_exists(stale1) && !mf_file_exists(stale2), "stale temporaries survived mf recon --resume");
     CHECK(mf_file_exists(p));

@@ -165,22 +165,6 @@ MF_TEST(opts_baseline_config_matches_defaults) {
 
 /* --- through the binary ---------------------------------------------------------------- */
 
-/* Runs `$MF_BIN args`, stdout into outf (or /dev/null), stderr into *err; returns the exit code. */
-static int run_mf(const char *args, const char *outf, char *err, size_t cap) {
-    char cmd[8192], errf[1024];
-    snprintf(errf, sizeof errf, "%s", mf_test_path("opts_stderr.txt"));
-    snprintf(cmd, sizeof cmd, "%s %s >%s 2>%s", getenv("MF_BIN"), args, outf ? outf : "/dev/null", errf);
-    int st = system(cmd);
-    err[0] = 0;
-    FILE *f = fopen(errf, "r");
-    if (f) {
-        size_t n = fread(err, 1, cap - 1, f);
-        err[n] = 0;
-        fclose(f);
-    }
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-}
-
 /* Every flag of `mf CMD --help` is a key of --print-config's JSON, and that JSON is accepted by
  * --config and prints back identically. */
 MF_TEST(opts_cli_every_flag_is_a_config_key) {
@@ -194,11 +178,11 @@ MF_TEST(opts_cli_every_flag_is_a_config_key) {
         snprintf(cfg, sizeof cfg, "%s", mf_test_path("opts_cfg.json"));
         snprintf(again, sizeof again, "%s", mf_test_path("opts_cfg2.json"));
         snprintf(args, sizeof args, "%s --help", cmds[c]);
-        CHECK(run_mf(args, help, err, sizeof err) == 0);
+        CHECK(mf_test_run_mf(args, help, err, sizeof err) == 0);
         snprintf(args, sizeof args, "%s --print-config", cmds[c]);
-        CHECK_MSG(run_mf(args, cfg, err, sizeof err) == 0, "mf %s --print-config: %s", cmds[c], err);
+        CHECK_MSG(mf_test_run_mf(args, cfg, err, sizeof err) == 0, "mf %s --print-config: %s", cmds[c], err);
         snprintf(args, sizeof args, "%s --config %s --print-config", cmds[c], cfg);
-        CHECK_MSG(run_mf(args, again, err, sizeof err) == 0, "mf %s --config (its own --print-config): %s", cmds[c], err);
+        CHECK_MSG(mf_test_run_mf(args, again, err, sizeof err) == 0, "mf %s --config (its own --print-config): %s", cmds[c], err);
         char *a = NULL, *b = NULL, *h = NULL;
         cJSON *j = NULL;
         CHECK_OK(mf_read_file(cfg, &a, NULL));
@@ -267,7 +251,7 @@ MF_TEST(opts_cli_out_of_range_refused_no_file) {
         snprintf(a, sizeof a, cases[k].args, mf_test_tmpdir(), out);
         if (strstr(cases[k].needle, "denoise_sigma")) snprintf(args, sizeof args, "%s%s", a, cfg);
         else snprintf(args, sizeof args, "%s", a);
-        int rc = run_mf(args, NULL, err, sizeof err);
+        int rc = mf_test_run_mf(args, NULL, err, sizeof err);
         CHECK_MSG(rc == 2, "mf %s: exit %d, expected 2", args, rc);
         CHECK_MSG(strstr(err, cases[k].needle), "mf %s: message '%s' lacks '%s'", args, err, cases[k].needle);
         CHECK_MSG(!mf_file_exists(out), "mf %s: left %s behind", args, out);
@@ -297,7 +281,7 @@ MF_TEST(opts_cli_help_shows_defaults_and_ranges) {
             free(h);
             h = NULL;
             snprintf(args, sizeof args, "%s --help", cases[k].cmd);
-            CHECK(run_mf(args, outf, err, sizeof err) == 0);
+            CHECK(mf_test_run_mf(args, outf, err, sizeof err) == 0);
             CHECK_OK(mf_read_file(outf, &h, NULL));
         }
         CHECK_MSG(h && strstr(h, cases[k].needle), "mf %s --help lacks '%s'", cases[k].cmd, cases[k].needle);
@@ -312,7 +296,7 @@ MF_TEST(opts_cli_deprecated_alias_warns_but_works) {
     char err[4096], outf[1024], cfg[1024], args[2048];
     snprintf(outf, sizeof outf, "%s", mf_test_path("opts_dep.json"));
     snprintf(cfg, sizeof cfg, "%s", mf_test_path("opts_dep_in.json"));
-    CHECK(run_mf("recon --spp-sqrt 3 --print-config", outf, err, sizeof err) == 0);
+    CHECK(mf_test_run_mf("recon --spp-sqrt 3 --print-config", outf, err, sizeof err) == 0);
     CHECK_MSG(strstr(err, "--spp-sqrt is deprecated: use --spp"), "no deprecation warning: '%s'", err);
     cJSON *j = NULL;
     CHECK_OK(mf_json_load(outf, &j));
@@ -321,7 +305,7 @@ MF_TEST(opts_cli_deprecated_alias_warns_but_works) {
     FILE *f = fopen(cfg, "w");
     if (f) fputs("{\"spp_sqrt\": 4}\n", f), fclose(f);
     snprintf(args, sizeof args, "recon --config %s --print-config", cfg);
-    CHECK(run_mf(args, outf, err, sizeof err) == 0);
+    CHECK(mf_test_run_mf(args, outf, err, sizeof err) == 0);
     CHECK_MSG(strstr(err, "key 'spp_sqrt' is deprecated: use 'spp'"), "no deprecation warning: '%s'", err);
     CHECK_OK(mf_json_load(outf, &j));
     CHECK(cJSON_GetNumberValue(cJSON_GetObjectItem(j, "spp")) == 4.0);

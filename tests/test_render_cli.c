@@ -32,23 +32,6 @@ static int count_files(const char *dir) {
     return n;
 }
 
-/* Runs `$MF_BIN args` with stderr captured into *err (static buffer); returns the exit code. */
-static int run_mf(const char *args, char *err, size_t cap) {
-    const char *bin = getenv("MF_BIN");
-    char cmd[4096], errf[1024];
-    snprintf(errf, sizeof errf, "%s", mf_test_path("cli_stderr.txt"));
-    snprintf(cmd, sizeof cmd, "%s %s >/dev/null 2>%s", bin, args, errf);
-    int st = system(cmd);
-    err[0] = 0;
-    FILE *f = fopen(errf, "r");
-    if (f) {
-        size_t n = fread(err, 1, cap - 1, f);
-        err[n] = 0;
-        fclose(f);
-    }
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-}
-
 static const char *k_obj =
     "v -0.5 -0.5 0\nv 0.5 -0.5 0\nv 0.5 0.5 0\nv -0.5 0.5 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
     "f 1/1 2/2 3/3\nf 1/1 3/3 4/4\n";
@@ -79,7 +62,7 @@ MF_TEST(render_cli_ok) {
     put(scene, buf);
     snprintf(out, sizeof out, "%s/out", dir);
     snprintf(args, sizeof args, "render %s -o %s --png --width 20 --height 10", scene, out);
-    int rc = run_mf(args, buf, sizeof buf);
+    int rc = mf_test_run_mf(args, NULL, buf, sizeof buf);
     CHECK_MSG(rc == 0, "mf render failed (%d): %s", rc, buf);
     CHECK(count_files(out) == 2);
     snprintf(scene, sizeof scene, "%s/r_0.exr", out);
@@ -109,7 +92,7 @@ MF_TEST(render_cli_ok) {
      * layer by name; an unknown layer is an error naming the layers the file has. */
     char cmd[4096], line[256];
     snprintf(args, sizeof args, "render %s/scene.json -o %s/big --width 24 --height 16", dir, dir); /* SSIM: >= 11x11 */
-    rc = run_mf(args, buf, sizeof buf);
+    rc = mf_test_run_mf(args, NULL, buf, sizeof buf);
     CHECK_MSG(rc == 0, "mf render failed (%d): %s", rc, buf);
     snprintf(scene, sizeof scene, "%s/big/r_0.exr", dir);
     const char *metric_layers[4] = {"", "--layer albedo", "--layer orm", "--layer normal"};
@@ -124,7 +107,7 @@ MF_TEST(render_cli_ok) {
         CHECK_MSG(psnr == 100.0, "mf metrics %s: psnr %g, want 100", metric_layers[k], psnr);
     }
     snprintf(args, sizeof args, "metrics %s %s --layer nosuch", scene, scene);
-    rc = run_mf(args, buf, sizeof buf);
+    rc = mf_test_run_mf(args, NULL, buf, sizeof buf);
     CHECK_MSG(rc == 1 && strstr(buf, "no layer 'nosuch'") && strstr(buf, "albedo"), "rc %d: %s", rc, buf);
 }
 
@@ -132,7 +115,7 @@ MF_TEST(render_cli_ok) {
 static void expect_failure(const char *scene, const char *outdir, const char *needle) {
     char args[4096], err[4096];
     snprintf(args, sizeof args, "render %s -o %s", scene, outdir);
-    int rc = run_mf(args, err, sizeof err);
+    int rc = mf_test_run_mf(args, NULL, err, sizeof err);
     CHECK_MSG(rc == 1, "%s: exit code %d, expected 1", scene, rc);
     CHECK_MSG(strstr(err, needle) != NULL, "message '%s' lacks '%s'", err, needle);
     CHECK_MSG(count_files(outdir) == 0, "%s: output files left in %s", scene, outdir);
