@@ -14,6 +14,7 @@
 #include "core/mf_log.h"
 #include "core/mf_rng.h"
 #include "datasets/ds_cameras.h"
+#include "datasets/ds_cycles.h"
 #include "datasets/ds_envgen.h"
 #include "datasets/ds_povray.h"
 #include "datasets/ds_shapes.h"
@@ -29,12 +30,12 @@ uint64_t ds_object_seed(DsSeedStream stream, uint64_t seed, uint64_t k) {
 }
 
 DsPriorTrainOpts ds_prior_train_defaults(void) {
-    DsPriorTrainOpts o = {0, 64, 1, 0.0, 12, 128, 2, 4, NULL, 0, DS_STREAM_PRIOR, "prior-train", DS_LIGHTS_BLENDER, 0, DS_RENDERER_OURS, 0};
+    DsPriorTrainOpts o = {0, 64, 1, 0.0, 12, 128, 2, 4, NULL, 0, DS_STREAM_PRIOR, "prior-train", DS_LIGHTS_BLENDER, 0, DS_RENDERER_OURS, 0, 0, DS_CONTENT_ALL};
     return o;
 }
 
 DsPriorTrainOpts ds_test2d_defaults(void) {
-    DsPriorTrainOpts o = {32, 64, 1, 0.0, 4, 128, 4, 4, NULL, 0, DS_STREAM_TEST2D, "test-2d", DS_LIGHTS_BLENDER, 0, DS_RENDERER_OURS, 0};
+    DsPriorTrainOpts o = {32, 64, 1, 0.0, 4, 128, 4, 4, NULL, 0, DS_STREAM_TEST2D, "test-2d", DS_LIGHTS_BLENDER, 0, DS_RENDERER_OURS, 0, 0, DS_CONTENT_ALL};
     return o;
 }
 
@@ -54,10 +55,11 @@ int ds_renderer_from_name(const char *name) {
     if (!name) return -1;
     if (!strcmp(name, "ours")) return DS_RENDERER_OURS;
     if (!strcmp(name, "povray")) return DS_RENDERER_POVRAY;
+    if (!strcmp(name, "cycles")) return DS_RENDERER_CYCLES;
     return -1;
 }
 
-const char *ds_renderer_name(DsRenderer r) { return r == DS_RENDERER_POVRAY ? "povray" : "ours"; }
+const char *ds_renderer_name(DsRenderer r) { return r == DS_RENDERER_POVRAY ? "povray" : r == DS_RENDERER_CYCLES ? "cycles" : "ours"; }
 
 void ds_object_make_diffuse(DsObject *o) {
     for (size_t i = 0; i < (size_t)o->orm.w * (size_t)o->orm.h; ++i) {
@@ -126,13 +128,23 @@ typedef struct {
 } ProbeSet;
 
 /* Renders object k completely and writes its marker. Runs in one thread. */
-static int render_object(const DsPriorTrainOpts *o, const char *out, const ProbeSet *ps, int k, int *nviews, int *nenv) {
-    DsFamily fam = (DsFamily)(k % DS_FAM_COUNT);
-    uint64_t oseed = ds_object_seed(o->stream, o->seed, (uint64_t)k);
+/* Object k of the split is candidate j (k itself unless a content filter is on). */
+static int render_object(const DsPriorTrainOpts *o, const char *out, const ProbeSet *ps, int k, int j, int *nviews, int *nenv) {
+    DsFamily fam = (DsFamily)(j % DS_FAM_COUNT);
+    uint64_t oseed = ds_object_seed(o->stream, o->seed, (uint64_t)j);
     DsObject obj;
     int rc = ds_object_generate(&obj, fam, oseed, o->tex_res);
     if (rc) return rc;
-    if (o->diffuse) ds_object_make_diffuse(&obj);
+    if (!ds_content_accepts(o->content, &obj)) { /* the filter ran on a small-texture copy: must agree */
+        ds_object_free(&obj);
+        return mf_fail(MF_EARG, "%s: object %d (candidate %d) fails the content filter at texture size %d", o->split, k, j, o->tex_res);
+    }
+    DsWidenObject wo = {0};
+    if (o->widen) {
+        wo = ds_widen_object(oseed);
+        ds_widen_overlay(&wo, oseed, &obj);
+    }
+    if (o->diffuse || wo.povray) ds_object_make_diffuse(&obj);
     MfRtScene *rt = NULL;
     MfMat4 *c2w = malloc(sizeof(MfMat4) * (size_t)o->views_per_object);
     char *marker = NULL;
@@ -140,15 +152,21 @@ static int render_object(const DsPriorTrainOpts *o, const char *out, const Probe
     marker = malloc(mcap);
     if (!c2w || !marker) rc = mf_fail(MF_ENOMEM, "out of memory");
     if (!rc) rc = mf_rtscene_new(&obj.mesh, &rt);
-    DsCamSampling cs = ds_cam_sampling_default();
+    DsCamSampling cs = o->widen ? ds_widen_cameras(&wo) : ds_cam_sampling_default();
     if (!rc) rc = ds_sample_cameras(&cs, o->views_per_object, oseed, 0, c2w);
     MfTexMaterial mat = {.kd = &obj.kd, .orm = &obj.orm, .kd_const = {0.5f, 0.5f, 0.5f}, .orm_const = {1, 0.5f, 0}};
     MfRng rng;
     mf_rng_seed(&rng, oseed, 0x119447u);
     MfRenderOut ro = {0};
     /* POV-Ray: the camera-independent assets once per object, in a scratch folder of its own */
-    int pov = o->renderer == DS_RENDERER_POVRAY;
+    int pov = o->renderer == DS_RENDERER_POVRAY || wo.povray, cyc = o->renderer == DS_RENDERER_CYCLES && !wo.povray;
     char pdir[MF_PATH_MAX] = "";
+    DsCyclesJob job = {0}; /* Cycles: every view of the object in one Blender run after the loop */
+    if (!rc && cyc) {
+        char rel[64], cdir[MF_PATH_MAX];
+        snprintf(rel, sizeof rel, ".cycles/%06d", k);
+        if (!(rc = mf_path_join(cdir, sizeof cdir, out, rel))) rc = ds_cycles_begin(&job, cdir, &obj.mesh, &obj.kd, &obj.orm, o->res);
+    }
     DsPovScene pscene = {&obj.mesh, &obj.kd, {0.5f, 0.5f, 0.5f}, NULL, NULL, 0, o->pov_radiosity > 0 ? o->pov_radiosity : DS_SPLIT_POV_RADIOSITY, 1, 1};
     if (!rc && pov) {
         char rel[64];
@@ -218,14 +236,15 @@ static int render_object(const DsPriorTrainOpts *o, const char *out, const Probe
         MfRenderOpts ropt = {o->spp_sqrt, o->pixel_samples, mf_hash64(oseed, (uint64_t)v + 1000), MF_LOBE_ALL};
         rc = mf_render(&in, &cam, &ropt, &ro, NULL);
         MfImage pimg = {0}; /* POV-Ray's lit view: (res, res, 4) linear, premultiplied */
+        char vname[32];
+        snprintf(vname, sizeof vname, "v%03d", v);
+        if (!rc && cyc) rc = ds_cycles_add_view(&job, vname, m, cs.camera_angle_x, in.env ? &env.img : NULL, in.lights, in.nlights);
         if (!rc && pov) {
             /* the same light: the view's (rotated) env map and its sun or point light */
             DsPovScene envonly = {NULL, NULL, {0, 0, 0}, in.env ? &env.img : NULL, NULL, 0, 0, 0, 1};
             pscene.env = in.env ? &env.img : NULL;
             pscene.lights = in.lights;
             pscene.nlights = in.nlights;
-            char vname[32];
-            snprintf(vname, sizeof vname, "v%03d", v);
             if (!(rc = ds_povray_export_assets(&envonly, pdir)) && !(rc = ds_povray_write_view(&pscene, &cam, pdir, vname)))
                 rc = ds_povray_run(pdir, vname, o->res, o->res, pscene.aa_depth, &pimg);
             static const char *const ext[3] = {"pov", "log", "exr"};
@@ -236,6 +255,10 @@ static int render_object(const DsPriorTrainOpts *o, const char *out, const Probe
             }
         }
         if (in.env) mf_env_free(&env);
+        if (!rc && o->widen && !cyc) { /* Cycles: after its run */
+            DsWidenView wv = ds_widen_view(oseed, v);
+            rc = pov ? ds_widen_apply(&wv, pimg.data, 4, pimg.data + 3, 4, o->res) : ds_widen_apply(&wv, ro.rgb, 3, ro.alpha, 1, o->res);
+        }
         if (rc) {
             mf_image_free(&pimg);
             break;
@@ -245,6 +268,7 @@ static int render_object(const DsPriorTrainOpts *o, const char *out, const Probe
         for (int j = 0; j < 3 && !rc; ++j) {
             char rel[64], p[MF_PATH_MAX];
             snprintf(rel, sizeof rel, "%s/%06d.png", sub[j], idx);
+            if (j == 0 && cyc) continue; /* after the Blender run */
             if ((rc = mf_path_join(p, sizeof p, out, rel))) break;
             if (j == 0 && pov) rc = write_rgba(p, pimg.data, 4, pimg.data + 3, 4, o->res, o->res, 1, MF_ENC_SRGB);
             else if (j == 0) rc = write_rgba(p, ro.rgb, 3, ro.alpha, 1, o->res, o->res, 1, MF_ENC_SRGB);
@@ -258,6 +282,21 @@ static int render_object(const DsPriorTrainOpts *o, const char *out, const Probe
         mf_image_free(&pimg);
         if (!rc) ++*nviews;
     }
+    if (cyc && !rc) rc = ds_cycles_run(&job);
+    for (int v = 0; cyc && v < o->views_per_object && !rc; ++v) {
+        char vname[32], rel[64], p[MF_PATH_MAX];
+        snprintf(vname, sizeof vname, "v%03d", v);
+        snprintf(rel, sizeof rel, "rgb/%06d.png", k * o->views_per_object + v);
+        MfImage cimg = {0}; /* (res, res, 4) linear, premultiplied */
+        uint64_t h = 0;
+        DsWidenView wv = ds_widen_view(oseed, v);
+        if (!(rc = ds_cycles_read(&job, vname, &cimg)) && !(rc = o->widen ? ds_widen_apply(&wv, cimg.data, 4, cimg.data + 3, 4, o->res) : MF_OK) &&
+            !(rc = mf_path_join(p, sizeof p, out, rel)) && !(rc = write_rgba(p, cimg.data, 4, cimg.data + 3, 4, o->res, o->res, 1, MF_ENC_SRGB)) &&
+            !(rc = file_fnv(p, &h)))
+            mlen += (size_t)snprintf(marker + mlen, mcap - mlen, "%s %016llx\n", rel, (unsigned long long)h);
+        mf_image_free(&cimg);
+    }
+    if (cyc) ds_cycles_end(&job, rc != 0); /* a failed run keeps blender.log */
     if (pov && pdir[0]) { /* scratch: the assets and the folder (a failed view's files stay for its log) */
         static const char *const assets[3] = {"mesh.inc", "kd.hdr", "env.hdr"};
         for (int e = 0; e < 3 && !rc; ++e) {
@@ -306,10 +345,16 @@ static int write_manifest(const DsPriorTrainOpts *o, const char *out, const Prob
     cJSON_AddStringToObject(r, "train_lights", ds_train_lights_name(o->train_lights));
     if (o->diffuse || o->renderer != DS_RENDERER_OURS) { /* only then: the default manifest keeps its keys */
         cJSON_AddBoolToObject(r, "diffuse", o->diffuse != 0);
-        cJSON_AddStringToObject(r, "renderer", o->renderer == DS_RENDERER_POVRAY ? "povray (lit views), mf (GT albedo/ORM AOVs)" : "mf");
+        cJSON_AddStringToObject(r, "renderer", o->renderer == DS_RENDERER_POVRAY   ? "povray (lit views), mf (GT albedo/ORM AOVs)"
+                                               : o->renderer == DS_RENDERER_CYCLES ? "blender cycles (lit views: datasets/ds_cycles.py), mf (GT albedo/ORM AOVs)"
+                                                                                   : "mf");
         if (o->renderer == DS_RENDERER_POVRAY)
             cJSON_AddNumberToObject(r, "pov_radiosity", o->pov_radiosity > 0 ? o->pov_radiosity : DS_SPLIT_POV_RADIOSITY);
     }
+    if (o->content != DS_CONTENT_ALL) cJSON_AddStringToObject(r, "content", ds_content_name(o->content));
+    if (o->widen)
+        cJSON_AddStringToObject(r, "widen", "datasets/ds_widen.h: POV-Ray lit views for 10% of the objects (made diffuse), field of view "
+                                            "0.45-1.0 rad, UV overlays on 30%, exposure +-2 stops, tone curves, resolution drop, noise");
     snprintf(buf, sizeof buf, "[%g, %g]", (double)DS_POINT_W_MIN, (double)DS_POINT_W_MAX);
     cJSON_AddStringToObject(r, "point_power_w", buf);
     snprintf(buf, sizeof buf, "[%g, %g]", (double)DS_SUN_MIN, (double)DS_SUN_MAX);
@@ -342,13 +387,46 @@ static int write_manifest(const DsPriorTrainOpts *o, const char *out, const Prob
     return rc;
 }
 
+/* cand (n,) = the first n candidate indices the content filter accepts. Objects are generated
+ * with small textures for the test (materials do not depend on the texture size; render_object
+ * checks the full-size object again); held-out families decide without generating. */
+static int content_candidates(const DsPriorTrainOpts *o, int n, int **cand) {
+    int *c = malloc(sizeof(int) * (size_t)n);
+    if (!c) return mf_fail(MF_ENOMEM, "out of memory");
+    int got = 0, rc = MF_OK;
+    for (int j = 0; got < n && !rc; ++j) {
+        if (j >= (1 << 24)) {
+            rc = mf_fail(MF_EARG, "%s: only %d of %d objects pass content %s", o->split, got, n, ds_content_name(o->content));
+            break;
+        }
+        DsFamily fam = (DsFamily)(j % DS_FAM_COUNT);
+        int ok;
+        if (ds_family_heldout(fam)) ok = o->content == DS_CONTENT_HELDOUT;
+        else {
+            DsObject obj;
+            if ((rc = ds_object_generate(&obj, fam, ds_object_seed(o->stream, o->seed, (uint64_t)j), 16))) break;
+            ok = ds_content_accepts(o->content, &obj);
+            ds_object_free(&obj);
+        }
+        if (ok) c[got++] = j;
+    }
+    if (rc) free(c), c = NULL;
+    *cand = c;
+    return rc;
+}
+
 int ds_gen_prior_train(const DsPriorTrainOpts *o, const char *out_dir, DsGenStats *stats) {
     if (o->res < 8 || o->res > 4096) return mf_fail(MF_EARG, "prior-train: resolution %d outside [8, 4096]", o->res);
     if (o->views_per_object < 1 || o->spp_sqrt < 1 || o->pixel_samples < 1) return mf_fail(MF_EARG, "prior-train: views, spp and pixel samples must be >= 1");
     if (o->count <= 0 && o->time_budget_s <= 0) return mf_fail(MF_EARG, "prior-train: give a count or a time budget");
-    if (o->renderer != DS_RENDERER_OURS && o->renderer != DS_RENDERER_POVRAY)
+    if (o->renderer != DS_RENDERER_OURS && o->renderer != DS_RENDERER_POVRAY && o->renderer != DS_RENDERER_CYCLES)
         return mf_fail(MF_EARG, "prior-train: unknown renderer %d", (int)o->renderer);
-    if (o->renderer == DS_RENDERER_POVRAY && !ds_povray_available())
+    if (o->content != DS_CONTENT_ALL && o->count <= 0)
+        return mf_fail(MF_EARG, "%s: content %s needs a sample count", o->split ? o->split : "prior-train", ds_content_name(o->content));
+    if (o->renderer == DS_RENDERER_CYCLES && !ds_cycles_available())
+        return mf_fail(MF_EEXT, "%s: renderer cycles needs Blender: blender (/usr/bin/blender or $MF_BLENDER) cannot be run (install Debian's blender; it is optional)",
+                       o->split ? o->split : "prior-train");
+    if ((o->renderer == DS_RENDERER_POVRAY || o->widen) && !ds_povray_available())
         return mf_fail(MF_EEXT, "%s: renderer povray needs POV-Ray: povray (/usr/bin/povray or $MF_POVRAY) cannot be run (install Debian's povray: make deps)",
                        o->split ? o->split : "prior-train");
     double t0 = mf_now();
@@ -373,6 +451,8 @@ int ds_gen_prior_train(const DsPriorTrainOpts *o, const char *out_dir, DsGenStat
         if (!(rc = mf_path_join(p, sizeof p, env_dir, ps.names[i]))) rc = mf_env_load(&ps.probes[i], p);
     }
     int max_obj = o->count > 0 ? (o->count + o->views_per_object - 1) / o->views_per_object : 1 << 20;
+    int *cand = NULL; /* (max_obj,) candidate index of each object; NULL: the identity */
+    if (!rc && o->content != DS_CONTENT_ALL) rc = content_candidates(o, max_obj, &cand);
     int first_err = 0, views_total = 0, env_total = 0, stop = 0;
     char errmsg[1024] = "";
     MfProgress prog;
@@ -393,7 +473,7 @@ int ds_gen_prior_train(const DsPriorTrainOpts *o, const char *out_dir, DsGenStat
             char mp[MF_PATH_MAX];
             if (marker_path(out_dir, k, mp, sizeof mp) == MF_OK && mf_file_exists(mp)) { mf_progress_add(&prog, 1); continue; }
             int nv = 0, ne = 0;
-            int r = render_object(o, out_dir, &ps, k, &nv, &ne);
+            int r = render_object(o, out_dir, &ps, k, cand ? cand[k] : k, &nv, &ne);
             views_total += nv;
             env_total += ne;
             if (r) {
@@ -408,9 +488,9 @@ int ds_gen_prior_train(const DsPriorTrainOpts *o, const char *out_dir, DsGenStat
         }
     }
     mf_progress_end(&prog);
-    if (o->renderer == DS_RENDERER_POVRAY) { /* the scratch root, empty when every object finished */
+    for (int s = 0; s < 2; ++s) { /* the scratch roots, empty when every object finished */
         char p[MF_PATH_MAX];
-        if (!mf_path_join(p, sizeof p, out_dir, ".povray")) rmdir(p);
+        if (!mf_path_join(p, sizeof p, out_dir, s ? ".cycles" : ".povray")) rmdir(p);
     }
     if (!rc && first_err) rc = mf_fail(first_err, "%s", errmsg);
     DsGenStats st = {0};
@@ -425,6 +505,7 @@ int ds_gen_prior_train(const DsPriorTrainOpts *o, const char *out_dir, DsGenStat
         rc = write_manifest(o, out_dir, &ps, &st);
     }
     if (stats) *stats = st;
+    free(cand);
     for (int i = 0; i < ps.np; ++i) {
         if (ps.probes) mf_env_free(&ps.probes[i]);
         free(ps.names[i]);

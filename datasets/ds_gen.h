@@ -43,6 +43,18 @@
  *     specular lobe and the renderers' own approximations). Scratch files in
  *     out/.povray/OOOOOO/, removed when the object is done; no POV-Ray: MF_EEXT naming the tool
  *     before anything is written.
+ * Widened recipe and content filter (ds_widen.h; both off by default, bytes then unchanged):
+ *   content != DS_CONTENT_ALL: candidate objects j = 0, 1, ... (family j mod DS_FAM_COUNT, seed
+ *     ds_object_seed(stream, seed, j)) are tested by ds_content_accepts and the accepted ones
+ *     become objects 0, 1, ... of the split (a count is then required); manifest key "content";
+ *   widen = 1: per object and per view as ds_widen.h says; POV-Ray renders the lit views of
+ *     DS_WIDEN_POV_FRAC of the objects (made diffuse), so POV-Ray must be installed; manifest
+ *     key "widen".
+ *   renderer = DS_RENDERER_CYCLES: the lit view is rendered by Blender Cycles (ds_cycles.h: full
+ *     path tracing, Principled BSDF with the object's kd/roughness/metallic), the same object,
+ *     camera and light; albedo/ and orm/ stay our AOVs; all of an object's views in one Blender
+ *     run, scratch in out/.cycles/OOOOOO/; no Blender: MF_EEXT naming it before anything is
+ *     written. Blender is optional: nothing in `make test` needs it.
  * Every file is written to a temporary name and renamed. A run resumes: objects with a marker
  * are skipped (their checksums are read from the marker), the others are (re)rendered; the
  * bytes do not depend on interruptions or thread count (deterministic from the seed).
@@ -60,6 +72,7 @@
 #include <stdint.h>
 
 #include "datasets/ds_shapes.h"
+#include "datasets/ds_widen.h"
 
 #define DS_POINT_W_MIN 30.0f
 #define DS_POINT_W_MAX 60.0f
@@ -67,8 +80,8 @@
 #define DS_SUN_MAX 3.0f
 
 /* Which renderer makes the lit view of prior-train / test-2d (see above). */
-typedef enum { DS_RENDERER_OURS = 0, DS_RENDERER_POVRAY = 1 } DsRenderer;
-/* "ours", "povray" -> renderer; -1 for another name. */
+typedef enum { DS_RENDERER_OURS = 0, DS_RENDERER_POVRAY = 1, DS_RENDERER_CYCLES = 2 } DsRenderer;
+/* "ours", "povray", "cycles" -> renderer; -1 for another name. */
 int ds_renderer_from_name(const char *name);
 const char *ds_renderer_name(DsRenderer r);
 
@@ -103,6 +116,8 @@ typedef struct {
     int diffuse;          /* 0 (default); 1: diffuse-dominant objects (ds_object_make_diffuse) */
     DsRenderer renderer;  /* DS_RENDERER_OURS (default) or DS_RENDERER_POVRAY for the lit view */
     int pov_radiosity;    /* POV-Ray radiosity count (0: DS_SPLIT_POV_RADIOSITY) */
+    int widen;            /* 0 (default); 1: the widened recipe of ds_widen.h */
+    DsContent content;    /* DS_CONTENT_ALL (default); TRAIN / HELDOUT: the content filter of ds_widen.h */
 } DsPriorTrainOpts;
 
 DsPriorTrainOpts ds_prior_train_defaults(void);

@@ -377,7 +377,7 @@ MF_TEST(ds_gen_renderer_axis_defaults_off) {
     CHECK(t.diffuse == 0 && t.renderer == DS_RENDERER_OURS && t.pov_radiosity == 0);
     CHECK(p.diffuse == 0 && p.renderer == DS_RENDERER_OURS && p.pov_radiosity == 0);
     CHECK(ds_renderer_from_name("ours") == DS_RENDERER_OURS && ds_renderer_from_name("povray") == DS_RENDERER_POVRAY);
-    CHECK(ds_renderer_from_name("cycles") == -1 && ds_renderer_from_name(NULL) == -1);
+    CHECK(ds_renderer_from_name("mitsuba") == -1 && ds_renderer_from_name(NULL) == -1 && ds_renderer_from_name("cycles") == DS_RENDERER_CYCLES);
     CHECK(!strcmp(ds_renderer_name(DS_RENDERER_POVRAY), "povray") && !strcmp(ds_renderer_name(DS_RENDERER_OURS), "ours"));
     /* the default manifest has no new key */
     DsPriorTrainOpts o = tiny_opts(2);

@@ -112,8 +112,8 @@ static int gen_envs(const char *dir, int count, int seed, const char *kind, int 
 }
 
 typedef struct {
-    const char *out, *family, *split, *env_dir, *compare_povray, *envs, *kind, *train_lights, *renderer;
-    int diffuse;
+    const char *out, *family, *split, *env_dir, *compare_povray, *envs, *kind, *train_lights, *renderer, *content;
+    int diffuse, widen;
     int seed, tex_res, train, test, width, count, res, views, spp, pixel_samples, threads, scenes, pov_radiosity, env_width;
     int no_render, render;
     float r_min, r_max, time_budget;
@@ -156,7 +156,11 @@ static const MfOpt k_args[] = {
                .unset = "blender"),
     MF_OPT_INT(A, diffuse, 0, 0, 1, "prior-train/test-2d: 1 = diffuse-dominant objects (metallic 0, roughness >= 0.6)"),
     MF_OPT_STR(A, renderer, "ours", "prior-train/test-2d: who renders the lit view (GT albedo/ORM are always our AOVs)",
-               .choices = "ours|povray"),
+               .choices = "ours|povray|cycles"),
+    MF_OPT_INT(A, widen, 0, 0, 1, "prior-train/test-2d: 1 = the widened recipe (datasets/ds_widen.h: POV-Ray for 10% of the objects, "
+               "field of view and distance, UV overlays, exposure +-2 stops, tone curves, resolution drop, noise)"),
+    MF_OPT_STR(A, content, "all", "prior-train/test-2d: which objects: all, train (none of the held-out families and recipes of "
+               "datasets/ds_widen.h), heldout (only objects with one)", .choices = "all|train|heldout"),
     MF_OPT_STR(A, envs, NULL, "write procedural HDR env maps to DIR instead", .meta = "DIR"),
     MF_OPT_STR(A, kind, NULL, "--envs: which kinds", .choices = "sky|indoor|both", .unset = "both"),
     MF_OPT_INT(A, env_width, DS_ENV_W, 8, 16384, "--envs: map width (even; height = width / 2)"),
@@ -213,7 +217,9 @@ static int gen_run(const GenArgs *a) {
         po.threads = threads;
         po.diffuse = diffuse != 0;
         po.pov_radiosity = pov_rad;
-        if ((int)(po.renderer = (DsRenderer)ds_renderer_from_name(renderer)) < 0) { mf_fail(MF_EARG, "--renderer: expected ours or povray, not '%s'", renderer); return MF_EXIT_USAGE; }
+        po.widen = a->widen;
+        po.content = (DsContent)ds_content_from_name(a->content); /* valid: the table's choices */
+        if ((int)(po.renderer = (DsRenderer)ds_renderer_from_name(renderer)) < 0) { mf_fail(MF_EARG, "--renderer: expected ours, povray or cycles, not '%s'", renderer); return MF_EXIT_USAGE; }
         if (po.count <= 0 && budget <= 0) po.time_budget_s = 1800; /* prior-train: as much as 30 minutes give */
         DsGenStats st;
         if (ds_gen_prior_train(&po, out, &st)) return MF_EXIT_FAIL;

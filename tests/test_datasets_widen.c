@@ -1,0 +1,166 @@
+/* The widened prior-train recipe and the content hold-out (datasets/ds_widen.h). */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/mf_error.h"
+#include "core/mf_fs.h"
+#include "datasets/ds_cycles.h"
+#include "datasets/ds_gen.h"
+#include "datasets/ds_povray.h"
+#include "io/mf_json.h"
+#include "mf_test.h"
+
+MF_TEST(ds_widen_content_partition) {
+    /* every object is in exactly one of train / heldout; both occur among the first candidates;
+     * the held-out families never pass train */
+    int ntrain = 0, nheld = 0;
+    for (int j = 0; j < 40; ++j) {
+        DsObject o;
+        CHECK_OK(ds_object_generate(&o, (DsFamily)(j % DS_FAM_COUNT), ds_object_seed(DS_STREAM_TEST2D, 1, (uint64_t)j), 16));
+        int t = ds_content_accepts(DS_CONTENT_TRAIN, &o), h = ds_content_accepts(DS_CONTENT_HELDOUT, &o);
+        CHECK_MSG(t != h && ds_content_accepts(DS_CONTENT_ALL, &o), "candidate %d: train %d heldout %d", j, t, h);
+        if (ds_family_heldout(o.family)) CHECK(!t);
+        ntrain += t, nheld += h;
+        ds_object_free(&o);
+    }
+    CHECK_MSG(ntrain >= 10 && nheld >= 10, "train %d heldout %d of 40", ntrain, nheld);
+}
+
+static float max_abs_diff(const float *a, const float *b, size_t n) {
+    float m = 0;
+    for (size_t i = 0; i < n; ++i) m = fmaxf(m, fabsf(a[i] - b[i]));
+    return m;
+}
+
+MF_TEST(ds_widen_view_transform) {
+    enum { R = 8, N = R * R };
+    float rgb[N * 3], ref[N * 3], alpha[N];
+    for (int i = 0; i < N; ++i) {
+        alpha[i] = i % 7 ? 1.0f : 0.5f;
+        for (int c = 0; c < 3; ++c) ref[i * 3 + c] = (0.05f + 0.4f * (float)((i * 3 + c) % 11) / 10.0f) * alpha[i];
+    }
+    /* identity settings give back the input (premultiplied, below 1) */
+    DsWidenView id = {1.0f, 0, 4.0f, 1.0f, 0, 0.0f, 1};
+    memcpy(rgb, ref, sizeof rgb);
+    CHECK_OK(ds_widen_apply(&id, rgb, 3, alpha, 1, R));
+    CHECK_MSG(max_abs_diff(rgb, ref, N * 3) < 1e-5f, "identity changed the image by %g", max_abs_diff(rgb, ref, N * 3));
+    /* exposure x2 doubles values that stay below 1 */
+    DsWidenView ex = id;
+    ex.exposure = 2.0f;
+    memcpy(rgb, ref, sizeof rgb);
+    CHECK_OK(ds_widen_apply(&ex, rgb, 3, alpha, 1, R));
+    for (int i = 0; i < N * 3; ++i)
+        if (ref[i] / alpha[i / 3] < 0.45f) CHECK_MSG(fabsf(rgb[i] - 2.0f * ref[i]) < 1e-5f, "pixel value %d: %g vs %g", i, rgb[i], 2 * ref[i]);
+    /* tone curves map any radiance into [0, 1] (times alpha) and keep the order */
+    for (int t = 1; t <= 2; ++t) {
+        DsWidenView tc = id;
+        tc.tone = t;
+        float hdr[3] = {0.5f, 10.0f, 1e30f}, al = 1;
+        CHECK_OK(ds_widen_apply(&tc, hdr, 3, &al, 1, 1));
+        for (int c = 0; c < 3; ++c) CHECK_MSG(hdr[c] >= 0 && hdr[c] <= 1 && isfinite(hdr[c]), "tone %d: %g", t, hdr[c]);
+        CHECK_MSG(hdr[0] < hdr[1] && hdr[1] <= hdr[2], "tone %d not monotonic: %g %g %g", t, hdr[0], hdr[1], hdr[2]);
+    }
+    /* the resolution drop keeps a constant image constant; noise keeps the mean */
+    float flat[N * 3], one[N];
+    for (int i = 0; i < N; ++i) one[i] = 1.0f, flat[i * 3] = flat[i * 3 + 1] = flat[i * 3 + 2] = 0.2f;
+    DsWidenView lo = id;
+    lo.lowres = 1;
+    CHECK_OK(ds_widen_apply(&lo, flat, 3, one, 1, R));
+    for (int i = 0; i < N * 3; ++i) CHECK_MSG(fabsf(flat[i] - 0.2f) < 1e-5f, "low-res changed a flat image: %g", flat[i]);
+    DsWidenView nz = id;
+    nz.noise = 0.02f;
+    CHECK_OK(ds_widen_apply(&nz, flat, 3, one, 1, R));
+    double s = 0;
+    int changed = 0;
+    for (int i = 0; i < N * 3; ++i) s += flat[i], changed += fabsf(flat[i] - 0.2f) > 1e-4f;
+    CHECK_MSG(changed > N && fabs(s / (N * 3) - 0.2) < 0.01, "noise: %d values changed, mean %g", changed, s / (N * 3));
+}
+
+MF_TEST(ds_widen_object_draws) {
+    /* the per-object draws cover their ranges and the POV-Ray share is near DS_WIDEN_POV_FRAC */
+    int pov = 0, ov = 0, n = 400;
+    for (int j = 0; j < n; ++j) {
+        DsWidenObject w = ds_widen_object(ds_object_seed(DS_STREAM_PRIOR, 1, (uint64_t)j));
+        pov += w.povray, ov += w.overlay != 0;
+        DsCamSampling cs = ds_widen_cameras(&w);
+        CHECK(cs.camera_angle_x >= DS_WIDEN_FOV_MIN - 1e-4 && cs.camera_angle_x <= DS_WIDEN_FOV_MAX + 1e-4);
+        CHECK(cs.r_min > 0.5f && cs.r_max < 6.0f && cs.r_min < cs.r_max);
+    }
+    CHECK_MSG(pov > n * DS_WIDEN_POV_FRAC / 2 && pov < n * DS_WIDEN_POV_FRAC * 2, "POV-Ray objects %d of %d", pov, n);
+    CHECK_MSG(ov > n * DS_WIDEN_OVERLAY_FRAC / 2 && ov < n * DS_WIDEN_OVERLAY_FRAC * 2, "overlays %d of %d", ov, n);
+}
+
+MF_TEST(ds_widen_gen_heldout) {
+    if (!ds_povray_available()) MF_SKIP("povray not installed");
+    /* a held-out content split with the widened recipe: 3 objects x 1 view at 16 px; the generator
+     * re-checks every object's content at full texture size, and the manifest names both */
+    DsPriorTrainOpts o = ds_test2d_defaults();
+    o.count = 3, o.res = 16, o.views_per_object = 1, o.tex_res = 32, o.spp_sqrt = 1, o.pixel_samples = 1;
+    o.train_lights = DS_LIGHTS_PROCEDURAL, o.content = DS_CONTENT_HELDOUT, o.widen = 1;
+    const char *out = mf_test_path("widen_heldout");
+    CHECK_OK(ds_gen_prior_train(&o, out, NULL));
+    char p[MF_PATH_MAX];
+    snprintf(p, sizeof p, "%s/manifest.json", out);
+    cJSON *m = NULL;
+    CHECK_OK(mf_json_load(p, &m));
+    const cJSON *c = cJSON_GetObjectItem(m, "content"), *w = cJSON_GetObjectItem(m, "widen"), *n = cJSON_GetObjectItem(m, "count");
+    CHECK(cJSON_IsString(c) && !strcmp(c->valuestring, "heldout") && cJSON_IsString(w) && cJSON_IsNumber(n) && n->valueint == 3);
+    cJSON_Delete(m);
+    /* a content filter without a count is refused */
+    o.count = 0, o.time_budget_s = 5;
+    CHECK_ERR(ds_gen_prior_train(&o, mf_test_path("widen_nocount"), NULL), "count");
+}
+
+MF_TEST(ds_cycles_missing_blender) {
+    /* no Blender: a clear error naming the tool, before anything is written */
+    const char *old = getenv("MF_BLENDER");
+    char *saved = old ? strdup(old) : NULL;
+    setenv("MF_BLENDER", "/nonexistent/blender", 1);
+    DsPriorTrainOpts o = ds_test2d_defaults();
+    o.count = 2, o.res = 16, o.views_per_object = 2, o.tex_res = 32, o.spp_sqrt = 1, o.pixel_samples = 1;
+    o.renderer = DS_RENDERER_CYCLES;
+    const char *out = mf_test_path("cycles_noblender");
+    CHECK_ERR(ds_gen_prior_train(&o, out, NULL), "blender");
+    CHECK(!mf_file_exists(out));
+    if (saved) setenv("MF_BLENDER", saved, 1);
+    else unsetenv("MF_BLENDER");
+    free(saved);
+}
+
+MF_TEST(ds_cycles_renders_views) {
+    if (!ds_cycles_available()) MF_SKIP("blender not installed (optional)");
+    /* 1 object x 2 views at 16 px: Blender's lit view covers the same pixels as our alpha, the GT
+     * AOVs are ours, the scratch folder is gone */
+    DsPriorTrainOpts o = ds_test2d_defaults();
+    o.count = 2, o.res = 16, o.views_per_object = 2, o.tex_res = 32, o.spp_sqrt = 1, o.pixel_samples = 1;
+    o.train_lights = DS_LIGHTS_PROCEDURAL;
+    const char *a = mf_test_path("cycles_ours"), *b = mf_test_path("cycles_blender");
+    CHECK_OK(ds_gen_prior_train(&o, a, NULL));
+    o.renderer = DS_RENDERER_CYCLES;
+    CHECK_OK(ds_gen_prior_train(&o, b, NULL));
+    for (int i = 0; i < 2; ++i) {
+        MfImage img[2][3] = {{{0}}};
+        static const char *const kind[3] = {"rgb", "albedo", "orm"};
+        for (int s = 0; s < 2; ++s)
+            for (int k = 0; k < 3; ++k) {
+                char p[MF_PATH_MAX];
+                snprintf(p, sizeof p, "%s/%s/%06d.png", s ? b : a, kind[k], i);
+                CHECK_OK(mf_image_read(p, MF_ENC_LINEAR, &img[s][k]));
+            }
+        int both = 0, either = 0, same_gt = 1;
+        for (int q = 0; img[0][0].data && img[1][0].data && q < 16 * 16; ++q) {
+            int ca = img[0][0].data[4 * q + 3] > 0.5f, cb = img[1][0].data[4 * q + 3] > 0.5f;
+            both += ca && cb, either += ca || cb;
+            for (int k = 1; k < 3 && img[0][k].data && img[1][k].data; ++k)
+                for (int c = 0; c < 4; ++c) same_gt &= img[0][k].data[4 * q + c] == img[1][k].data[4 * q + c];
+        }
+        CHECK_MSG(both > 10 && both >= 0.85 * either, "view %d: coverage %d of %d", i, both, either);
+        CHECK_MSG(same_gt, "view %d: GT albedo/ORM must be our AOVs", i);
+        for (int s = 0; s < 2; ++s)
+            for (int k = 0; k < 3; ++k) mf_image_free(&img[s][k]);
+    }
+    char p[MF_PATH_MAX];
+    snprintf(p, sizeof p, "%s/.cycles", b);
+    CHECK_MSG(!mf_file_exists(p), "%s: scratch folder left behind", p);
+}
