@@ -8,7 +8,7 @@
 
 DEB_PACKAGES := build-essential pkg-config libembree-dev libopenimageio-dev libopenexr-dev \
   libgsl-dev libcjson-dev libopenblas-dev povray blender-data python3-skimage python3-numpy \
-  gnuplot-nox
+  gnuplot-nox libmeshoptimizer-dev
 
 BUILD    ?= build
 # OpenMP threads sleep instead of spinning between parallel regions, so they do not fight
@@ -24,7 +24,7 @@ INCLUDES := -Imf -I. -I$(BUILD)/gen -I/usr/include/OpenEXR -I/usr/include/Imath 
 CFLAGS   += -std=c17 $(OPT) -g $(WARN) -fopenmp -D_GNU_SOURCE $(SAN) $(INCLUDES) -MMD -MP
 CXXFLAGS += -std=c++17 $(OPT) -g $(WARN) $(SAN) $(INCLUDES) -MMD -MP
 LDLIBS   := -lembree3 -lOpenImageIO -lOpenImageIO_Util -lOpenEXRCore-3_1 -lImath-3_1 \
-            -lcjson -lgsl -L/usr/lib/x86_64-linux-gnu/openblas-pthread -lopenblas \
+            -lcjson -lgsl -lmeshoptimizer -L/usr/lib/x86_64-linux-gnu/openblas-pthread -lopenblas \
             -lstdc++ -lm -lpthread
 LDFLAGS  += -fopenmp $(SAN)
 
