@@ -5,6 +5,7 @@
 
 #include "core/mf_error.h"
 #include "core/mf_rng.h"
+#include "eval/ev_geom.h"
 #include "geom/mf_meshproc.h"
 #include "geom/mf_tetgrid.h"
 #include "geom/mf_vhull.h"
@@ -328,4 +329,45 @@ MF_TEST(geom_meshproc) {
     CHECK_MSG(s.nt <= 2000 && s.nt > 1000 && mf_manifold_ok(&mi) && mi.euler == 2 && fabs(m1 - 0.3) < 0.005,
               "decimated: %d triangles, manifold %d, euler %ld, radius %g +- %g", s.nt, mf_manifold_ok(&mi), mi.euler, m1, sd1);
     mf_mesh_free(&s);
+}
+
+/* ---- T7: Chamfer ----------------------------------------------------------------------- */
+
+MF_TEST(geom_chamfer) {
+    /* nearest neighbours match brute force */
+    enum { NP = 700, NQ = 500 };
+    float *p = malloc(NP * 3 * sizeof *p), *q = malloc(NQ * 3 * sizeof *q);
+    MfRng rng;
+    mf_rng_seed(&rng, 7, 1);
+    for (int i = 0; i < NP * 3; ++i) p[i] = mf_rng_float(&rng) * (i % 3 == 2 ? 0.1f : 1.0f);
+    for (int i = 0; i < NQ * 3; ++i) q[i] = 1.2f * mf_rng_float(&rng) - 0.1f;
+    int nn[NQ];
+    double d2[NQ];
+    CHECK_OK(ev_nearest(p, NP, q, NQ, nn, d2));
+    int bad = 0;
+    for (int k = 0; k < NQ; ++k) {
+        double best = INFINITY;
+        for (int i = 0; i < NP; ++i) {
+            double dx = (double)p[3 * i] - q[3 * k], dy = (double)p[3 * i + 1] - q[3 * k + 1], dz = (double)p[3 * i + 2] - q[3 * k + 2];
+            best = fmin(best, dx * dx + dy * dy + dz * dz);
+        }
+        bad += d2[k] != best;
+    }
+    CHECK_MSG(bad == 0, "kd-tree: %d of %d nearest distances differ from brute force", bad, NQ);
+    free(p), free(q);
+    /* concentric spheres of radius r and r + eps: Chamfer = eps^2 x 1e3, normals agree */
+    MfMesh a = {0}, b = {0};
+    CHECK_OK(mf_mesh_uv_sphere(&a, 256, 128, mf_v3s(0), 0.4f));
+    CHECK_OK(mf_mesh_uv_sphere(&b, 256, 128, mf_v3s(0), 0.45f));
+    EvGeomScore s;
+    CHECK_OK(ev_geom_score(&a, &b, 30000, 1, &s));
+    double ref = 1e3 * 0.05 * 0.05;
+    CHECK_MSG(fabs(s.chamfer / ref - 1) < 0.05 && fabs(s.gt_to_pred / ref - 1) < 0.05 && fabs(s.pred_to_gt / ref - 1) < 0.05,
+              "spheres: Chamfer %g (%g, %g), analytic %g", s.chamfer, s.gt_to_pred, s.pred_to_gt, ref);
+    CHECK_MSG(s.normal_deg < 3 && s.normal_1mcos < 2e-3, "spheres: normal error %g deg, 1-cos %g", s.normal_deg, s.normal_1mcos);
+    CHECK_OK(ev_geom_score(&a, &a, 30000, 1, &s));
+    CHECK_MSG(s.chamfer < 0.1 * ref, "a sphere against itself: Chamfer %g", s.chamfer);
+    MfMesh e = {0};
+    CHECK_ERR(ev_geom_score(&a, &e, 30000, 1, &s), "empty");
+    mf_mesh_free(&a), mf_mesh_free(&b);
 }
