@@ -64,6 +64,39 @@ int ev_nearest(const float *pts, int np, const float *q, int nq, int *nn, double
 
 static MfVec3 vtx(const MfMesh *m, uint32_t v) { return mf_v3(m->pos[3 * v], m->pos[3 * v + 1], m->pos[3 * v + 2]); }
 
+static int cmp_pos(const void *a, const void *b, void *ctx) {
+    const float *p = ctx, *x = p + 3 * *(const int *)a, *y = p + 3 * *(const int *)b;
+    for (int c = 0; c < 3; ++c)
+        if (x[c] != y[c]) return x[c] < y[c] ? -1 : 1;
+    return *(const int *)a - *(const int *)b;
+}
+
+/* Area-weighted vertex normals (nv, 3) of m, summed over all vertices at the same position, so
+ * a smooth surface split at UV seams gets one normal there. */
+static int gt_normals(const MfMesh *m, float *n) {
+    int *ord = malloc((size_t)m->nv * sizeof *ord);
+    if (!ord) return mf_fail(MF_ENOMEM, "geometry score: out of memory");
+    memset(n, 0, (size_t)m->nv * 3 * sizeof *n);
+    for (int t = 0; t < m->nt; ++t) {
+        const uint32_t *f = m->tri + 3 * t;
+        MfVec3 c = mf_cross(mf_sub(vtx(m, f[1]), vtx(m, f[0])), mf_sub(vtx(m, f[2]), vtx(m, f[0])));
+        for (int k = 0; k < 3; ++k) n[3 * f[k]] += c.x, n[3 * f[k] + 1] += c.y, n[3 * f[k] + 2] += c.z;
+    }
+    for (int v = 0; v < m->nv; ++v) ord[v] = v;
+    qsort_r(ord, (size_t)m->nv, sizeof *ord, cmp_pos, m->pos);
+    for (int i = 0; i < m->nv;) {
+        int j = i;
+        MfVec3 sum = mf_v3s(0);
+        while (j < m->nv && !memcmp(m->pos + 3 * ord[j], m->pos + 3 * ord[i], 3 * sizeof(float)))
+            sum = mf_add(sum, mf_v3(n[3 * ord[j]], n[3 * ord[j] + 1], n[3 * ord[j] + 2])), ++j;
+        float l = mf_len(sum);
+        sum = l > 0 ? mf_scale(sum, 1 / l) : mf_v3(0, 0, 1);
+        for (; i < j; ++i) memcpy(n + 3 * ord[i], &sum, sizeof sum);
+    }
+    free(ord);
+    return MF_OK;
+}
+
 int ev_geom_score(const MfMesh *gt, const MfMesh *pred, int n_samples, uint64_t seed, EvGeomScore *out) {
     if (gt->nv < 1 || gt->nt < 1) return mf_fail(MF_EARG, "geometry score: the GT mesh is empty");
     if (pred->nt < 1 || n_samples < 1) return mf_fail(MF_EARG, "geometry score: the predicted mesh is empty");
@@ -99,11 +132,7 @@ int ev_geom_score(const MfMesh *gt, const MfMesh *pred, int n_samples, uint64_t 
         memcpy(sp + 3 * k, &p, sizeof p);
         memcpy(sn + 3 * k, &n, sizeof n);
     }
-    /* GT vertex normals (area-weighted), on a copy so gt stays const */
-    MfMesh g = {gt->nv, gt->nt, gt->pos, NULL, NULL, gt->tri, NULL, 0, NULL};
-    if ((rc = mf_mesh_compute_normals(&g)) != MF_OK) goto done;
-    memcpy(gn, g.nrm, (size_t)gt->nv * 3 * sizeof *gn);
-    free(g.nrm);
+    if ((rc = gt_normals(gt, gn)) != MF_OK) goto done;
     if ((rc = ev_nearest(sp, n_samples, gt->pos, gt->nv, nn_g, d_g)) != MF_OK) goto done;
     if ((rc = ev_nearest(gt->pos, gt->nv, sp, n_samples, nn_s, d_s)) != MF_OK) goto done;
     double sg = 0, ss = 0, ag = 0, as = 0, cg = 0, cs = 0;

@@ -5,7 +5,7 @@
  * to the nearest point of the other set, averaged over the set; the two directions averaged,
  * and the result multiplied by 1e3 (units of the data set, object extent 1 for ours).
  * Normal error: for the same nearest pairs, the angle between the GT vertex normal (area-weighted,
- * mf_mesh_compute_normals) and the prediction's face normal at the sample, averaged over both
+ * shared by all vertices at one position, so UV seams do not split it) and the prediction's face normal at the sample, averaged over both
  * directions, in degrees; also Stanford-ORB's 1 - cos. Nearest neighbours by a kd-tree (exact). */
 #ifndef EV_GEOM_H
 #define EV_GEOM_H

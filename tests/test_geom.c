@@ -224,6 +224,21 @@ MF_TEST(geom_vhull_sphere_box_cut) {
         }
         CHECK_MSG(seen_out > 1000, "shape %d: the cut view sees the whole shape (%d inner vertices out of frame)", shape, seen_out);
         CHECK_MSG(carved == 0, "shape %d: the cut view carves %d inner vertices", shape, carved);
+        if (shape == 0) { /* the whole pipeline: a closed, smoothed, decimated hull */
+            MfHullOpts ho = {48, 1.0f, 10, 2000, 0.01f};
+            MfMesh hm = {0};
+            MfHullInfo hi;
+            MfManifoldInfo mi;
+            CHECK_OK(mf_vhull_mesh(cams, masks, NV, &ho, &hm, &hi));
+            CHECK_OK(mf_mesh_manifold_check(&hm, &mi));
+            CHECK_MSG(hm.nt <= 2000 && mf_manifold_ok(&mi) && mi.euler == 2 && hi.masked_views == NV && !hi.touches_border,
+                      "hull mesh: %d triangles, manifold %d, euler %ld", hm.nt, mf_manifold_ok(&mi), mi.euler);
+            mf_mesh_free(&hm);
+            /* views without masks (alpha all 1) are refused */
+            for (int v = 0; v < NV; ++v)
+                for (int p = 0; p < HW * HW; ++p) masks[v].data[p] = 1;
+            CHECK_ERR(mf_vhull_mesh(cams, masks, NV, &ho, &hm, &hi), "need at least 3");
+        }
         mf_tetmesh_free(&m);
         free(f), free(fc);
         for (int v = 0; v <= NV; ++v) mf_image_free(&masks[v]);

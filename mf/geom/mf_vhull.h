@@ -18,4 +18,26 @@
  * size differs from its camera, or when n < 1. Parallel over grid slices; deterministic. */
 int mf_vhull(const MfTetGrid *g, const MfCamera *cams, const MfImage *masks, int n, float *field);
 
+typedef struct {
+    int res;            /* grid cubes per axis (128: the setting for 128 px views) */
+    float extent;       /* side of the grid cube centred at the origin, world units */
+    int smooth_iters;   /* Taubin lambda 0.5 / mu -0.53 iterations (0: none) */
+    int target_tris;    /* decimate to at most this many triangles (0: no decimation) */
+    float min_component;/* drop components with fewer than this fraction of the largest's triangles */
+} MfHullOpts;
+
+typedef struct {
+    int masked_views;   /* views with both alpha < 0.5 and alpha >= 0.5 pixels */
+    float extent;       /* grid side used (after enlarging once when the hull touched the border) */
+    int touches_border; /* 1: the hull still touches the (enlarged) grid border: a warning was logged */
+    int dropped_components;
+    int extracted_tris; /* triangles before clean-up and decimation */
+} MfHullInfo;
+
+/* The hull as a clean mesh: refuses (MF_EARG, saying why) fewer than 3 masked views; builds the
+ * field on the grid, enlarges the grid 1.5x once when the hull touches its border (then warns),
+ * extracts by marching tets (an empty hull is an error, never an empty mesh), welds, drops
+ * degenerate triangles and small components, smooths, decimates (mf_meshproc). */
+int mf_vhull_mesh(const MfCamera *cams, const MfImage *masks, int n, const MfHullOpts *opt, MfMesh *out, MfHullInfo *info);
+
 #endif
