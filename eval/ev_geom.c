@@ -6,6 +6,7 @@
 
 #include "core/mf_error.h"
 #include "core/mf_rng.h"
+#include "render/mf_rtscene.h"
 
 /* A kd-tree stored implicitly: idx (n,) is reordered so the median of each range [lo, hi) sits
  * at mid = (lo + hi) / 2, split on axis depth % 3. */
@@ -157,4 +158,34 @@ int ev_geom_score(const MfMesh *gt, const MfMesh *pred, int n_samples, uint64_t 
 done:
     free(cdf), free(gn), free(sp), free(sn), free(nn_g), free(nn_s), free(d_g), free(d_s);
     return rc;
+}
+
+int ev_geom_views(const MfMesh *gt, const MfMesh *pred, const MfCamera *cams, int n, EvGeomViews *out) {
+    MfRtScene *sg = NULL, *sp = NULL;
+    int rc = mf_rtscene_new(gt, &sg);
+    if (rc == MF_OK) rc = mf_rtscene_new(pred, &sp);
+    double sdeg = 0, scos = 0;
+    long both = 0, either = 0;
+    for (int v = 0; v < n && rc == MF_OK; ++v) {
+        const MfCamera *c = &cams[v];
+#pragma omp parallel for schedule(dynamic, 4) reduction(+ : sdeg, scos, both, either)
+        for (int y = 0; y < c->h; ++y)
+            for (int x = 0; x < c->w; ++x) {
+                MfVec3 o, d;
+                MfHit hg, hp;
+                mf_camera_ray(c, (float)x + 0.5f, (float)y + 0.5f, &o, &d);
+                int ig = mf_rtscene_intersect(sg, o, d, 0, INFINITY, &hg), ip = mf_rtscene_intersect(sp, o, d, 0, INFINITY, &hp);
+                either += ig || ip;
+                if (!(ig && ip)) continue;
+                double cs = fmax(-1, fmin(1, mf_dot(hg.ns, hp.ns)));
+                ++both, sdeg += acos(cs) * 180 / M_PI, scos += 1 - cs;
+            }
+    }
+    mf_rtscene_free(sg);
+    mf_rtscene_free(sp);
+    if (rc != MF_OK) return rc;
+    if (both == 0) return mf_fail(MF_EARG, "geometry views: no pixel shows both meshes");
+    EvGeomViews r = {sdeg / both, scos / both, (double)both / either, both};
+    *out = r;
+    return MF_OK;
 }

@@ -12,6 +12,7 @@
 
 #include <stdint.h>
 
+#include "scene/mf_camera.h"
 #include "scene/mf_mesh.h"
 
 typedef struct {
@@ -26,6 +27,18 @@ typedef struct {
 /* Scores pred against gt (n_samples area samples of pred; Stanford-ORB uses 30000; seed picks
  * them). Fails with MF_EARG when either mesh has no triangles of positive area. */
 int ev_geom_score(const MfMesh *gt, const MfMesh *pred, int n_samples, uint64_t seed, EvGeomScore *out);
+
+/* Image-space comparison over views, as Stanford-ORB scores normals (on rendered normal maps):
+ * one ray per pixel centre against each mesh; where both are hit, the angle between their
+ * shading normals (interpolated vertex normals when the mesh has them, else face normals; both on
+ * the viewer's side) averaged over those pixels, in degrees and as 1 - cos; and the mask IoU
+ * (pixels hit by both / hit by either). Hidden surfaces (a cup's inner wall seen from outside)
+ * do not count, unlike ev_geom_score's point pairs. */
+typedef struct {
+    double normal_deg, normal_1mcos, mask_iou;
+    long pixels; /* pixels hit by both */
+} EvGeomViews;
+int ev_geom_views(const MfMesh *gt, const MfMesh *pred, const MfCamera *cams, int n, EvGeomViews *out);
 
 /* Exact nearest neighbours: for each of the nq query points (nq, 3) the index of the nearest of
  * the np points (np, 3) into nn (nq,) and its squared distance into d2 (nq,). np >= 1. */

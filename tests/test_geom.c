@@ -382,6 +382,16 @@ MF_TEST(geom_chamfer) {
     CHECK_MSG(s.normal_deg < 3 && s.normal_1mcos < 2e-3, "spheres: normal error %g deg, 1-cos %g", s.normal_deg, s.normal_1mcos);
     CHECK_OK(ev_geom_score(&a, &a, 30000, 1, &s));
     CHECK_MSG(s.chamfer < 0.1 * ref, "a sphere against itself: Chamfer %g", s.chamfer);
+    /* image-space normals and mask IoU: a sphere against itself and a larger one */
+    MfCamera cam;
+    look_cam(&cam, mf_v3(0, -2.5f, 0.3f), mf_v3s(0));
+    EvGeomViews gv;
+    CHECK_OK(ev_geom_views(&a, &a, &cam, 1, &gv));
+    CHECK_MSG(gv.normal_deg < 0.05 && gv.mask_iou == 1, "sphere vs itself: %g deg, IoU %g", gv.normal_deg, gv.mask_iou);
+    CHECK_OK(ev_geom_views(&a, &b, &cam, 1, &gv));
+    double iou = 0.4 * 0.4 / (0.45 * 0.45); /* silhouette areas, to first order in the view angle */
+    CHECK_MSG(fabs(gv.mask_iou - iou) < 0.03 && gv.normal_deg > 0.5 && gv.normal_deg < 10,
+              "spheres 0.4 vs 0.45: IoU %g (about %g), normals %g deg", gv.mask_iou, iou, gv.normal_deg);
     MfMesh e = {0};
     CHECK_ERR(ev_geom_score(&a, &e, 30000, 1, &s), "empty");
     mf_mesh_free(&a), mf_mesh_free(&b);

@@ -29,7 +29,7 @@ static const MfOpt k_args[] = {
     MF_OPT_INT(A, target_tris, 40000, 0, 100000000, "decimate to at most this many triangles (0: keep all)"),
     MF_OPT_FLOAT(A, min_component, 0.01, 0, 1, "drop components with fewer than this fraction of the largest's triangles"),
     MF_OPT_INT(A, max_views, 0, 0, 100000, "use the first N views (0: all)"),
-    MF_OPT_BOOL(A, eval, 0, "score against the data set's GT mesh (Stanford-ORB Chamfer x1e3, normal error)"),
+    MF_OPT_BOOL(A, eval, 0, "score against the data set's GT mesh and test views (Chamfer x1e3, normal errors, mask IoU)"),
     MF_OPT_INT(A, samples, 30000, 1, 100000000, "--eval: area samples of the hull"),
     MF_OPT_INT(A, seed, 1, 0, 2147483647, "--eval: sampling seed"),
 };
@@ -43,7 +43,9 @@ static const char k_usage_head[] =
     "the bilinear mask - 0.5 (views that do not see a vertex do not carve it), extracts it by\n"
     "marching tets, welds, drops degenerate triangles and small components, smooths (Taubin) and\n"
     "decimates (meshoptimizer); writes OUT.obj (no UVs). Prints one CSV line on stdout:\n"
-    "  scene,views,res,tris,hull_s[,chamfer,normal_deg,normal_1mcos]\n"
+    "  scene,views,res,tris,hull_s[,chamfer,normal_deg,normal_1mcos,view_normal_deg,view_normal_1mcos,mask_iou]\n"
+    "(--eval: Chamfer and point-pair normal error against the GT mesh; view_*: normal error and\n"
+    "mask IoU over the pixels of the test views, eval/ev_geom.h).\n"
     "hull_s: wall seconds from the loaded masks to the mesh. Refuses data with fewer than 3\n"
     "masked views.\n";
 
@@ -68,15 +70,28 @@ static int hull_run(const char *data, const HullArgs *a) {
     double dt = mf_now() - t0;
     if (rc == MF_OK) rc = mf_obj_write(a->out, &m, NULL);
     EvGeomScore s;
+    EvGeomViews gv;
+    DsViews dt_views = {0};
     if (rc == MF_OK && a->eval) {
         if (!dv.mesh_path[0]) rc = mf_fail(MF_EARG, "%s: --eval: the data set has no GT mesh", data);
         else if ((rc = mf_obj_read(dv.mesh_path, &gt)) == MF_OK) rc = ev_geom_score(&gt, &m, a->samples, (uint64_t)a->seed, &s);
+        if (rc == MF_OK) rc = ds_load(data, "test", &lo, &dt_views);
+        if (rc == MF_OK) {
+            MfCamera *tc = malloc((size_t)dt_views.n * sizeof *tc);
+            rc = tc ? mf_mesh_compute_normals(&m) : mf_fail(MF_ENOMEM, "%s: out of memory", data);
+            for (int v = 0; v < dt_views.n && rc == MF_OK; ++v) tc[v] = dt_views.views[v].cam;
+            if (rc == MF_OK) rc = ev_geom_views(&gt, &m, tc, dt_views.n, &gv);
+            free(tc);
+        }
     }
     if (rc == MF_OK) {
-        const char *name = strrchr(dv.dir, '/');
-        name = name && name[1] ? name + 1 : dv.dir;
-        printf("%s,%d,%d,%d,%.3f", name, dv.n, a->res, m.nt, dt);
-        if (a->eval) printf(",%.4f,%.3f,%.5f", s.chamfer, s.normal_deg, s.normal_1mcos);
+        char name[MF_PATH_MAX];
+        snprintf(name, sizeof name, "%s", dv.dir);
+        for (size_t l = strlen(name); l > 1 && name[l - 1] == '/'; --l) name[l - 1] = '\0';
+        const char *base = strrchr(name, '/');
+        printf("%s,%d,%d,%d,%.3f", base ? base + 1 : name, dv.n, a->res, m.nt, dt);
+        if (a->eval)
+            printf(",%.4f,%.3f,%.5f,%.3f,%.5f,%.5f", s.chamfer, s.normal_deg, s.normal_1mcos, gv.normal_deg, gv.normal_1mcos, gv.mask_iou);
         printf("\n");
         mf_log_info("hull: %d masked views, grid side %g, %d -> %d triangles (%d floaters dropped) in %.2f s -> %s",
                     hi.masked_views, hi.extent, hi.extracted_tris, m.nt, hi.dropped_components, dt, a->out);
@@ -85,6 +100,7 @@ static int hull_run(const char *data, const HullArgs *a) {
     mf_mesh_free(&gt);
     free(cams), free(masks);
     ds_views_free(&dv);
+    if (dt_views.views) ds_views_free(&dt_views);
     return rc ? MF_EXIT_FAIL : MF_EXIT_OK;
 }
 
