@@ -184,7 +184,9 @@ bench-geom: $(DATA)/test-3d/.rendered | $(BUILD)/mf
 	  print "| scene | triangles | hull s | Chamfer x1e3 | issue | normals, points deg | normals, views deg | views 1 - cos | mask IoU |"; \
 	  print "|---|---|---|---|---|---|---|---|---|" } \
 	  NR > 1 { f = $$1; sub(/^[0-9]+_/, "", f); printf "| %s | %d | %.2f | %.3f | %s | %.1f | %.1f | %.4f | %.4f |\n", $$1, $$4, $$5, $$6, (f in q) ? q[f] : "-", $$7, $$9, $$10, $$11 }' \
-	  $(GEOM_REPORT)/hull.csv > $(GEOM_REPORT)/.README.md.tmp && mv $(GEOM_REPORT)/.README.md.tmp $(GEOM_REPORT)/README.md
+	  $(GEOM_REPORT)/hull.csv > $(GEOM_REPORT)/.README.md.tmp
+	@printf '\nMarching tets (`mf bench-tets`, sphere, unit grid, deformation on): %s\n' "$$($(MF) bench-tets --res 64)" >> $(GEOM_REPORT)/.README.md.tmp
+	@mv $(GEOM_REPORT)/.README.md.tmp $(GEOM_REPORT)/README.md
 	@cat $(GEOM_REPORT)/README.md
 
 # The same tables on a reduced setting (3 scenes, 64 px training, 100 iterations).
