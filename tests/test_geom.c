@@ -396,3 +396,15 @@ MF_TEST(geom_chamfer) {
     CHECK_ERR(ev_geom_score(&a, &e, 30000, 1, &s), "empty");
     mf_mesh_free(&a), mf_mesh_free(&b);
 }
+
+/* ---- mf hull: bad input ------------------------------------------------------------------ */
+
+MF_TEST(geom_hull_cli_bad_input) {
+    char err[4096];
+    int rc = mf_test_run_mf("hull /nonexistent/scene -o /dev/null", NULL, err, sizeof err);
+    CHECK_MSG(rc == 1 && strstr(err, "/nonexistent/scene"), "missing data: exit %d, '%s'", rc, err);
+    rc = mf_test_run_mf("hull /nonexistent/scene", NULL, err, sizeof err);
+    CHECK_MSG(rc == 2 && strstr(err, "-o OUT.obj"), "missing -o: exit %d, '%s'", rc, err);
+    rc = mf_test_run_mf("hull /nonexistent/scene -o x.obj --res 1", NULL, err, sizeof err);
+    CHECK_MSG(rc == 2 && strstr(err, "res"), "--res 1: exit %d, '%s'", rc, err);
+}

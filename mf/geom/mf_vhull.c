@@ -1,7 +1,6 @@
 #include "geom/mf_vhull.h"
 
 #include <math.h>
-
 #include <stdlib.h>
 
 #include "core/mf_error.h"
