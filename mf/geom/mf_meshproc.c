@@ -109,7 +109,7 @@ static uint32_t uf_find(uint32_t *p, uint32_t x) {
     return x;
 }
 
-/* Component id (root vertex) per triangle into comp (nt,); returns the union-find array. */
+/* Union-find parent array (nv,) joining the vertices of each triangle (uf_find gives a root). */
 static uint32_t *components(const MfMesh *m) {
     uint32_t *p = malloc((size_t)(m->nv > 0 ? m->nv : 1) * sizeof *p);
     if (!p) return NULL;
