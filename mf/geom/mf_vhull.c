@@ -1,0 +1,103 @@
+#include "geom/mf_vhull.h"
+
+#include <math.h>
+#include <stdlib.h>
+
+#include "core/mf_error.h"
+#include "core/mf_log.h"
+#include "geom/mf_meshproc.h"
+
+/* Bilinear mask (last channel) at continuous pixel position (px, py) inside [0, w] x [0, h]. */
+static float mask_at(const MfImage *m, float px, float py) {
+    float x = px - 0.5f, y = py - 0.5f;
+    int x0 = (int)floorf(x), y0 = (int)floorf(y);
+    float fx = x - (float)x0, fy = y - (float)y0;
+    int x1 = x0 + 1, y1 = y0 + 1;
+    x0 = x0 < 0 ? 0 : x0, y0 = y0 < 0 ? 0 : y0;
+    x1 = x1 >= m->w ? m->w - 1 : x1, y1 = y1 >= m->h ? m->h - 1 : y1;
+    int c = m->c - 1;
+    float a00 = mf_image_px(m, x0, y0)[c], a10 = mf_image_px(m, x1, y0)[c];
+    float a01 = mf_image_px(m, x0, y1)[c], a11 = mf_image_px(m, x1, y1)[c];
+    return (1 - fy) * ((1 - fx) * a00 + fx * a10) + fy * ((1 - fx) * a01 + fx * a11);
+}
+
+int mf_vhull(const MfTetGrid *g, const MfCamera *cams, const MfImage *masks, int n, float *field) {
+    if (n < 1) return mf_fail(MF_EARG, "visual hull: no views");
+    for (int v = 0; v < n; ++v)
+        if (masks[v].w != cams[v].w || masks[v].h != cams[v].h || masks[v].c < 1 || !masks[v].data)
+            return mf_fail(MF_EARG, "visual hull: view %d: mask is %dx%d, its camera %dx%d", v, masks[v].w, masks[v].h,
+                           cams[v].w, cams[v].h);
+    long long nz = (long long)g->res + 1;
+    size_t slice = (size_t)(nz * nz);
+#pragma omp parallel for schedule(dynamic, 1)
+    for (long long k = 0; k < nz; ++k)
+        for (size_t s = 0; s < slice; ++s) {
+            size_t idx = (size_t)k * slice + s;
+            MfVec3 p = mf_tetgrid_base(g, idx);
+            float f = 0.5f;
+            for (int v = 0; v < n; ++v) {
+                float px, py;
+                if (!mf_camera_project(&cams[v], p, &px, &py)) continue;
+                if (!(px >= 0 && py >= 0 && px <= (float)cams[v].w && py <= (float)cams[v].h)) continue;
+                float a = mask_at(&masks[v], px, py) - 0.5f;
+                if (a < f) f = a;
+            }
+            field[idx] = f;
+        }
+    return MF_OK;
+}
+
+/* 1 when some grid vertex on the border of g is inside the hull. */
+static int touches_border(const MfTetGrid *g, const float *f) {
+    size_t n = (size_t)g->res + 1;
+    for (size_t k = 0; k < n; ++k)
+        for (size_t j = 0; j < n; ++j)
+            for (size_t i = 0; i < n; ++i)
+                if ((i == 0 || j == 0 || k == 0 || i == n - 1 || j == n - 1 || k == n - 1) && f[i + n * (j + n * k)] > 0) return 1;
+    return 0;
+}
+
+int mf_vhull_mesh(const MfCamera *cams, const MfImage *masks, int n, const MfHullOpts *opt, MfMesh *out, MfHullInfo *info) {
+    MfHullInfo r = {0};
+    for (int v = 0; v < n; ++v) {
+        const MfImage *m = &masks[v];
+        int lo = 0, hi = 0;
+        for (size_t p = 0; p < (size_t)m->w * m->h && !(lo && hi); ++p) {
+            float a = m->data[p * m->c + m->c - 1];
+            lo |= a < 0.5f, hi |= a >= 0.5f;
+        }
+        r.masked_views += lo && hi;
+    }
+    if (r.masked_views < 3)
+        return mf_fail(MF_EARG, "visual hull: %d of %d views have a mask (alpha both below and above 0.5); need at least 3", r.masked_views, n);
+    if (opt->res < 1 || !(opt->extent > 0)) return mf_fail(MF_EARG, "visual hull: bad grid (res %d, extent %g)", opt->res, opt->extent);
+    MfTetGrid g = mf_tetgrid_make(opt->res, mf_v3s(0), opt->extent);
+    float *f = malloc(mf_tetgrid_nverts(&g) * sizeof *f);
+    if (!f) return mf_fail(MF_ENOMEM, "visual hull: out of memory for a %d^3 grid", opt->res);
+    int rc = mf_vhull(&g, cams, masks, n, f);
+    if (rc == MF_OK && touches_border(&g, f)) {
+        g = mf_tetgrid_make(opt->res, mf_v3s(0), 1.5f * opt->extent);
+        rc = mf_vhull(&g, cams, masks, n, f);
+        r.touches_border = rc == MF_OK && touches_border(&g, f);
+        if (r.touches_border) mf_log_warn("visual hull: the hull touches the border of the grid (side %g): it is cut there", 1.5f * opt->extent);
+    }
+    r.extent = g.cell * (float)g.res;
+    MfTetMesh tm = {0};
+    if (rc == MF_OK) rc = mf_tetgrid_extract(&g, f, NULL, &tm);
+    free(f);
+    if (rc != MF_OK) return mf_fail_prefix(rc, "visual hull");
+    MfMesh m = tm.mesh;
+    tm.mesh = (MfMesh){0};
+    mf_tetmesh_free(&tm);
+    r.extracted_tris = m.nt;
+    rc = mf_mesh_weld(&m, 1e-4f * g.cell);
+    if (rc == MF_OK) rc = mf_mesh_drop_degenerate(&m, 0);
+    if (rc == MF_OK) rc = mf_mesh_drop_small_components(&m, opt->min_component, &r.dropped_components);
+    if (rc == MF_OK && opt->smooth_iters > 0) rc = mf_mesh_taubin(&m, opt->smooth_iters, 0.5f, -0.53f);
+    if (rc == MF_OK && opt->target_tris > 0) rc = mf_mesh_decimate(&m, opt->target_tris, 0.01f);
+    if (rc == MF_OK && m.nt == 0) rc = mf_fail(MF_EARG, "visual hull: nothing left after clean-up");
+    if (rc != MF_OK) { mf_mesh_free(&m); return rc; }
+    *out = m;
+    if (info) *info = r;
+    return MF_OK;
+}

@@ -1,0 +1,43 @@
+/* mf_vhull: a soft visual hull on an mf_tetgrid grid from posed masks.
+ *
+ * For each grid vertex p: field(p) = min over views of (bilinear mask at the projection of p) - 0.5,
+ * so field > 0 inside the hull (mf_tetgrid's sign) and the zero level set sits where the
+ * silhouettes' alpha crosses 0.5. The mask is the view's last channel (alpha, coverage); bilinear
+ * with pixel centres at (i + 0.5, j + 0.5), clamped to the edge pixels within the frame.
+ * A view for which p is behind the camera or projects outside [0, w] x [0, h] does not carve
+ * (a partly cut view says nothing about what it does not see). A vertex no view sees gets +0.5. */
+#ifndef MF_VHULL_H
+#define MF_VHULL_H
+
+#include "geom/mf_tetgrid.h"
+#include "io/mf_image.h"
+#include "scene/mf_camera.h"
+
+/* cams: (n,); masks: (n,) images whose last channel is the mask (w, h matching each camera);
+ * field: (mf_tetgrid_nverts(g),) output. Fails with MF_EARG naming the first view whose mask
+ * size differs from its camera, or when n < 1. Parallel over grid slices; deterministic. */
+int mf_vhull(const MfTetGrid *g, const MfCamera *cams, const MfImage *masks, int n, float *field);
+
+typedef struct {
+    int res;            /* grid cubes per axis (128: the setting for 128 px views) */
+    float extent;       /* side of the grid cube centred at the origin, world units */
+    int smooth_iters;   /* Taubin lambda 0.5 / mu -0.53 iterations (0: none) */
+    int target_tris;    /* decimate to at most this many triangles (0: no decimation) */
+    float min_component;/* drop components with fewer than this fraction of the largest's triangles */
+} MfHullOpts;
+
+typedef struct {
+    int masked_views;   /* views with both alpha < 0.5 and alpha >= 0.5 pixels */
+    float extent;       /* grid side used (after enlarging once when the hull touched the border) */
+    int touches_border; /* 1: the hull still touches the (enlarged) grid border: a warning was logged */
+    int dropped_components;
+    int extracted_tris; /* triangles before clean-up and decimation */
+} MfHullInfo;
+
+/* The hull as a clean mesh: refuses (MF_EARG, saying why) fewer than 3 masked views; builds the
+ * field on the grid, enlarges the grid 1.5x once when the hull touches its border (then warns),
+ * extracts by marching tets (an empty hull is an error, never an empty mesh), welds, drops
+ * degenerate triangles and small components, smooths, decimates (mf_meshproc). */
+int mf_vhull_mesh(const MfCamera *cams, const MfImage *masks, int n, const MfHullOpts *opt, MfMesh *out, MfHullInfo *info);
+
+#endif
