@@ -132,7 +132,7 @@ int ev_eval_scene(const char *scene_dir, const char *result_dir, const char *met
     int rc = (flat || grey) ? trivial_result(scene_dir, grey, &res) : ev_result_load(result_dir, o->mesh_path, &res);
     if (rc) return rc;
     DsViews dv;
-    DsLoadOptions lo = {1, o->max_views, 1, 0};
+    DsLoadOptions lo = {1, o->max_views, 1, 0, NULL};
     if ((rc = ds_load(scene_dir, "test", &lo, &dv))) {
         ev_result_free(&res);
         return rc;
@@ -290,7 +290,7 @@ static int grid_cell(const MfImage *img, int ch, int reinhard, int unpremult, Mf
 int ev_eval_grid_row(const char *scene_dir, const char *result_dir, const EvEvalOpts *o, MfImage cells[EV_GRID_COLS]) {
     memset(cells, 0, EV_GRID_COLS * sizeof *cells);
     DsViews dv;
-    DsLoadOptions lo = {1, 1, 1, 0};
+    DsLoadOptions lo = {1, 1, 1, 0, NULL};
     int rc = ds_load(scene_dir, "test", &lo, &dv);
     if (rc) return rc;
     MfImage relit = {0}, env = {0};
