@@ -406,7 +406,8 @@ static int load_transforms(const char *dir, const char *split, TfKind kind, cons
             strcat(view->image_path, def);
         }
         /* a mask: --mask DIR (<DIR>/<name>.png) wins over the frame's own mask_path */
-        if (o->mask_dir && o->mask_dir[0]) rc = joinf(job->mask_path, "%s/%s.png", o->mask_dir, view->name);
+        if (o->mask_dir && o->mask_dir[0] == '/') rc = joinf(job->mask_path, "%s/%s.png", o->mask_dir, view->name);
+        else if (o->mask_dir && o->mask_dir[0]) rc = joinf(job->mask_path, "%s/%s/%s.png", dir, o->mask_dir, view->name);
         else if (mp) rc = join(job->mask_path, dir, mp);
         if (rc) goto fail;
     }

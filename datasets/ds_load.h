@@ -105,7 +105,8 @@ typedef struct {
     int downsample;  /* 1 (or 0): full size; k: box-filter by k (w, h divisible by k), fx scales */
     int ldr;         /* Stanford-ORB: 1 = blender_LDR (PNG), 0 = blender_HDR (EXR) */
     const char *mask_dir; /* borrowed; NULL or "": none. Else <mask_dir>/<frame name>.png (first channel,
-                             linear) replaces each view's alpha (NeRF-Synthetic / bvault layouts) */
+                             linear; a relative mask_dir is inside the scene folder) replaces each
+                             view's alpha (NeRF-Synthetic / bvault / instant-ngp layouts) */
 } DsLoadOptions;
 
 /* One transforms.json for all frames (instant-ngp / nerfstudio): test and val are the frames

@@ -169,7 +169,7 @@ int ev_eval_scene(const char *scene_dir, const char *result_dir, const char *met
     int rc = (flat || grey) ? trivial_result(scene_dir, grey, &res) : ev_result_load(result_dir, o->mesh_path, &res);
     if (rc) return rc;
     DsViews dv;
-    DsLoadOptions lo = {1, o->max_views, 1, 0, NULL};
+    DsLoadOptions lo = {1, o->max_views, 1, 0, o->mask};
     if ((rc = ds_load(scene_dir, "test", &lo, &dv))) {
         ev_result_free(&res);
         return rc;

@@ -55,6 +55,7 @@ typedef struct {
     int max_views; /* 0: all test views */
     int max_lights; /* 0: all relighting lights */
     const char *mesh_path; /* NULL: the result folder's mesh.obj */
+    const char *mask;      /* NULL: the images' alpha; else DsLoadOptions.mask_dir (e.g. "masks": <scene>/masks/) */
 } EvEvalOpts;
 
 /* Trivial guesses that every method must beat (pass as result_dir, with the scene's GT):

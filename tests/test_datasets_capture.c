@@ -132,6 +132,8 @@ MF_TEST(ds_capture_masks) {
         ds_views_free(&v);
     }
     CHECK_ERR(ds_load(dir, "train", &o, &v), "cap_masks_dir/f1.png");
+    DsLoadOptions rel = {0, 0, 1, 0, "masks"}; /* relative: inside the scene folder */
+    CHECK_ERR(ds_load(dir, "train", &rel, &v), "cap_mask/masks/f1.png");
 }
 
 MF_TEST(ds_capture_duplicate_names) {

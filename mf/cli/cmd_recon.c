@@ -31,7 +31,7 @@ static const MfOpt k_args[] = {
     MF_OPT_STR(A, method, "nvdiffrecmc", "method", .choices = "nvdiffrecmc|materialfusion"),
     MF_OPT_STR(A, mesh, NULL, "mesh with UVs", .unset = "DATASET_DIR/mesh.obj", .meta = "OBJ"),
     MF_OPT_STR(A, split, "train", "which views to train on"),
-    MF_OPT_STR(A, mask, NULL, "masks for frames without alpha (JPEG, RGB): DIR/<frame name>.png, first channel",
+    MF_OPT_STR(A, mask, NULL, "masks for frames without alpha (JPEG, RGB): DIR/<frame name>.png, first channel; a relative DIR is inside DATASET_DIR",
                .unset = "the images' alpha; RGB frames: alpha 1 with a warning", .meta = "DIR"),
     MF_OPT_INT(A, res, 0, 1, MF_OPT_RES_MAX, "train at N pixels wide (box-downsampled; the images' width must be a multiple)",
                .unset = "the images' size"),
