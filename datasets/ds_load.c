@@ -278,16 +278,9 @@ static int load_frame_images(TfKind kind, const char *dir, const char *split, co
     if (kind == TF_ORB) {
         /* mask from <split>_mask/<name>.png replaces alpha */
         char mpath[MF_PATH_MAX];
-        MfImage mask = {0};
         const char *msplit = (!strcmp(split, "novel")) ? "test" : split;
         if ((rc = joinf(mpath, "%s/%s_mask/%s.png", job->base_dir, msplit, view->name))) return rc;
-        if ((rc = read_image(mpath, MF_ENC_LINEAR, 3, &mask))) return rc;
-        if (mask.w != view->rgba.w || mask.h != view->rgba.h) {
-            mf_image_free(&mask);
-            return mf_fail(MF_EFORMAT, "%s: mask is %dx%d, the image is %dx%d", mpath, mask.w, mask.h, view->rgba.w, view->rgba.h);
-        }
-        for (size_t k = 0; k < (size_t)mask.w * mask.h; ++k) view->rgba.data[4 * k + 3] = mask.data[3 * k];
-        mf_image_free(&mask);
+        if ((rc = apply_mask(mpath, view))) return rc;
         if (!strcmp(split, "test")) {
             char ep[MF_PATH_MAX];
             if ((rc = joinf(ep, "%s/ground_truth/%s/env_map/%s.exr", orb_root, orb_capture, view->name))) return rc;
