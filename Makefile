@@ -40,7 +40,7 @@ LIB_OBJ  := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
 CLI_OBJ  := $(CLI_C:%.c=$(BUILD)/obj/%.o)
 TEST_OBJ := $(TEST_C:%.c=$(BUILD)/obj/%.o)
 
-.PHONY: FORCE all deps deps-fuzz fuzz fuzz-seeds test asan bench-render bench-baseline bench-prior bench-quick bench bench-split bench-runs bench-external recon-runs train-prior eval-prior bench-domain clean
+.PHONY: FORCE all deps deps-fuzz fuzz fuzz-lib fuzz-seeds test asan bench-render bench-baseline bench-prior bench-quick bench bench-split bench-runs bench-external recon-runs train-prior eval-prior bench-domain clean
 all: $(BUILD)/mf $(BUILD)/mf_tests
 
 deps:
@@ -100,9 +100,11 @@ deps-fuzz:
 	@dpkg-query -W -f='$${Status}\n' clang 2>/dev/null | grep -q 'install ok installed' && dpkg-query -W -f='$${Status}\n' libomp-dev 2>/dev/null | grep -q 'install ok installed' \
 	  && echo "make deps-fuzz: clang and libomp-dev present" \
 	  || { SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); $$SUDO apt-get update -q && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -q --no-install-recommends clang libomp-dev; }
-$(FUZZ_BUILD)/fuzz_%: tests/fuzz/fuzz_%.c tests/fuzz/mf_fuzz_util.c tests/fuzz/mf_fuzz.h FORCE
+# one sub-make builds the instrumented library before any harness links (safe with -j)
+fuzz-lib:
 	@command -v clang >/dev/null || { echo "make fuzz: clang not found (make deps-fuzz installs Debian's clang)"; exit 1; }
 	$(MAKE) --no-print-directory BUILD=$(FUZZ_BUILD) CC=clang CXX=clang++ OPT=-O1 SAN="$(FUZZ_SAN) -fsanitize=fuzzer-no-link" $(FUZZ_BUILD)/libmf.a
+$(FUZZ_BUILD)/fuzz_%: tests/fuzz/fuzz_%.c tests/fuzz/mf_fuzz_util.c tests/fuzz/mf_fuzz.h fuzz-lib
 	@mkdir -p $(FUZZ_BUILD)/fz
 	clang -std=c17 -O1 -g $(WARN) -D_GNU_SOURCE -DMF_LIBFUZZER -fopenmp $(FUZZ_SAN) -fsanitize=fuzzer-no-link $(INCLUDES) -c tests/fuzz/fuzz_$*.c -o $(FUZZ_BUILD)/fz/fuzz_$*.o
 	clang -std=c17 -O1 -g $(WARN) -D_GNU_SOURCE -DMF_LIBFUZZER -fopenmp $(FUZZ_SAN) -fsanitize=fuzzer-no-link $(INCLUDES) -c tests/fuzz/mf_fuzz_util.c -o $(FUZZ_BUILD)/fz/mf_fuzz_util.o
