@@ -31,13 +31,16 @@ LDFLAGS  += -fopenmp $(SAN)
 LIB_C    := $(sort $(filter-out mf/cli/%,$(wildcard mf/*/*.c)) $(wildcard eval/*.c datasets/*.c baselines/*.c))
 LIB_CXX  := $(sort $(wildcard mf/*/*.cpp))
 CLI_C    := $(sort $(wildcard mf/cli/*.c))
-TEST_C   := $(sort $(wildcard tests/*.c))
+# the fuzz harnesses (tests/fuzz/) are compiled into the test binary too, which replays them
+FUZZ_NAMES := obj scene transforms image ckpt prior opts
+FUZZ_C   := $(FUZZ_NAMES:%=tests/fuzz/fuzz_%.c) tests/fuzz/mf_fuzz_util.c
+TEST_C   := $(sort $(wildcard tests/*.c)) $(FUZZ_C)
 
 LIB_OBJ  := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
 CLI_OBJ  := $(CLI_C:%.c=$(BUILD)/obj/%.o)
 TEST_OBJ := $(TEST_C:%.c=$(BUILD)/obj/%.o)
 
-.PHONY: FORCE all deps test asan bench-geom bench-render bench-baseline bench-prior bench-quick bench bench-split bench-runs bench-external recon-runs train-prior eval-prior bench-domain clean
+.PHONY: FORCE all deps deps-fuzz fuzz fuzz-lib fuzz-seeds test asan bench-geom bench-render bench-baseline bench-prior bench-quick bench bench-split bench-runs bench-external recon-runs train-prior eval-prior bench-domain clean
 all: $(BUILD)/mf $(BUILD)/mf_tests
 
 deps:
@@ -73,18 +76,60 @@ $(BUILD)/mf: $(CLI_OBJ) $(BUILD)/libmf.a
 $(BUILD)/mf_tests: $(TEST_OBJ) $(BUILD)/libmf.a
 	$(CC) $(LDFLAGS) -o $@ $(TEST_OBJ) $(BUILD)/libmf.a $(LDLIBS)
 
+# ---- fuzzing (tests/fuzz/mf_fuzz.h) ----
+# Seed corpora: written by build/fuzz_seeds (the project's own writers and literal text), so no
+# binary seeds live in git. make test replays them and tests/fuzz/regress/ (past crashes).
+$(BUILD)/fuzz_seeds: $(BUILD)/obj/tests/fuzz/fuzz_seeds.o $(BUILD)/obj/tests/fuzz/mf_fuzz_util.o $(BUILD)/libmf.a
+	$(CC) $(LDFLAGS) -o $@ $^ $(LDLIBS)
+$(BUILD)/fuzz-seeds/.done: $(BUILD)/fuzz_seeds
+	rm -rf $(dir $@) && ./$(BUILD)/fuzz_seeds $(dir $@) && touch $@
+fuzz-seeds: $(BUILD)/fuzz-seeds/.done
+
+# make fuzz FUZZ_S=N: each libFuzzer harness for N seconds under ASan + UBSan (clang; the
+# optional packages of make deps-fuzz), one after another, growing fuzz/corpus/<name>/ from the
+# seeds; crashes land in fuzz/crashes/<name>/ (copy them to tests/fuzz/regress/<name>/ once
+# fixed). FUZZ_NAMES=... picks harnesses, FUZZ_ARGS adds libFuzzer flags. The library is built
+# with clang in build-fuzz/ (coverage instrumented, sanitizers on).
+FUZZ_S        ?= 60
+FUZZ_ARGS     ?=
+# the harnesses write each input to a file: on tmpfs that is about 10x faster than on disk
+FUZZ_TMPDIR   ?= $(if $(wildcard /dev/shm/.),/dev/shm,/tmp)
+FUZZ_BUILD    := build-fuzz
+FUZZ_SAN      := -fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer
+deps-fuzz:
+	@dpkg-query -W -f='$${Status}\n' clang 2>/dev/null | grep -q 'install ok installed' && dpkg-query -W -f='$${Status}\n' libomp-dev 2>/dev/null | grep -q 'install ok installed' \
+	  && echo "make deps-fuzz: clang and libomp-dev present" \
+	  || { SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); $$SUDO apt-get update -q && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -q --no-install-recommends clang libomp-dev; }
+# one sub-make builds the instrumented library before any harness links (safe with -j)
+fuzz-lib:
+	@command -v clang >/dev/null || { echo "make fuzz: clang not found (make deps-fuzz installs Debian's clang)"; exit 1; }
+	$(MAKE) --no-print-directory BUILD=$(FUZZ_BUILD) CC=clang CXX=clang++ OPT=-O1 SAN="$(FUZZ_SAN) -fsanitize=fuzzer-no-link" $(FUZZ_BUILD)/libmf.a
+$(FUZZ_BUILD)/fuzz_%: tests/fuzz/fuzz_%.c tests/fuzz/mf_fuzz_util.c tests/fuzz/mf_fuzz.h fuzz-lib
+	@mkdir -p $(FUZZ_BUILD)/fz
+	clang -std=c17 -O1 -g $(WARN) -D_GNU_SOURCE -DMF_LIBFUZZER -fopenmp $(FUZZ_SAN) -fsanitize=fuzzer-no-link $(INCLUDES) -c tests/fuzz/fuzz_$*.c -o $(FUZZ_BUILD)/fz/fuzz_$*.o
+	clang -std=c17 -O1 -g $(WARN) -D_GNU_SOURCE -DMF_LIBFUZZER -fopenmp $(FUZZ_SAN) -fsanitize=fuzzer-no-link $(INCLUDES) -c tests/fuzz/mf_fuzz_util.c -o $(FUZZ_BUILD)/fz/mf_fuzz_util.o
+	clang++ -fopenmp $(FUZZ_SAN) -fsanitize=fuzzer -o $@ $(FUZZ_BUILD)/fz/fuzz_$*.o $(FUZZ_BUILD)/fz/mf_fuzz_util.o $(FUZZ_BUILD)/libmf.a $(LDLIBS)
+fuzz: $(FUZZ_NAMES:%=$(FUZZ_BUILD)/fuzz_%) fuzz-seeds
+	@for n in $(FUZZ_NAMES); do \
+	  mkdir -p fuzz/corpus/$$n fuzz/crashes/$$n; \
+	  echo "== fuzz $$n: $(FUZZ_S) s"; \
+	  LSAN_OPTIONS=suppressions=$(abspath tests/lsan.supp):print_suppressions=0 OMP_NUM_THREADS=1 TMPDIR=$(FUZZ_TMPDIR) \
+	  ./$(FUZZ_BUILD)/fuzz_$$n -max_total_time=$(FUZZ_S) -print_final_stats=1 -artifact_prefix=fuzz/crashes/$$n/ $(FUZZ_ARGS) \
+	    fuzz/corpus/$$n $(BUILD)/fuzz-seeds/$$n || exit 1; \
+	done
+
 # The tests find the mf binary through MF_BIN and ../shared through MF_SHARED. The .glb files
 # they write are checked with the Khronos glTF validator when node and the npm package
 # gltf-validator are present (found through NODE_PATH or GLTF_VALIDATOR_MODULES=<dir>/node_modules,
 # e.g. after `npm install gltf-validator` in <dir>); otherwise that check is skipped with a message.
 GLTF_VALIDATOR_MODULES ?=
-test: $(BUILD)/mf $(BUILD)/mf_tests
+test: $(BUILD)/mf $(BUILD)/mf_tests $(BUILD)/fuzz-seeds/.done
 	@NODE_PATH="$(GLTF_VALIDATOR_MODULES)$${NODE_PATH:+:$$NODE_PATH}"; export NODE_PATH; \
 	if command -v node >/dev/null 2>&1 && node -e "require('gltf-validator')" >/dev/null 2>&1; then \
 	  export MF_GLTF_VALIDATOR="node $(abspath tests/gltf_validate.js)"; \
 	else echo "gltf-validator: node or the npm package gltf-validator not found; .glb files are not checked by the Khronos validator (see GLTF_VALIDATOR_MODULES in the Makefile)"; fi; \
 	echo MF_BIN=$(abspath $(BUILD)/mf) MF_SHARED=$(abspath ../shared) OMP_NUM_THREADS=$${OMP_NUM_THREADS:-2} ./$(BUILD)/mf_tests $(T); \
-	MF_BIN=$(abspath $(BUILD)/mf) MF_SHARED=$(abspath ../shared) OMP_NUM_THREADS=$${OMP_NUM_THREADS:-2} ./$(BUILD)/mf_tests $(T)
+	MF_BIN=$(abspath $(BUILD)/mf) MF_SHARED=$(abspath ../shared) MF_FUZZ_SEEDS=$(abspath $(BUILD)/fuzz-seeds) OMP_NUM_THREADS=$${OMP_NUM_THREADS:-2} ./$(BUILD)/mf_tests $(T)
 
 asan: export LSAN_OPTIONS = suppressions=$(abspath tests/lsan.supp):print_suppressions=0
 asan:

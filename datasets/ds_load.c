@@ -11,6 +11,7 @@
 
 #include "core/mf_error.h"
 #include "io/mf_exr.h"
+#include "core/mf_log.h"
 #include "io/mf_json.h"
 
 static const char *k_fmt_names[] = {"unknown", "nerf-synthetic", "nerfactor", "stanford-orb", "bvault"};
@@ -56,7 +57,7 @@ void ds_views_free(DsViews *v) {
 }
 
 static DsLoadOptions opts_or_default(const DsLoadOptions *opt) {
-    DsLoadOptions o = {1, 0, 1, 0};
+    DsLoadOptions o = {1, 0, 1, 0, NULL};
     if (opt) o = *opt;
     if (o.downsample < 1) o.downsample = 1;
     return o;
@@ -100,11 +101,12 @@ static int downsample(MfImage *img, int k, const char *path) {
 }
 
 /* Reads an image with c channels forced to `want` (3 or 4): RGB gets alpha 1; grey is
- * replicated; extra channels are dropped. */
-static int read_image(const char *path, MfEncoding enc, int want, MfImage *out) {
+ * replicated; extra channels are dropped. *stored_c (may be NULL) receives the file's count. */
+static int read_image_c(const char *path, MfEncoding enc, int want, MfImage *out, int *stored_c) {
     MfImage im = {0};
     int rc = mf_image_read(path, enc, &im);
     if (rc) return rc;
+    if (stored_c) *stored_c = im.c;
     if (im.c == want) { *out = im; return MF_OK; }
     MfImage r = {0};
     if ((rc = mf_image_alloc(&r, im.w, im.h, want))) { mf_image_free(&im); return rc; }
@@ -122,6 +124,7 @@ static int read_image(const char *path, MfEncoding enc, int want, MfImage *out) 
     *out = r;
     return MF_OK;
 }
+static int read_image(const char *path, MfEncoding enc, int want, MfImage *out) { return read_image_c(path, enc, want, out, NULL); }
 
 static void free_views(DsView *views, int n) {
     DsViews tmp = {0};
@@ -169,13 +172,71 @@ typedef enum { TF_NERF = 0, TF_BVAULT = 1, TF_ORB = 2 } TfKind;
  * reported in frame order (the error text is thread-local). */
 typedef struct {
     double c2w[16];
-    double ax;
+    double ax;       /* camera_angle_x, NAN when the frame gives focal lengths instead */
+    double fl[6];    /* fl_x, fl_y, cx, cy, w, h in the JSON's pixels; NAN = not given */
+    char mask_path[MF_PATH_MAX]; /* mask replacing alpha (mask_path or --mask), or "" */
+    int stored_c;    /* channels of the image file (1..4): < 4 = no alpha */
     char what[MF_PATH_MAX + 128];
     char base_dir[MF_PATH_MAX];
     int w0, h0; /* size as stored, before downsampling */
     int rc;
     char msg[MF_PATH_MAX + 256];
 } FrameJob;
+
+/* Intrinsics keys (instant-ngp / nerfstudio), at the JSON's root or per frame. */
+static const char *const k_intr_keys[6] = {"fl_x", "fl_y", "cx", "cy", "w", "h"};
+static const char *const k_dist_keys[] = {"k1", "k2", "k3", "k4", "p1", "p2"};
+
+/* Reads intrinsics of obj over fl (NAN = not given, kept when obj lacks a key) and refuses lens
+ * distortion and camera models other than a pinhole, naming the file and the key. */
+static int read_intrinsics(const char *jpath, const char *where, const cJSON *obj, double fl[6]) {
+    char w[96];
+    snprintf(w, sizeof w, "%s%s", where, where[0] ? "." : "");
+    for (int k = 0; k < 6; ++k) {
+        int rc = mf_json_number_opt(jpath, where, obj, k_intr_keys[k], fl[k], &fl[k]);
+        if (rc) return rc;
+        double lo = k == 2 || k == 3 ? -1e7 : 0.0, hi = k >= 4 ? 65536.0 : 1e7;
+        if (!isnan(fl[k]) && !(fl[k] > lo && fl[k] <= hi))
+            return mf_fail(MF_EFORMAT, "%s: %s%s = %g: expected a number in (%g, %g]", jpath, w, k_intr_keys[k], fl[k], lo, hi);
+    }
+    for (size_t k = 0; k < sizeof k_dist_keys / sizeof k_dist_keys[0]; ++k) {
+        double d;
+        int rc = mf_json_number_opt(jpath, where, obj, k_dist_keys[k], 0.0, &d);
+        if (rc) return rc;
+        if (d != 0.0)
+            return mf_fail(MF_EFORMAT, "%s: %s%s = %g: lens distortion is not supported; undistort the images first "
+                           "(e.g. COLMAP's image_undistorter) and set k1..k4, p1, p2 to 0", jpath, w, k_dist_keys[k], d);
+    }
+    const char *model = NULL;
+    int rc = mf_json_string_opt(jpath, where, obj, "camera_model", NULL, &model);
+    if (rc) return rc;
+    if (model && strcmp(model, "OPENCV") && strcmp(model, "PINHOLE") && strcmp(model, "SIMPLE_PINHOLE"))
+        return mf_fail(MF_EFORMAT, "%s: %scamera_model '%s' is not supported (pinhole cameras only: PINHOLE, OPENCV "
+                       "with zero distortion)", jpath, w, model);
+    return MF_OK;
+}
+
+/* The view's camera at its final size: camera_angle_x (square pixels, centred principal point)
+ * or, when the frame gives fl_x, its intrinsics scaled from the JSON's w x h (default: the
+ * stored image size) to the final size, so downsampled or resized images keep their camera. */
+static int apply_intrinsics(const FrameJob *job, DsView *view) {
+    const double *fl = job->fl;
+    int W = view->rgba.w, H = view->rgba.h;
+    double jw = isnan(fl[4]) ? job->w0 : fl[4], jh = isnan(fl[5]) ? job->h0 : fl[5];
+    if (fabs(jw * job->h0 - jh * job->w0) > 0.01 * jw * job->h0)
+        return mf_fail(MF_EFORMAT, "%s: w x h = %g x %g, but the image %s is %dx%d (another aspect ratio)", job->what, jw, jh,
+                       view->image_path, job->w0, job->h0);
+    double ax = isnan(fl[0]) ? job->ax : 2.0 * atan(jw / (2.0 * fl[0]));
+    view->camera_angle_x = ax;
+    int rc = mf_camera_init(&view->cam, W, H, ax, job->c2w, job->what);
+    if (rc || isnan(fl[0])) return rc;
+    double sx = W / jw, sy = H / jh;
+    view->cam.fx = (float)(fl[0] * sx);
+    view->cam.fy = (float)((isnan(fl[1]) ? fl[0] : fl[1]) * sy);
+    view->cam.cx = (float)((isnan(fl[2]) ? 0.5 * jw : fl[2]) * sx);
+    view->cam.cy = (float)((isnan(fl[3]) ? 0.5 * jh : fl[3]) * sy);
+    return MF_OK;
+}
 
 /* After the parallel phase, in frame order: the first failure, size agreement with the first
  * frame, and the cameras at the final (possibly downsampled) size. */
@@ -186,10 +247,25 @@ static int finish_frames(const FrameJob *jobs, DsView *views, int n) {
         if (job->w0 != jobs[0].w0 || job->h0 != jobs[0].h0)
             return mf_fail(MF_EFORMAT, "%s: image is %dx%d, the split's first image is %dx%d", views[i].image_path, job->w0,
                            job->h0, jobs[0].w0, jobs[0].h0);
-        views[i].camera_angle_x = job->ax;
-        int rc = mf_camera_init(&views[i].cam, views[i].rgba.w, views[i].rgba.h, job->ax, job->c2w, job->what);
+        int rc = apply_intrinsics(job, &views[i]);
         if (rc) return rc;
     }
+    return MF_OK;
+}
+
+/* The mask file's first channel (linear) replaces the view's alpha; sizes must agree. */
+static int apply_mask(const char *mpath, DsView *view) {
+    MfImage mask = {0};
+    int rc = read_image(mpath, MF_ENC_LINEAR, 3, &mask);
+    if (rc) return rc;
+    if (mask.w != view->rgba.w || mask.h != view->rgba.h) {
+        rc = mf_fail(MF_EFORMAT, "%s: mask is %dx%d, the image %s is %dx%d", mpath, mask.w, mask.h, view->image_path,
+                     view->rgba.w, view->rgba.h);
+        mf_image_free(&mask);
+        return rc;
+    }
+    for (size_t k = 0; k < (size_t)mask.w * mask.h; ++k) view->rgba.data[4 * k + 3] = mask.data[3 * k];
+    mf_image_free(&mask);
     return MF_OK;
 }
 
@@ -197,20 +273,14 @@ static int load_frame_images(TfKind kind, const char *dir, const char *split, co
                              const DsLoadOptions *o, FrameJob *job, DsView *view) {
     int rc;
     int is_exr = !strcmp(strrchr(view->image_path, '.'), ".exr");
-    if ((rc = read_image(view->image_path, is_exr ? MF_ENC_LINEAR : MF_ENC_SRGB, 4, &view->rgba))) return rc;
+    if ((rc = read_image_c(view->image_path, is_exr ? MF_ENC_LINEAR : MF_ENC_SRGB, 4, &view->rgba, &job->stored_c))) return rc;
+    if (job->mask_path[0] && (rc = apply_mask(job->mask_path, view))) return rc;
     if (kind == TF_ORB) {
         /* mask from <split>_mask/<name>.png replaces alpha */
         char mpath[MF_PATH_MAX];
-        MfImage mask = {0};
         const char *msplit = (!strcmp(split, "novel")) ? "test" : split;
         if ((rc = joinf(mpath, "%s/%s_mask/%s.png", job->base_dir, msplit, view->name))) return rc;
-        if ((rc = read_image(mpath, MF_ENC_LINEAR, 3, &mask))) return rc;
-        if (mask.w != view->rgba.w || mask.h != view->rgba.h) {
-            mf_image_free(&mask);
-            return mf_fail(MF_EFORMAT, "%s: mask is %dx%d, the image is %dx%d", mpath, mask.w, mask.h, view->rgba.w, view->rgba.h);
-        }
-        for (size_t k = 0; k < (size_t)mask.w * mask.h; ++k) view->rgba.data[4 * k + 3] = mask.data[3 * k];
-        mf_image_free(&mask);
+        if ((rc = apply_mask(mpath, view))) return rc;
         if (!strcmp(split, "test")) {
             char ep[MF_PATH_MAX];
             if ((rc = joinf(ep, "%s/ground_truth/%s/env_map/%s.exr", orb_root, orb_capture, view->name))) return rc;
@@ -226,6 +296,21 @@ static int load_frame_images(TfKind kind, const char *dir, const char *split, co
     return MF_OK;
 }
 
+/* RGB frames (no alpha in the file) with no mask: the whole frame counts as the object (alpha 1),
+ * said once per split with the first such file. */
+static void warn_no_alpha(const FrameJob *jobs, const DsView *views, int n, TfKind kind) {
+    int first = -1, count = 0;
+    for (int i = 0; i < n; ++i)
+        if (jobs[i].stored_c < 4 && !jobs[i].mask_path[0] && kind != TF_ORB) {
+            if (first < 0) first = i;
+            ++count;
+        }
+    if (count)
+        mf_log_warn("%s%s: no alpha channel and no mask (give --mask DIR with <DIR>/<name>.png, or mask_path per frame): "
+                    "the whole frame counts as the object (alpha = 1) in %d of %d views", views[first].image_path,
+                    count > 1 ? " and others" : "", count, n);
+}
+
 /* Three phases: the JSON is parsed and every camera validated first (serial, cheap), images
  * are decoded in parallel (OpenMP over frames), then failures and size mismatches are reported
  * in frame order, so the result and the messages do not depend on the thread count. */
@@ -235,37 +320,66 @@ static int load_transforms(const char *dir, const char *split, TfKind kind, cons
     int rc;
     snprintf(name, sizeof name, "transforms_%s.json", split);
     if ((rc = join(jpath, dir, name))) return rc;
+    /* instant-ngp / nerfstudio: one transforms.json for every frame; the split is a rule */
+    int single = 0;
+    char one[MF_PATH_MAX];
+    if (kind == TF_NERF && !mf_file_exists(jpath) && !join(one, dir, "transforms.json") && mf_file_exists(one)) {
+        if (strcmp(split, "train") && strcmp(split, "test") && strcmp(split, "val"))
+            return mf_fail(MF_EARG, "%s holds every frame; split '%s' is none of train, test (and val: every %dth frame "
+                           "from the first), train (the others)", one, split, DS_HOLDOUT_EVERY);
+        snprintf(jpath, sizeof jpath, "%s", one);
+        single = 1;
+    }
     cJSON *root = NULL;
     if ((rc = mf_json_load(jpath, &root))) return rc;
     DsViews v = {0};
     DsView *views = NULL;
     FrameJob *jobs = NULL;
-    int nf = 0;
+    int *sel = NULL;
+    int nf = 0, nall = 0;
     const cJSON *frames;
-    double angle = 0.0;
+    double angle = 0.0, fl_root[6] = {NAN, NAN, NAN, NAN, NAN, NAN};
     if ((rc = mf_json_number_opt(jpath, "", root, "camera_angle_x", NAN, &angle))) goto fail;
-    if ((rc = mf_json_array(jpath, "", root, "frames", &frames, &nf))) goto fail;
-    if (nf == 0) { rc = mf_fail(MF_EFORMAT, "%s: frames: empty", jpath); goto fail; }
+    if ((rc = read_intrinsics(jpath, "", root, fl_root))) goto fail;
+    if ((rc = mf_json_array(jpath, "", root, "frames", &frames, &nall))) goto fail;
+    if (cJSON_GetObjectItemCaseSensitive(root, "aabb_scale"))
+        mf_log_info("%s: aabb_scale ignored (mf works on a given mesh; no bounding volume is used)", jpath);
+    sel = malloc(((size_t)nall + 1) * sizeof *sel);
+    if (!sel) { rc = mf_fail(MF_ENOMEM, "out of memory"); goto fail; }
+    for (int i = 0; i < nall; ++i) /* single file: every DS_HOLDOUT_EVERY-th frame is test/val */
+        if (!single || ((i % DS_HOLDOUT_EVERY == 0) == (strcmp(split, "train") != 0))) sel[nf++] = i;
+    if (nf == 0) {
+        rc = single ? mf_fail(MF_EFORMAT, "%s: frames: no frame for split '%s' (%d frames; test and val are every %dth)", jpath,
+                              split, nall, DS_HOLDOUT_EVERY)
+                    : mf_fail(MF_EFORMAT, "%s: frames: empty", jpath);
+        goto fail;
+    }
     if (o->max_views > 0 && nf > o->max_views) nf = o->max_views;
     views = calloc((size_t)nf, sizeof(DsView));
     jobs = calloc((size_t)nf, sizeof(FrameJob));
     if (!views || !jobs) { rc = mf_fail(MF_ENOMEM, "out of memory"); goto fail; }
     /* 1. frames and cameras */
     for (int i = 0; i < nf; ++i) {
-        const cJSON *fr = cJSON_GetArrayItem(frames, i);
+        const cJSON *fr = cJSON_GetArrayItem(frames, sel[i]);
         FrameJob *job = &jobs[i];
         DsView *view = &views[i];
         char where[64];
-        snprintf(where, sizeof where, "frames[%d]", i);
+        snprintf(where, sizeof where, "frames[%d]", sel[i]);
         snprintf(job->what, sizeof job->what, "%s: %s", jpath, where);
-        const char *fp;
+        const char *fp, *mp = NULL;
         job->ax = angle;
+        memcpy(job->fl, fl_root, sizeof job->fl);
         if ((rc = mf_json_string(jpath, where, fr, "file_path", &fp))) goto fail;
         if ((rc = mf_json_numbers(jpath, where, fr, "transform_matrix", 4, 4, job->c2w))) goto fail;
         if ((rc = mf_json_number_opt(jpath, where, fr, "camera_angle_x", angle, &job->ax))) goto fail;
-        if (isnan(job->ax)) { rc = mf_fail(MF_EFORMAT, "%s: camera_angle_x: missing", jpath); goto fail; }
+        if ((rc = read_intrinsics(jpath, where, fr, job->fl))) goto fail;
+        if ((rc = mf_json_string_opt(jpath, where, fr, "mask_path", NULL, &mp))) goto fail;
+        if (isnan(job->ax) && isnan(job->fl[0])) {
+            rc = mf_fail(MF_EFORMAT, "%s: camera_angle_x: missing (and no fl_x)", job->what);
+            goto fail;
+        }
         MfCamera probe;
-        if ((rc = mf_camera_init(&probe, 1, 1, job->ax, job->c2w, job->what))) goto fail;
+        if ((rc = mf_camera_init(&probe, 1, 1, isnan(job->ax) ? 1.0 : job->ax, job->c2w, job->what))) goto fail;
         stem_of(fp, view->name, sizeof view->name);
         snprintf(job->base_dir, sizeof job->base_dir, "%s", dir);
         if (kind == TF_ORB) {
@@ -284,6 +398,19 @@ static int load_transforms(const char *dir, const char *split, TfKind kind, cons
             if (strlen(view->image_path) + 5 >= MF_PATH_MAX) { rc = mf_fail(MF_EARG, "%s: path too long", job->what); goto fail; }
             strcat(view->image_path, def);
         }
+        /* a mask: --mask DIR (<DIR>/<name>.png) wins over the frame's own mask_path */
+        if (o->mask_dir && o->mask_dir[0] == '/') rc = joinf(job->mask_path, "%s/%s.png", o->mask_dir, view->name);
+        else if (o->mask_dir && o->mask_dir[0]) rc = joinf(job->mask_path, "%s/%s/%s.png", dir, o->mask_dir, view->name);
+        else if (mp) rc = join(job->mask_path, dir, mp);
+        if (rc) goto fail;
+    }
+    /* per-view outputs (renders, scores) are named by the frame's base name */
+    int di, dj;
+    if (kind != TF_ORB && mf_find_duplicate_name(views[0].name, sizeof views[0], nf, &di, &dj)) {
+        rc = mf_fail(MF_EFORMAT, "%s: frames[%d] and frames[%d] both have the base name '%s' (%s, %s): per-view outputs would "
+                     "overwrite each other; rename one", jpath, sel[di], sel[dj], views[di].name, views[di].image_path,
+                     views[dj].image_path);
+        goto fail;
     }
     cJSON_Delete(root);
     root = NULL;
@@ -296,7 +423,9 @@ static int load_transforms(const char *dir, const char *split, TfKind kind, cons
     }
     /* 3. failures and sizes in frame order; cameras at the final size */
     if ((rc = finish_frames(jobs, views, nf))) goto fail;
+    warn_no_alpha(jobs, views, nf, kind);
     free(jobs);
+    free(sel);
     v.format = kind == TF_ORB ? DS_FMT_STANFORD_ORB : (kind == TF_BVAULT ? DS_FMT_BVAULT : DS_FMT_NERF_SYNTHETIC);
     snprintf(v.dir, sizeof v.dir, "%s", dir);
     snprintf(v.split, sizeof v.split, "%s", split);
@@ -309,6 +438,7 @@ static int load_transforms(const char *dir, const char *split, TfKind kind, cons
 fail:
     cJSON_Delete(root);
     free(jobs);
+    free(sel);
     free_views(views, nf);
     return rc;
 }
@@ -453,6 +583,7 @@ int ds_load_nerfactor(const char *dir, const char *split, const DsLoadOptions *o
         if ((rc = join(vdir, dir, names[i])) || (rc = join(mpath, vdir, "metadata.json"))) goto fail;
         snprintf(job->base_dir, sizeof job->base_dir, "%s", vdir);
         snprintf(job->what, sizeof job->what, "%s", mpath);
+        for (int k = 0; k < 6; ++k) job->fl[k] = NAN; /* camera_angle_x only */
         if ((rc = mf_json_load(mpath, &meta))) goto fail;
         const char *ms;
         const cJSON *mt = cJSON_GetObjectItemCaseSensitive(meta, "cam_transform_mat");
@@ -570,6 +701,7 @@ DsFormat ds_detect_format(const char *dir) {
         snprintf(name, sizeof name, "transforms_%s.json", splits[k]);
         if (!join(p, dir, name) && mf_file_exists(p)) has_tf = 1;
     }
+    if (!has_tf && !join(p, dir, "transforms.json") && mf_file_exists(p)) return DS_FMT_NERF_SYNTHETIC;
     if (has_tf) {
         if ((!join(p, dir, "gt") && is_dir(p)) || (!join(p, dir, "relight") && is_dir(p))) return DS_FMT_BVAULT;
         if ((!join(p, dir, "train_mask") && is_dir(p)) || (!join(p, dir, "test_mask") && is_dir(p))) return DS_FMT_STANFORD_ORB;

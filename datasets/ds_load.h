@@ -10,6 +10,18 @@
  *                  to dir; ".png" is added when it has no extension), frames[].transform_matrix
  *                  (4x4 c2w). Images: 8/16-bit RGBA PNG, sRGB colour, alpha = mask. A split
  *                  whose json is missing (often "val") fails with MF_EIO ("...: no such file").
+ *                  instant-ngp / nerfstudio captures use the same reader: one <dir>/transforms.json
+ *                  (used when transforms_<split>.json is absent; split rule at DS_HOLDOUT_EVERY),
+ *                  intrinsics fl_x, fl_y, cx, cy, w, h at the root or per frame (per frame wins;
+ *                  fl_y defaults to fl_x, cx/cy to the centre, w/h to the image's size; they are
+ *                  scaled to the loaded image size, so non-square pixels and moved principal
+ *                  points are kept), camera_angle_x optional when fl_x is given. Lens distortion
+ *                  (any non-zero k1..k4, p1, p2) and camera models other than a pinhole are
+ *                  refused, naming the file and the key; aabb_scale is ignored with a note.
+ *                  Frames without alpha (JPEG, RGB PNG) take their mask from --mask DIR
+ *                  (DsLoadOptions.mask_dir) or the frame's mask_path; with neither, alpha = 1
+ *                  and a warning names the first such file. Two frames with the same base name
+ *                  are refused (their per-view outputs would overwrite each other).
  *  NeRFactor       <dir>/<split>_NNN/ folders (sorted by NNN), each with metadata.json
  *                  (cam_transform_mat: "a,b,..." 16 comma-separated numbers, row-major c2w,
  *                  as NeRFactor writes it; a JSON array of 16 or 4x4 numbers is accepted too;
@@ -92,7 +104,14 @@ typedef struct {
     int max_views;   /* 0: all; else the first max_views frames */
     int downsample;  /* 1 (or 0): full size; k: box-filter by k (w, h divisible by k), fx scales */
     int ldr;         /* Stanford-ORB: 1 = blender_LDR (PNG), 0 = blender_HDR (EXR) */
+    const char *mask_dir; /* borrowed; NULL or "": none. Else <mask_dir>/<frame name>.png (first channel,
+                             linear; a relative mask_dir is inside the scene folder) replaces each
+                             view's alpha (NeRF-Synthetic / bvault / instant-ngp layouts) */
 } DsLoadOptions;
+
+/* One transforms.json for all frames (instant-ngp / nerfstudio): test and val are the frames
+ * 0, 8, 16, ... and train the others. */
+#define DS_HOLDOUT_EVERY 8
 
 const char *ds_format_name(DsFormat f);
 

@@ -125,6 +125,43 @@ static int trivial_result(const char *scene_dir, int grey, EvResult *out) {
     return MF_OK;
 }
 
+/* Novel views under the training light, for scenes with neither relit nor material ground truth
+ * (a capture: the held-out test images are all the truth there is): the result rendered with its
+ * own env.exr from each test camera against the test image (straight alpha), relit protocol. */
+static int score_novel_views(const DsViews *dv, const EvResult *res, const MfRtScene *rt, const MfTexMaterial *mat,
+                             const MfRenderOpts *ro, EvAlign align, FILE *csv, const char *method, const char *dataset,
+                             const char *scene, Acc *acc, int *bad) {
+    if (!res->has_env)
+        return mf_fail(MF_EARG, "%s: no relit or material ground truth, so the test views are scored under the training "
+                       "light, which needs the result's env.exr (missing)", dv->dir);
+    MfRenderInput in = {rt, &res->mesh, mat, 1, &res->env, NULL, 0};
+    int rc = MF_OK;
+    for (int i = 0; i < dv->n && !rc; ++i) {
+        const DsView *v = &dv->views[i];
+        MfRenderOut out = {0};
+        MfImage pred = {0};
+        EvMetrics m;
+        rc = mf_render(&in, &v->cam, ro, &out, NULL);
+        if (!rc) rc = aov_rgba(out.rgb, out.alpha, out.w, out.h, &pred);
+        if (!rc) {
+            unpremultiply(&pred);
+            if (score_color(&pred, &v->rgba, align, &m) == MF_OK) {
+                acc_add(acc, &m);
+                row(csv, method, dataset, scene, v->name, "novel_view", "training", &m);
+            } else {
+                mf_log_warn("%s/%s (novel view) excluded: %s", scene, v->name, mf_error());
+                ++*bad;
+            }
+        }
+        mf_render_out_free(&out);
+        mf_image_free(&pred);
+    }
+    if (!rc)
+        mf_log_info("%s: no relit or material ground truth: scored %d held-out test views under the training light "
+                    "(the result rendered with its env.exr; metrics nv_*)", scene, acc->n);
+    return rc;
+}
+
 int ev_eval_scene(const char *scene_dir, const char *result_dir, const char *method, const char *dataset,
                   const char *scene, const EvEvalOpts *o, EvTable *t, FILE *csv, int *excluded) {
     EvResult res;
@@ -132,7 +169,7 @@ int ev_eval_scene(const char *scene_dir, const char *result_dir, const char *met
     int rc = (flat || grey) ? trivial_result(scene_dir, grey, &res) : ev_result_load(result_dir, o->mesh_path, &res);
     if (rc) return rc;
     DsViews dv;
-    DsLoadOptions lo = {1, o->max_views, 1, 0};
+    DsLoadOptions lo = {1, o->max_views, 1, 0, o->mask};
     if ((rc = ds_load(scene_dir, "test", &lo, &dv))) {
         ev_result_free(&res);
         return rc;
@@ -242,11 +279,14 @@ int ev_eval_scene(const char *scene_dir, const char *result_dir, const char *met
         mf_image_free(&mask);
         mf_render_out_free(&out);
     }
+    Acc nv = {{0}, 0};
+    if (!rc && !flat && !grey && dv.n_relight == 0 && !alb.n && !orm.n)
+        rc = score_novel_views(&dv, &res, rt, &mat, &ro, o->align, csv, method, dataset, scene, &nv, &bad);
     if (!rc) {
         static const char *names[7] = {"psnr", "ssim", "l1", "flip", "psnr_masked", "ssim_masked", "l1_masked"};
-        const Acc *accs[3] = {&relit, &alb, &orm};
-        static const char *kinds[3] = {"relit", "albedo", "orm"};
-        for (int a = 0; a < 3 && !rc; ++a) {
+        const Acc *accs[4] = {&relit, &alb, &orm, &nv};
+        static const char *kinds[4] = {"relit", "albedo", "orm", "nv"};
+        for (int a = 0; a < 4 && !rc; ++a) {
             if (!accs[a]->n) continue;
             for (int k = 0; k < 7 && !rc; ++k) {
                 if (a == 2 && (k == 1 || k == 3 || k == 5)) continue; /* ORM: PSNR and L1 as the paper */
@@ -290,7 +330,7 @@ static int grid_cell(const MfImage *img, int ch, int reinhard, int unpremult, Mf
 int ev_eval_grid_row(const char *scene_dir, const char *result_dir, const EvEvalOpts *o, MfImage cells[EV_GRID_COLS]) {
     memset(cells, 0, EV_GRID_COLS * sizeof *cells);
     DsViews dv;
-    DsLoadOptions lo = {1, 1, 1, 0};
+    DsLoadOptions lo = {1, 1, 1, 0, NULL};
     int rc = ds_load(scene_dir, "test", &lo, &dv);
     if (rc) return rc;
     MfImage relit = {0}, env = {0};

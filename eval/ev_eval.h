@@ -11,7 +11,13 @@
  *           the same protocol;
  *   orm     the ORM AOV against GT ORM on roughness and metallic (G, B), no alignment; orm3
  *           repeats PSNR over all three channels with a constant R (as the paper's numbers
- *           behave: +1.76 dB).
+ *           behave: +1.76 dB);
+ *   nv      only for a scene with neither relighting lights nor per-view albedo/ORM (a capture,
+ *           e.g. instant-ngp / nerfstudio): novel-view synthesis under the TRAINING light, the
+ *           result rendered with its own env.exr from each held-out test camera against the test
+ *           image, with the relit protocol (metrics nv_psnr, nv_ssim, nv_l1, nv_flip, nv_*_masked;
+ *           CSV kind "novel_view", light "training"; a log line says so). A result without
+ *           env.exr is refused there.
  * Per-view rows go to a CSV; per-scene means become EvTable records (metric names:
  * relit_psnr, relit_ssim, relit_l1, relit_flip, relit_psnr_masked, albedo_psnr, albedo_ssim,
  * albedo_l1, orm_psnr, orm_l1, orm3_psnr). A view whose score cannot be computed (e.g. an
@@ -49,6 +55,7 @@ typedef struct {
     int max_views; /* 0: all test views */
     int max_lights; /* 0: all relighting lights */
     const char *mesh_path; /* NULL: the result folder's mesh.obj */
+    const char *mask;      /* NULL: the images' alpha; else DsLoadOptions.mask_dir (e.g. "masks": <scene>/masks/) */
 } EvEvalOpts;
 
 /* Trivial guesses that every method must beat (pass as result_dir, with the scene's GT):

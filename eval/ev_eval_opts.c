@@ -10,6 +10,8 @@ static const MfOpt k_opts[] = {
     MF_OPT_INT(E, pixel_samples, 4, 1, MF_OPT_PIXEL_SAMPLES_MAX, "relighting renders: primary rays per pixel"),
     MF_OPT_ENUM(E, align, EV_ALIGN_MEAN, "none|mean|lsq", "per-channel scale inside the GT mask (mean: ratio of means; lsq: least squares)"),
     MF_OPT_INT(E, max_views, 0, 0, 1000000, "score at most N test views per scene (0: all)"),
+    MF_OPT_STR(E, mask, NULL, "masks for test frames without alpha: DIR/<frame name>.png; a relative DIR is inside each scene",
+               .unset = "the images' alpha; RGB frames: alpha 1 with a warning", .meta = "DIR"),
 };
 #undef E
 const MfOptTable ev_eval_opt_table = MF_OPT_TABLE("Protocol options", k_opts);

@@ -292,11 +292,13 @@ static int eval_run(int argc, char **argv, const char *data, const EvalArgs *a, 
     const char *mat_m[] = {"albedo_psnr", "albedo_ssim", "albedo_l1", "orm_psnr", "orm_l1", "orm3_psnr"};
     const char *cost_m[] = {"time_s", "time_x", "prior_share", "mem_mb"};
     const char *orb_m[] = {"relit_orb_psnr_h", "relit_orb_psnr_l"};
+    const char *nv_m[] = {"nv_psnr", "nv_ssim", "nv_l1", "nv_flip"};
     struct { const char *file, *caption; const char *const *metrics; int nk; } tabs[] = {
         {"relight", "Relighting (test views under novel lights)", relit_m, 4},
         {"materials", "Albedo and ORM (per test view)", mat_m, 6},
         {"cost", "Wall time (s), wall time as a multiple of the first method's on the same scene (time_x), the prior's share of the wall time (MaterialFusion), and peak memory (MB) per scene", cost_m, 4},
         {"orb", "Stanford-ORB's own relighting metrics (PSNR-H, PSNR-L)", orb_m, 2},
+        {"novelview", "Novel views under the TRAINING light (held-out test views; the scene has no relit or material ground truth)", nv_m, 4},
     };
     MfStrBuf page = {0};
     mf_sb_printf(&page, "<p>Data: <code>");

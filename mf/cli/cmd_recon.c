@@ -21,7 +21,7 @@
 /* The command's own options (the reconstruction's and the prior term's are in their tables:
  * mf/inverse/mf_recon_opts.c, mf/fusion/mf_sds_opts.c). */
 typedef struct {
-    const char *out, *method, *mesh, *split, *prior_weights;
+    const char *out, *method, *mesh, *split, *prior_weights, *mask;
     int res, max_views, resume;
 } ReconArgs;
 
@@ -31,6 +31,8 @@ static const MfOpt k_args[] = {
     MF_OPT_STR(A, method, "nvdiffrecmc", "method", .choices = "nvdiffrecmc|materialfusion"),
     MF_OPT_STR(A, mesh, NULL, "mesh with UVs", .unset = "DATASET_DIR/mesh.obj", .meta = "OBJ"),
     MF_OPT_STR(A, split, "train", "which views to train on"),
+    MF_OPT_STR(A, mask, NULL, "masks for frames without alpha (JPEG, RGB): DIR/<frame name>.png, first channel; a relative DIR is inside DATASET_DIR",
+               .unset = "the images' alpha; RGB frames: alpha 1 with a warning", .meta = "DIR"),
     MF_OPT_INT(A, res, 0, 1, MF_OPT_RES_MAX, "train at N pixels wide (box-downsampled; the images' width must be a multiple)",
                .unset = "the images' size"),
     MF_OPT_INT(A, max_views, 0, 0, 1000000, "use at most N views (0: all)"),
@@ -44,7 +46,7 @@ static const MfOptTable k_args_table = MF_OPT_TABLE("Command options", k_args);
 static char usage[16384];
 static const char k_usage_head[] =
     "usage: mf recon DATASET_DIR -o RESULT_DIR [--method nvdiffrecmc|materialfusion] [--mesh OBJ]\n"
-    "                [--config FILE] [--split train] [--res N] [--max-views N] [--resume] [option VALUE ...]\n"
+    "                [--config FILE] [--split train] [--mask DIR] [--res N] [--max-views N] [--resume] [option VALUE ...]\n"
     "Recovers albedo (kd), ORM and the HDR environment light of the scene in DATASET_DIR (any format\n"
     "mf can load: bvault, NeRF-Synthetic, NeRFactor, Stanford-ORB capture) on a fixed mesh\n"
     "(default DATASET_DIR/mesh.obj; it must have UVs: a mesh without UVs is refused, unwrap it first).\n"
@@ -90,7 +92,7 @@ static int cmd_recon_run(int argc, char **argv, const MfOptParse *p, ReconArgs *
     so.seed = mf_hash64(o.seed, 0x5d5);
     double t0 = mf_now();
     DsViews dv;
-    DsLoadOptions lo = {0, max_views, 1, 0};
+    DsLoadOptions lo = {0, max_views, 1, 0, a->mask};
     /* --res: find the downsample factor from the first image's size */
     if (ds_load(data, split, &lo, &dv)) return MF_EXIT_FAIL;
     if (res > 0 && res != dv.w) {
