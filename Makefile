@@ -37,7 +37,7 @@ LIB_OBJ  := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
 CLI_OBJ  := $(CLI_C:%.c=$(BUILD)/obj/%.o)
 TEST_OBJ := $(TEST_C:%.c=$(BUILD)/obj/%.o)
 
-.PHONY: FORCE all deps test asan bench-render bench-baseline bench-prior bench-quick bench bench-split bench-runs bench-external recon-runs train-prior eval-prior bench-domain clean
+.PHONY: FORCE all deps test asan bench-render bench-baseline bench-prior bench-quick bench bench-split bench-runs bench-external recon-runs train-prior eval-prior bench-domain bench-stability clean
 all: $(BUILD)/mf $(BUILD)/mf_tests
 
 deps:
@@ -159,6 +159,13 @@ bench: $(BUILD)/mf
 	  REPORT=reports/bench/test-3d-pov64
 	$(MAKE) --no-print-directory bench-external REPORT=reports/bench
 	$(MAKE) --no-print-directory eval-prior
+	$(MAKE) --no-print-directory bench-stability
+
+# The numerical-stability grid (issue 18; eval/ev_stability.c) on the tiny split -> reports/stability.
+STAB_WORK ?= $(RESULTS)/stability
+bench-stability: $(BUILD)/mf
+	rm -rf $(STAB_WORK)
+	$(MF) bench-stability --mf $(MF) --work $(STAB_WORK) -o reports/stability --iters 200 --mem-iters 2000
 
 # The same tables on a reduced setting (3 scenes, 64 px training, 100 iterations).
 bench-quick: $(BUILD)/mf
