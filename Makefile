@@ -40,7 +40,7 @@ LIB_OBJ  := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
 CLI_OBJ  := $(CLI_C:%.c=$(BUILD)/obj/%.o)
 TEST_OBJ := $(TEST_C:%.c=$(BUILD)/obj/%.o)
 
-.PHONY: FORCE all deps deps-fuzz fuzz fuzz-lib fuzz-seeds test asan bench-geom bench-render bench-baseline bench-prior bench-quick bench bench-split bench-runs bench-external recon-runs train-prior eval-prior bench-domain clean
+.PHONY: FORCE all deps deps-fuzz fuzz fuzz-lib fuzz-seeds test asan bench-geom bench-render bench-baseline bench-prior bench-quick bench bench-split bench-runs bench-external recon-runs train-prior eval-prior bench-domain bench-stability clean
 all: $(BUILD)/mf $(BUILD)/mf_tests
 
 deps:
@@ -204,6 +204,13 @@ bench: $(BUILD)/mf
 	  REPORT=reports/bench/test-3d-pov64
 	$(MAKE) --no-print-directory bench-external REPORT=reports/bench
 	$(MAKE) --no-print-directory eval-prior
+	$(MAKE) --no-print-directory bench-stability
+
+# The numerical-stability grid (issue 18; eval/ev_stability.c) on the tiny split -> reports/stability.
+STAB_WORK ?= $(RESULTS)/stability
+bench-stability: $(BUILD)/mf
+	rm -rf $(STAB_WORK)
+	$(MF) bench-stability --mf $(MF) --work $(STAB_WORK) -o reports/stability --iters 200 --mem-iters 2000
 
 # Geometry recovery (issue 14): the visual hull of every test-3d scene (64 masks at 128 px,
 # 128^3 grid), scored against the GT mesh (Stanford-ORB Chamfer x1e3, normal error), beside the

@@ -259,7 +259,9 @@ int mf_opts_check(const MfOptTable *t, const void *obj) {
         char vs[32], rs[80];
         fmt_num(vs, sizeof vs, o, v);
         fmt_range(rs, sizeof rs, o);
-        if (!(v >= o->min && v <= o->max)) return mf_fail(MF_EARG, "%s %s: outside the allowed range %s", f, vs, rs);
+        /* a float field holds its bounds rounded to float (0.01 is stored as 0.0099999998) */
+        double lo = o->type == MF_OPT_FLOAT ? (double)(float)o->min : o->min, hi = o->type == MF_OPT_FLOAT ? (double)(float)o->max : o->max;
+        if (!(v >= lo && v <= hi)) return mf_fail(MF_EARG, "%s %s: outside the allowed range %s", f, vs, rs);
     }
     return MF_OK;
 }
