@@ -40,7 +40,7 @@ LIB_OBJ  := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
 CLI_OBJ  := $(CLI_C:%.c=$(BUILD)/obj/%.o)
 TEST_OBJ := $(TEST_C:%.c=$(BUILD)/obj/%.o)
 
-.PHONY: FORCE all deps deps-fuzz fuzz fuzz-lib fuzz-seeds test asan bench-geom bench-render bench-baseline bench-prior bench-quick bench bench-split bench-runs bench-external recon-runs train-prior eval-prior bench-domain bench-stability clean
+.PHONY: FORCE all deps deps-fuzz fuzz fuzz-lib fuzz-seeds test check-deps asan bench-geom bench-render bench-baseline bench-prior bench-quick bench bench-split bench-runs bench-external recon-runs train-prior eval-prior bench-domain bench-stability clean
 all: $(BUILD)/mf $(BUILD)/mf_tests
 
 deps:
@@ -123,13 +123,18 @@ fuzz: $(FUZZ_NAMES:%=$(FUZZ_BUILD)/fuzz_%) fuzz-seeds
 # gltf-validator are present (found through NODE_PATH or GLTF_VALIDATOR_MODULES=<dir>/node_modules,
 # e.g. after `npm install gltf-validator` in <dir>); otherwise that check is skipped with a message.
 GLTF_VALIDATOR_MODULES ?=
-test: $(BUILD)/mf $(BUILD)/mf_tests $(BUILD)/fuzz-seeds/.done
+test: check-deps $(BUILD)/mf $(BUILD)/mf_tests $(BUILD)/fuzz-seeds/.done
 	@NODE_PATH="$(GLTF_VALIDATOR_MODULES)$${NODE_PATH:+:$$NODE_PATH}"; export NODE_PATH; \
 	if command -v node >/dev/null 2>&1 && node -e "require('gltf-validator')" >/dev/null 2>&1; then \
 	  export MF_GLTF_VALIDATOR="node $(abspath tests/gltf_validate.js)"; \
 	else echo "gltf-validator: node or the npm package gltf-validator not found; .glb files are not checked by the Khronos validator (see GLTF_VALIDATOR_MODULES in the Makefile)"; fi; \
 	echo MF_BIN=$(abspath $(BUILD)/mf) MF_SHARED=$(abspath ../shared) OMP_NUM_THREADS=$${OMP_NUM_THREADS:-2} ./$(BUILD)/mf_tests $(T); \
 	MF_BIN=$(abspath $(BUILD)/mf) MF_SHARED=$(abspath ../shared) MF_FUZZ_SEEDS=$(abspath $(BUILD)/fuzz-seeds) OMP_NUM_THREADS=$${OMP_NUM_THREADS:-2} ./$(BUILD)/mf_tests $(T)
+
+# Layering rules of README "Layout" (which folder may include which) and the mf/cli function
+# length limit, checked by grep/awk; part of `make test`.
+check-deps:
+	@sh tests/check_deps.sh
 
 asan: export LSAN_OPTIONS = suppressions=$(abspath tests/lsan.supp):print_suppressions=0
 asan:

@@ -1,0 +1,53 @@
+#!/bin/sh
+# make check-deps: the layering rules of README "Layout", checked by grep.
+# 1. An #include "<folder>/..." from a file in folder A must name a folder that A may use.
+# 2. No function in mf/cli longer than MAX_CLI_FN lines, except the ones listed in
+#    CLI_FN_LEGACY (functions that predate the rule; issue 13 item 2 moves their work to eval/).
+# Exit status 1 on any violation, with one line per violation.
+cd "$(dirname "$0")/.." || exit 2
+MAX_CLI_FN=80
+CLI_FN_LEGACY=" $(tr '\n' ' ' < tests/check_deps_legacy.txt) "
+allowed() { # folder -> folders it may include (besides itself)
+  case "$1" in
+    core)      echo "" ;;
+    io)        echo "core scene" ;;   # scene: MfMesh is plain data read by io (issue 13 item 4)
+    scene)     echo "core io" ;;
+    render)    echo "core io scene" ;;
+    nn)        echo "core" ;;
+    geom)      echo "core io scene" ;;
+    inverse)   echo "core io scene render nn" ;;
+    prior)     echo "core io nn" ;;
+    fusion)    echo "core io scene render nn inverse prior" ;;
+    baselines) echo "core io inverse" ;;
+    datasets)  echo "core io scene render nn" ;;
+    eval)      echo "core io scene render datasets" ;;
+    cli)       echo "core io scene render nn geom inverse prior fusion baselines datasets eval" ;;
+    *)         echo "?" ;;
+  esac
+}
+bad=0
+for f in mf/*/*.c mf/*/*.h mf/*/*.cpp baselines/*.[ch] datasets/*.[ch] eval/*.[ch]; do
+  [ -e "$f" ] || continue
+  src=$(dirname "$f"); src=${src#mf/}
+  ok=" $(allowed "$src") $src "
+  for dst in $(sed -n 's/^[[:space:]]*#[[:space:]]*include[[:space:]]*"\([a-z]*\)\/.*/\1/p' "$f" | sort -u); do
+    case "$ok" in
+      *" $dst "*) ;;
+      *) echo "check-deps: $f includes $dst/ ($src/ may include: $(allowed "$src"))"; bad=1 ;;
+    esac
+  done
+done
+# Function length: a definition starts at column 0 with an identifier and '(' (no ';'),
+# its body ends at the first '}' in column 0.
+for f in mf/cli/*.c; do
+  awk -v max=$MAX_CLI_FN -v legacy="$CLI_FN_LEGACY" -v file="$f" '
+    /^[A-Za-z_].*\(/ && !/;[[:space:]]*$/ && !/^(typedef|struct|enum|#)/ {
+      s = $0; sub(/\(.*/, "", s); n = split(s, w, /[ *]+/); name = w[n]; start = NR; next }
+    /^}/ && start { len = NR - start + 1
+      if (len > max && index(legacy, " " file ":" name " ") == 0) {
+        printf "check-deps: %s:%d %s() is %d lines (mf/cli limit %d)\n", file, start, name, len, max; bad = 1 }
+      start = 0 }
+    END { exit bad }' "$f" || bad=1
+done
+[ $bad = 0 ] && echo "check-deps: ok"
+exit $bad
