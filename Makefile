@@ -40,7 +40,7 @@ LIB_OBJ  := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
 CLI_OBJ  := $(CLI_C:%.c=$(BUILD)/obj/%.o)
 TEST_OBJ := $(TEST_C:%.c=$(BUILD)/obj/%.o)
 
-.PHONY: FORCE all deps deps-fuzz fuzz fuzz-lib fuzz-seeds test check-deps asan bench-geom bench-render bench-baseline bench-prior bench-quick bench bench-split bench-runs bench-external recon-runs train-prior eval-prior bench-domain bench-stability clean
+.PHONY: FORCE all deps deps-fuzz fuzz fuzz-lib fuzz-seeds test check-deps asan bench-geom bench-render bench-baseline bench-prior bench-quick bench bench-split bench-runs bench-external recon-runs train-prior train-prior-wide eval-prior bench-domain bench-matrix bench-stability clean
 all: $(BUILD)/mf $(BUILD)/mf_tests
 
 deps:
@@ -336,6 +336,68 @@ bench-domain: $(BUILD)/mf $(foreach s,$(DOMAIN_SPLITS),$(DOMAIN_REPORT)/$(s)/tab
 	  --note "Settings: mf eval-prior $(DOMAIN_EVAL_ARGS) (each view's prediction the mean of that many DDIM samples, 50 steps, guidance 3; StableMaterial single-view only, no multi-view pass) to fit the shared 2-core machine; the committed reports/prior table (10 samples, with the multi-view pass) has StableMaterial albedo 20.63 dB on the same test-2d. Training-free baselines: Input image and Retinex (albedo); the best of the two per cell is shown." \
 	  --note "" \
 	  --note "Commands (from the repository root): \`make bench-domain\`, i.e. \`mf gen --split test-2d -o data/test-2d\`; \`mf gen --split test-2d --diffuse 1 -o data/test-2d-diffuse\`; \`mf gen --split test-2d --diffuse 1 --renderer povray -o data/test-2d-pov\`; \`mf gen --split prior-train --count 240 --seed 1 -o data/prior-train-mean\`; for each split S: \`mf eval-prior data/S --train data/prior-train-mean $(DOMAIN_EVAL_ARGS) -o $(DOMAIN_REPORT)/S\`; then \`mf domain-table\` (this file and matrix.csv). When the --diffuse/--renderer options were added, test-2d regenerated with the defaults by the builds before and after had equal manifest checksums (all 96 files); the test ds_gen_test2d_diffuse checks that the diffuse variant keeps every albedo file's bytes (no new random draw)."
+
+# ---- the widened prior and the renderer x content matrix (issue 12, Deliver items 1 and 2) ----
+# prior-wide: the widened recipe (datasets/ds_widen.h: POV-Ray lit views for ~10% of the objects,
+# field of view and distance, UV overlays, exposure +-2 stops, tone curves, resolution drop, noise;
+# probes and procedural skies/rooms) without the held-out content (families superquadric and
+# displaced, recipes rubber and checker). train-prior-wide trains it from scratch with the committed
+# prior's schedule, the denoiser in 1000-step segments (the learning rate is constant after warm-up,
+# so a resumed segment is bit-identical), keeping each segment's weights for the steps curve.
+PRIOR_WIDE_DATA     ?= $(DATA)/prior-wide
+PRIOR_WIDE_CKPT     ?= $(DATA)/prior-wide-ckpt
+PRIOR_WIDE_GEN_ARGS ?= --count 8064 --seed 1 --widen 1 --content train --train-lights both
+PRIOR_WIDE_SEGMENTS ?= 1000 2000 3000 4000
+PRIOR_WIDE_REPORT   ?= reports/prior-wide
+$(PRIOR_WIDE_DATA)/manifest.json: | $(BUILD)/mf
+	$(MF) gen --split prior-train -o $(PRIOR_WIDE_DATA) $(PRIOR_WIDE_GEN_ARGS)
+train-prior-wide: $(BUILD)/mf $(PRIOR_WIDE_DATA)/manifest.json
+	@mkdir -p $(PRIOR_WIDE_REPORT)
+	@for n in $(PRIOR_WIDE_SEGMENTS); do \
+	  $(MF) train-prior $(PRIOR_WIDE_DATA) -o $(PRIOR_WIDE_CKPT) --ae-steps 500 --steps $$n --batch 16 --seed 1 --dn-samples 6000 \
+	    --ckpt-every 200 --loss-csv $(PRIOR_WIDE_REPORT)/loss.csv --resume || exit 1; \
+	  cp $(PRIOR_WIDE_CKPT)/prior.mfck $(PRIOR_WIDE_CKPT)/prior-$$n.mfck; done
+
+# The matrix: test-2d objects filtered by content (in = none of the held-out families/recipes,
+# held = only objects with one), lit views by our renderer, POV-Ray (diffuse objects), Blender Cycles
+# (when blender exists) and ours through the widened imaging (exposure, tone, noise, resolution);
+# each scored with each prior of MATRIX_PRIORS (LABEL=WEIGHTS).
+MATRIX_REPORT  ?= reports/generalisation/matrix
+MATRIX_PRIORS  ?= v1=mf/prior/weights/prior.mfck wide=mf/prior/weights/prior-wide.mfck
+MATRIX_HAVE_BLENDER := $(if $(shell command -v blender 2>/dev/null),1,)
+MATRIX_SPLITS  := test-2d-in test-2d-held test-2d-in-diffuse test-2d-in-pov test-2d-held-diffuse test-2d-held-pov test-2d-in-wide test-2d-held-wide \
+                  $(if $(MATRIX_HAVE_BLENDER),test-2d-in-cyc test-2d-held-cyc)
+GEN2D_ARGS_test-2d-in           := --content train
+GEN2D_ARGS_test-2d-held         := --content heldout
+GEN2D_ARGS_test-2d-in-diffuse   := --content train --diffuse 1
+GEN2D_ARGS_test-2d-held-diffuse := --content heldout --diffuse 1
+GEN2D_ARGS_test-2d-in-pov       := --content train --diffuse 1 --renderer povray
+GEN2D_ARGS_test-2d-held-pov     := --content heldout --diffuse 1 --renderer povray
+GEN2D_ARGS_test-2d-in-wide      := --content train --widen 1
+GEN2D_ARGS_test-2d-held-wide    := --content heldout --widen 1
+GEN2D_ARGS_test-2d-in-cyc       := --content train --renderer cycles
+GEN2D_ARGS_test-2d-held-cyc     := --content heldout --renderer cycles
+$(foreach s,$(MATRIX_SPLITS),$(DATA)/$(s)/manifest.json): $(DATA)/%/manifest.json: | $(BUILD)/mf
+	$(MF) gen --split test-2d --count 32 $(GEN2D_ARGS_$*) -o $(DATA)/$*
+matrix-label = $(word 1,$(subst =, ,$(1)))
+matrix-weights = $(word 2,$(subst =, ,$(1)))
+matrix-cells = $(foreach s,$(2),--cell $(call matrix-label,$(1)):$(s:test-2d-%=%)=$(MATRIX_REPORT)/$(call matrix-label,$(1))/$(s)/table2d.csv)
+bench-matrix: $(BUILD)/mf $(foreach s,$(MATRIX_SPLITS),$(DATA)/$(s)/manifest.json) $(DOMAIN_TRAIN)/manifest.json
+	@for p in $(MATRIX_PRIORS); do l=$${p%%=*}; w=$${p#*=}; for s in $(MATRIX_SPLITS); do \
+	  [ -f $(MATRIX_REPORT)/$$l/$$s/table2d.csv ] || MF_PRIOR_WEIGHTS=$$w $(MF) eval-prior $(DATA)/$$s --train $(DOMAIN_TRAIN) $(DOMAIN_EVAL_ARGS) \
+	    -o $(MATRIX_REPORT)/$$l/$$s || exit 1; done; done
+	$(foreach p,$(MATRIX_PRIORS),$(MF) domain-table -o $(MATRIX_REPORT)/$(call matrix-label,$(p)).md --csv $(MATRIX_REPORT)/$(call matrix-label,$(p)).csv \
+	  $(call matrix-cells,$(p),$(MATRIX_SPLITS)) \
+	  --pair $(call matrix-label,$(p)):in-pov,$(call matrix-label,$(p)):in-diffuse --pair $(call matrix-label,$(p)):held-pov,$(call matrix-label,$(p)):held-diffuse \
+	  --pair $(call matrix-label,$(p)):in-wide,$(call matrix-label,$(p)):in \
+	  $(if $(MATRIX_HAVE_BLENDER),--pair $(call matrix-label,$(p)):in-cyc,$(call matrix-label,$(p)):in --pair $(call matrix-label,$(p)):held-cyc,$(call matrix-label,$(p)):held) \
+	  --caption "# The 2D prior '$(call matrix-label,$(p))' ($(call matrix-weights,$(p))) across renderers and content (issue 12)" --caption "" \
+	  --caption "Generated by \`make bench-matrix\`; do not edit. Every PSNR is MASKED (inside the GT mask). Mean over 32 views (8 objects x 4 views, 64 px) ± 95% CI half-width. Cells: in = test-2d objects with none of the held-out content, held = only objects with held-out content (families superquadric, displaced; recipes rubber, checker: datasets/ds_widen.h); pov = lit view by POV-Ray (diffuse objects, paired with the same diffuse objects rendered by ours), wide = ours through the widened imaging (exposure, tone curve, noise, resolution), cyc = Blender Cycles (full path tracing, Principled BSDF; datasets/ds_cycles.py). Settings: mf eval-prior $(DOMAIN_EVAL_ARGS)." &&) true
+	$(MF) domain-table -o $(MATRIX_REPORT)/compare.md --csv $(MATRIX_REPORT)/compare.csv \
+	  $(foreach p,$(MATRIX_PRIORS),$(call matrix-cells,$(p),$(filter-out %-diffuse,$(MATRIX_SPLITS)))) \
+	  $(foreach s,$(filter-out %-diffuse,$(MATRIX_SPLITS)),--pair $(call matrix-label,$(word 2,$(MATRIX_PRIORS))):$(s:test-2d-%=%),$(call matrix-label,$(word 1,$(MATRIX_PRIORS))):$(s:test-2d-%=%)) \
+	  --caption "# Widened prior against the first prior, per cell (issue 12)" --caption "" \
+	  --caption "Generated by \`make bench-matrix\`; do not edit. Same cells and settings as $(call matrix-label,$(word 1,$(MATRIX_PRIORS))).md; the pairs compare the two priors on the same views (masked PSNR)."
 
 clean:
 	rm -rf build build-asan build-*
