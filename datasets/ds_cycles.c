@@ -2,20 +2,17 @@
 
 #include <cJSON.h>
 #include <dirent.h>
-#include <fcntl.h>
-#include <spawn.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
+#include "core/mf_proc.h"
 #include "io/mf_json.h"
 #include "io/mf_obj.h"
 
-extern char **environ;
 
 /* Blender point-light power per unit of our point power (ds_cycles.h: assumed, not measured). */
 #define DS_CYCLES_POINT_SCALE 1.0f
@@ -125,18 +122,9 @@ int ds_cycles_run(DsCyclesJob *j) {
     cJSON_Delete(job);
     if (rc) return rc;
     char *argv[] = {(char *)blender_bin(), "-b", "--factory-startup", "-noaudio", "-P", script, "--", jp, NULL};
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_addopen(&fa, STDOUT_FILENO, logp, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_adddup2(&fa, STDOUT_FILENO, STDERR_FILENO);
-    posix_spawn_file_actions_addopen(&fa, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
-    pid_t pid;
-    int sp = posix_spawn(&pid, argv[0], &fa, NULL, argv, environ);
-    posix_spawn_file_actions_destroy(&fa);
-    if (sp != 0) return mf_fail(MF_EEXT, "%s: cannot start blender: %s", blender_bin(), strerror(sp));
-    int status = 0;
-    if (waitpid(pid, &status, 0) < 0 || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
-        return mf_fail(MF_EEXT, "%s: blender failed (see %s)", jp, logp);
+    int run = mf_run_logged(argv, logp);
+    if (run > 0) return mf_fail(MF_EEXT, "%s: cannot start blender: %s", blender_bin(), strerror(run));
+    if (run < 0) return mf_fail(MF_EEXT, "%s: blender failed (see %s)", jp, logp);
     return MF_OK;
 }
 

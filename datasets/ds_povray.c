@@ -3,17 +3,15 @@
 #include <fcntl.h>
 #include <limits.h>
 #include <math.h>
-#include <spawn.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
+#include "core/mf_proc.h"
 
-extern char **environ;
 
 /* Our world (x, y, z), +Z up, right-handed -> POV-Ray <x, z, y>, +Y up, left-handed. */
 static void pov_vec(FILE *f, MfVec3 v) { fprintf(f, "<%.9g, %.9g, %.9g>", v.x, v.z, v.y); }
@@ -169,18 +167,9 @@ int ds_povray_run(const char *dir, const char *name, int w, int h, int aa_depth,
     snprintf(r_arg, sizeof r_arg, "+R%d", aa_depth > 0 ? aa_depth : 1);
     char *argv[] = {(char *)povray_bin(), in_arg, out_arg, lib_arg, "+FE", "+UA", "-D", "-V", "-P", w_arg, h_arg,
                     aa_depth > 0 ? "+A0.0" : "-A", "+AM1", "+AG1.0", r_arg, NULL};
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_addopen(&fa, STDOUT_FILENO, log_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_adddup2(&fa, STDOUT_FILENO, STDERR_FILENO);
-    posix_spawn_file_actions_addopen(&fa, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
-    pid_t pid;
-    int sp = posix_spawn(&pid, argv[0], &fa, NULL, argv, environ);
-    posix_spawn_file_actions_destroy(&fa);
-    if (sp != 0) return mf_fail(MF_EEXT, "%s: cannot start povray: %s", dir, strerror(sp));
-    int status = 0;
-    if (waitpid(pid, &status, 0) < 0 || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
-        return mf_fail(MF_EEXT, "%s/%s.pov: povray failed (see %s)", dir, name, log_path);
+    int run = mf_run_logged(argv, log_path);
+    if (run > 0) return mf_fail(MF_EEXT, "%s: cannot start povray: %s", dir, strerror(run));
+    if (run < 0) return mf_fail(MF_EEXT, "%s/%s.pov: povray failed (see %s)", dir, name, log_path);
     char tmp_exr[MF_PATH_MAX];
     snprintf(file, sizeof file, "%s.tmp.exr", name);
     if ((rc = mf_path_join(tmp_exr, sizeof tmp_exr, dir, file))) return rc;

@@ -2,19 +2,17 @@
 
 #include <fcntl.h>
 #include <math.h>
-#include <spawn.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include "core/mf_error.h"
+#include "core/mf_proc.h"
 #include "core/mf_fs.h"
 #include "core/mf_math.h"
 #include "core/mf_strbuf.h"
 
-extern char **environ;
 
 static const char *gnuplot_bin(void) { return "/usr/bin/gnuplot"; }
 
@@ -23,17 +21,9 @@ int ev_gnuplot_available(void) { return access(gnuplot_bin(), X_OK) == 0; }
 /* Runs `gnuplot script` with output to log; MF_EEXT on failure. */
 static int run_gnuplot(const char *script, const char *log) {
     char *argv[] = {(char *)gnuplot_bin(), (char *)script, NULL};
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_addopen(&fa, STDOUT_FILENO, log, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_adddup2(&fa, STDOUT_FILENO, STDERR_FILENO);
-    pid_t pid;
-    int sp = posix_spawn(&pid, argv[0], &fa, NULL, argv, environ);
-    posix_spawn_file_actions_destroy(&fa);
-    if (sp != 0) return mf_fail(MF_EEXT, "%s: cannot start gnuplot: %s", script, strerror(sp));
-    int st = 0;
-    if (waitpid(pid, &st, 0) < 0 || !WIFEXITED(st) || WEXITSTATUS(st) != 0)
-        return mf_fail(MF_EEXT, "%s: gnuplot failed (see %s)", script, log);
+    int run = mf_run_logged(argv, log);
+    if (run > 0) return mf_fail(MF_EEXT, "%s: cannot start gnuplot: %s", script, strerror(run));
+    if (run < 0) return mf_fail(MF_EEXT, "%s: gnuplot failed (see %s)", script, log);
     return MF_OK;
 }
 
