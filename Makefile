@@ -198,8 +198,9 @@ bench-baseline: $(BUILD)/mf $(DATA)/$(BENCH_SPLIT)/.rendered
 
 # The full table reproduction: every method on test-3d (our renderer's ground truth) and
 # test-3d-diffuse (POV-Ray's); the baseline, MaterialFusion and its trust weighting on the splits
-# where a prior must matter (8 training views; POV-Ray images at 64 px with 24 views); then the
-# 2D prior table. BENCH_FULL=1: the published budget.
+# where a prior must matter (8 training views; 4 training views all on the +x side of the object,
+# so its far side is seen by none; POV-Ray images at 64 px with 24 views; test-3d-ambig: material
+# ambiguity); then the 2D prior table. BENCH_FULL=1: the published budget.
 bench: $(BUILD)/mf
 	$(MAKE) --no-print-directory bench-split BENCH_SPLIT=test-3d REPORT=reports/bench/test-3d
 	$(MAKE) --no-print-directory bench-split BENCH_SPLIT=test-3d-diffuse REPORT=reports/bench/test-3d-diffuse
@@ -207,6 +208,10 @@ bench: $(BUILD)/mf
 	  BENCH_METHODS="$(BENCH_METHODS_SHORT)" REPORT=reports/bench/views8
 	$(MAKE) --no-print-directory bench-split BENCH_SPLIT=test-3d-pov64 BENCH_METHODS="$(BENCH_METHODS_SHORT)" \
 	  REPORT=reports/bench/test-3d-pov64
+	$(MAKE) --no-print-directory bench-split BENCH_SPLIT=test-3d RESULTS=$(RESULTS)/views4side RECON_EXTRA="--max-views 4 --side +x" \
+	  BENCH_METHODS="$(BENCH_METHODS_SHORT)" REPORT=reports/bench/views4side
+	$(MAKE) --no-print-directory bench-split BENCH_SPLIT=test-3d-ambig BENCH_METHODS="$(BENCH_METHODS_SHORT)" \
+	  REPORT=reports/bench/test-3d-ambig
 	$(MAKE) --no-print-directory bench-external REPORT=reports/bench
 	$(MAKE) --no-print-directory eval-prior
 	$(MAKE) --no-print-directory bench-stability

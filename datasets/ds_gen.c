@@ -69,6 +69,40 @@ void ds_object_make_diffuse(DsObject *o) {
     }
 }
 
+const char *ds_ambiguity_name(DsAmbiguity a) {
+    static const char *const names[DS_AMBIG_COUNT] = {"low-contrast", "mixed-metal", "rough-glossy", "dark"};
+    return a >= 0 && a < DS_AMBIG_COUNT ? names[a] : "none";
+}
+
+void ds_object_make_ambiguous(DsObject *o, DsAmbiguity a) {
+    const size_t n = (size_t)o->kd.w * (size_t)o->kd.h;
+    double mean[3] = {0, 0, 0};
+    if (a == DS_AMBIG_LOW_CONTRAST) {
+        for (size_t i = 0; i < n; ++i)
+            for (int c = 0; c < 3; ++c) mean[c] += o->kd.data[i * (size_t)o->kd.c + (size_t)c] / (double)n;
+    }
+    for (int y = 0; y < o->kd.h; ++y)
+        for (int x = 0; x < o->kd.w; ++x) {
+            float *kd = o->kd.data + ((size_t)y * (size_t)o->kd.w + (size_t)x) * (size_t)o->kd.c;
+            float *orm = o->orm.data + ((size_t)y * (size_t)o->orm.w + (size_t)x) * (size_t)o->orm.c;
+            int band_u = (6 * x / o->kd.w) % 2, band_v = (6 * y / o->kd.h) % 2;
+            switch (a) {
+            case DS_AMBIG_LOW_CONTRAST:
+                for (int c = 0; c < 3; ++c) kd[c] = (float)(mean[c] + 0.2 * (kd[c] - mean[c]));
+                break;
+            case DS_AMBIG_MIXED_METAL:
+                orm[2] = band_u ? 1.0f : 0.0f;
+                if (band_u && orm[1] > 0.35f) orm[1] = 0.35f;
+                break;
+            case DS_AMBIG_ROUGH_GLOSSY: orm[1] = band_v ? 0.08f : 0.9f; break;
+            case DS_AMBIG_DARK:
+                for (int c = 0; c < 3; ++c) kd[c] *= 0.1f;
+                break;
+            default: break;
+            }
+        }
+}
+
 static int cmp_str(const void *a, const void *b) { return strcmp(*(char *const *)a, *(char *const *)b); }
 
 int ds_list_probes(const char *dir, char ***names, int *n) {

@@ -140,6 +140,19 @@ int ds_gen_prior_train(const DsPriorTrainOpts *o, const char *out_dir, DsGenStat
  * in every texel of its ORM texture (test-3d-diffuse, test-2d --diffuse 1). */
 void ds_object_make_diffuse(DsObject *o);
 
+/* Material ambiguity (test-3d-ambig, issue 12 item 4): cases where the images alone leave albedo,
+ * material and light hard to separate, made from a generated object's textures in place.
+ *   LOW_CONTRAST  kd pulled to its per-channel mean: kd = m + 0.2 (kd - m)
+ *   MIXED_METAL   metallic 1 in every other of 6 bands along u (roughness there at most 0.35),
+ *                 0 between them: metal and dielectric of the same base colour side by side
+ *   ROUGH_GLOSSY  roughness 0.08 in every other of 6 bands along v, 0.9 between them
+ *   DARK          kd x 0.1 (albedo 0-0.1; the optimiser works at the images' exposure, so this is
+ *                 the same as dark albedo under a 10x brighter light, up to the scale alignment)
+ * Texel columns map to u, rows to v. */
+typedef enum { DS_AMBIG_LOW_CONTRAST = 0, DS_AMBIG_MIXED_METAL, DS_AMBIG_ROUGH_GLOSSY, DS_AMBIG_DARK, DS_AMBIG_COUNT } DsAmbiguity;
+const char *ds_ambiguity_name(DsAmbiguity a);
+void ds_object_make_ambiguous(DsObject *o, DsAmbiguity a);
+
 /* Sorted *.exr and *.hdr names of a folder (caller frees each and the array). */
 int ds_list_probes(const char *dir, char ***names, int *n);
 

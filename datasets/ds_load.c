@@ -56,6 +56,27 @@ void ds_views_free(DsViews *v) {
     memset(v, 0, sizeof *v);
 }
 
+int ds_views_keep_side(DsViews *v, MfVec3 centre, MfVec3 side, int max_views) {
+    int kept = 0;
+    for (int i = 0; i < v->n; ++i) {
+        DsView *view = &v->views[i];
+        int keep = mf_dot(mf_sub(mf_camera_pos(&view->cam), centre), side) > 0.0f && (max_views <= 0 || kept < max_views);
+        if (keep) {
+            if (kept != i) v->views[kept] = *view;
+            ++kept;
+            continue;
+        }
+        mf_image_free(&view->rgba);
+        mf_image_free(&view->albedo);
+        mf_image_free(&view->orm);
+        mf_image_free(&view->normal);
+    }
+    v->n = kept;
+    if (kept == 0)
+        return mf_fail(MF_EARG, "%s: no %s view lies on the side (%g, %g, %g) of the object", v->dir, v->split, side.x, side.y, side.z);
+    return MF_OK;
+}
+
 static DsLoadOptions opts_or_default(const DsLoadOptions *opt) {
     DsLoadOptions o = {1, 0, 1, 0, NULL};
     if (opt) o = *opt;

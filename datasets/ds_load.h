@@ -132,6 +132,12 @@ int ds_load_bvault(const char *dir, const char *split, const DsLoadOptions *opt,
 
 void ds_views_free(DsViews *v);
 
+/* Keeps only the views whose camera lies on one side of the object: dot(camera position - centre,
+ * side) > 0 (side need not be unit), then at most max_views of them (0: all) in their order; the
+ * others are freed. The few-view "one hemisphere" split: the far side of the object is seen by no
+ * kept view. Fails (MF_EARG, naming the scene folder and the side) when no view is kept. */
+int ds_views_keep_side(DsViews *v, MfVec3 centre, MfVec3 side, int max_views);
+
 /* Ground-truth relit image of view i under relighting light k into out (h, w, 4), linear:
  * bvault: relight/<env>/<name>.exr channels R, G, B, A looked up by name (colour as stored:
  * premultiplied by A, the EXR convention `mf render` follows); NeRFactor:

@@ -167,7 +167,11 @@ int ds_povray_run(const char *dir, const char *name, int w, int h, int aa_depth,
     snprintf(r_arg, sizeof r_arg, "+R%d", aa_depth > 0 ? aa_depth : 1);
     char *argv[] = {(char *)povray_bin(), in_arg, out_arg, lib_arg, "+FE", "+UA", "-D", "-V", "-P", w_arg, h_arg,
                     aa_depth > 0 ? "+A0.0" : "-A", "+AM1", "+AG1.0", r_arg, NULL};
-    int run = mf_run_logged(argv, log_path);
+    /* POV-Ray 3.7 sometimes fails at start-up on a loaded machine ("Timed out waiting for worker
+     * thread startup") without having rendered anything; a failed run is tried again, up to
+     * three times in all, and only then reported (the log keeps the last attempt). */
+    int run = -1;
+    for (int attempt = 0; attempt < 3 && run < 0; ++attempt) run = mf_run_logged(argv, log_path);
     if (run > 0) return mf_fail(MF_EEXT, "%s: cannot start povray: %s", dir, strerror(run));
     if (run < 0) return mf_fail(MF_EEXT, "%s/%s.pov: povray failed (see %s)", dir, name, log_path);
     char tmp_exr[MF_PATH_MAX];

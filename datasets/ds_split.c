@@ -22,13 +22,14 @@ int ds_split_spec(const char *name, DsSplitSpec *out) {
     if (!strcmp(name, "tiny")) { s.n_scenes = 3; s.width = 32; s.n_train = 8; s.n_test = 4; s.tex_res = 64; s.n_relight = 2; s.spp_sqrt = 4; }
     else if (!strcmp(name, "small")) { s.n_scenes = 10; s.width = 128; s.n_train = 50; s.n_test = 20; s.tex_res = 256; s.n_relight = 3; s.spp_sqrt = 8; }
     else if (!strcmp(name, "full")) { s.n_scenes = 30; s.width = 512; s.n_train = 100; s.n_test = 50; s.tex_res = 512; s.n_relight = 4; s.spp_sqrt = 16; }
-    else if (!strcmp(name, "test-3d") || !strcmp(name, "test-3d-diffuse")) {
+    else if (!strcmp(name, "test-3d") || !strcmp(name, "test-3d-diffuse") || !strcmp(name, "test-3d-ambig")) {
         s.n_scenes = 9; s.width = 128; s.n_train = 64; s.n_test = 8; s.tex_res = 256; s.spp_sqrt = 3;
         s.diffuse = s.povray = !strcmp(name, "test-3d-diffuse");
+        s.ambiguous = !strcmp(name, "test-3d-ambig");
         /* every other probe; POV-Ray's variant keeps 3 (each POV-Ray view costs ~6 CPU-s) */
         s.n_relight = s.povray ? 3 : DS_RELIGHT_ALL;
     }
-    else return mf_fail(MF_EARG, "unknown split '%s' (tiny, small, full, test-3d, test-3d-diffuse, test-2d, prior-train)", name);
+    else return mf_fail(MF_EARG, "unknown split '%s' (tiny, small, full, test-3d, test-3d-diffuse, test-3d-ambig, test-2d, prior-train)", name);
     snprintf(s.name, sizeof s.name, "%s", name);
     *out = s;
     return MF_OK;
@@ -111,6 +112,7 @@ int ds_write_split(DsSplitSpec *s, const char *out_dir, const char *env_dir, uin
         DsObject o;
         if ((rc = ds_object_generate(&o, fam, oseed, s->tex_res))) break;
         if (s->diffuse) ds_object_make_diffuse(&o); /* metallic 0, roughness >= 0.6 */
+        if (s->ambiguous) ds_object_make_ambiguous(&o, (DsAmbiguity)(k % DS_AMBIG_COUNT));
         rc = ds_object_write(&o, sdir);
         ds_object_free(&o);
         if (rc) break;
@@ -144,6 +146,7 @@ int ds_write_split(DsSplitSpec *s, const char *out_dir, const char *env_dir, uin
         strip_ext(envname);
         cJSON_AddStringToObject(sc, "name", name);
         cJSON_AddStringToObject(sc, "family", ds_family_name(fam));
+        if (s->ambiguous) cJSON_AddStringToObject(sc, "ambiguity", ds_ambiguity_name((DsAmbiguity)(k % DS_AMBIG_COUNT)));
         char seedstr[32];
         snprintf(seedstr, sizeof seedstr, "%llu", (unsigned long long)oseed);
         cJSON_AddStringToObject(sc, "object_seed", seedstr);

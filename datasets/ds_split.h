@@ -34,6 +34,7 @@ typedef struct {
     int spp_sqrt;   /* written into the render JSONs */
     int pixel_samples;  /* primary rays per pixel when rendered (0: 4) */
     int diffuse;    /* 1: objects made diffuse-dominant (metallic 0, roughness >= 0.6) */
+    int ambiguous;  /* 1: scene k's object gets material ambiguity k mod DS_AMBIG_COUNT (ds_gen.h) */
     int povray;     /* 1: --render makes the lit views (train, test, relit) with POV-Ray */
     int pov_radiosity; /* POV-Ray radiosity count (0: DS_SPLIT_POV_RADIOSITY) */
     float r_min, r_max; /* camera distance range (default 1.5-2.0 as specified; note: with
@@ -45,8 +46,9 @@ typedef struct {
  * lights), "small" (10 scenes, 128x128, 50 / 20 views, 256^2, 3 lights), "full" (30 scenes,
  * 512x512, 100 / 50 views, 512^2, 4 lights), "test-3d" (9 scenes, 128x128, 64 train / 8 test
  * views, 256^2, every other probe relights (7 with Blender's 8), spp_sqrt 3), "test-3d-diffuse"
- * (test-3d with diffuse objects, lit views by POV-Ray, 3 relighting lights). MF_EARG for an
- * unknown name. */
+ * (test-3d with diffuse objects, lit views by POV-Ray, 3 relighting lights), "test-3d-ambig"
+ * (test-3d whose objects carry material ambiguity: low-contrast albedo, mixed metals, rough beside
+ * glossy, dark albedo, in turn; ds_object_make_ambiguous). MF_EARG for an unknown name. */
 int ds_split_spec(const char *name, DsSplitSpec *out);
 
 /* Resolves s->n_relight == DS_RELIGHT_ALL to the probe count - 1 (in place). */

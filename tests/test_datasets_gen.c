@@ -1,6 +1,7 @@
 /* Rendered splits (datasets/ds_gen.h): prior-train layout, determinism, resume, seed streams,
  * bad input. Tiny sizes: 16 px, 2 views per object, 32^2 textures, 1 sample. */
 #include <cJSON.h>
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/wait.h>
@@ -488,4 +489,45 @@ MF_TEST(ds_gen_test2d_povray) {
     const cJSON *r = m ? cJSON_GetObjectItem(m, "renderer") : NULL;
     CHECK(cJSON_IsString(r) && strstr(r->valuestring, "povray"));
     cJSON_Delete(m);
+}
+
+/* Material ambiguity transforms (test-3d-ambig): each does what ds_gen.h states, on a real object. */
+static void kd_orm_stats(const DsObject *o, double kd_sd[3], float kd_max[1], float rough_mm[2], float metal_mm[2]) {
+    size_t n = (size_t)o->kd.w * (size_t)o->kd.h;
+    double s[3] = {0, 0, 0}, s2[3] = {0, 0, 0};
+    kd_max[0] = 0.0f;
+    rough_mm[0] = metal_mm[0] = 1e9f;
+    rough_mm[1] = metal_mm[1] = -1e9f;
+    for (size_t i = 0; i < n; ++i) {
+        const float *kd = o->kd.data + i * (size_t)o->kd.c, *orm = o->orm.data + i * (size_t)o->orm.c;
+        for (int c = 0; c < 3; ++c) { s[c] += kd[c]; s2[c] += (double)kd[c] * kd[c]; if (kd[c] > kd_max[0]) kd_max[0] = kd[c]; }
+        if (orm[1] < rough_mm[0]) rough_mm[0] = orm[1];
+        if (orm[1] > rough_mm[1]) rough_mm[1] = orm[1];
+        if (orm[2] < metal_mm[0]) metal_mm[0] = orm[2];
+        if (orm[2] > metal_mm[1]) metal_mm[1] = orm[2];
+    }
+    for (int c = 0; c < 3; ++c) kd_sd[c] = sqrt(fmax(0.0, s2[c] / (double)n - (s[c] / (double)n) * (s[c] / (double)n)));
+}
+
+MF_TEST(ds_object_make_ambiguous) {
+    double sd0[3], sd[3];
+    float kmax0, kmax, r0[2], r[2], m0[2], m[2];
+    for (int a = 0; a < DS_AMBIG_COUNT; ++a) {
+        DsObject o;
+        CHECK_OK(ds_object_generate(&o, DS_FAM_VASE, 11, 64));
+        kd_orm_stats(&o, sd0, &kmax0, r0, m0);
+        ds_object_make_ambiguous(&o, (DsAmbiguity)a);
+        kd_orm_stats(&o, sd, &kmax, r, m);
+        switch (a) {
+        case DS_AMBIG_LOW_CONTRAST:
+            for (int c = 0; c < 3; ++c) CHECK_MSG(fabs(sd[c] - 0.2 * sd0[c]) < 1e-4, "channel %d sd %.4f, expected %.4f", c, sd[c], 0.2 * sd0[c]);
+            break;
+        case DS_AMBIG_MIXED_METAL: CHECK(m[0] == 0.0f && m[1] == 1.0f); break;
+        case DS_AMBIG_ROUGH_GLOSSY: CHECK(r[0] == 0.08f && r[1] == 0.9f); break;
+        case DS_AMBIG_DARK: CHECK(kmax > 0.0f && fabsf(kmax - 0.1f * kmax0) < 1e-6f); break;
+        default: break;
+        }
+        ds_object_free(&o);
+    }
+    CHECK(!strcmp(ds_ambiguity_name(DS_AMBIG_DARK), "dark"));
 }

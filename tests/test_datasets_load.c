@@ -487,3 +487,31 @@ MF_TEST(ds_load_bvault) {
     CHECK(v.n == 2 && v.views[0].albedo.data == NULL);
     ds_views_free(&v);
 }
+
+/* ds_views_keep_side: the views whose camera is on the +x side of the centre, in order, at most N;
+ * the others' images freed; none kept is an error naming the folder. */
+MF_TEST(ds_views_keep_side) {
+    const float xs[6] = {1.0f, -1.0f, 2.0f, -0.5f, 0.5f, 3.0f};
+    DsViews v;
+    memset(&v, 0, sizeof v);
+    snprintf(v.dir, sizeof v.dir, "scene_dir");
+    snprintf(v.split, sizeof v.split, "train");
+    v.n = 6;
+    v.views = calloc(6, sizeof *v.views);
+    CHECK(v.views != NULL);
+    for (int i = 0; i < 6; ++i) {
+        double c2w[16] = {1, 0, 0, xs[i], 0, 1, 0, 0, 0, 0, 1, 2, 0, 0, 0, 1};
+        CHECK_OK(mf_camera_init(&v.views[i].cam, 4, 4, ANGLE, c2w, "test"));
+        CHECK_OK(mf_image_alloc(&v.views[i].rgba, 4, 4, 4));
+        snprintf(v.views[i].name, DS_NAME_MAX, "r_%d", i);
+    }
+    /* centre x = 0.75: kept are x = 1, 2, 3 (names r_0, r_2, r_5); max 2 keeps r_0, r_2 */
+    CHECK_OK(ds_views_keep_side(&v, mf_v3(0.75f, 0, 0), mf_v3(1, 0, 0), 2));
+    CHECK(v.n == 2);
+    CHECK(!strcmp(v.views[0].name, "r_0") && !strcmp(v.views[1].name, "r_2"));
+    CHECK(v.views[1].rgba.data != NULL);
+    /* nothing above z = 5: an error naming the folder */
+    CHECK_ERR(ds_views_keep_side(&v, mf_v3(0, 0, 5), mf_v3(0, 0, 1), 0), "scene_dir");
+    CHECK(v.n == 0);
+    ds_views_free(&v);
+}

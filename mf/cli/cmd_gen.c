@@ -24,12 +24,12 @@
     "    DIR/transforms_train.json, transforms_test.json   cameras (camera_angle_x 0.6911,\n" \
     "        azimuth 0-360, elevation -15-90 deg, radius 1.5-2, looking at the origin)\n" \
     "\n" \
-    "       mf gen --split tiny|small|full|test-3d|test-3d-diffuse -o DIR [--no-render] [--seed N] [--env-dir DIR]\n" \
+    "       mf gen --split tiny|small|full|test-3d|test-3d-diffuse|test-3d-ambig -o DIR [--no-render] [--seed N] [--env-dir DIR]\n" \
     "  Writes a whole split: DIR/NNN_<family>/ scenes as above plus gt/env.exr (training light),\n" \
     "  relight/<env>.exr and render_{train,test,relight_<env>}.json for `mf render`, DIR/split.json\n" \
     "  and DIR/manifest.json (counts, seeds, FNV-1a 64 of every file), and renders the images\n" \
     "  in-process (--no-render: the layout only): train/ test/ r_NNN.png, gt/albedo/ gt/orm/ r_NNN.png, relight/<env>/r_NNN.exr\n" \
-    "  (test-3d-diffuse: diffuse objects, lit views by POV-Ray). Rerunning resumes.\n" \
+    "  (test-3d-diffuse: diffuse objects, lit views by POV-Ray; test-3d-ambig: material ambiguity). Rerunning resumes.\n" \
     "  --compare-povray FILE.md: render the relit test views (first --views N, at --res R) with both\n" \
     "    renderers and append a table row (PSNR, mean relative error) to FILE.md.\n" \
     "  Probes: *.exr of --env-dir (default Blender's studio lights).\n" \
@@ -134,7 +134,7 @@ static const MfOpt k_args[] = {
                "--split test-3d-diffuse --train 24 --width 64, into its own DIR)", .unset = "the split's own"),
     MF_OPT_FLOAT(A, r_min, 1.5, 0.1, 100, "camera distance, lower end (2.2 / 2.8 cropped no view of 1500 checked)"),
     MF_OPT_FLOAT(A, r_max, 2.0, 0.1, 100, "camera distance, upper end"),
-    MF_OPT_STR(A, split, NULL, "write a whole split: tiny small full test-3d test-3d-diffuse prior-train test-2d", .meta = "NAME"),
+    MF_OPT_STR(A, split, NULL, "write a whole split: tiny small full test-3d test-3d-diffuse test-3d-ambig prior-train test-2d", .meta = "NAME"),
     MF_OPT_BOOL(A, no_render, 0, "split: write the layout only, render no image"),
     MF_OPT_BOOL(A, render, 0, "split: render the images (the default; kept for scripts)"),
     MF_OPT_STR(A, env_dir, NULL, "folder of *.exr light probes", .unset = "Blender's studio lights", .meta = "DIR"),

@@ -21,7 +21,7 @@
 /* The command's own options (the reconstruction's and the prior term's are in their tables:
  * mf/inverse/mf_recon_opts.c, mf/fusion/mf_sds_opts.c). */
 typedef struct {
-    const char *out, *method, *mesh, *split, *prior_weights, *mask;
+    const char *out, *method, *mesh, *split, *prior_weights, *mask, *side;
     int res, max_views, resume;
 } ReconArgs;
 
@@ -36,6 +36,9 @@ static const MfOpt k_args[] = {
     MF_OPT_INT(A, res, 0, 1, MF_OPT_RES_MAX, "train at N pixels wide (box-downsampled; the images' width must be a multiple)",
                .unset = "the images' size"),
     MF_OPT_INT(A, max_views, 0, 0, 1000000, "use at most N views (0: all)"),
+    MF_OPT_STR(A, side, "all", "train only on the views whose camera lies on this side of the mesh's bounding-box centre "
+               "(+z: above it); --max-views then takes the first N of those (the one-hemisphere few-view split)",
+               .choices = "all|+x|-x|+y|-y|+z|-z"),
     MF_OPT_BOOL(A, resume, 0, "continue from RESULT_DIR/checkpoint.mfck"),
     MF_OPT_STR(A, prior_weights, NULL, "materialfusion: prior weights, a .mfck file or its folder",
                .unset = "$MF_PRIOR_WEIGHTS, else mf/prior/weights/prior.mfck", .meta = "F"),
@@ -46,7 +49,7 @@ static const MfOptTable k_args_table = MF_OPT_TABLE("Command options", k_args);
 static char usage[16384];
 static const char k_usage_head[] =
     "usage: mf recon DATASET_DIR -o RESULT_DIR [--method nvdiffrecmc|materialfusion] [--mesh OBJ]\n"
-    "                [--config FILE] [--split train] [--mask DIR] [--res N] [--max-views N] [--resume] [option VALUE ...]\n"
+    "                [--config FILE] [--split train] [--mask DIR] [--res N] [--max-views N] [--side S] [--resume] [option VALUE ...]\n"
     "Recovers albedo (kd), ORM and the HDR environment light of the scene in DATASET_DIR (any format\n"
     "mf can load: bvault, NeRF-Synthetic, NeRFactor, Stanford-ORB capture) on a fixed mesh\n"
     "(default DATASET_DIR/mesh.obj; it must have UVs: a mesh without UVs is refused, unwrap it first).\n"
@@ -92,7 +95,8 @@ static int cmd_recon_run(int argc, char **argv, const MfOptParse *p, ReconArgs *
     so.seed = mf_hash64(o.seed, 0x5d5);
     double t0 = mf_now();
     DsViews dv;
-    DsLoadOptions lo = {0, max_views, 1, 0, a->mask};
+    int one_side = strcmp(a->side, "all") != 0;
+    DsLoadOptions lo = {0, one_side ? 0 : max_views, 1, 0, a->mask}; /* one side: all views, then the first N there */
     /* --res: find the downsample factor from the first image's size */
     if (ds_load(data, split, &lo, &dv)) return MF_EXIT_FAIL;
     if (res > 0 && res != dv.w) {
@@ -116,6 +120,18 @@ static int cmd_recon_run(int argc, char **argv, const MfOptParse *p, ReconArgs *
         ds_views_free(&dv);
         mf_fail_prefix(MF_EIO, "mesh (supply one with --mesh; geometry recovery is not implemented yet)");
         return MF_EXIT_FAIL;
+    }
+    if (one_side) {
+        MfVec3 lo_b, hi_b, dir = {0, 0, 0};
+        mf_mesh_bounds(&mesh, &lo_b, &hi_b);
+        float *axis = a->side[1] == 'x' ? &dir.x : a->side[1] == 'y' ? &dir.y : &dir.z;
+        *axis = a->side[0] == '-' ? -1.0f : 1.0f;
+        if (ds_views_keep_side(&dv, mf_scale(mf_add(lo_b, hi_b), 0.5f), dir, max_views)) {
+            mf_mesh_free(&mesh);
+            ds_views_free(&dv);
+            return MF_EXIT_FAIL;
+        }
+        mf_log_info("--side %s: training on %d view(s)", a->side, dv.n);
     }
     if (!mesh.uv) {
         mf_fail(MF_EARG, "%s: the mesh has no UVs; mf recon refuses it (unwrap it first, e.g. in Blender)", mesh_path);
