@@ -176,6 +176,7 @@ BENCH_METHODS_SHORT := nvdiffrecmc materialfusion mf-trust
 FLAGS_nvdiffrecmc    := --method nvdiffrecmc
 FLAGS_materialfusion := --method materialfusion
 FLAGS_mf-trust       := --method materialfusion --sds-weight conflict
+FLAGS_mf-coverage    := --method materialfusion --sds-weight coverage
 FLAGS_mf-gamma-const := --method materialfusion --gamma-const 1
 FLAGS_mf-no-rgb      := --method materialfusion --lambda-rgb 0
 FLAGS_mf-no-latent   := --method materialfusion --lambda-latent 0

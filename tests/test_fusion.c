@@ -3,6 +3,7 @@
  * differences with the targets (zhat, D(zhat)) held fixed as the method does; the gamma schedule;
  * and the hook's effect inside a short reconstruction. Uses the tiny prior configuration with
  * random weights (the chain, not the prior's quality, is under test). */
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -10,6 +11,7 @@
 #include "core/mf_fs.h"
 #include "fusion/mf_sds.h"
 #include "mf_test.h"
+#include "render/mf_diffrender.h"
 #include "render/mf_integrator.h"
 #include "render/mf_rtscene.h"
 #include "scene/mf_shapes.h"
@@ -357,6 +359,73 @@ MF_TEST(fusion_sds_conflict_weight) {
     CHECK(hmax > 0.0 && conflicts > 0);
     CHECK_MSG(err <= 1e-5 * hmax, "conflict weighting off by %.3g (prior gradient scale %.3g)", err, hmax);
     free(h), free(g0);
+    mf_sds_free(s), mf_sds_free(sc);
+    mf_recon_free(r);
+    mf_mesh_free(&mesh);
+}
+
+/* Coverage trust: a texel's count of views that see it equals, view by view, whether changing
+ * that texel changes the view's albedo AOV (forward renders, an independent definition); the
+ * hook then applies the prior's gradient times C0 / (C0 + count). */
+MF_TEST(fusion_sds_coverage_weight) {
+    MfMesh mesh;
+    MfRecon *r = NULL;
+    CHECK_OK(make_recon(&mesh, &r));
+    MfSdsOpts o = mf_sds_opts_default();
+    o.k_views = 2;
+    MfSds *s = tiny_sds_opts(&o);
+    o.weight = MF_SDS_WEIGHT_COVERAGE;
+    MfSds *sc = tiny_sds_opts(&o);
+    if (!r || !s || !sc) return;
+    float *w = NULL;
+    size_t nt = 0;
+    CHECK_OK(mf_sds_coverage(r, &w, &nt));
+    MfImage kd0 = mf_recon_kd_image(r), orm = mf_recon_orm_image(r), kd;
+    CHECK(nt == (size_t)kd0.w * (size_t)kd0.h && w != NULL);
+    CHECK_OK(mf_image_alloc(&kd, kd0.w, kd0.h, 3));
+    if (!w || !kd.data) return;
+    MfDiffScene ds = {.rt = mf_recon_rtscene(r), .kd = &kd, .orm = &orm, .env = mf_recon_env(r)};
+    int seen_some = 0, unseen_some = 0;
+    float *a0 = malloc(RES * RES * 3 * sizeof(float)), *a1 = malloc(RES * RES * 3 * sizeof(float));
+    float *m = malloc(RES * RES * 3 * sizeof(float));
+    if (!a0 || !a1 || !m) return;
+    for (size_t t = 0; t < nt; ++t) {
+        int count = 0;
+        for (int v = 0; v < NV; ++v) {
+            MfDiffOpts dopt = {1, 1, 0x5eedu + (uint64_t)v};
+            for (size_t i = 0; i < nt * 3; ++i) kd.data[i] = 0.5f;
+            CHECK_OK(mf_diff_aov_forward(&ds, &mf_recon_view(r, v)->cam, &dopt, a0, m, NULL));
+            kd.data[3 * t] = 0.9f;
+            CHECK_OK(mf_diff_aov_forward(&ds, &mf_recon_view(r, v)->cam, &dopt, a1, m, NULL));
+            int changed = 0;
+            for (int i = 0; i < RES * RES * 3 && !changed; ++i) changed = a0[i] != a1[i];
+            count += changed;
+        }
+        float want = MF_SDS_COVERAGE_C0 / (MF_SDS_COVERAGE_C0 + (float)count);
+        CHECK_MSG(w[t] == want, "texel %zu: coverage weight %g, views that see it %d (weight %g)", t, w[t], count, want);
+        seen_some |= count > 0, unseen_some |= count < NV;
+    }
+    CHECK(seen_some && unseen_some);
+    /* the hook: prior gradient h scaled by the weight, texel by texel */
+    MfParamBlock *kdb = mf_recon_block(r, MF_BLOCK_KD);
+    int batch[2] = {0, 1};
+    double l;
+    mf_param_zero_grad(kdb);
+    CHECK_OK(mf_sds_hook(s, r, 0, batch, 2, &l));
+    float *h = malloc(kdb->n * sizeof(float));
+    if (!h) return;
+    memcpy(h, kdb->g, kdb->n * sizeof(float));
+    mf_param_zero_grad(kdb);
+    CHECK_OK(mf_sds_hook(sc, r, 0, batch, 2, &l));
+    double err = 0.0, hmax = 0.0;
+    for (size_t i = 0; i < kdb->n; ++i) {
+        err = fmax(err, fabs(kdb->g[i] - h[i] * w[i / 3]));
+        hmax = fmax(hmax, fabs(h[i]));
+    }
+    CHECK(hmax > 0.0);
+    CHECK_MSG(err <= 1e-6 * hmax, "coverage weighting off by %.3g (prior gradient scale %.3g)", err, hmax);
+    free(h), free(w), free(a0), free(a1), free(m);
+    mf_image_free(&kd);
     mf_sds_free(s), mf_sds_free(sc);
     mf_recon_free(r);
     mf_mesh_free(&mesh);

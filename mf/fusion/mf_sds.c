@@ -18,6 +18,8 @@ struct MfSds {
     float *held_kd;  /* (tex kd n,) owned */
     float *held_orm; /* (tex ORM n,) owned */
     size_t held_n;
+    float *coverage; /* (texels,) owned; with MF_SDS_WEIGHT_COVERAGE: the trust weight of each texel */
+    size_t coverage_n;
     int held_it;     /* iteration of the last refresh, -1: none */
     double held_loss;
     double seconds;  /* wall time of the refreshes */
@@ -28,8 +30,8 @@ int mf_sds_new(MfPrior *prior, const MfSdsOpts *o, MfSds **out) {
         o->aov_samples < 1 || o->every < 1)
         return mf_fail(MF_EARG, "SDS options: k_views %d (1..%d), t in [%d, %d] (1..999), aov_samples %d, every %d (>= 1) are invalid",
                        o->k_views, MF_SDS_MAX_VIEWS, o->t_min, o->t_max, o->aov_samples, o->every);
-    if (o->weight < MF_SDS_WEIGHT_NONE || o->weight > MF_SDS_WEIGHT_CONFLICT)
-        return mf_fail(MF_EARG, "SDS options: weight %d is not none (0) or conflict (1)", o->weight);
+    if (o->weight < MF_SDS_WEIGHT_NONE || o->weight > MF_SDS_WEIGHT_COVERAGE)
+        return mf_fail(MF_EARG, "SDS options: weight %d is not none (0), conflict (1) or coverage (2)", o->weight);
     MfSds *s = calloc(1, sizeof *s);
     if (!s) return mf_fail(MF_ENOMEM, "out of memory");
     s->prior = prior;
@@ -44,7 +46,7 @@ double mf_sds_seconds(const MfSds *s) { return s ? s->seconds : 0.0; }
 void mf_sds_free(MfSds *s) {
     if (!s) return;
     mf_prior_free(s->prior);
-    free(s->held_kd), free(s->held_orm);
+    free(s->held_kd), free(s->held_orm), free(s->coverage);
     free(s);
 }
 
@@ -272,11 +274,50 @@ int mf_sds_pick_views(const MfSds *s, MfRecon *r, int it, const int *batch, int 
     return k;
 }
 
+int mf_sds_coverage(MfRecon *r, float **out, size_t *ntex) {
+    MfParamBlock *kd = mf_recon_block(r, MF_BLOCK_KD);
+    size_t nt = kd->n / 3;
+    size_t npx = 0; /* the largest view's pixels */
+    for (int v = 0; v < mf_recon_nviews(r); ++v) {
+        const MfCamera *c = &mf_recon_view(r, v)->cam;
+        if ((size_t)c->w * (size_t)c->h > npx) npx = (size_t)c->w * (size_t)c->h;
+    }
+    float *w = calloc(nt, sizeof(float)), *g = malloc(kd->n * sizeof(float)), *ones = malloc(npx * 3 * sizeof(float));
+    if (!w || !g || !ones) {
+        free(w), free(g), free(ones);
+        return mf_fail(MF_ENOMEM, "SDS coverage: out of memory");
+    }
+    for (size_t i = 0; i < npx * 3; ++i) ones[i] = 1.0f;
+    MfImage kdi = mf_recon_kd_image(r), ormi = mf_recon_orm_image(r);
+    MfDiffScene ds = {.rt = mf_recon_rtscene(r), .kd = &kdi, .orm = &ormi, .env = mf_recon_env(r)};
+    int rc = MF_OK;
+    for (int v = 0; v < mf_recon_nviews(r) && !rc; ++v) {
+        const MfReconView *view = mf_recon_view(r, v);
+        memset(g, 0, kd->n * sizeof(float));
+        MfDiffGrads dg = {.dkd = g};
+        MfDiffOpts o = {1, 1, 0x5eedu + (uint64_t)v};
+        rc = mf_diff_aov_backward(&ds, &view->cam, &o, ones, NULL, &dg);
+        for (size_t t = 0; t < nt && !rc; ++t) w[t] += (g[3 * t] > 0.0f);
+    }
+    free(g), free(ones);
+    if (rc) {
+        free(w);
+        return rc;
+    }
+    for (size_t t = 0; t < nt; ++t) w[t] = MF_SDS_COVERAGE_C0 / (MF_SDS_COVERAGE_C0 + w[t]);
+    *out = w;
+    *ntex = nt;
+    return MF_OK;
+}
+
 /* g (n,) += gamma * h, texel by texel over its 3 channels; with MF_SDS_WEIGHT_CONFLICT the part of
- * h that opposes g (the iteration's image and regulariser gradient) is removed first. */
-static void apply_held(float *g, const float *h, size_t n, float gamma, int weight) {
+ * h that opposes g (the iteration's image and regulariser gradient) is removed first; with
+ * MF_SDS_WEIGHT_COVERAGE h is scaled by the texel's weight cov (n / 3,). */
+static void apply_held(float *g, const float *h, size_t n, float gamma, int weight, const float *cov) {
     for (size_t i = 0; i + 2 < n; i += 3) {
         float hv[3] = {h[i], h[i + 1], h[i + 2]};
+        if (weight == MF_SDS_WEIGHT_COVERAGE)
+            for (int c = 0; c < 3; ++c) hv[c] *= cov[i / 3];
         if (weight == MF_SDS_WEIGHT_CONFLICT) {
             double dot = 0.0, gg = 0.0;
             for (int c = 0; c < 3; ++c) dot += (double)hv[c] * g[i + c], gg += (double)g[i + c] * g[i + c];
@@ -322,8 +363,15 @@ int mf_sds_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double 
         }
         s->held_it = it;
     }
-    apply_held(kd->g, s->held_kd, kd->n, (float)gamma, s->o.weight);
-    apply_held(orm->g, s->held_orm, orm->n, (float)gamma, s->o.weight);
+    if (s->o.weight == MF_SDS_WEIGHT_COVERAGE && (!s->coverage || s->coverage_n * 3 != kd->n)) {
+        free(s->coverage);
+        s->coverage = NULL;
+        int rc = mf_sds_coverage(r, &s->coverage, &s->coverage_n);
+        if (rc) return mf_fail_prefix(rc, "iteration %d: prior term", it);
+        if (s->coverage_n * 3 != orm->n) return mf_fail(MF_EARG, "SDS coverage: the kd and ORM textures differ in size");
+    }
+    apply_held(kd->g, s->held_kd, kd->n, (float)gamma, s->o.weight, s->coverage);
+    apply_held(orm->g, s->held_orm, orm->n, (float)gamma, s->o.weight, s->coverage);
     *loss = gamma * s->held_loss;
     return MF_OK;
 }

@@ -25,6 +25,11 @@
  * The prior can then move a texel only along directions the images do not contradict: where its
  * targets are biased (another renderer, another camera) the data term wins; where the images are
  * ambiguous (albedo vs light, roughness vs metallic) the prior still decides.
+ * Or (coverage) the gradient of a texel seen by n training views is scaled by C0 / (C0 + n)
+ * (MF_SDS_COVERAGE_C0): full trust where no view sees the texel (the far side of a few-view
+ * capture), little where many do. "Seen" = the texel gets weight from a view's primary hits
+ * (mf_diff_aov_backward of an all-ones image at the view's resolution, one ray per pixel), counted
+ * once when the term is first applied.
  * zhat and D(zhat) are held constant (classic SDS): the latent term back-propagates through the
  * encoder into the maps, the RGB term directly into the maps (as the official code), then through
  * the AOV render into the kd / ORM texels. (The official code also lets zhat depend on z through
@@ -54,10 +59,12 @@ typedef struct {
                             multiples; its texel gradient is held and applied (times gamma_i) at
                             every iteration in between (measured default: mf_sds_opts.c). */
     int rgb01;           /* 1: L_rgb on [0, 1] maps (official code); 0: on the prior's [-1, 1] maps (4x) */
-    int weight;          /* MF_SDS_WEIGHT_NONE or MF_SDS_WEIGHT_CONFLICT (trust, see above) */
+    int weight;          /* MF_SDS_WEIGHT_NONE, _CONFLICT or _COVERAGE (trust, see above) */
 } MfSdsOpts;
 
-enum { MF_SDS_WEIGHT_NONE = 0, MF_SDS_WEIGHT_CONFLICT = 1 }; /* option table choices "none|conflict" */
+enum { MF_SDS_WEIGHT_NONE = 0, MF_SDS_WEIGHT_CONFLICT = 1, MF_SDS_WEIGHT_COVERAGE = 2 }; /* choices "none|conflict|coverage" */
+/* coverage: a texel seen by n training views gets the weight C0 / (C0 + n) (1 where no view sees it) */
+#define MF_SDS_COVERAGE_C0 4.0f
 
 MfSdsOpts mf_sds_opts_default(void);
 
@@ -69,6 +76,9 @@ void mf_sds_free(MfSds *s);
 /* Wall seconds this process spent in the prior's work (the refreshes: AOV render, encode, guided
  * DDIM, decode, encoder backward), for the cost report. */
 double mf_sds_seconds(const MfSds *s);
+/* Coverage weights (texels,) of r's training views (see "coverage" above): *out owned by the
+ * caller, *ntex = texels of the kd texture. */
+int mf_sds_coverage(MfRecon *r, float **out, size_t *ntex);
 /* The hook for mf_recon_run: ctx is an MfSds. */
 int mf_sds_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double *loss);
 

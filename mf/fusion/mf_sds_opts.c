@@ -22,8 +22,9 @@ static const MfOpt k_opts[] = {
     MF_OPT_NAMED(S, "sds_rgb01", rgb01, MF_OPT_INT, 1, 0, 1,
                  "1: L_rgb on [0,1] maps as the official code; 0: on the prior's [-1,1] maps (4x, the first wave)"),
     MF_OPT_NAMED(S, "sds_weight", weight, MF_OPT_ENUM, MF_SDS_WEIGHT_NONE, 0, 0,
-                 "trust in the prior: none, or conflict (per texel, drop the part opposing the images' gradient)",
-                 .choices = "none|conflict"),
+                 "trust in the prior: none; conflict (per texel, drop the part opposing the images' gradient); "
+                 "coverage (per texel, 4 / (4 + views that see it))",
+                 .choices = "none|conflict|coverage"),
 };
 #undef S
 const MfOptTable mf_sds_opt_table = MF_OPT_TABLE("MaterialFusion (SDS+ prior term) options", k_opts);
