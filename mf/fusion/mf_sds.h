@@ -26,8 +26,9 @@
  * targets are biased (another renderer, another camera) the data term wins; where the images are
  * ambiguous (albedo vs light, roughness vs metallic) the prior still decides.
  * Or (coverage) the gradient of a texel seen by n training views is scaled by C0 / (C0 + n)
- * (MF_SDS_COVERAGE_C0): full trust where no view sees the texel (the far side of a few-view
- * capture), little where many do. "Seen" = the texel gets weight from a view's primary hits
+ * (MF_SDS_COVERAGE_C0): 4/5 where one view sees it, 1/2 at four views, 1/17 at 64 — the fewer
+ * views constrain a texel, the more the prior decides. (The term renders from training cameras,
+ * conditioned on their images, so a texel no training view sees gets no prior gradient at all.) "Seen" = the texel gets weight from a view's primary hits
  * (mf_diff_aov_backward of an all-ones image at the view's resolution, one ray per pixel), counted
  * once when the term is first applied.
  * zhat and D(zhat) are held constant (classic SDS): the latent term back-propagates through the

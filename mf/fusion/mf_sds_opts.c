@@ -23,7 +23,7 @@ static const MfOpt k_opts[] = {
                  "1: L_rgb on [0,1] maps as the official code; 0: on the prior's [-1,1] maps (4x, the first wave)"),
     MF_OPT_NAMED(S, "sds_weight", weight, MF_OPT_ENUM, MF_SDS_WEIGHT_NONE, 0, 0,
                  "trust in the prior: none; conflict (per texel, drop the part opposing the images' gradient); "
-                 "coverage (per texel, 4 / (4 + views that see it))",
+                 "coverage (per texel, times 4 / (4 + training views that see it))",
                  .choices = "none|conflict|coverage"),
 };
 #undef S
