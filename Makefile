@@ -202,7 +202,7 @@ $(if $(SCHED_MISSING),$(error $(SCHED_MISSING)))
 else ifneq ($(SCHED),local)
 $(error SCHED=$(SCHED): expected local or slurm)
 endif
-sched-job = $(if $(filter slurm,$(SCHED)),sh tools/slurm-bench.sh job $(1) --)
+sched-job = $(if $(filter slurm,$(SCHED)),sh tools/slurm-bench.sh job $(1) $(RESULTS) --)
 
 bench-baseline: $(BUILD)/mf $(DATA)/$(BENCH_SPLIT)/.rendered
 	$(MAKE) --no-print-directory recon-runs METHOD=nvdiffrecmc
@@ -262,7 +262,7 @@ bench-geom: $(DATA)/test-3d/.rendered | $(BUILD)/mf
 bench-quick: $(BUILD)/mf
 	$(MAKE) --no-print-directory bench-split BENCH_SPLIT=test-3d SCENE_LIMIT=3 RESULTS=$(RESULTS)/quick \
 	  RECON_CONFIG=baselines/quick.json RECON_EXTRA="--res 64" REPORT=reports/quick
-	$(MAKE) --no-print-directory eval-prior
+	$(call sched-job,eval-prior) $(MAKE) --no-print-directory eval-prior
 
 bench-split: $(DATA)/$(BENCH_SPLIT)/.rendered
 ifeq ($(SCHED),slurm)

@@ -6,8 +6,8 @@
 #  - SCHED=slurm without sbatch on PATH fails with a message naming sbatch and submits nothing;
 #  - the cluster run's metrics (scenes.csv, per_view.csv; timings and memory excluded) equal a
 #    local run's (make bench-split SCHED=local, same thread count);
-#  - a task that fails (a method with a bad flag) is named FAILED in cluster.md, the eval job
-#    exits non-zero, and the other tasks are still scored;
+#  - a task that fails (a method with a bad flag; one with a partial result folder) is named FAILED
+#    in cluster.md, the eval job exits non-zero, and the other tasks are still scored;
 #  - a second submission skips the complete tasks and its eval job alone succeeds.
 # Where the packages are missing or the daemons cannot start it prints why, then
 # "test-slurm: SKIPPED" (exit 0). MAKE, MF_BIN and BUILD come from the Makefile.
@@ -134,9 +134,13 @@ until [ "$(sinfo -h -o %T 2>/dev/null)" = idle ]; do
     [ $i -lt 60 ] || skip "the node did not come up in 30 s (sinfo: $(sinfo -h -o '%T %E' 2>&1)): $(tail -n 3 "$T/log/slurmctld.log" "$T/log/slurmd.log" 2>/dev/null | tr '\n' ' ')"
     sleep 0.5
 done
-pass "one-node Slurm up ($(sinfo -V), node $host, $(nproc) CPUs)"
+timeout 60 sbatch --wait --output=/dev/null --wrap true > "$T/log/smoke.log" 2>&1 ||
+    skip "a trivial job does not run: $(tail -n 2 "$T/log/smoke.log" "$T/log/slurmd.log" | tr '\n' ' ')"
+pass "one-node Slurm up ($(sinfo -V), node $host, $(nproc) CPUs), a trivial job runs"
 
-# the cluster run (with a method whose every task fails), and meanwhile the same bench here
+# the cluster run (with a method whose every task fails; one of them left a partial result folder
+# behind, as a task killed by its time limit does), and meanwhile the same bench here
+mkdir -p "$T/res-s/tiny/broken/000_cup" && echo "iter,wall_s" > "$T/res-s/tiny/broken/000_cup/log.csv"
 out=$(bench SCHED=slurm RESULTS="$T/res-s" REPORT="$T/rep-s" BENCH_METHODS="nvdiffrecmc materialfusion broken" 2>&1) ||
     { echo "$out"; fail "make bench-split SCHED=slurm"; }
 echo "$out" | tail -n 1

@@ -13,15 +13,16 @@
 #     then writes REPORT/cluster.md: every task's state; a failed task is named with its exit
 #     status and log, and the eval job exits 1 (after scoring the others). The task list, logs
 #     and exit statuses go to RESULTS/.slurm/<submission>/.
-#   slurm-bench.sh job NAME -- COMMAND ARGS...   submits one job running COMMAND (logs as above,
-#     under .slurm/ of the current directory).
+#   slurm-bench.sh job NAME DIR -- COMMAND ARGS...   submits one job running COMMAND in the current
+#     directory (its log: DIR/.slurm/<submission>/NAME.out).
 #   slurm-bench.sh check                          exits 1 with a message when sbatch is not on PATH.
 #   slurm-bench.sh task DIR | gather DIR | run CMD...   what those jobs run (inside Slurm).
 #
 # Settings (environment): MF_SLURM_CPUS cpus per task (default 2; OMP_NUM_THREADS is set to it,
-# so a task's bytes equal a local run's with that many threads), MF_SLURM_TIME (--time, e.g.
-# 0:30:00), MF_SLURM_MEM (--mem, e.g. 2G), MF_SLURM_ARGS (more sbatch options for every job,
-# e.g. "--partition=cpu --account=lab"). Exit status: 0 submitted, 1 nothing submitted (or, for
+# so a task's bytes equal a local run's with that many threads), MF_SLURM_TIME (--time of a
+# task, e.g. 0:30:00), MF_SLURM_EVAL_TIME (--time of the eval job and of `job` jobs; default
+# MF_SLURM_TIME), MF_SLURM_MEM (--mem, e.g. 1G), MF_SLURM_ARGS (more sbatch options for every
+# job, e.g. "--partition=cpu --account=lab"). Exit status: 0 submitted, 1 nothing submitted (or, for
 # submit, only the array: the message says what to do).
 set -eu
 
@@ -37,10 +38,10 @@ check() {
         die "sbatch not found on PATH: nothing submitted (SCHED=slurm needs a Slurm login node; without SCHED the bench runs on this machine)"
 }
 
-# sbatch options every job gets; $1: cpus
+# sbatch options every job gets; $1: cpus, $2: time limit (may be empty)
 sbatch_opts() {
     printf -- '--cpus-per-task=%s' "$1"
-    [ -z "${MF_SLURM_TIME:-}" ] || printf ' --time=%s' "$MF_SLURM_TIME"
+    [ -z "$2" ] || printf ' --time=%s' "$2"
     [ -z "${MF_SLURM_MEM:-}" ] || printf ' --mem=%s' "$MF_SLURM_MEM"
     [ -z "${MF_SLURM_ARGS:-}" ] || printf ' %s' "$MF_SLURM_ARGS"
 }
@@ -94,7 +95,7 @@ submit() {
         echo "RECON_ARGS=$(q "$recon")"; echo "EVAL_ARGS=$(q "$evalargs")"; echo "METHODS=$(q "$mlist")"
     } > "$sub/job.env"
     self=$(abs "$0")
-    opts=$(sbatch_opts "$cpus")
+    opts=$(sbatch_opts "$cpus" "${MF_SLURM_TIME:-}")
     arr='' dep=''
     if [ "$n" -gt 0 ]; then
         # shellcheck disable=SC2086 # opts are words
@@ -102,8 +103,9 @@ submit() {
             die "$name: sbatch refused the array: nothing submitted"
         arr=${arr%%;*} dep="--dependency=afterany:$arr"
     fi
-    # shellcheck disable=SC2086
-    ev=$(sbatch --parsable --job-name="mf-$name-eval" $dep --output="$sub/eval.out" $opts "$self" gather "$sub") ||
+    # shellcheck disable=SC2086,SC2046
+    ev=$(sbatch --parsable --job-name="mf-$name-eval" $dep --output="$sub/eval.out" $(sbatch_opts "$cpus" "${MF_SLURM_EVAL_TIME:-${MF_SLURM_TIME:-}}") \
+        "$self" gather "$sub") ||
         die "$name: array ${arr:-(none)} submitted, the eval job refused: rerun the same make command once the array is done"
     ev=${ev%%;*}
     printf 'array=%s\neval=%s\n' "$arr" "$ev" > "$sub/jobs"
@@ -187,13 +189,15 @@ gather() {
 }
 
 job() {
-    [ $# -ge 3 ] && [ "$2" = -- ] || die "usage: slurm-bench.sh job NAME -- COMMAND ARGS..."
+    [ $# -ge 4 ] && [ "$3" = -- ] || die "usage: slurm-bench.sh job NAME DIR -- COMMAND ARGS..."
     check
-    name=$1
-    shift 2
-    sub=$(new_sub "$(pwd)")
+    name=$1 dir=$2
+    shift 3
+    # make -n runs a recipe line naming $(MAKE) all the same: print the job, submit nothing
+    case $(printf '%s' "${MAKEFLAGS:-}" | awk '{ print $1 }') in -* | '') ;; *n*) echo "slurm-bench: make -n: would submit job $name: $*" && return ;; esac
+    sub=$(new_sub "$(abs "$dir")")
     # shellcheck disable=SC2046
-    id=$(sbatch --parsable --job-name="mf-$name" --output="$sub/$name.out" $(sbatch_opts "${MF_SLURM_CPUS:-2}") "$(abs "$0")" run "$@") ||
+    id=$(sbatch --parsable --job-name="mf-$name" --output="$sub/$name.out" $(sbatch_opts "${MF_SLURM_CPUS:-2}" "${MF_SLURM_EVAL_TIME:-${MF_SLURM_TIME:-}}") "$(abs "$0")" run "$@") ||
         die "$name: sbatch refused the job: nothing submitted"
     echo "slurm-bench: $name: job ${id%%;*} -> $sub/$name.out"
 }
