@@ -22,6 +22,8 @@ started=0
 cleanup() {
     if [ "$started" = 1 ]; then
         scancel --quiet --user="$(id -un)" 2>/dev/null
+        i=0 # the jobs' step daemons end with their jobs: wait for that before the daemons go
+        while [ -n "$(squeue -h 2>/dev/null)" ] && [ $i -lt 60 ]; do sleep 0.5; i=$((i + 1)); done
         scontrol shutdown >/dev/null 2>&1
         for p in "$T/slurmctld.pid" "$T/slurmd.pid"; do # wait for them to stop, then make sure
             i=0
