@@ -277,7 +277,7 @@ endif
 # A one-node Slurm on localhost runs the tiny bench; its report must equal a local run's (skipped,
 # exit 0, where the daemons cannot start). CI runs it after make test.
 test-slurm: $(BUILD)/mf
-	MAKE="$(MAKE)" MF_BIN=$(MF) BUILD=$(BUILD) sh tests/test_slurm.sh
+	sh tests/test_slurm.sh
 
 # Public data sets, when the user points at a local copy (with meshes: geometry recovery is not
 # implemented yet): NERF_SYNTHETIC=/path/nerf_synthetic, NERFACTOR=..., STANFORD_ORB=...

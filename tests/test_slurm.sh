@@ -10,28 +10,31 @@
 #    in cluster.md, the eval job exits non-zero, and the other tasks are still scored;
 #  - a second submission skips the complete tasks and its eval job alone succeeds.
 # Where the packages are missing or the daemons cannot start it prints why, then
-# "test-slurm: SKIPPED" (exit 0). MAKE, MF_BIN and BUILD come from the Makefile.
-# TEST_SLURM_KEEP=1 keeps the temp folder.
+# "test-slurm: SKIPPED" (exit 0). Run from the repository root; TEST_SLURM_KEEP=1 keeps the temp
+# folder.
 set -u
 MAKE=${MAKE:-make}
-BUILD=${BUILD:-build}
 T=$(mktemp -d "${TMPDIR:-/tmp}/mf-test-slurm.XXXXXX") || exit 1
 chmod 711 "$T" # munged needs its socket's folders searchable by all
 started=0
+pids='' # of the daemons this script started (from their pid files)
 
 cleanup() {
+    for f in "$T/slurmctld.pid" "$T/slurmd.pid" "$T/munge/munged.pid"; do
+        [ -s "$f" ] && pids="$pids $(cat "$f")"
+    done
     if [ "$started" = 1 ]; then
         scancel --quiet --user="$(id -un)" 2>/dev/null
         i=0 # the jobs' step daemons end with their jobs: wait for that before the daemons go
         while [ -n "$(squeue -h 2>/dev/null)" ] && [ $i -lt 60 ]; do sleep 0.5; i=$((i + 1)); done
         scontrol shutdown >/dev/null 2>&1
-        for p in "$T/slurmctld.pid" "$T/slurmd.pid"; do # wait for them to stop, then make sure
-            i=0
-            while [ -f "$p" ] && kill -0 "$(cat "$p")" 2>/dev/null && [ $i -lt 20 ]; do sleep 0.5; i=$((i + 1)); done
-            [ -f "$p" ] && kill "$(cat "$p")" 2>/dev/null
-        done
     fi
-    [ -f "$T/munge/munged.pid" ] && kill "$(cat "$T/munge/munged.pid")" 2>/dev/null
+    [ -s "$T/munge/munged.pid" ] && kill "$(cat "$T/munge/munged.pid")" 2>/dev/null
+    for p in $pids; do # wait until each has exited, then make sure
+        i=0
+        while kill -0 "$p" 2>/dev/null && [ $i -lt 20 ]; do sleep 0.5; i=$((i + 1)); done
+        kill -9 "$p" 2>/dev/null
+    done
     if [ "${TEST_SLURM_KEEP:-0}" = 1 ]; then echo "test-slurm: kept $T"; else rm -rf "$T"; fi
 }
 trap cleanup EXIT
