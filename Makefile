@@ -8,7 +8,7 @@
 
 DEB_PACKAGES := build-essential pkg-config libembree-dev libopenimageio-dev libopenexr-dev \
   libgsl-dev libcjson-dev libopenblas-dev povray blender-data python3-skimage python3-numpy \
-  gnuplot-nox libmeshoptimizer-dev
+  gnuplot-nox libmeshoptimizer-dev slurm-wlm munge
 
 BUILD    ?= build
 # OpenMP threads sleep instead of spinning between parallel regions, so they do not fight
@@ -40,7 +40,7 @@ LIB_OBJ  := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
 CLI_OBJ  := $(CLI_C:%.c=$(BUILD)/obj/%.o)
 TEST_OBJ := $(TEST_C:%.c=$(BUILD)/obj/%.o)
 
-.PHONY: FORCE all deps deps-fuzz fuzz fuzz-lib fuzz-seeds test check-deps asan bench-geom bench-render bench-baseline bench-prior bench-quick bench bench-split bench-runs bench-external recon-runs train-prior train-prior-wide eval-prior bench-domain bench-matrix bench-stability clean
+.PHONY: FORCE all deps deps-fuzz fuzz fuzz-lib fuzz-seeds test check-deps asan bench-geom bench-render bench-baseline bench-prior bench-quick bench bench-split bench-runs bench-external recon-runs train-prior train-prior-wide eval-prior bench-domain bench-matrix bench-stability test-slurm clean
 all: $(BUILD)/mf $(BUILD)/mf_tests
 
 deps:
@@ -190,8 +190,20 @@ $(RESULTS)/$(BENCH_SPLIT)/%/run.json: | $(BUILD)/mf
 	$(MF) recon $(DATA)/$(BENCH_SPLIT)/$(notdir $*) -o $(dir $@) $(FLAGS_$(patsubst %/,%,$(dir $*))) --config $(RECON_CONFIG) --resume $(RECON_EXTRA)
 
 comma := ,
-EVAL = $(MF) eval $(DATA)/$(BENCH_SPLIT) --results $(RESULTS)/$(BENCH_SPLIT) --dataset $(BENCH_SPLIT) --trivial \
-       --scenes $(subst $(eval) ,$(comma),$(strip $(SCENES)))
+EVAL_ARGS = --dataset $(BENCH_SPLIT) --trivial --scenes $(subst $(eval) ,$(comma),$(strip $(SCENES)))
+EVAL = $(MF) eval $(DATA)/$(BENCH_SPLIT) --results $(RESULTS)/$(BENCH_SPLIT) $(EVAL_ARGS)
+
+# SCHED=slurm: bench-split submits its runs as one Slurm job array (a task per scene x method,
+# complete ones skipped) and mf eval as a job after it; the other steps of bench are one job each
+# (tools/slurm-bench.sh; README "Running the full table on a cluster"). SCHED=local runs here.
+SCHED ?= local
+ifeq ($(SCHED),slurm)
+SCHED_MISSING := $(shell $(SHELL) tools/slurm-bench.sh check 2>&1)
+$(if $(SCHED_MISSING),$(error $(SCHED_MISSING)))
+else ifneq ($(SCHED),local)
+$(error SCHED=$(SCHED): expected local or slurm)
+endif
+sched-job = $(if $(filter slurm,$(SCHED)),sh tools/slurm-bench.sh job $(1) $(RESULTS) --)
 
 bench-baseline: $(BUILD)/mf $(DATA)/$(BENCH_SPLIT)/.rendered
 	$(MAKE) --no-print-directory recon-runs METHOD=nvdiffrecmc
@@ -213,9 +225,9 @@ bench: $(BUILD)/mf
 	  BENCH_METHODS="$(BENCH_METHODS_SHORT)" REPORT=reports/bench/views4side
 	$(MAKE) --no-print-directory bench-split BENCH_SPLIT=test-3d-ambig BENCH_METHODS="$(BENCH_METHODS_SHORT)" \
 	  REPORT=reports/bench/test-3d-ambig
-	$(MAKE) --no-print-directory bench-external REPORT=reports/bench
-	$(MAKE) --no-print-directory eval-prior
-	$(MAKE) --no-print-directory bench-stability
+	$(call sched-job,bench-external) $(MAKE) --no-print-directory bench-external REPORT=reports/bench
+	$(call sched-job,eval-prior) $(MAKE) --no-print-directory eval-prior
+	$(call sched-job,bench-stability) $(MAKE) --no-print-directory bench-stability
 
 # The numerical-stability grid (issue 18; eval/ev_stability.c) on the tiny split -> reports/stability.
 STAB_WORK ?= $(RESULTS)/stability
@@ -256,11 +268,22 @@ bench-geom: $(DATA)/test-3d/.rendered | $(BUILD)/mf
 bench-quick: $(BUILD)/mf
 	$(MAKE) --no-print-directory bench-split BENCH_SPLIT=test-3d SCENE_LIMIT=3 RESULTS=$(RESULTS)/quick \
 	  RECON_CONFIG=baselines/quick.json RECON_EXTRA="--res 64" REPORT=reports/quick
-	$(MAKE) --no-print-directory eval-prior
+	$(call sched-job,eval-prior) $(MAKE) --no-print-directory eval-prior
 
 bench-split: $(DATA)/$(BENCH_SPLIT)/.rendered
+ifeq ($(SCHED),slurm)
+	sh tools/slurm-bench.sh submit --name $(notdir $(REPORT)) --mf $(MF) --data $(DATA)/$(BENCH_SPLIT) --results $(RESULTS)/$(BENCH_SPLIT) \
+	  --report $(REPORT) --scenes "$(SCENES)" $(foreach m,$(BENCH_METHODS),--method "$(m)=$(FLAGS_$(m))") \
+	  --recon-args "--config $(RECON_CONFIG) --resume $(RECON_EXTRA)" --eval-args "$(EVAL_ARGS)"
+else
 	$(MAKE) --no-print-directory bench-runs
 	$(EVAL) --methods $(shell echo $(BENCH_METHODS) | tr ' ' ',') -o $(REPORT)
+endif
+
+# A one-node Slurm on localhost runs the tiny bench; its report must equal a local run's (skipped,
+# exit 0, where the daemons cannot start). CI runs it after make test.
+test-slurm: $(BUILD)/mf
+	sh tests/test_slurm.sh
 
 # Public data sets, when the user points at a local copy (with meshes: geometry recovery is not
 # implemented yet): NERF_SYNTHETIC=/path/nerf_synthetic, NERFACTOR=..., STANFORD_ORB=...
