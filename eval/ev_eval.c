@@ -357,6 +357,8 @@ static int grid_cell(const MfImage *img, int ch, int reinhard, int unpremult, Mf
     return MF_OK;
 }
 
+const char *const ev_grid_col_names[EV_GRID_COLS] = {"relit", "albedo", "roughness", "metallic", "env map"};
+
 int ev_eval_grid_row(const char *scene_dir, const char *result_dir, const EvEvalOpts *o, MfImage cells[EV_GRID_COLS]) {
     memset(cells, 0, EV_GRID_COLS * sizeof *cells);
     DsViews dv;

@@ -85,6 +85,8 @@ void ev_eval_csv_header(FILE *csv);
  * relit view, albedo, roughness, metallic (grey) and the env map (Reinhard-tonemapped), all
  * linear (h, w, 3) ready for ev_grid_png. result_dir NULL gives the ground-truth row. */
 #define EV_GRID_COLS 5
+/* The columns' names, for the grid's labels. */
+extern const char *const ev_grid_col_names[EV_GRID_COLS];
 int ev_eval_grid_row(const char *scene_dir, const char *result_dir, const EvEvalOpts *o, MfImage cells[EV_GRID_COLS]);
 
 #endif
