@@ -32,7 +32,7 @@
 #include "io/mf_image.h"
 #include "scene/mf_mesh.h"
 
-#define MF_GLTF_MAX_ELEMENTS (1 << 26)
+#define MF_GLTF_MAX_ELEMENTS (1 << 24)
 
 typedef struct {
     char name[128];  /* the glTF material's name, or "material_<i>" */
