@@ -3,9 +3,10 @@
  *
  * Mesh: every mesh primitive reached from the default scene's nodes (or, without scenes, from
  * the nodes that are nobody's child), with the node transforms applied, appended into one MfMesh:
- * POSITION, NORMAL (inverse-transpose of the node matrix, renormalised; primitives without
- * normals get area-weighted smooth ones over the whole mesh), TEXCOORD_0 (float, or normalised
- * unsigned byte/short) and indices (unsigned byte/short/int; none = consecutive triangles).
+ * POSITION, NORMAL (inverse-transpose of the node matrix, renormalised; when any primitive has
+ * none, area-weighted smooth normals are computed for the whole mesh), TEXCOORD_0 (float, or
+ * normalised unsigned byte/short; (0, 0) for primitives without it, NULL when no primitive has
+ * it) and indices (unsigned byte/short/int; none = consecutive triangles).
  * Axes: glTF is +Y up, ours +Z up (DESIGN.md), so positions and normals go through
  * (x, y, z) -> (x, -z, y), exactly the inverse of what mf_gltf_write_glb writes. UVs: glTF has v
  * down, ours v up: v = 1 - v_gltf (images unchanged). A node matrix with negative determinant
