@@ -32,7 +32,7 @@ LIB_C    := $(sort $(filter-out mf/cli/%,$(wildcard mf/*/*.c)) $(wildcard eval/*
 LIB_CXX  := $(sort $(wildcard mf/*/*.cpp))
 CLI_C    := $(sort $(wildcard mf/cli/*.c))
 # the fuzz harnesses (tests/fuzz/) are compiled into the test binary too, which replays them
-FUZZ_NAMES := obj scene transforms image ckpt prior opts
+FUZZ_NAMES := obj scene transforms image ckpt prior opts gltf
 FUZZ_C   := $(FUZZ_NAMES:%=tests/fuzz/fuzz_%.c) tests/fuzz/mf_fuzz_util.c
 TEST_C   := $(sort $(wildcard tests/*.c)) $(FUZZ_C)
 

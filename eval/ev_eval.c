@@ -12,16 +12,46 @@
 #include "datasets/ds_load.h"
 #include "eval/ev_metrics.h"
 #include "eval/ev_orb.h"
+#include "io/mf_gltf_read.h"
 #include "io/mf_obj.h"
 #include "render/mf_integrator.h"
 #include "render/mf_rtscene.h"
 
+/* A glTF file as a result: its mesh and its one material's textures, env.exr from its folder. */
+static int result_from_gltf(const char *path, EvResult *out) {
+    EvResult r;
+    memset(&r, 0, sizeof r);
+    MfGltfAsset a;
+    int rc = mf_gltf_read(path, &a);
+    if (rc) return rc;
+    if (a.nmat != 1) rc = mf_fail(MF_EFORMAT, "%s: %d materials; a result has one (albedo and ORM textures)", path, a.nmat);
+    if (!rc) {
+        r.mesh = a.mesh, r.kd = a.mats[0].albedo, r.orm = a.mats[0].orm;
+        memset(&a.mesh, 0, sizeof a.mesh), memset(&a.mats[0].albedo, 0, sizeof(MfImage)), memset(&a.mats[0].orm, 0, sizeof(MfImage));
+    }
+    mf_gltf_asset_free(&a);
+    char p[MF_PATH_MAX];
+    const char *slash = strrchr(path, '/');
+    if (!rc && snprintf(p, sizeof p, "%.*s%senv.exr", slash ? (int)(slash - path) : 0, path, slash ? "/" : "") < (int)sizeof p &&
+        mf_file_exists(p)) {
+        rc = mf_env_load(&r.env, p);
+        r.has_env = !rc;
+    }
+    if (rc) {
+        ev_result_free(&r);
+        return rc;
+    }
+    *out = r;
+    return MF_OK;
+}
+
 int ev_result_load(const char *dir, const char *mesh_path, EvResult *out) {
+    if (mf_is_gltf_path(dir)) return result_from_gltf(dir, out);
     EvResult r;
     memset(&r, 0, sizeof r);
     char p[MF_PATH_MAX];
     int rc = mesh_path ? (snprintf(p, sizeof p, "%s", mesh_path), MF_OK) : mf_path_join(p, sizeof p, dir, "mesh.obj");
-    if (!rc) rc = mf_obj_read(p, &r.mesh);
+    if (!rc) rc = mf_mesh_read(p, &r.mesh);
     if (!rc && !(rc = mf_path_join(p, sizeof p, dir, "albedo.png"))) rc = mf_image_read(p, MF_ENC_SRGB, &r.kd);
     if (!rc && !(rc = mf_path_join(p, sizeof p, dir, "orm.png"))) rc = mf_image_read(p, MF_ENC_LINEAR, &r.orm);
     if (!rc && !(rc = mf_path_join(p, sizeof p, dir, "env.exr")) && mf_file_exists(p)) {
@@ -326,6 +356,8 @@ static int grid_cell(const MfImage *img, int ch, int reinhard, int unpremult, Mf
     }
     return MF_OK;
 }
+
+const char *const ev_grid_col_names[EV_GRID_COLS] = {"relit", "albedo", "roughness", "metallic", "env map"};
 
 int ev_eval_grid_row(const char *scene_dir, const char *result_dir, const EvEvalOpts *o, MfImage cells[EV_GRID_COLS]) {
     memset(cells, 0, EV_GRID_COLS * sizeof *cells);

@@ -43,8 +43,11 @@ typedef struct {
     MfImage normal; /* owned when has_normal; (h, w, 3) tangent-space normal map (normal.png, linear) */
 } EvResult;
 
-/* mesh_path NULL: dir/mesh.obj (a snapshot folder passes its run's mesh). Loads normal.png too
- * when the folder has one (renders then use it as the material's normal map). */
+/* mesh_path NULL: dir/mesh.obj (a snapshot folder passes its run's mesh; an OBJ or a glTF file).
+ * Loads normal.png too when the folder has one (renders then use it as the material's normal map).
+ * dir may also name a .glb/.gltf file (a result's scene.glb, or any asset with one material): mesh,
+ * albedo and ORM come from it (io/mf_gltf_read.h; its normal map is not read), env.exr from the
+ * file's folder when present. */
 int ev_result_load(const char *dir, const char *mesh_path, EvResult *out);
 void ev_result_free(EvResult *r);
 
@@ -82,6 +85,8 @@ void ev_eval_csv_header(FILE *csv);
  * relit view, albedo, roughness, metallic (grey) and the env map (Reinhard-tonemapped), all
  * linear (h, w, 3) ready for ev_grid_png. result_dir NULL gives the ground-truth row. */
 #define EV_GRID_COLS 5
+/* The columns' names, for the grid's labels. */
+extern const char *const ev_grid_col_names[EV_GRID_COLS];
 int ev_eval_grid_row(const char *scene_dir, const char *result_dir, const EvEvalOpts *o, MfImage cells[EV_GRID_COLS]);
 
 #endif

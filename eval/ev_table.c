@@ -65,6 +65,17 @@ EvStat ev_table_stat(const EvTable *t, const char *method, const char *dataset, 
     return s;
 }
 
+int ev_table_find(const EvTable *t, const char *method, const char *dataset, const char *scene, const char *metric, double *out) {
+    for (size_t i = 0; i < t->n; ++i) {
+        const EvRecord *r = &t->rec[i];
+        if (!strcmp(r->method, method) && !strcmp(r->dataset, dataset) && !strcmp(r->scene, scene) && !strcmp(r->metric, metric)) {
+            *out = r->value;
+            return 1;
+        }
+    }
+    return 0;
+}
+
 int ev_table_write_csv(const EvTable *t, const char *path) {
     MfStrBuf b = {0};
     mf_sb_printf(&b, "method,dataset,scene,metric,value\n");

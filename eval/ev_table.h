@@ -37,6 +37,8 @@ int ev_table_add(EvTable *t, const char *method, const char *dataset, const char
 int ev_table_read_csv(EvTable *t, const char *path);
 /* Mean and 95% CI over the records matching (method, dataset, metric); n = 0 when none. */
 EvStat ev_table_stat(const EvTable *t, const char *method, const char *dataset, const char *metric);
+/* The value of one record (method, dataset, scene, metric) into *out; 0 when there is none. */
+int ev_table_find(const EvTable *t, const char *method, const char *dataset, const char *scene, const char *metric, double *out);
 /* 1 when larger values of this metric are better. */
 int ev_metric_higher_better(const char *metric);
 /* Decimals printed for a metric (psnr 2, time/mem 1, others 4). */

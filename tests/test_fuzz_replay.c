@@ -18,10 +18,12 @@ int mf_fuzz_image(const unsigned char *, size_t);
 int mf_fuzz_ckpt(const unsigned char *, size_t);
 int mf_fuzz_prior(const unsigned char *, size_t);
 int mf_fuzz_opts(const unsigned char *, size_t);
+int mf_fuzz_gltf(const unsigned char *, size_t);
 
 static const struct { const char *name; FuzzFn fn; } k_harness[] = {
     {"obj", mf_fuzz_obj},     {"scene", mf_fuzz_scene}, {"transforms", mf_fuzz_transforms}, {"image", mf_fuzz_image},
     {"ckpt", mf_fuzz_ckpt},   {"prior", mf_fuzz_prior}, {"opts", mf_fuzz_opts},
+    {"gltf", mf_fuzz_gltf},
 };
 
 /* Runs fn on every file of dir; returns the number replayed (0 when dir does not exist). */

@@ -3,6 +3,7 @@
  * evaluate both, all through the `mf` command (MF_BIN); check the baseline's relit PSNR against a
  * threshold set from measured runs and against the trivial guesses, and that MaterialFusion's prior
  * term lifts it above the baseline by a stated margin. */
+#include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -10,7 +11,10 @@
 
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
+#include "eval/ev_eval.h"
+#include "eval/ev_report.h"
 #include "eval/ev_table.h"
+#include "io/mf_image.h"
 #include "mf_test.h"
 
 static int sh(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
@@ -43,6 +47,40 @@ MF_TEST(pipeline_tiny_baseline_and_materialfusion) {
     CHECK(sh("%s recon %s -o %s/materialfusion/000_cup --method materialfusion --iters 200 --tex-res 64 --env-w 32 --env-h 16 2>/dev/null",
              mf, scene, res) == 0);
     CHECK(sh("%s eval %s --results %s -o %s --dataset tiny --trivial --no-curves 2>/dev/null", mf, scene, res, rep) == 0);
+    /* the report shows no machine path (everything here lies under the absolute test folder), its
+     * grid has labels in the image (bands left of and above the 5 x 128 px cells), and the
+     * speed-vs-error plot over every scene is there when gnuplot is */
+    char p[1200], *html = NULL;
+    snprintf(p, sizeof p, "%s/index.html", rep);
+    CHECK_OK(mf_read_file(p, &html, NULL));
+    CHECK_MSG(html && !strstr(html, mf_test_tmpdir()), "%s shows an absolute path (%s)", p, mf_test_tmpdir());
+    CHECK(html && strstr(html, "<code>../000_cup</code>")); /* the data folder, relative to the report */
+    free(html);
+    MfImage grid = {0};
+    snprintf(p, sizeof p, "%s/grid_000_cup.png", rep);
+    CHECK_OK(mf_image_read(p, MF_ENC_SRGB, &grid));
+    CHECK_MSG(grid.w > 5 * 128 && grid.h > 2 * 128 && grid.h % 128 != 0, "%s: %dx%d, no label bands", p, grid.w, grid.h);
+    mf_image_free(&grid);
+    snprintf(p, sizeof p, "%s/speed_error_scenes.png", rep);
+    CHECK(!ev_gnuplot_available() || mf_file_exists(p));
+    /* the result's scene.glb reads back as the result: mesh and textures (io/mf_gltf_read.h) */
+    EvResult ra = {0}, rb = {0};
+    snprintf(p, sizeof p, "%s/nvdiffrecmc/000_cup", res);
+    CHECK_OK(ev_result_load(p, NULL, &ra));
+    snprintf(p, sizeof p, "%s/nvdiffrecmc/000_cup/scene.glb", res);
+    CHECK_OK(ev_result_load(p, NULL, &rb));
+    CHECK(ra.mesh.nv == rb.mesh.nv && ra.mesh.nt == rb.mesh.nt && rb.has_env && rb.kd.w == ra.kd.w && rb.orm.h == ra.orm.h);
+    if (ra.mesh.nv == rb.mesh.nv && ra.mesh.nt == rb.mesh.nt && rb.mesh.uv && ra.mesh.uv && rb.kd.w == ra.kd.w && rb.kd.h == ra.kd.h) {
+        int bad = 0;
+        for (int i = 0; i < 3 * ra.mesh.nv; ++i) bad += ra.mesh.pos[i] != rb.mesh.pos[i];
+        for (int i = 0; i < 2 * ra.mesh.nv; ++i) bad += fabsf(ra.mesh.uv[i] - rb.mesh.uv[i]) > 1e-6f;
+        for (int i = 0; i < 3 * ra.mesh.nt; ++i) bad += ra.mesh.tri[i] != rb.mesh.tri[i];
+        for (int i = 0; i < ra.kd.w * ra.kd.h; ++i)
+            for (int k = 0; k < 3; ++k)
+                bad += ra.kd.data[i * ra.kd.c + k] != rb.kd.data[3 * i + k] || (k && ra.orm.data[i * ra.orm.c + k] != rb.orm.data[3 * i + k]);
+        CHECK_MSG(!bad, "scene.glb differs from the result folder in %d values", bad);
+    }
+    ev_result_free(&ra), ev_result_free(&rb);
     /* provenance: every scored run with its exact command */
     CHECK(sh("grep -q '| materialfusion | 000_cup | .*--method materialfusion' %s/runs.md", rep) == 0);
     snprintf(csv, sizeof csv, "%s/scenes.csv", rep);

@@ -302,7 +302,7 @@ static int eval_run(int argc, char **argv, const char *data, const EvalArgs *a, 
     };
     MfStrBuf page = {0};
     mf_sb_printf(&page, "<p>Data: <code>");
-    mf_sb_html(&page, data);
+    { char rel[MF_PATH_MAX]; ev_report_relpath(out, data, rel, sizeof rel); mf_sb_html(&page, rel); } /* no machine paths */
     mf_sb_printf(&page, "</code>; %d scene(s), %d method(s), %d evaluated runs, %d excluded view scores.</p>\n", nsc, nm,
                  evaluated, excluded);
     mf_sb_printf(&page, "<p>Protocol: relit RGB and albedo aligned per channel inside the GT mask (%s), then sRGB, "
@@ -336,24 +336,29 @@ static int eval_run(int argc, char **argv, const char *data, const EvalArgs *a, 
         if ((rc = ev_plot_png(p, "Relit PSNR vs wall time (first scene)", "wall time [s]", "relit PSNR [dB]", series, nm, 0)) == MF_OK)
             mf_sb_printf(&curves_html, "<h2>Speed vs error</h2><img src=\"speed_error.png\">\n");
     }
+    if (!rc && ev_gnuplot_available()) rc = ev_report_speed_error(out, &t, mptr, nm, dataset, &curves_html);
     /* image grids: ground truth and each method, first test view, first novel light */
     MfStrBuf grids = {0};
     for (int sc = 0; sc < nsc && sc < 6 && !rc; ++sc) {
         enum { MAXR = 9 };
         MfImage cells[MAXR][EV_GRID_COLS];
         const MfImage *ptr[MAXR * EV_GRID_COLS];
-        char labels[1024] = "ground truth";
+        char labels[1024] = "ground truth", psnr[MAXR][32];
+        const char *rlab[MAXR], *ctext[MAXR * EV_GRID_COLS] = {0};
         int rows = 0;
         char sd[MF_PATH_MAX];
         if (mf_path_join(sd, sizeof sd, scene_root, scenes[sc])) break;
-        if (ev_eval_grid_row(sd, NULL, &o, cells[rows]) == MF_OK) ++rows;
+        if (ev_eval_grid_row(sd, NULL, &o, cells[rows]) == MF_OK) rlab[rows++] = "ground truth";
         for (int m = 0; m < nm && rows < MAXR; ++m) {
             char md[MF_PATH_MAX], rd[MF_PATH_MAX];
             if (mf_path_join(md, sizeof md, results, methods[m]) || mf_path_join(rd, sizeof rd, md, scenes[sc]) || !mf_file_exists(rd)) continue;
             if (ev_eval_grid_row(sd, rd, &o, cells[rows]) != MF_OK) continue;
             size_t l = strlen(labels);
             snprintf(labels + l, sizeof labels - l, ", %.63s", methods[m]);
-            ++rows;
+            double v;
+            if (ev_table_find(&t, mptr[m], dataset, scenes[sc], "relit_psnr", &v))
+                snprintf(psnr[rows], sizeof psnr[rows], "%.2f dB", v), ctext[rows * EV_GRID_COLS] = psnr[rows];
+            rlab[rows++] = methods[m];
         }
         if (rows < 2) {
             for (int r = 0; r < rows; ++r)
@@ -365,14 +370,14 @@ static int eval_run(int argc, char **argv, const char *data, const EvalArgs *a, 
         char name[128];
         snprintf(name, sizeof name, "grid_%.60s.png", scenes[sc]);
         snprintf(p, sizeof p, "%s/%s", out, name);
-        rc = ev_grid_png(p, ptr, rows, EV_GRID_COLS, 128, 128, 1);
+        rc = ev_grid_png_labelled(p, ptr, rows, EV_GRID_COLS, 128, 128, 1, &(EvGridLabels){scenes[sc], ev_grid_col_names, rlab, ctext});
         for (int r = 0; r < rows; ++r)
             for (int k = 0; k < EV_GRID_COLS; ++k) mf_image_free(&cells[r][k]);
         if (!rc) {
             mf_sb_printf(&grids, "<h3>%s</h3><p>Rows: ", scenes[sc]);
             mf_sb_html(&grids, labels);
             mf_sb_printf(&grids, ". Columns: relit view (first test view, first novel light), albedo, roughness, "
-                                 "metallic, env map (tonemapped x/(1+x)).</p><img src=\"%s\">\n", name);
+                                 "metallic, env map (tonemapped x/(1+x)); in a method's relit cell, its relit PSNR on this scene.</p><img src=\"%s\">\n", name);
         }
     }
     if (!rc) {

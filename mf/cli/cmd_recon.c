@@ -16,7 +16,7 @@
 #include "fusion/mf_sds.h"
 #include "fusion/mf_sds_opts.h"
 #include "inverse/mf_recon_opts.h"
-#include "io/mf_obj.h"
+#include "io/mf_gltf_read.h"
 
 /* The command's own options (the reconstruction's and the prior term's are in their tables:
  * mf/inverse/mf_recon_opts.c, mf/fusion/mf_sds_opts.c). */
@@ -29,7 +29,7 @@ typedef struct {
 static const MfOpt k_args[] = {
     MF_OPT_STR(A, out, NULL, "result folder (required)", .alias = "-o", .meta = "DIR"),
     MF_OPT_STR(A, method, "nvdiffrecmc", "method", .choices = "nvdiffrecmc|materialfusion"),
-    MF_OPT_STR(A, mesh, NULL, "mesh with UVs", .unset = "DATASET_DIR/mesh.obj", .meta = "OBJ"),
+    MF_OPT_STR(A, mesh, NULL, "mesh with UVs (OBJ, or glTF .glb/.gltf: its mesh, +Z up)", .unset = "DATASET_DIR/mesh.obj", .meta = "OBJ"),
     MF_OPT_STR(A, split, "train", "which views to train on"),
     MF_OPT_STR(A, mask, NULL, "masks for frames without alpha (JPEG, RGB): DIR/<frame name>.png, first channel; a relative DIR is inside DATASET_DIR",
                .unset = "the images' alpha; RGB frames: alpha 1 with a warning", .meta = "DIR"),
@@ -116,7 +116,7 @@ static int cmd_recon_run(int argc, char **argv, const MfOptParse *p, ReconArgs *
         mesh_path = mp;
     }
     MfMesh mesh;
-    if (mf_obj_read(mesh_path, &mesh)) {
+    if (mf_mesh_read(mesh_path, &mesh)) {
         ds_views_free(&dv);
         mf_fail_prefix(MF_EIO, "mesh (supply one with --mesh; geometry recovery is not implemented yet)");
         return MF_EXIT_FAIL;

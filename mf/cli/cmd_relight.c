@@ -37,7 +37,8 @@ static char usage[8192];
 static const char k_usage_head[] =
     "usage: mf relight RESULT_DIR --env MAP.exr --cameras transforms.json -o OUT_DIR\n"
     "                  [--spp N] [--pixel-samples P] [--width W] [--seed S] [--png]\n"
-    "Renders RESULT_DIR (mesh.obj, albedo.png, orm.png, and normal.png when present) under MAP\n"
+    "Renders RESULT_DIR (mesh.obj, albedo.png, orm.png, and normal.png when present; or a .glb/.gltf\n"
+    "file such as RESULT_DIR/scene.glb: its mesh and one PBR material) under MAP\n"
     "(linear lat-long, Blender mapping) for every frame of the NeRF-synthetic transforms.json:\n"
     "OUT_DIR/<frame>.exr (multi-layer, as mf render) and with --png an sRGB PNG.\n";
 

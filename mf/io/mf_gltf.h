@@ -6,10 +6,10 @@
  * (float VEC2), indices (uint32 SCALAR), then the PNG images. Units: the mesh's world units
  * (glTF says metres). Axes: our world is +Z up (DESIGN.md), glTF's is +Y up (and +Z forward), so
  * positions, normals and tangents are written rotated by -90 degrees about +X:
- * (x, y, z) -> (x, z, -y); a reader going back to our axes applies (x, y, z) -> (x, -z, y). A
- * rotation keeps triangle winding and tangent handedness (w), so both are written unchanged, and
- * the object stands upright in every viewer and in Blender's importer (which turns +Y up back
- * into Blender's +Z up).
+ * (x, y, z) -> (x, z, -y); a reader going back to our axes applies (x, y, z) -> (x, -z, y), as
+ * io/mf_gltf_read.h does. A rotation keeps triangle winding and tangent handedness (w), so both
+ * are written unchanged, and the object stands upright in every viewer and in Blender's importer
+ * (which turns +Y up back into Blender's +Z up).
  *
  * Conventions: glTF texture coordinates have v down (origin at the top-left of the image), so
  * TEXCOORD_0 = (u, 1 - v) of our OBJ-style UVs. baseColorTexture must be an sRGB PNG (our

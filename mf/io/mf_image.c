@@ -58,14 +58,9 @@ int mf_image_check_decode(const char *path, long long w, long long h, long long 
     return MF_OK;
 }
 
-int mf_image_read(const char *path, MfEncoding enc, MfImage *out) {
-    int w, h, c, is_int, ach;
-    float *data = NULL;
-    char err[512];
-    unsigned long long fsize = 0;
-    int rc = mf_input_file(path, &fsize);
-    if (rc) return rc;
-    rc = mf_oiio_read(path, mf_image_decode_limit(fsize), &w, &h, &c, &is_int, &ach, &data, err, sizeof err);
+/* The checks and conversions after a decode (mf_oiio_read*: rc, err, the pixels). */
+static int finish_read(const char *path, int rc, const char *err, unsigned long long fsize, int w, int h, int c, int is_int,
+                       int ach, float *data, MfEncoding enc, MfImage *out) {
     if (rc == -2) return mf_fail(MF_EFORMAT, "%s: %s (file of %llu bytes)", path, err, fsize);
     if (rc != 0) return mf_fail(MF_EFORMAT, "%s: cannot read image: %s", path, err);
     size_t npx = (size_t)w * h;
@@ -85,6 +80,26 @@ int mf_image_read(const char *path, MfEncoding enc, MfImage *out) {
     out->c = c;
     out->data = data;
     return MF_OK;
+}
+
+int mf_image_read(const char *path, MfEncoding enc, MfImage *out) {
+    int w = 0, h = 0, c = 0, is_int = 0, ach = -1;
+    float *data = NULL;
+    char err[512] = "";
+    unsigned long long fsize = 0;
+    int rc = mf_input_file(path, &fsize);
+    if (rc) return rc;
+    rc = mf_oiio_read(path, mf_image_decode_limit(fsize), &w, &h, &c, &is_int, &ach, &data, err, sizeof err);
+    return finish_read(path, rc, err, fsize, w, h, c, is_int, ach, data, enc, out);
+}
+
+int mf_image_decode(const char *name, const void *bytes, size_t len, const char *ext, MfEncoding enc, MfImage *out) {
+    int w = 0, h = 0, c = 0, is_int = 0, ach = -1;
+    float *data = NULL;
+    char err[512] = "";
+    if (!bytes || !len) return mf_fail(MF_EFORMAT, "%s: empty image", name);
+    int rc = mf_oiio_read_mem(bytes, len, ext, mf_image_decode_limit(len), &w, &h, &c, &is_int, &ach, &data, err, sizeof err);
+    return finish_read(name, rc, err, len, w, h, c, is_int, ach, data, enc, out);
 }
 
 int mf_image_write(const char *path, const MfImage *img, MfEncoding enc, int bits) {

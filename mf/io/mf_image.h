@@ -33,6 +33,10 @@ float mf_linear_to_srgb(float l);
  * is refused by name; so is a header whose size asks for more decoded bytes than the file can
  * hold (mf_image_decode_limit), before anything is allocated. */
 int mf_image_read(const char *path, MfEncoding enc, MfImage *out);
+/* The same for an encoded PNG or JPEG held in memory (an image embedded in a glTF file): ext
+ * ("png" or "jpg") picks the decoder, name (the file and the place in it) is used in messages;
+ * the decode limit is mf_image_decode_limit(len). */
+int mf_image_decode(const char *name, const void *bytes, size_t len, const char *ext, MfEncoding enc, MfImage *out);
 /* Most bytes of decoded float32 pixels a reader allocates for an image file of file_bytes bytes:
  * max(64 MiB, 8192 x file_bytes), and never more than MF_IMAGE_MAX_PIXELS pixels. No lossless
  * coding in our formats expands further (deflate, as PNG and EXR ZIP use it, stops near 1032:1,

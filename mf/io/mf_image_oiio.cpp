@@ -1,6 +1,7 @@
 // C++ shim over OpenImageIO for mf_image.c (see mf_image_oiio.h).
 #include "mf_image_oiio.h"
 
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
 #include <cstdio>
@@ -14,11 +15,9 @@ static void set_err(char *err, size_t cap, const std::string &msg) {
     std::snprintf(err, cap, "%s", msg.empty() ? "unknown OpenImageIO error" : msg.c_str());
 }
 
-extern "C" int mf_oiio_read(const char *path, unsigned long long max_bytes, int *w, int *h, int *c, int *is_int,
-                            int *alpha_channel, float **data, char *err, size_t errcap) {
-    ImageSpec config;
-    config.attribute("oiio:UnassociatedAlpha", 1);
-    auto in = ImageInput::open(path, &config);
+/* Reads subimage 0 of an open input (see mf_oiio_read). */
+static int read_open(ImageInput *in, unsigned long long max_bytes, int *w, int *h, int *c, int *is_int, int *alpha_channel,
+                     float **data, char *err, size_t errcap) {
     if (!in) {
         set_err(err, errcap, OIIO::geterror());
         return -1;
@@ -63,6 +62,30 @@ extern "C" int mf_oiio_read(const char *path, unsigned long long max_bytes, int 
     *alpha_channel = spec.alpha_channel;
     *data = buf;
     return 0;
+}
+
+extern "C" int mf_oiio_read(const char *path, unsigned long long max_bytes, int *w, int *h, int *c, int *is_int,
+                            int *alpha_channel, float **data, char *err, size_t errcap) {
+    ImageSpec config;
+    config.attribute("oiio:UnassociatedAlpha", 1);
+    auto in = ImageInput::open(path, &config);
+    return read_open(in.get(), max_bytes, w, h, c, is_int, alpha_channel, data, err, errcap);
+}
+
+extern "C" int mf_oiio_read_mem(const void *bytes, size_t len, const char *ext, unsigned long long max_bytes, int *w, int *h,
+                                int *c, int *is_int, int *alpha_channel, float **data, char *err, size_t errcap) {
+    ImageSpec config;
+    config.attribute("oiio:UnassociatedAlpha", 1);
+    Filesystem::IOMemReader mem(bytes, len);
+    /* a reader for the format (by extension), opened on the bytes in mem */
+    auto in = ImageInput::create(ext);
+    ImageSpec spec;
+    if (!in || !in->supports("ioproxy") || !in->set_ioproxy(&mem) || !in->open(std::string("memory.") + ext, spec, config)) {
+        std::string e = in ? in->geterror() : OIIO::geterror();
+        set_err(err, errcap, e.empty() ? std::string("cannot decode the image bytes") : e);
+        return -1;
+    }
+    return read_open(in.get(), max_bytes, w, h, c, is_int, alpha_channel, data, err, errcap);
 }
 
 extern "C" int mf_oiio_write(const char *path, int w, int h, int c, const float *data, int bits, char *err,

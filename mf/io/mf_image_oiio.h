@@ -16,6 +16,9 @@ extern "C" {
  * max_bytes or 2^28 pixels; -1 with err filled on any other failure. */
 int mf_oiio_read(const char *path, unsigned long long max_bytes, int *w, int *h, int *c, int *is_int, int *alpha_channel,
                  float **data, char *err, size_t errcap);
+/* The same from an encoded file held in memory (bytes, len); ext ("png", "jpg") picks the reader. */
+int mf_oiio_read_mem(const void *bytes, size_t len, const char *ext, unsigned long long max_bytes, int *w, int *h, int *c,
+                     int *is_int, int *alpha_channel, float **data, char *err, size_t errcap);
 /* Writes (h, w, c) floats; bits: 8 or 16 (integer formats), 16 (half) or 32 (float) for EXR/HDR.
  * Returns 0, or -1 with err filled. */
 int mf_oiio_write(const char *path, int w, int h, int c, const float *data, int bits, char *err, size_t errcap);

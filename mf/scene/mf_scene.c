@@ -9,6 +9,7 @@
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "io/mf_json.h"
+#include "io/mf_gltf_read.h"
 #include "io/mf_obj.h"
 #include "io/mf_opts.h"
 
@@ -43,6 +44,8 @@ typedef struct {
     int cap_images;
 } Ctx;
 
+static int push_image(Ctx *c, MfImage img, const MfImage **out);
+
 static int add_image(Ctx *c, const char *rel, MfEncoding enc, const char *where, const MfImage **out) {
     char p[MF_PATH_MAX];
     int rc = resolve(c->file, rel, p, sizeof p);
@@ -60,6 +63,11 @@ static int add_image(Ctx *c, const char *rel, MfEncoding enc, const char *where,
         mf_image_free(&img);
         img = o;
     }
+    return push_image(c, img, out);
+}
+
+/* Moves img into the scene's images; *out receives its index + 1 (see add_image). */
+static int push_image(Ctx *c, MfImage img, const MfImage **out) {
     MfScene *s = c->s;
     if (s->nimages == c->cap_images) {
         int cap = c->cap_images ? 2 * c->cap_images : 8;
@@ -299,7 +307,21 @@ static int parse_size(Ctx *c, const cJSON *root) {
     return MF_OK;
 }
 
-static int parse_materials(Ctx *c, const cJSON *root) {
+/* The materials of a glTF mesh (gltf: its asset, images moved into the scene), used when the scene
+ * file names none. */
+static int gltf_materials(Ctx *c, MfGltfAsset *gltf) {
+    MfScene *s = c->s;
+    for (int i = 0; i < s->nmat && i < gltf->nmat; ++i) {
+        int rc = push_image(c, gltf->mats[i].albedo, &s->mats[i].kd);
+        memset(&gltf->mats[i].albedo, 0, sizeof(MfImage));
+        if (!rc) rc = push_image(c, gltf->mats[i].orm, &s->mats[i].orm);
+        memset(&gltf->mats[i].orm, 0, sizeof(MfImage));
+        if (rc) return rc;
+    }
+    return MF_OK;
+}
+
+static int parse_materials(Ctx *c, const cJSON *root, MfGltfAsset *gltf) {
     MfScene *s = c->s;
     s->nmat = s->mesh.nmat > 0 ? s->mesh.nmat : 1;
     s->mats = calloc((size_t)s->nmat, sizeof *s->mats);
@@ -307,6 +329,7 @@ static int parse_materials(Ctx *c, const cJSON *root) {
     MfSceneMaterial dflt = {NULL, NULL, mf_v3s(0.8f), mf_v3(0.0f, 0.5f, 0.0f)};
     const cJSON *m = cJSON_GetObjectItemCaseSensitive(root, "material");
     int rc;
+    if (gltf && (!m || cJSON_IsNull(m)) && !cJSON_GetObjectItemCaseSensitive(root, "materials")) return gltf_materials(c, gltf);
     if (m && !cJSON_IsNull(m) && (rc = parse_material(c, "material", m, &dflt))) return rc;
     for (int i = 0; i < s->nmat; ++i) s->mats[i] = dflt;
     const cJSON *mm = cJSON_GetObjectItemCaseSensitive(root, "materials");
@@ -335,6 +358,8 @@ int mf_scene_load(const char *path, MfScene *out) {
     if (!s.path) rc = mf_fail(MF_ENOMEM, "out of memory");
     if (!rc && !cJSON_IsObject(root)) rc = mf_fail(MF_EFORMAT, "%s: expected a JSON object at the top level", path);
     const char *mesh_rel = NULL;
+    MfGltfAsset gltf = {0};
+    int is_gltf = 0;
     if (!rc) rc = mf_json_string(path, "", root, "mesh", &mesh_rel);
     if (!rc) rc = parse_size(&c, root);
     if (!rc) rc = parse_render(&c, root);
@@ -343,10 +368,16 @@ int mf_scene_load(const char *path, MfScene *out) {
     if (!rc) {
         char p[MF_PATH_MAX];
         rc = resolve(path, mesh_rel, p, sizeof p);
-        if (!rc && (rc = mf_obj_read(p, &s.mesh))) rc = mf_fail_prefix(rc, "%s: mesh", path);
+        if (!rc && mf_is_gltf_path(p)) {
+            if ((rc = mf_gltf_read(p, &gltf))) rc = mf_fail_prefix(rc, "%s: mesh", path);
+            else s.mesh = gltf.mesh, memset(&gltf.mesh, 0, sizeof gltf.mesh), is_gltf = 1;
+        } else if (!rc && (rc = mf_obj_read(p, &s.mesh))) {
+            rc = mf_fail_prefix(rc, "%s: mesh", path);
+        }
         if (!rc && s.mesh.nt == 0) rc = mf_fail(MF_EFORMAT, "%s: mesh: %s has no triangles", path, p);
     }
-    if (!rc) rc = parse_materials(&c, root);
+    if (!rc) rc = parse_materials(&c, root, is_gltf ? &gltf : NULL);
+    mf_gltf_asset_free(&gltf);
     if (!rc) rc = parse_env(&c, cJSON_GetObjectItemCaseSensitive(root, "env"));
     cJSON_Delete(root);
     if (rc) {

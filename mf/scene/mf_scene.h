@@ -2,7 +2,10 @@
  *
  * Format (all paths relative to the JSON file's folder unless absolute; units as DESIGN.md):
  * {
- *   "mesh": "mesh.obj",                        required; OBJ (v/vt/vn, usemtl), world space
+ *   "mesh": "mesh.obj",                        required; OBJ (v/vt/vn, usemtl), world space, or
+ *                                              glTF 2.0 (.glb/.gltf, io/mf_gltf_read.h: turned to
+ *                                              +Z up; its PBR materials are used when the file
+ *                                              gives neither "material" nor "materials")
  *   "material": {                              optional default material for every triangle
  *     "kd":  "kd.png" | [r, g, b],             base colour: PNG/JPEG read as sRGB and decoded to
  *                                              linear (EXR/HDR taken as linear), or linear

@@ -10,7 +10,9 @@
 #include "core/mf_fs.h"
 #include "mf_fuzz.h"
 #include "nn/mf_nn_ckpt.h"
+#include "io/mf_gltf.h"
 #include "prior/mf_prior.h"
+#include "scene/mf_mesh.h"
 
 static const char *g_out;
 
@@ -98,6 +100,39 @@ static int seeds_binary(void) {
     return rc | put_file("prior", "tiny", -1, pp);
 }
 
+/* glTF: our writer's .glb with and without textures (a small UV sphere), and .gltf text with a
+ * base64 buffer, a node hierarchy (TRS, matrix, a mirror), indices and an external image file. */
+static int seeds_gltf(void) {
+    MfMesh m = {0};
+    if (mf_mesh_uv_sphere(&m, 4, 3, mf_v3(0, 0, 0), 0.5f)) return -1;
+    MfGltfMaterial mat = mf_gltf_material_default();
+    mat.albedo_png = mat.orm_png = mf_fuzz_path("fix/rgba.png");
+    const char *a = mf_fuzz_path("seed_tex.glb"), *b = mf_fuzz_path("seed_plain.glb");
+    int rc = mf_gltf_write_glb(a, &m, &mat) || mf_gltf_write_glb(b, &m, NULL);
+    mf_mesh_free(&m);
+    if (rc) return fprintf(stderr, "fuzz_seeds: glb: %s\n", mf_error()), -1;
+    rc = put_file("gltf", "textured.glb", -1, a) | put_file("gltf", "plain.glb", -1, b);
+    /* one triangle: positions (0,0,0) (1,0,0) (0,1,0), normals +Z, UVs, uint16 indices 0 1 2 (+ pad) */
+    rc |= put_text("gltf", "nodes.gltf",
+                   "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0,2]}],"
+                   "\"nodes\":[{\"translation\":[1,2,3],\"rotation\":[0,0.7071068,0,0.7071068],\"scale\":[2,2,2],\"children\":[1]},"
+                   "{\"mesh\":0,\"matrix\":[1,0,0,0,0,1,0,0,0,0,1,0,0,0,5,1]},{\"mesh\":0,\"scale\":[-1,1,1]}],"
+                   "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"NORMAL\":1,\"TEXCOORD_0\":2},\"indices\":3,\"material\":0}]}],"
+                   "\"materials\":[{\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0},\"baseColorFactor\":[1,0.5,0.5,1],"
+                   "\"metallicRoughnessTexture\":{\"index\":0},\"metallicFactor\":0.5,\"roughnessFactor\":0.5},"
+                   "\"occlusionTexture\":{\"index\":0,\"strength\":0.5}}],"
+                   "\"textures\":[{\"source\":0}],\"images\":[{\"uri\":\"fix/rgba.png\"}],"
+                   "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"},"
+                   "{\"bufferView\":0,\"byteOffset\":36,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"},"
+                   "{\"bufferView\":0,\"byteOffset\":72,\"componentType\":5126,\"count\":3,\"type\":\"VEC2\"},"
+                   "{\"bufferView\":1,\"componentType\":5123,\"count\":3,\"type\":\"SCALAR\"}],"
+                   "\"bufferViews\":[{\"buffer\":0,\"byteLength\":96},{\"buffer\":0,\"byteOffset\":96,\"byteLength\":8}],"
+                   "\"buffers\":[{\"byteLength\":104,\"uri\":\"data:application/octet-stream;base64,"
+                   "AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAAAAAAAAAAAAAIA/AAAAAAAAAAAAAIA/AAAAAAAAAAAAAIA/"
+                   "AAAAAAAAAAAAAIA/AAAAAAAAAAAAAIA/AAABAAIAAAA=\"}]}");
+    return rc;
+}
+
 int main(int argc, char **argv) {
     if (argc != 2) {
         fprintf(stderr, "usage: fuzz_seeds OUT\n");
@@ -105,5 +140,5 @@ int main(int argc, char **argv) {
     }
     g_out = argv[1];
     if (!mf_fuzz_dir()[0]) return 1;
-    return (seeds_text() || seeds_binary()) ? 1 : 0;
+    return (seeds_text() || seeds_binary() || seeds_gltf()) ? 1 : 0;
 }
