@@ -15,12 +15,10 @@ int mf_prior_predict_mean(MfPrior *p, const MfImage *rgb_in, int nv, int V, int 
     float *zmat = malloc((size_t)B * 2 * zsz * sizeof(float)), *zk = malloc((size_t)B * zsz * sizeof(float));
     float *dec = malloc((size_t)B * isz * sizeof(float)), *mean = malloc((size_t)nv * isz * sizeof(float));
     float *one = malloc(isz * sizeof(float)); /* (3, R, R) one prepared view */
-    float *slot0 = rgb; /* BUG kept for the byte-identical move: prepared into item 0's slot */
     if (!rgb || !mask || !zmat || !zk || !dec || !mean || !one) rc = mf_fail(MF_ENOMEM, "mf_prior_predict_mean: out of memory");
     /* item b: joint -> (object o, sample k, view v) with b = (o * S + k) * V + v; else b = j * S + k */
     for (int j = 0; j < nv && !rc; ++j) {
-        mf_prior_prepare_image(rgb_in[j].data, rgb_in[j].w, rgb_in[j].h, R, slot0, mask + j * hw);
-        memcpy(one, slot0, isz * sizeof(float));
+        mf_prior_prepare_image(rgb_in[j].data, rgb_in[j].w, rgb_in[j].h, R, one, mask + j * hw);
         for (int k = 0; k < S; ++k) {
             int b = joint ? ((j / V) * S + k) * V + j % V : j * S + k;
             memcpy(rgb + (size_t)b * isz, one, isz * sizeof(float));
