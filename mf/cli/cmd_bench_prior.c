@@ -22,13 +22,35 @@
 #include "nn/mf_nn.h"
 #include "prior/mf_prior.h"
 
-#define USAGE_BENCH_PRIOR \
-    "usage: mf bench-prior [-o out.md] [--weights CKPT] [--batch B] [--reps R] [--gemm N]\n" \
-    "  Training samples/s (denoiser and autoencoder steps at batch B, default 16), the network's GEMM\n" \
-    "  GFLOP/s against OpenBLAS sgemm (N^3, default 1024) in the same process, the latency of one\n" \
-    "  guided denoising step at batch 4 (single-view and multi-view) and the peak memory; best of R\n" \
-    "  rounds (default 5). Uses the committed weights when present (else a freshly initialised model\n" \
-    "  of the default configuration: speed does not depend on the weights). Markdown to -o.\n"
+typedef struct {
+    const char *out, *weights;
+    int batch, reps, gemm;
+} BenchPriorArgs;
+
+#define A BenchPriorArgs
+static const MfOpt k_args[] = {
+    MF_OPT_STR(A, out, NULL, "markdown report", .alias = "-o", .meta = "FILE.md", .unset = "none"),
+    MF_OPT_STR(A, weights, NULL, "prior weights (.mfck or its folder)", .meta = "CKPT",
+               .unset = "the committed weights, else a fresh model"),
+    MF_OPT_INT(A, batch, 16, 1, 4096, "training batch B"),
+    MF_OPT_INT(A, reps, 5, 1, 1000000, "rounds (best of)"),
+    MF_OPT_INT(A, gemm, 1024, 64, 16384, "sgemm size N (N^3)"),
+};
+#undef A
+static const MfOptTable k_args_table = MF_OPT_TABLE("Options", k_args);
+
+static char usage[4096];
+__attribute__((constructor)) static void bench_prior_usage(void) {
+    const MfOptTable *t[] = {&k_args_table};
+    mf_opts_usage_text(usage, sizeof usage,
+                       "usage: mf bench-prior [-o out.md] [--weights CKPT] [--batch B] [--reps R] [--gemm N]\n"
+                       "  Training samples/s (denoiser and autoencoder steps at batch B), the network's GEMM GFLOP/s\n"
+                       "  against OpenBLAS sgemm (N^3) in the same process, the latency of one guided denoising step\n"
+                       "  at batch 4 (single-view and multi-view) and the peak memory; best of R rounds. Uses the\n"
+                       "  committed weights when present (else a freshly initialised model of the default\n"
+                       "  configuration: speed does not depend on the weights). Markdown to -o.\n",
+                       t, 1, NULL);
+}
 
 static void fill(float *x, size_t n, uint64_t seed, float s) {
     MfRng r;
@@ -36,24 +58,25 @@ static void fill(float *x, size_t n, uint64_t seed, float s) {
     for (size_t i = 0; i < n; ++i) x[i] = s * mf_rng_normal(&r);
 }
 
+static int bench_prior_run(const BenchPriorArgs *ap);
+
+/* Parses the options (string values may live in the --config JSON: p is freed after the run). */
 static int cmd_bench_prior(int argc, char **argv) {
-    const char *out = NULL, *weights = NULL;
-    int B = 16, reps = 5, N = 1024;
-    for (int i = 1; i < argc; ++i) {
-        int r;
-        if ((r = mf_opt_str(argc, argv, &i, "-o", &out)) || (r = mf_opt_str(argc, argv, &i, "--weights", &weights)) ||
-            (r = mf_opt_int(argc, argv, &i, "--batch", &B)) || (r = mf_opt_int(argc, argv, &i, "--reps", &reps)) ||
-            (r = mf_opt_int(argc, argv, &i, "--gemm", &N))) {
-            if (r < 0) return MF_EXIT_USAGE;
-            continue;
-        }
-        mf_fail(MF_EARG, "bench-prior: unknown argument '%s'", argv[i]);
-        return MF_EXIT_USAGE;
-    }
-    if (B < 1 || reps < 1 || N < 64) {
-        mf_fail(MF_EARG, "bench-prior: need --batch >= 1, --reps >= 1, --gemm >= 64");
-        return MF_EXIT_USAGE;
-    }
+    BenchPriorArgs a;
+    mf_opts_defaults(&k_args_table, &a);
+    MfOptBind bind = {&k_args_table, &a};
+    MfOptParse p;
+    int rc = mf_cli_parse(&bind, 1, argc, argv, 0, &p);
+    if (rc >= 0) return rc;
+    rc = bench_prior_run(&a);
+    mf_opts_parse_free(&p);
+    return rc;
+}
+
+static int bench_prior_run(const BenchPriorArgs *ap) {
+    BenchPriorArgs a = *ap;
+    const char *out = a.out, *weights = a.weights;
+    int B = a.batch, reps = a.reps, N = a.gemm;
     MfPrior *p = NULL;
     const char *source = "committed weights";
     if (mf_prior_load_path(weights, &p)) {
@@ -188,4 +211,4 @@ out:
 }
 
 MF_COMMAND(bench_prior, "bench-prior", "prior speed: training samples/s, GFLOP/s vs sgemm, guided step latency",
-           USAGE_BENCH_PRIOR, cmd_bench_prior)
+           usage, cmd_bench_prior)

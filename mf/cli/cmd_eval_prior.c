@@ -13,15 +13,42 @@
 #include "eval/ev_prior2d.h"
 #include "prior/mf_prior.h"
 
-#define USAGE_EVAL_PRIOR \
-    "usage: mf eval-prior TEST2D_DIR -o OUT_DIR [--weights CKPT] [--train DIR] [--samples N] [--steps S]\n" \
-    "                     [--guidance G] [--seed S] [--max-objects K] [--retinex-sigma PX] [--no-mv]\n" \
-    "  2D evaluation of the prior (paper Table 3) on a test-2d split (prior-train layout, views of an\n" \
-    "  object consecutive, manifest \"views_per_object\"). StableMaterial = each view alone, mean of N\n" \
-    "  samples (default 10) of S DDIM steps (default 50), guidance G (default 3); StableMaterialMV = the\n" \
-    "  views of each object jointly. Baselines: input image as albedo, Retinex (rgb / Gaussian-blurred\n" \
-    "  luminance, sigma default R/8 px), mean roughness/metallic of the --train split (default\n" \
-    "  data/prior-train; its complete samples). Writes OUT_DIR/table2d.{md,csv,json} and examples2d.png.\n"
+typedef struct {
+    const char *dir, *out, *weights, *train;
+    int samples, steps, seed, max_objects, no_mv;
+    float guidance, retinex_sigma;
+} EvalPriorArgs;
+
+#define A EvalPriorArgs
+static const MfOpt k_args[] = {
+    MF_OPT_STR(A, out, NULL, "output folder (required)", .alias = "-o", .meta = "OUT_DIR"),
+    MF_OPT_STR(A, weights, NULL, "prior weights, a .mfck file or its folder", .meta = "CKPT",
+               .unset = "$MF_PRIOR_WEIGHTS, else mf/prior/weights/prior.mfck"),
+    MF_OPT_STR(A, train, "data/prior-train", "training split for the mean-ORM baseline (its complete samples)", .meta = "DIR"),
+    MF_OPT_INT(A, samples, 10, 1, 10000, "samples averaged per prediction"),
+    MF_OPT_INT(A, steps, 50, 1, MF_DIFF_T, "DDIM steps per sample"),
+    MF_OPT_FLOAT(A, guidance, MF_PRIOR_GUIDANCE, 0, 100, "classifier-free guidance"),
+    MF_OPT_INT(A, seed, 0, 0, 2147483647, "random seed (object o uses seed + o)"),
+    MF_OPT_INT(A, max_objects, 0, 0, 1000000, "score only the first K objects (0: all)"),
+    MF_OPT_FLOAT(A, retinex_sigma, 0, 0.01, 10000, "Retinex blur (std, pixels)", .meta = "PX", .unset = "R/8"),
+    MF_OPT_BOOL(A, no_mv, 0, "skip StableMaterialMV (the multi-view pass)"),
+};
+#undef A
+static const MfOptTable k_args_table = MF_OPT_TABLE("Options", k_args);
+
+static char usage[8192];
+__attribute__((constructor)) static void eval_prior_usage(void) {
+    const MfOptTable *t[] = {&k_args_table};
+    mf_opts_usage_text(usage, sizeof usage,
+                       "usage: mf eval-prior TEST2D_DIR -o OUT_DIR [--weights CKPT] [--train DIR] [--samples N] [--steps S]\n"
+                       "                     [--guidance G] [--seed S] [--max-objects K] [--retinex-sigma PX] [--no-mv]\n"
+                       "  2D evaluation of the prior (paper Table 3) on a test-2d split (prior-train layout, views of an\n"
+                       "  object consecutive, manifest \"views_per_object\"). StableMaterial = each view alone, mean of N\n"
+                       "  samples of S DDIM steps with guidance G; StableMaterialMV = the views of each object jointly.\n"
+                       "  Baselines: input image as albedo, Retinex (rgb / Gaussian-blurred luminance), mean\n"
+                       "  roughness/metallic of the --train split. Writes OUT_DIR/table2d.{md,csv,json} and examples2d.png.\n",
+                       t, 1, NULL);
+}
 
 /* Mean roughness/metallic over the complete samples of a prior-train folder (the Train-mean ORM
  * baseline's fit). */
@@ -73,16 +100,10 @@ static int run_prior(MfPrior *p, const EvPrior2dSplit *s, EvPrior2dPreds *pr, in
     return rc;
 }
 
-typedef struct {
-    const char *dir, *out, *weights, *train;
-    int samples, steps, seed, max_objects, no_mv;
-    float guidance, sigma;
-} EvalPriorArgs;
-
 static int eval_prior_run(EvalPriorArgs *a) {
     EvPrior2dSplit s = {0};
     EvPrior2dPreds pr = {0};
-    EvPrior2dInfo info = {a->dir, a->samples, a->steps, a->seed, a->guidance, a->sigma, 0, 0, 0, 0};
+    EvPrior2dInfo info = {a->dir, a->samples, a->steps, a->seed, a->guidance, a->retinex_sigma, 0, 0, 0, 0};
     MfPrior *p = NULL;
     EvTable t;
     ev_table_init(&t);
@@ -124,34 +145,18 @@ static int eval_prior_run(EvalPriorArgs *a) {
 }
 
 static int cmd_eval_prior(int argc, char **argv) {
-    const char *dir = NULL, *out = NULL, *weights = NULL, *train = "data/prior-train";
-    int samples = 10, steps = 50, seed = 0, max_objects = 0, no_mv = 0;
-    float guidance = MF_PRIOR_GUIDANCE, sigma = 0;
-    for (int i = 1; i < argc; ++i) {
-        int r;
-        if ((r = mf_opt_str(argc, argv, &i, "-o", &out)) || (r = mf_opt_str(argc, argv, &i, "--weights", &weights)) ||
-            (r = mf_opt_str(argc, argv, &i, "--train", &train)) || (r = mf_opt_int(argc, argv, &i, "--samples", &samples)) ||
-            (r = mf_opt_int(argc, argv, &i, "--steps", &steps)) || (r = mf_opt_int(argc, argv, &i, "--seed", &seed)) ||
-            (r = mf_opt_int(argc, argv, &i, "--max-objects", &max_objects)) ||
-            (r = mf_opt_float(argc, argv, &i, "--guidance", &guidance)) ||
-            (r = mf_opt_float(argc, argv, &i, "--retinex-sigma", &sigma))) {
-            if (r < 0) return MF_EXIT_USAGE;
-            continue;
-        }
-        if (!strcmp(argv[i], "--no-mv")) no_mv = 1;
-        else if (argv[i][0] != '-' && !dir) dir = argv[i];
-        else {
-            mf_fail(MF_EARG, "eval-prior: unknown argument '%s'", argv[i]);
-            return MF_EXIT_USAGE;
-        }
-    }
-    if (!dir || !out || samples < 1 || steps < 1 || steps > MF_DIFF_T) {
-        mf_fail(MF_EARG, "eval-prior: need TEST2D_DIR, -o OUT_DIR, --samples >= 1 and --steps in 1..%d", MF_DIFF_T);
-        return MF_EXIT_USAGE;
-    }
-    EvalPriorArgs a = {dir, out, weights, train, samples, steps, seed, max_objects, no_mv, guidance, sigma};
-    return eval_prior_run(&a);
+    EvalPriorArgs a;
+    mf_opts_defaults(&k_args_table, &a);
+    MfOptBind bind = {&k_args_table, &a};
+    MfOptParse p;
+    int rc = mf_cli_parse(&bind, 1, argc, argv, 1, &p);
+    if (rc >= 0) return rc;
+    a.dir = p.npos ? p.pos[0] : NULL;
+    if (!a.dir || !a.out) rc = MF_EXIT_USAGE, mf_fail(MF_EARG, "eval-prior: need TEST2D_DIR and -o OUT_DIR");
+    else rc = eval_prior_run(&a);
+    mf_opts_parse_free(&p);
+    return rc;
 }
 
 MF_COMMAND(eval_prior, "eval-prior", "2D evaluation of the material prior against simple baselines (Table 3)",
-           USAGE_EVAL_PRIOR, cmd_eval_prior)
+           usage, cmd_eval_prior)
