@@ -15,7 +15,7 @@
 
 const char *const ev_prior2d_methods[EV_PRIOR2D_NM] = {"StableMaterial", "StableMaterialMV", "Input image", "Retinex",
                                                        "Train-mean ORM"};
-static const char *const METRICS[5] = {"albedo_psnr", "albedo_ssim", "albedo_l1", "orm_psnr", "orm_l1"};
+const char *const ev_prior2d_metrics[EV_PRIOR2D_NK] = {"albedo_psnr", "albedo_ssim", "albedo_l1", "orm_psnr", "orm_l1"};
 
 static void free_images(MfImage *im, int n) {
     if (!im) return;
@@ -168,7 +168,7 @@ int ev_prior2d_write(const char *out, const EvTable *t, const EvPrior2dSplit *s,
                  in->test_dir, s->n / s->V, s->V, s->R, in->samples, in->steps, in->guidance, in->retinex_sigma,
                  in->train_roughness, in->train_metallic);
         mf_path_join(path, sizeof path, out, "table2d.md");
-        rc = ev_table_write_markdown(t, path, caption, ev_prior2d_methods, EV_PRIOR2D_NM, ds, 1, METRICS, 5);
+        rc = ev_table_write_markdown(t, path, caption, ev_prior2d_methods, EV_PRIOR2D_NM, ds, 1, ev_prior2d_metrics, EV_PRIOR2D_NK);
     }
     if (!rc) {
         mf_path_join(path, sizeof path, out, "table2d.csv");

@@ -19,6 +19,9 @@
 
 enum { EV_P2_SM, EV_P2_MV, EV_P2_INPUT, EV_P2_RETINEX, EV_P2_MEAN_ORM, EV_PRIOR2D_NM };
 extern const char *const ev_prior2d_methods[EV_PRIOR2D_NM];
+/* The table's metrics: albedo_psnr, albedo_ssim, albedo_l1, orm_psnr, orm_l1. */
+#define EV_PRIOR2D_NK 5
+extern const char *const ev_prior2d_metrics[EV_PRIOR2D_NK];
 
 typedef struct {
     int n, V, R;                            /* samples (whole objects), views per object, image size */

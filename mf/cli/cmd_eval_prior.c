@@ -128,11 +128,10 @@ static int eval_prior_run(EvalPriorArgs *a) {
     if (!rc) rc = ev_prior2d_score(&s, &pr, &t);
     if (!rc) rc = ev_prior2d_write(a->out, &t, &s, &pr, &info);
     for (int m = 0; m < EV_PRIOR2D_NM && !rc; ++m) {
-        const char *metrics[5] = {"albedo_psnr", "albedo_ssim", "albedo_l1", "orm_psnr", "orm_l1"};
         printf("%-18s", ev_prior2d_methods[m]);
-        for (int k = 0; k < 5; ++k) {
-            EvStat st = ev_table_stat(&t, ev_prior2d_methods[m], "test-2d", metrics[k]);
-            if (st.n) printf("  %s %.4f", metrics[k], st.mean);
+        for (int k = 0; k < EV_PRIOR2D_NK; ++k) {
+            EvStat st = ev_table_stat(&t, ev_prior2d_methods[m], "test-2d", ev_prior2d_metrics[k]);
+            if (st.n) printf("  %s %.4f", ev_prior2d_metrics[k], st.mean);
         }
         printf("\n");
     }
