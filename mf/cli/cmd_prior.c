@@ -1,6 +1,6 @@
 /* mf prior: predicts albedo and ORM for an RGBA image with the trained prior (mf_prior.h):
- * mean of N DDIM samples (default 10 samples, 50 steps, guidance 3.0); --mv adds three more
- * views of the same object, denoised jointly (multi-view attention, StableMaterialMV). */
+ * the mean of N DDIM samples (mf_prior_predict_mean); --mv adds three more views of the same
+ * object, denoised jointly (multi-view attention, StableMaterialMV). */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -45,49 +45,32 @@ __attribute__((constructor)) static void prior_usage(void) {
                        t, 1, NULL);
 }
 
-static int read_input(const char *path, int R, float *rgb, float *mask) {
+/* IMAGE as RGBA with its raw channel values (the prior works on sRGB codes); alpha 1 when absent. */
+static int read_input(const char *path, MfImage *out) {
     MfImage img = {0};
-    int rc = mf_image_read(path, MF_ENC_LINEAR, &img); /* raw codes: the prior works on sRGB values */
+    int rc = mf_image_read(path, MF_ENC_LINEAR, &img);
     if (rc) return rc;
     if (img.c != 3 && img.c != 4) {
         mf_image_free(&img);
         return mf_fail(MF_EFORMAT, "%s: expected an RGB or RGBA image, got %d channels", path, img.c);
     }
-    float *rgba = malloc((size_t)img.w * img.h * 4 * sizeof(float));
-    if (!rgba) {
+    if ((rc = mf_image_alloc(out, img.w, img.h, 4))) {
         mf_image_free(&img);
         return mf_fail(MF_ENOMEM, "%s: out of memory", path);
     }
     for (size_t i = 0; i < (size_t)img.w * img.h; ++i)
-        for (int c = 0; c < 4; ++c) rgba[i * 4 + c] = c < img.c ? img.data[i * img.c + c] : 1.0f;
-    mf_prior_prepare_image(rgba, img.w, img.h, R, rgb, mask);
-    free(rgba);
+        for (int c = 0; c < 4; ++c) out->data[i * 4 + c] = c < img.c ? img.data[i * img.c + c] : 1.0f;
     mf_image_free(&img);
     return MF_OK;
 }
 
-/* map (3, R, R) in [-1,1] x mask -> RGBA file; orm = 1 forces R = 1 and writes linear. */
-static int write_map(const char *dir, const char *name, int view, const float *map, const float *mask, int R, int orm) {
+/* DIR/<name>.png (view 0) or DIR/<name>_<view>.png: albedo sRGB, ORM linear, 8-bit RGBA. */
+static int write_map(const char *dir, const char *name, int view, const MfImage *img, int orm) {
     char file[64], path[MF_PATH_MAX];
     if (view) snprintf(file, sizeof file, "%s_%d.png", name, view);
     else snprintf(file, sizeof file, "%s.png", name);
     if (mf_path_join(path, sizeof path, dir, file)) return mf_fail(MF_EARG, "%s: path too long", dir);
-    MfImage img = {0};
-    if (mf_image_alloc(&img, R, R, 4)) return mf_fail(MF_ENOMEM, "out of memory");
-    size_t hw = (size_t)R * R;
-    for (size_t p = 0; p < hw; ++p) {
-        float a = mask[p];
-        for (int c = 0; c < 3; ++c) {
-            float v = a > 1e-3f ? 0.5f * (map[c * hw + p] / a + 1.0f) : 0.0f;
-            v = v < 0 ? 0 : v > 1 ? 1 : v;
-            if (orm && c == 0) v = 1.0f;
-            img.data[p * 4 + c] = orm ? v : mf_srgb_to_linear(v); /* albedo values are sRGB codes */
-        }
-        img.data[p * 4 + 3] = a;
-    }
-    int rc = mf_image_write(path, &img, orm ? MF_ENC_LINEAR : MF_ENC_SRGB, 8);
-    mf_image_free(&img);
-    return rc;
+    return mf_image_write(path, img, orm ? MF_ENC_LINEAR : MF_ENC_SRGB, 8);
 }
 
 static int prior_run(const PriorArgs *a, const char *const *images, int V);
@@ -119,41 +102,22 @@ static int cmd_prior(int argc, char **argv) {
 }
 
 static int prior_run(const PriorArgs *a, const char *const *images, int V) {
-    const char *out = a->out;
-    int samples = a->samples, steps = a->steps, seed = a->seed;
-    float guidance = a->guidance;
     MfPrior *p = NULL;
     if (mf_prior_load_path(a->weights, &p)) return MF_EXIT_FAIL;
-    int R = p->cfg.ae.res, zc = p->cfg.ae.zc, h = p->cfg.dn.h, B = samples * V, rc = MF_OK;
-    size_t isz = (size_t)3 * R * R, hw = (size_t)R * R, zsz = (size_t)zc * h * h;
-    float *rgb = malloc((size_t)B * isz * sizeof(float)), *mask = malloc((size_t)V * hw * sizeof(float));
-    float *zmat = malloc((size_t)B * 2 * zsz * sizeof(float)), *zk = malloc((size_t)B * zsz * sizeof(float));
-    float *dec = malloc((size_t)B * isz * sizeof(float)), *mean = malloc((size_t)V * isz * sizeof(float));
-    if (!rgb || !mask || !zmat || !zk || !dec || !mean) rc = mf_fail(MF_ENOMEM, "prior: out of memory");
-    for (int v = 0; v < V && !rc; ++v) rc = read_input(images[v], R, rgb + v * isz, mask + v * hw);
-    for (int s = 1; s < samples && !rc; ++s) memcpy(rgb + (size_t)s * V * isz, rgb, (size_t)V * isz * sizeof(float));
-    if (!rc) rc = mf_mkdirs(out);
+    MfImage in[4] = {{0}}, alb[4] = {{0}}, orm[4] = {{0}};
+    int rc = MF_OK;
+    for (int v = 0; v < V && !rc; ++v) rc = read_input(images[v], &in[v]);
+    if (!rc) rc = mf_mkdirs(a->out);
     if (!rc) {
-        mf_log_info("prior: %d sample(s) x %d view(s), %d DDIM steps, guidance %.2f", samples, V, steps, guidance);
-        rc = mf_prior_sample(p, rgb, B, V, V > 1, steps, guidance, (uint64_t)seed, zmat);
+        mf_log_info("prior: %d sample(s) x %d view(s), %d DDIM steps, guidance %.2f", a->samples, V, a->steps, a->guidance);
+        rc = mf_prior_predict_mean(p, in, V, V, V > 1, a->samples, a->steps, a->guidance, (uint64_t)a->seed, alb, orm);
     }
-    for (int kind = 0; kind < 2 && !rc; ++kind) {
-        for (int b = 0; b < B; ++b) memcpy(zk + b * zsz, zmat + (b * 2 + kind) * zsz, zsz * sizeof(float));
-        if ((rc = mf_prior_decode(p, zk, B, dec))) break;
-        memset(mean, 0, (size_t)V * isz * sizeof(float));
-        for (int b = 0; b < B; ++b)
-            for (size_t i = 0; i < isz; ++i) mean[(b % V) * isz + i] += dec[b * isz + i] / (float)samples;
-        for (int v = 0; v < V && !rc; ++v) {
-            /* keep the decoded maps inside the mask, as the inputs were */
-            for (int c = 0; c < 3; ++c)
-                for (size_t q = 0; q < hw; ++q) mean[v * isz + c * hw + q] *= mask[v * hw + q] > 1e-3f ? 1.0f : 0.0f;
-            rc = write_map(out, kind ? "orm" : "albedo", v, mean + v * isz, mask + v * hw, R, kind);
-        }
-    }
-    free(rgb), free(mask), free(zmat), free(zk), free(dec), free(mean);
+    for (int kind = 0; kind < 2 && !rc; ++kind)
+        for (int v = 0; v < V && !rc; ++v) rc = write_map(a->out, kind ? "orm" : "albedo", v, kind ? &orm[v] : &alb[v], kind);
+    for (int v = 0; v < 4; ++v) mf_image_free(&in[v]), mf_image_free(&alb[v]), mf_image_free(&orm[v]);
     mf_prior_free(p);
     if (rc) return MF_EXIT_FAIL;
-    printf("wrote %s/albedo.png and %s/orm.png%s\n", out, out, V > 1 ? " (+ views 1..3)" : "");
+    printf("wrote %s/albedo.png and %s/orm.png%s\n", a->out, a->out, V > 1 ? " (+ views 1..3)" : "");
     return MF_EXIT_OK;
 }
 
