@@ -106,7 +106,7 @@ static int gemm_alloc(GemmCtx *g, int M, int N, int K) {
 
 static void gemm_free(GemmCtx *g) { free(g->a), free(g->b), free(g->c); }
 
-static int bench_nn_run(const BenchNnArgs *ap);
+static int bench_nn_run(const BenchNnArgs *a);
 
 /* Parses the options (string values may live in the --config JSON: p is freed after the run). */
 static int cmd_bench_nn(int argc, char **argv) {
@@ -121,10 +121,9 @@ static int cmd_bench_nn(int argc, char **argv) {
     return rc;
 }
 
-static int bench_nn_run(const BenchNnArgs *ap) {
-    BenchNnArgs a = *ap;
-    const char *out = a.out;
-    int B = a.batch, C = a.channels, S = a.size, NG = a.gemm, reps = a.reps;
+static int bench_nn_run(const BenchNnArgs *a) {
+    const char *out = a->out;
+    int B = a->batch, C = a->channels, S = a->size, NG = a->gemm, reps = a->reps;
     int blas_threads = openblas_get_num_threads(), omp_threads = omp_get_max_threads();
     int P = S * S, CKK = C * 9;
     GemmCtx gsq = {0}, gsh = {0};

@@ -50,7 +50,7 @@ __attribute__((constructor)) static void bench_prior_usage(void) {
 }
 
 
-static int bench_prior_run(const BenchPriorArgs *ap);
+static int bench_prior_run(const BenchPriorArgs *a);
 
 /* Parses the options (string values may live in the --config JSON: p is freed after the run). */
 static int cmd_bench_prior(int argc, char **argv) {

@@ -17,9 +17,9 @@ static const MfOpt k_args[] = {
     MF_OPT_STR(A, mf, NULL, "the mf binary run as child processes (required)", .meta = "MF_BINARY"),
     MF_OPT_STR(A, work, NULL, "work folder (required)", .meta = "DIR"),
     MF_OPT_STR(A, out, NULL, "report folder (required)", .alias = "-o", .meta = "OUT_DIR"),
-    MF_OPT_INT(A, iters, 200, 1, 10000000, "reconstruction iterations per cell"),
-    MF_OPT_INT(A, mem_iters, 2000, 1, 10000000, "iterations of the memory-growth cell"),
-    MF_OPT_BOOL(A, quick, 0, "a reduced grid"),
+    MF_OPT_INT(A, iters, 200, 1, 10000000, "iterations of each reconstruction cell"),
+    MF_OPT_INT(A, mem_iters, 2000, 1, 10000000, "iterations of the memory row's long run (its short run: 50)"),
+    MF_OPT_BOOL(A, quick, 0, "the subset make test runs (no MaterialFusion cells, no memory row)"),
 };
 #undef A
 static const MfOptTable k_args_table = MF_OPT_TABLE("Options", k_args);
@@ -35,7 +35,7 @@ __attribute__((constructor)) static void bench_stability_usage(void) {
                        t, 1, NULL);
 }
 
-static int bench_stability_run(const StabArgs *ap);
+static int bench_stability_run(const StabArgs *a);
 
 /* Parses the options (string values may live in the --config JSON: p is freed after the run). */
 static int cmd_bench_stability(int argc, char **argv) {
@@ -50,10 +50,9 @@ static int cmd_bench_stability(int argc, char **argv) {
     return rc;
 }
 
-static int bench_stability_run(const StabArgs *ap) {
-    StabArgs a = *ap;
-    const char *mf = a.mf, *work = a.work, *out = a.out;
-    int iters = a.iters, mem_iters = a.mem_iters, quick = a.quick;
+static int bench_stability_run(const StabArgs *a) {
+    const char *mf = a->mf, *work = a->work, *out = a->out;
+    int iters = a->iters, mem_iters = a->mem_iters, quick = a->quick;
     if (!mf || !work || !out) {
         mf_fail(MF_EARG, "--mf, --work and -o are required");
         return MF_EXIT_USAGE;
