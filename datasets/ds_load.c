@@ -762,6 +762,33 @@ int ds_load(const char *dir, const char *split, const DsLoadOptions *opt, DsView
     }
 }
 
+int ds_load_width(const char *dir, const char *split, const DsLoadOptions *opt, int width, DsViews *out) {
+    DsLoadOptions lo = opts_or_default(opt);
+    lo.downsample = 1;
+    DsViews dv;
+    int rc = ds_load(dir, split, &lo, &dv); /* the first image's size gives the factor */
+    if (rc || width <= 0 || width == dv.w) {
+        if (!rc) *out = dv;
+        return rc;
+    }
+    if (dv.w % width || dv.h % (dv.w / width)) {
+        rc = mf_fail(MF_EARG, "--res %d: the images are %dx%d, not a multiple of %d", width, dv.w, dv.h, width);
+        ds_views_free(&dv);
+        return rc;
+    }
+    lo.downsample = dv.w / width;
+    ds_views_free(&dv);
+    return ds_load(dir, split, &lo, out);
+}
+
+void ds_views_premultiply(DsViews *v) {
+    for (int i = 0; i < v->n; ++i) {
+        MfImage *im = &v->views[i].rgba;
+        for (size_t p = 0; p < (size_t)im->w * im->h; ++p)
+            for (int c = 0; c < 3; ++c) im->data[4 * p + c] *= im->data[4 * p + 3];
+    }
+}
+
 int ds_relit_path(const DsViews *v, int i, int k, char *out, size_t cap) {
     if (i < 0 || i >= v->n) return mf_fail(MF_EARG, "view %d out of range (%d views)", i, v->n);
     if (k < 0 || k >= v->n_relight) return mf_fail(MF_EARG, "relighting light %d out of range (%d lights)", k, v->n_relight);

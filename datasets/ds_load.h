@@ -137,6 +137,14 @@ void ds_views_free(DsViews *v);
  * others are freed. The few-view "one hemisphere" split: the far side of the object is seen by no
  * kept view. Fails (MF_EARG, naming the scene folder and the side) when no view is kept. */
 int ds_views_keep_side(DsViews *v, MfVec3 centre, MfVec3 side, int max_views);
+/* ds_load at a given image width: width 0 or the images' own width loads at full size; else the
+ * images' width must be a multiple of width and their height of the factor, and they are
+ * box-filtered by it (DsLoadOptions.downsample; opt's own downsample is ignored). A size that
+ * does not divide gives MF_EARG naming both. */
+int ds_load_width(const char *dir, const char *split, const DsLoadOptions *opt, int width, DsViews *out);
+/* Multiplies every view's colour by its alpha (the premultiplied convention of the renderer's
+ * output and of mf_recon's reference views). */
+void ds_views_premultiply(DsViews *v);
 
 /* Ground-truth relit image of view i under relighting light k into out (h, w, 4), linear:
  * bvault: relight/<env>/<name>.exr channels R, G, B, A looked up by name (colour as stored:

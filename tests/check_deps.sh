@@ -1,12 +1,11 @@
 #!/bin/sh
 # make check-deps: the layering rules of README "Layout", checked by grep.
 # 1. An #include "<folder>/..." from a file in folder A must name a folder that A may use.
-# 2. No function in mf/cli longer than MAX_CLI_FN lines, except the ones listed in
-#    CLI_FN_LEGACY (functions that predate the rule; issue 13 item 2 moves their work to eval/).
+# 2. No function in mf/cli longer than MAX_CLI_FN lines (commands parse options, call the
+#    library and print).
 # Exit status 1 on any violation, with one line per violation.
 cd "$(dirname "$0")/.." || exit 2
 MAX_CLI_FN=80
-CLI_FN_LEGACY=" $(tr '\n' ' ' < tests/check_deps_legacy.txt) "
 allowed() { # folder -> folders it may include (besides itself)
   case "$1" in
     core)      echo "" ;;
@@ -40,11 +39,11 @@ done
 # Function length: a definition starts at column 0 with an identifier and '(' (no ';'),
 # its body ends at the first '}' in column 0.
 for f in mf/cli/*.c; do
-  awk -v max=$MAX_CLI_FN -v legacy="$CLI_FN_LEGACY" -v file="$f" '
+  awk -v max=$MAX_CLI_FN -v file="$f" '
     /^[A-Za-z_].*\(/ && !/;[[:space:]]*$/ && !/^(typedef|struct|enum|#)/ {
       s = $0; sub(/\(.*/, "", s); n = split(s, w, /[ *]+/); name = w[n]; start = NR; next }
     /^}/ && start { len = NR - start + 1
-      if (len > max && index(legacy, " " file ":" name " ") == 0) {
+      if (len > max) {
         printf "check-deps: %s:%d %s() is %d lines (mf/cli limit %d)\n", file, start, name, len, max; bad = 1 }
       start = 0 }
     END { exit bad }' "$f" || bad=1

@@ -170,9 +170,11 @@ MF_TEST(opts_baseline_config_matches_defaults) {
 MF_TEST(opts_cli_every_flag_is_a_config_key) {
     const char *bin = getenv("MF_BIN");
     if (!bin || !mf_file_exists(bin)) MF_SKIP("MF_BIN not set (run through make test)");
-    const char *cmds[] = {"recon", "render", "eval", "gen", "relight", "bench-render"};
+    const char *cmds[] = {"recon", "render", "eval", "gen", "relight", "bench-render", "metrics", "prior", "train-prior",
+                          "eval-prior", "bench-nn", "bench-prior", "bench-tets", "bench-stability", "compare"};
+    const int min_flags[] = {8, 8, 8, 8, 8, 8, 5, 6, 18, 10, 6, 5, 2, 6, 3};
     char err[8192];
-    for (int c = 0; c < 6; ++c) {
+    for (int c = 0; c < (int)(sizeof cmds / sizeof cmds[0]); ++c) {
         char help[1024], cfg[1024], again[1024], args[4096];
         snprintf(help, sizeof help, "%s", mf_test_path("opts_help.txt"));
         snprintf(cfg, sizeof cfg, "%s", mf_test_path("opts_cfg.json"));
@@ -209,7 +211,7 @@ MF_TEST(opts_cli_every_flag_is_a_config_key) {
             }
             line = nl ? nl + 1 : NULL;
         }
-        CHECK_MSG(nflags >= 8 && nflags == cJSON_GetArraySize(j), "mf %s: %d flags in --help, %d config keys", cmds[c], nflags,
+        CHECK_MSG(nflags >= min_flags[c] && nflags == cJSON_GetArraySize(j), "mf %s: %d flags in --help, %d config keys", cmds[c], nflags,
                   cJSON_GetArraySize(j));
         cJSON_Delete(j);
         free(a), free(b), free(h);
@@ -245,6 +247,12 @@ MF_TEST(opts_cli_out_of_range_refused_no_file) {
         {"gen -o %.0s%s --spp 0", "--spp 0: outside the allowed range [1, 64]"},
         {"gen -o %.0s%s --train 0", "--train 0: outside the allowed range [1, 100000]"},
         {"relight %s --env e.exr --cameras c.json -o %s --spp 100", "--spp 100: outside the allowed range [1, 64]"},
+        {"metrics %s/a.png %s/b.png --align median", "--align 'median': expected one of none|mean|lsq"},
+        {"prior %s/a.png -o %s --samples 0", "--samples 0: outside the allowed range [1, 10000]"},
+        {"eval-prior %s -o %s --steps 1001", "--steps 1001: outside the allowed range [1, 1000]"},
+        {"train-prior %s -o %s --batch 0", "--batch 0: outside the allowed range [1, 4096]"},
+        {"bench-nn -o %.0s%s --gemm 8", "--gemm 8: outside the allowed range [16, 16384]"},
+        {"bench-tets --res 1 %.0s%.0s", "--res 1: outside the allowed range [2, 512]"},
     };
     for (size_t k = 0; k < sizeof cases / sizeof cases[0]; ++k) {
         char a[2048];

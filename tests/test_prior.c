@@ -569,6 +569,36 @@ MF_TEST(prior_guidance_one_is_conditional) {
     mf_prior_free(p);
 }
 
+/* mf_prior_predict_mean (eval-prior's predictions): a view's maps depend on its own image only
+ * when the views are predicted alone (each one's condition image in its own batch items). */
+MF_TEST(prior_predict_mean_views_independent) {
+    MfPrior *p;
+    tiny_prior(&p);
+    int R = 16;
+    MfImage in[3] = {{0}}, alb[2][2] = {{{0}}}, orm[2][2] = {{{0}}};
+    for (int k = 0; k < 3; ++k) {
+        CHECK_OK(mf_image_alloc(&in[k], R, R, 4));
+        fill(in[k].data, (size_t)R * R * 4, 20 + k, 0.5f);
+        for (size_t q = 0; q < (size_t)R * R * 4; ++q) in[k].data[q] = q % 4 == 3 ? 1.0f : in[k].data[q] + 0.5f;
+    }
+    /* views (A, B) and (A, C), same seed: view A's maps must not change */
+    const MfImage ab[2] = {in[0], in[1]}, ac[2] = {in[0], in[2]};
+    CHECK_OK(mf_prior_predict_mean(p, ab, 2, 2, 0, 2, 2, 3.0f, 7, alb[0], orm[0]));
+    CHECK_OK(mf_prior_predict_mean(p, ac, 2, 2, 0, 2, 2, 3.0f, 7, alb[1], orm[1]));
+    double d0 = 0, d1 = 0;
+    for (size_t q = 0; q < (size_t)R * R * 4; ++q) {
+        d0 = fmax(d0, fabs(alb[0][0].data[q] - alb[1][0].data[q]) + fabs(orm[0][0].data[q] - orm[1][0].data[q]));
+        d1 = fmax(d1, fabs(alb[0][1].data[q] - alb[1][1].data[q]));
+    }
+    CHECK_MSG(d0 == 0, "view 0's maps changed by %g with view 1's image", d0);
+    CHECK(d1 > 1e-4); /* the condition image does matter */
+    CHECK(alb[0][0].w == R && alb[0][0].c == 4 && orm[0][0].data[0] == 1.0f); /* ORM R = 1 */
+    for (int k = 0; k < 3; ++k) mf_image_free(&in[k]);
+    for (int a = 0; a < 2; ++a)
+        for (int b = 0; b < 2; ++b) mf_image_free(&alb[a][b]), mf_image_free(&orm[a][b]);
+    mf_prior_free(p);
+}
+
 MF_TEST(prior_encode_backward_matches_differences) {
     MfPrior *p;
     tiny_prior(&p);

@@ -1,43 +1,19 @@
+/* cli_opts: option parsing shared by the commands (mf_cli.h). */
 #include <cJSON.h>
-#include <errno.h>
 #include <stdio.h>
-#include <math.h>
-#include <stdlib.h>
-#include <string.h>
 
 #include "cli/mf_cli.h"
 #include "core/mf_error.h"
 
-int mf_opt_str(int argc, char **argv, int *i, const char *name, const char **out) {
-    if (strcmp(argv[*i], name) != 0) return 0;
-    if (*i + 1 >= argc) return mf_fail(MF_EARG, "option %s needs a value", name), -1;
-    *out = argv[++*i];
-    return 1;
-}
-
-int mf_opt_int(int argc, char **argv, int *i, const char *name, int *out) {
-    const char *s;
-    int r = mf_opt_str(argc, argv, i, name, &s);
-    if (r != 1) return r;
-    char *end;
-    errno = 0;
-    long v = strtol(s, &end, 10);
-    if (errno || *end || end == s || v < -2147483647L || v > 2147483647L)
-        return mf_fail(MF_EARG, "option %s: '%s' is not an integer", name, s), -1;
-    *out = (int)v;
-    return 1;
-}
-
-int mf_opt_float(int argc, char **argv, int *i, const char *name, float *out) {
-    const char *s;
-    int r = mf_opt_str(argc, argv, i, name, &s);
-    if (r != 1) return r;
-    char *end;
-    errno = 0;
-    double v = strtod(s, &end);
-    if (errno || *end || end == s || !isfinite(v)) return mf_fail(MF_EARG, "option %s: '%s' is not a number", name, s), -1;
-    *out = (float)v;
-    return 1;
+int mf_cli_parse(const MfOptBind *b, int nb, int argc, char **argv, int max_pos, MfOptParse *p) {
+    if (mf_opts_parse(b, nb, argc, argv, max_pos, p)) {
+        mf_opts_parse_free(p);
+        return MF_EXIT_USAGE;
+    }
+    if (!p->print_config) return -1;
+    int rc = mf_cli_print_config(b, nb);
+    mf_opts_parse_free(p);
+    return rc;
 }
 
 int mf_cli_print_config(const MfOptBind *b, int nb) {

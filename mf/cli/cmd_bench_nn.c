@@ -13,11 +13,33 @@
 #include "core/mf_log.h"
 #include "nn/mf_nn.h"
 
-#define USAGE_BENCH_NN \
-    "usage: mf bench-nn [-o out.md] [--batch B] [--channels C] [--size S] [--gemm N] [--reps R]\n" \
-    "  Measures OpenBLAS sgemm GFLOP/s (N x N x N, default 1024) and conv2d 3x3 stride 1\n" \
-    "  forward+backward GFLOP/s on a (B, C, S, S) -> (B, C, S, S) layer (default 8, 64, 32),\n" \
-    "  best of R interleaved rounds (default 10), and writes a markdown table to -o (atomically).\n"
+typedef struct {
+    const char *out;
+    int batch, channels, size, gemm, reps;
+} BenchNnArgs;
+
+#define A BenchNnArgs
+static const MfOpt k_args[] = {
+    MF_OPT_STR(A, out, NULL, "markdown table (written atomically)", .alias = "-o", .meta = "FILE.md", .unset = "none"),
+    MF_OPT_INT(A, batch, 8, 1, 4096, "conv layer batch B"),
+    MF_OPT_INT(A, channels, 64, 1, 4096, "conv layer channels C"),
+    MF_OPT_INT(A, size, 32, 2, 4096, "conv layer image side S"),
+    MF_OPT_INT(A, gemm, 1024, 16, 16384, "sgemm size N (N x N x N)"),
+    MF_OPT_INT(A, reps, 10, 1, 1000000, "interleaved rounds (best of)"),
+};
+#undef A
+static const MfOptTable k_args_table = MF_OPT_TABLE("Options", k_args);
+
+static char usage[4096];
+__attribute__((constructor)) static void bench_nn_usage(void) {
+    const MfOptTable *t[] = {&k_args_table};
+    mf_opts_usage_text(usage, sizeof usage,
+                       "usage: mf bench-nn [-o out.md] [--batch B] [--channels C] [--size S] [--gemm N] [--reps R]\n"
+                       "  Measures OpenBLAS sgemm GFLOP/s (N x N x N) and conv2d 3x3 stride 1 forward+backward\n"
+                       "  GFLOP/s on a (B, C, S, S) -> (B, C, S, S) layer, best of R interleaved rounds, and writes\n"
+                       "  a markdown table to -o.\n",
+                       t, 1, NULL);
+}
 
 /* Best wall times of reps rounds; each round times every function once, in turn, so the load of a
  * shared machine affects them alike. One warm-up run of each first. */
@@ -84,24 +106,24 @@ static int gemm_alloc(GemmCtx *g, int M, int N, int K) {
 
 static void gemm_free(GemmCtx *g) { free(g->a), free(g->b), free(g->c); }
 
+static int bench_nn_run(const BenchNnArgs *a);
+
+/* Parses the options (string values may live in the --config JSON: p is freed after the run). */
 static int cmd_bench_nn(int argc, char **argv) {
-    const char *out = NULL;
-    int B = 8, C = 64, S = 32, NG = 1024, reps = 10;
-    for (int i = 1; i < argc; ++i) {
-        int r;
-        if ((r = mf_opt_str(argc, argv, &i, "-o", &out)) || (r = mf_opt_int(argc, argv, &i, "--batch", &B)) ||
-            (r = mf_opt_int(argc, argv, &i, "--channels", &C)) || (r = mf_opt_int(argc, argv, &i, "--size", &S)) ||
-            (r = mf_opt_int(argc, argv, &i, "--gemm", &NG)) || (r = mf_opt_int(argc, argv, &i, "--reps", &reps))) {
-            if (r < 0) return MF_EXIT_USAGE;
-            continue;
-        }
-        mf_fail(MF_EARG, "bench-nn: unknown option '%s'", argv[i]);
-        return MF_EXIT_USAGE;
-    }
-    if (B < 1 || C < 1 || S < 2 || NG < 16 || reps < 1) {
-        mf_fail(MF_EARG, "bench-nn: sizes must be positive (batch, channels >= 1, size >= 2, gemm >= 16)");
-        return MF_EXIT_USAGE;
-    }
+    BenchNnArgs a;
+    mf_opts_defaults(&k_args_table, &a);
+    MfOptBind bind = {&k_args_table, &a};
+    MfOptParse p;
+    int rc = mf_cli_parse(&bind, 1, argc, argv, 0, &p);
+    if (rc >= 0) return rc;
+    rc = bench_nn_run(&a);
+    mf_opts_parse_free(&p);
+    return rc;
+}
+
+static int bench_nn_run(const BenchNnArgs *a) {
+    const char *out = a->out;
+    int B = a->batch, C = a->channels, S = a->size, NG = a->gemm, reps = a->reps;
     int blas_threads = openblas_get_num_threads(), omp_threads = omp_get_max_threads();
     int P = S * S, CKK = C * 9;
     GemmCtx gsq = {0}, gsh = {0};
@@ -168,4 +190,4 @@ static int cmd_bench_nn(int argc, char **argv) {
     return rc;
 }
 
-MF_COMMAND(bench_nn, "bench-nn", "conv2d forward+backward GFLOP/s vs OpenBLAS sgemm", USAGE_BENCH_NN, cmd_bench_nn)
+MF_COMMAND(bench_nn, "bench-nn", "conv2d forward+backward GFLOP/s vs OpenBLAS sgemm", usage, cmd_bench_nn)

@@ -7,27 +7,36 @@
 #include "core/mf_log.h"
 #include "geom/mf_tetgrid.h"
 
-static const char usage[] =
-    "usage: mf bench-tets [--res N] [--reps N]\n"
-    "Times mf_tetgrid_extract and mf_tetgrid_backward (with a deformation field) on a sphere of\n"
-    "radius 0.4 in a unit grid of N^3 cubes (default 64), the minimum over --reps runs (default 10),\n"
-    "and prints one line: res, output vertices, triangles, extract ms, adjoint ms.\n";
+typedef struct {
+    int res, reps;
+} TetsArgs;
+
+static const MfOpt k_args[] = {
+    MF_OPT_INT(TetsArgs, res, 64, 2, 512, "grid of N^3 cubes"),
+    MF_OPT_INT(TetsArgs, reps, 10, 1, 1000000, "runs; the minimum time is reported"),
+};
+static const MfOptTable k_args_table = MF_OPT_TABLE("Options", k_args);
+
+static char usage[4096];
+__attribute__((constructor)) static void bench_tets_usage(void) {
+    const MfOptTable *t[] = {&k_args_table};
+    mf_opts_usage_text(usage, sizeof usage,
+                       "usage: mf bench-tets [--res N] [--reps N]\n"
+                       "Times mf_tetgrid_extract and mf_tetgrid_backward (with a deformation field) on a sphere of\n"
+                       "radius 0.4 in a unit grid of N^3 cubes, the minimum over --reps runs, and prints one line:\n"
+                       "res, output vertices, triangles, extract ms, adjoint ms.\n",
+                       t, 1, NULL);
+}
 
 static int cmd_bench_tets(int argc, char **argv) {
-    int res = 64, reps = 10;
-    for (int i = 1; i < argc; ++i) {
-        int r;
-        if ((r = mf_opt_int(argc, argv, &i, "--res", &res)) != 0 || (r = mf_opt_int(argc, argv, &i, "--reps", &reps)) != 0) {
-            if (r < 0) return MF_EXIT_USAGE;
-        } else {
-            mf_fail(MF_EARG, "unknown argument '%s' (see mf bench-tets --help)", argv[i]);
-            return MF_EXIT_USAGE;
-        }
-    }
-    if (res < 2 || res > 512 || reps < 1) {
-        mf_fail(MF_EARG, "--res must be in [2, 512] and --reps >= 1");
-        return MF_EXIT_USAGE;
-    }
+    TetsArgs a;
+    mf_opts_defaults(&k_args_table, &a);
+    MfOptBind bind = {&k_args_table, &a};
+    MfOptParse p;
+    int ec = mf_cli_parse(&bind, 1, argc, argv, 0, &p);
+    if (ec >= 0) return ec;
+    mf_opts_parse_free(&p);
+    int res = a.res, reps = a.reps;
     MfTetGrid g = mf_tetgrid_make(res, mf_v3s(0), 1.0f);
     size_t nv = mf_tetgrid_nverts(&g);
     float *f = malloc(nv * sizeof *f), *d = calloc(nv * 3, sizeof *d), *gf = calloc(nv, sizeof *gf), *gd = calloc(nv * 3, sizeof *gd);

@@ -9,29 +9,46 @@
 #include "core/mf_fs.h"
 #include "eval/ev_paired.h"
 
-static const char usage[] =
-    "usage: mf compare SCENES_CSV --ref METHOD -o DIR [--dataset NAME]\n"
-    "Reads per-scene records (method,dataset,scene,metric,value; the scenes.csv of mf eval) and writes\n"
-    "DIR/paired.md and DIR/paired.csv: for every other method and metric, the mean paired difference\n"
-    "(method - METHOD) over the shared scenes, its 95% CI (Student t), wins out of n, and two-sided\n"
-    "p-values of the paired t-test and the exact sign test (GSL). --dataset: which dataset's records\n"
-    "(default: the first record's).\n";
+typedef struct {
+    const char *ref, *out, *dataset;
+} CompareArgs;
+
+#define A CompareArgs
+static const MfOpt k_args[] = {
+    MF_OPT_STR(A, ref, NULL, "reference method (required)", .meta = "METHOD"),
+    MF_OPT_STR(A, out, NULL, "output folder (required)", .alias = "-o", .meta = "DIR"),
+    MF_OPT_STR(A, dataset, NULL, "which dataset's records", .unset = "the first record's", .meta = "NAME"),
+};
+#undef A
+static const MfOptTable k_args_table = MF_OPT_TABLE("Options", k_args);
+
+static char usage[4096];
+__attribute__((constructor)) static void compare_usage(void) {
+    const MfOptTable *t[] = {&k_args_table};
+    mf_opts_usage_text(usage, sizeof usage,
+                       "usage: mf compare SCENES_CSV --ref METHOD -o DIR [--dataset NAME]\n"
+                       "Reads per-scene records (method,dataset,scene,metric,value; the scenes.csv of mf eval) and writes\n"
+                       "DIR/paired.md and DIR/paired.csv: for every other method and metric, the mean paired difference\n"
+                       "(method - METHOD) over the shared scenes, its 95% CI (Student t), wins out of n, and two-sided\n"
+                       "p-values of the paired t-test and the exact sign test (GSL).\n",
+                       t, 1, NULL);
+}
 
 #define MAX_METHODS 64
 
 static int cmd_compare(int argc, char **argv) {
-    const char *csv = NULL, *ref = NULL, *out = NULL, *dataset = NULL;
-    for (int i = 1; i < argc; ++i) {
-        int r;
-        if ((r = mf_opt_str(argc, argv, &i, "--ref", &ref)) || (r = mf_opt_str(argc, argv, &i, "-o", &out)) ||
-            (r = mf_opt_str(argc, argv, &i, "--dataset", &dataset))) {
-            if (r < 0) return MF_EXIT_USAGE;
-            continue;
-        }
-        if (argv[i][0] == '-') { mf_fail(MF_EARG, "unknown option %s (see mf compare --help)", argv[i]); return MF_EXIT_USAGE; }
-        csv = argv[i];
+    CompareArgs a;
+    mf_opts_defaults(&k_args_table, &a);
+    MfOptBind bind = {&k_args_table, &a};
+    MfOptParse p;
+    int ec = mf_cli_parse(&bind, 1, argc, argv, 1, &p);
+    if (ec >= 0) return ec;
+    const char *csv = p.npos ? p.pos[0] : NULL, *ref = a.ref, *out = a.out, *dataset = a.dataset;
+    if (!csv || !ref || !out) {
+        mf_opts_parse_free(&p);
+        mf_fail(MF_EARG, "need SCENES_CSV, --ref and -o (see mf compare --help)");
+        return MF_EXIT_USAGE;
     }
-    if (!csv || !ref || !out) { mf_fail(MF_EARG, "need SCENES_CSV, --ref and -o (see mf compare --help)"); return MF_EXIT_USAGE; }
     EvTable t;
     ev_table_init(&t);
     int rc = ev_table_read_csv(&t, csv);
@@ -50,6 +67,7 @@ static int cmd_compare(int argc, char **argv) {
     if (!rc) rc = mf_mkdirs(out);
     if (!rc) rc = ev_paired_write_bench(&t, out, ref, methods, nm, dataset);
     ev_table_free(&t);
+    mf_opts_parse_free(&p);
     return rc ? MF_EXIT_FAIL : MF_EXIT_OK;
 }
 

@@ -186,86 +186,87 @@ static int cmd_gen(int argc, char **argv) {
     return rc;
 }
 
-static int gen_run(const GenArgs *a) {
-    const char *out = a->out, *fam_name = a->family, *split = a->split, *env_dir = a->env_dir, *compare = a->compare_povray;
-    const char *envs = a->envs, *kind = a->kind, *train_lights = a->train_lights, *renderer = a->renderer;
-    int diffuse = a->diffuse;
-    int seed = a->seed, res = a->tex_res, ntrain = a->train > 0 ? a->train : 100, ntest = a->test > 0 ? a->test : 200, count = a->count, img_res = a->res, views = a->views;
-    int spp = a->spp, pxs = a->pixel_samples, threads = a->threads, render = !a->no_render, nscenes = a->scenes, pov_rad = a->pov_radiosity;
-    int env_width = a->env_width;
-    float r_min = a->r_min, r_max = a->r_max, budget = a->time_budget;
-    if (envs) return gen_envs(envs, count > 0 ? count : 8, seed, kind, env_width);
-    if (!out) { mf_fail(MF_EARG, "missing -o DIR"); return MF_EXIT_USAGE; }
-    int tl = train_lights ? ds_train_lights_from_name(train_lights) : DS_LIGHTS_BLENDER;
-    if (tl < 0) { mf_fail(MF_EARG, "--train-lights: expected blender, procedural or both, not '%s'", train_lights); return MF_EXIT_USAGE; }
-    if (train_lights && !(split && (!strcmp(split, "prior-train") || !strcmp(split, "test-2d")))) {
-        mf_fail(MF_EARG, "--train-lights applies to --split prior-train or test-2d");
-        return MF_EXIT_USAGE;
-    }
-    if (split && (!strcmp(split, "prior-train") || !strcmp(split, "test-2d"))) {
-        DsPriorTrainOpts po = !strcmp(split, "test-2d") ? ds_test2d_defaults() : ds_prior_train_defaults();
-        if (count > 0) po.count = count;
-        po.time_budget_s = budget;
-        if (img_res > 0) po.res = img_res;
-        po.seed = (uint64_t)seed;
-        if (views > 0) po.views_per_object = views;
-        if (res > 0) po.tex_res = res;
-        if (spp > 0) po.spp_sqrt = spp;
-        if (pxs > 0) po.pixel_samples = pxs;
-        po.env_dir = env_dir;
-        po.train_lights = (DsTrainLights)tl;
-        po.threads = threads;
-        po.diffuse = diffuse != 0;
-        po.pov_radiosity = pov_rad;
-        po.widen = a->widen;
-        po.content = (DsContent)ds_content_from_name(a->content); /* valid: the table's choices */
-        if ((int)(po.renderer = (DsRenderer)ds_renderer_from_name(renderer)) < 0) { mf_fail(MF_EARG, "--renderer: expected ours, povray or cycles, not '%s'", renderer); return MF_EXIT_USAGE; }
-        if (po.count <= 0 && budget <= 0) po.time_budget_s = 1800; /* prior-train: as much as 30 minutes give */
-        DsGenStats st;
-        if (ds_gen_prior_train(&po, out, &st)) return MF_EXIT_FAIL;
-        mf_log_info("mf gen: %s %d samples (%d objects) at %d px -> %s; this run %d views in %.1f s (%.2f views/s)", split, st.count,
-                    st.objects, po.res, out, st.rendered_views, st.wall_s, st.wall_s > 0 ? st.rendered_views / st.wall_s : 0.0);
-        return MF_EXIT_OK;
-    }
-    if (split) {
-        DsSplitSpec spec;
-        if (ds_split_spec(split, &spec)) return MF_EXIT_USAGE;
-        spec.r_min = r_min;
-        spec.r_max = r_max;
-        if (spp > 0) spec.spp_sqrt = spp;
-        if (nscenes > 0) spec.n_scenes = nscenes;
-        if (a->train > 0) spec.n_train = a->train; /* ranges: the option table */
-        if (a->test > 0) spec.n_test = a->test;
-        if (a->width > 0) spec.width = a->width;
-        spec.pov_radiosity = pov_rad;
-        double t0 = mf_now();
-        int nv = 0;
-        if (ds_write_split(&spec, out, env_dir, (uint64_t)seed)) return MF_EXIT_FAIL;
-        if (render && ds_render_split(&spec, out, &nv)) return MF_EXIT_FAIL;
-        double wall = mf_now() - t0;
-        if (ds_split_manifest(&spec, out, (uint64_t)seed, render, nv, wall)) return MF_EXIT_FAIL;
-        if (compare) {
-            DsRenderCompare c;
-            int cres = img_res > 0 ? img_res : spec.width;
-            if (ds_compare_renderers(&spec, out, nscenes, views > 0 ? views : 0, cres, &c)) return MF_EXIT_FAIL;
-            int fresh = !mf_file_exists(compare);
-            FILE *f = fopen(compare, "a");
-            if (!f) { mf_fail(MF_EIO, "%s: cannot open for appending", compare); return MF_EXIT_FAIL; }
-            if (fresh) fputs(K_COMPARE_HEAD, f);
-            fprintf(f, "| %s%s | %d | %d | %d | %.2f | %.4f | %.2f | %.4f | %.2f | %.2f |\n", split, spec.diffuse ? " (diffuse objects)" : "", cres, spec.pov_radiosity > 0 ? spec.pov_radiosity : DS_SPLIT_POV_RADIOSITY,
-                    c.all.n_views, ds_compare_psnr(&c.all), c.all.rel_den > 0 ? c.all.rel_num / c.all.rel_den : 0.0,
-                    ds_compare_psnr(&c.diffuse_lobe),
-                    c.diffuse_lobe.rel_den > 0 ? c.diffuse_lobe.rel_num / c.diffuse_lobe.rel_den : 0.0, c.all.n_views ? c.sec_ours / c.all.n_views : 0.0,
-                    c.all.n_views ? c.sec_povray / c.all.n_views : 0.0);
-            fclose(f);
-            mf_log_info("mf gen: ours vs POV-Ray on %d relit views: PSNR %.2f dB, mean relative error %.4f -> %s", c.all.n_views,
-                        ds_compare_psnr(&c.all), c.all.rel_den > 0 ? c.all.rel_num / c.all.rel_den : 0.0, compare);
-        }
-        mf_log_info("mf gen: split %s (%d scenes) -> %s%s; %d views rendered in %.1f s", split, spec.n_scenes, out,
-                    render ? "" : " (layout only, --no-render)", nv, wall);
-        return MF_EXIT_OK;
-    }
-    if (res <= 0) res = DS_DEFAULT_TEX_RES;
+/* --split prior-train|test-2d: material-prior triplets. */
+static int gen_prior_split(const GenArgs *a, int tl) {
+    const char *split = a->split, *out = a->out;
+    DsPriorTrainOpts po = !strcmp(split, "test-2d") ? ds_test2d_defaults() : ds_prior_train_defaults();
+    if (a->count > 0) po.count = a->count;
+    po.time_budget_s = a->time_budget;
+    if (a->res > 0) po.res = a->res;
+    po.seed = (uint64_t)a->seed;
+    if (a->views > 0) po.views_per_object = a->views;
+    if (a->tex_res > 0) po.tex_res = a->tex_res;
+    if (a->spp > 0) po.spp_sqrt = a->spp;
+    if (a->pixel_samples > 0) po.pixel_samples = a->pixel_samples;
+    po.env_dir = a->env_dir;
+    po.train_lights = (DsTrainLights)tl;
+    po.threads = a->threads;
+    po.diffuse = a->diffuse != 0;
+    po.pov_radiosity = a->pov_radiosity;
+    po.widen = a->widen;
+    po.content = (DsContent)ds_content_from_name(a->content); /* valid: the table's choices */
+    if ((int)(po.renderer = (DsRenderer)ds_renderer_from_name(a->renderer)) < 0) { mf_fail(MF_EARG, "--renderer: expected ours, povray or cycles, not '%s'", a->renderer); return MF_EXIT_USAGE; }
+    if (po.count <= 0 && a->time_budget <= 0) po.time_budget_s = 1800; /* prior-train: as much as 30 minutes give */
+    DsGenStats st;
+    if (ds_gen_prior_train(&po, out, &st)) return MF_EXIT_FAIL;
+    mf_log_info("mf gen: %s %d samples (%d objects) at %d px -> %s; this run %d views in %.1f s (%.2f views/s)", split, st.count,
+                st.objects, po.res, out, st.rendered_views, st.wall_s, st.wall_s > 0 ? st.rendered_views / st.wall_s : 0.0);
+    return MF_EXIT_OK;
+}
+
+/* --compare-povray FILE.md: our renderer against POV-Ray on the split's relit test views, one
+ * table row appended. */
+static int gen_compare_povray(const GenArgs *a, const DsSplitSpec *spec) {
+    const char *compare = a->compare_povray;
+    DsRenderCompare c;
+    int cres = a->res > 0 ? a->res : spec->width;
+    if (ds_compare_renderers(spec, a->out, a->scenes, a->views > 0 ? a->views : 0, cres, &c)) return MF_EXIT_FAIL;
+    int fresh = !mf_file_exists(compare);
+    FILE *f = fopen(compare, "a");
+    if (!f) { mf_fail(MF_EIO, "%s: cannot open for appending", compare); return MF_EXIT_FAIL; }
+    if (fresh) fputs(K_COMPARE_HEAD, f);
+    fprintf(f, "| %s%s | %d | %d | %d | %.2f | %.4f | %.2f | %.4f | %.2f | %.2f |\n", a->split, spec->diffuse ? " (diffuse objects)" : "", cres, spec->pov_radiosity > 0 ? spec->pov_radiosity : DS_SPLIT_POV_RADIOSITY,
+            c.all.n_views, ds_compare_psnr(&c.all), c.all.rel_den > 0 ? c.all.rel_num / c.all.rel_den : 0.0,
+            ds_compare_psnr(&c.diffuse_lobe),
+            c.diffuse_lobe.rel_den > 0 ? c.diffuse_lobe.rel_num / c.diffuse_lobe.rel_den : 0.0, c.all.n_views ? c.sec_ours / c.all.n_views : 0.0,
+            c.all.n_views ? c.sec_povray / c.all.n_views : 0.0);
+    fclose(f);
+    mf_log_info("mf gen: ours vs POV-Ray on %d relit views: PSNR %.2f dB, mean relative error %.4f -> %s", c.all.n_views,
+                ds_compare_psnr(&c.all), c.all.rel_den > 0 ? c.all.rel_num / c.all.rel_den : 0.0, compare);
+    return MF_EXIT_OK;
+}
+
+/* --split tiny|small|full|test-3d|test-3d-diffuse: the layout, rendered unless --no-render. */
+static int gen_split(const GenArgs *a) {
+    const char *split = a->split, *out = a->out;
+    int render = !a->no_render;
+    DsSplitSpec spec;
+    if (ds_split_spec(split, &spec)) return MF_EXIT_USAGE;
+    spec.r_min = a->r_min;
+    spec.r_max = a->r_max;
+    if (a->spp > 0) spec.spp_sqrt = a->spp;
+    if (a->scenes > 0) spec.n_scenes = a->scenes;
+    if (a->train > 0) spec.n_train = a->train; /* ranges: the option table */
+    if (a->test > 0) spec.n_test = a->test;
+    if (a->width > 0) spec.width = a->width;
+    spec.pov_radiosity = a->pov_radiosity;
+    double t0 = mf_now();
+    int nv = 0;
+    if (ds_write_split(&spec, out, a->env_dir, (uint64_t)a->seed)) return MF_EXIT_FAIL;
+    if (render && ds_render_split(&spec, out, &nv)) return MF_EXIT_FAIL;
+    double wall = mf_now() - t0;
+    if (ds_split_manifest(&spec, out, (uint64_t)a->seed, render, nv, wall)) return MF_EXIT_FAIL;
+    if (a->compare_povray && gen_compare_povray(a, &spec)) return MF_EXIT_FAIL;
+    mf_log_info("mf gen: split %s (%d scenes) -> %s%s; %d views rendered in %.1f s", split, spec.n_scenes, out,
+                render ? "" : " (layout only, --no-render)", nv, wall);
+    return MF_EXIT_OK;
+}
+
+/* One object and its training and test cameras. */
+static int gen_object(const GenArgs *a) {
+    const char *out = a->out, *fam_name = a->family;
+    int seed = a->seed, res = a->tex_res > 0 ? a->tex_res : DS_DEFAULT_TEX_RES;
+    int ntrain = a->train > 0 ? a->train : 100, ntest = a->test > 0 ? a->test : 200;
     int fam = fam_name ? ds_family_from_name(fam_name) : (int)((unsigned)seed % DS_FAM_COUNT);
     if (fam < 0) { mf_fail(MF_EARG, "--family: unknown family '%s'", fam_name); return MF_EXIT_USAGE; }
     DsObject o;
@@ -273,8 +274,8 @@ static int gen_run(const GenArgs *a) {
     int rc = ds_object_write(&o, out);
     if (!rc) {
         DsCamSampling s = ds_cam_sampling_default();
-        s.r_min = r_min;
-        s.r_max = r_max;
+        s.r_min = a->r_min;
+        s.r_max = a->r_max;
         MfMat4 *c2w = malloc(sizeof(MfMat4) * (size_t)(ntrain > ntest ? ntrain : ntest));
         if (!c2w) rc = mf_fail(MF_ENOMEM, "out of memory");
         if (!rc) rc = ds_sample_cameras(&s, ntrain, (uint64_t)seed, 0, c2w);
@@ -286,6 +287,20 @@ static int gen_run(const GenArgs *a) {
     if (!rc) mf_log_info("mf gen: %s seed %d (%d parts, %d triangles) -> %s", ds_family_name(o.family), seed, o.nparts, o.mesh.nt, out);
     ds_object_free(&o);
     return rc ? MF_EXIT_FAIL : MF_EXIT_OK;
+}
+
+static int gen_run(const GenArgs *a) {
+    const char *split = a->split, *train_lights = a->train_lights;
+    if (a->envs) return gen_envs(a->envs, a->count > 0 ? a->count : 8, a->seed, a->kind, a->env_width);
+    if (!a->out) { mf_fail(MF_EARG, "missing -o DIR"); return MF_EXIT_USAGE; }
+    int tl = train_lights ? ds_train_lights_from_name(train_lights) : DS_LIGHTS_BLENDER;
+    if (tl < 0) { mf_fail(MF_EARG, "--train-lights: expected blender, procedural or both, not '%s'", train_lights); return MF_EXIT_USAGE; }
+    int prior_split = split && (!strcmp(split, "prior-train") || !strcmp(split, "test-2d"));
+    if (train_lights && !prior_split) {
+        mf_fail(MF_EARG, "--train-lights applies to --split prior-train or test-2d");
+        return MF_EXIT_USAGE;
+    }
+    return prior_split ? gen_prior_split(a, tl) : split ? gen_split(a) : gen_object(a);
 }
 
 MF_COMMAND(gen, "gen", "generate a procedural object, or a data set split (layout, rendered views, prior-train triplets)", usage, cmd_gen)

@@ -10,28 +10,43 @@
 #include "eval/ev_metrics.h"
 #include "io/mf_image.h"
 
-static const char usage[] =
-    "usage: mf metrics PRED GT [--mask M|alpha] [--align none|mean|lsq] [--linear] [--orm] [--layer NAME]\n"
-    "\n"
-    "Scores the prediction PRED against the ground truth GT with the evaluation protocol:\n"
-    "per-channel scale alignment in linear space inside the mask (default mean: ratio of means;\n"
-    "lsq: least squares; none), then linear -> sRGB, clip to [0,1], composite on black with the\n"
-    "mask; then PSNR (dB, data range 1, capped at 100), SSIM (scikit-image settings of Wang et al.),\n"
-    "L1 and LDR-FLIP (67.02 pixels per degree). Prints one 'name value' line per metric:\n"
-    "psnr, ssim, l1, flip, and with a mask also psnr_masked, ssim_masked, l1_masked, flip_masked\n"
-    "(averages over mask pixels with coverage > 0.5).\n"
-    "\n"
-    "  --mask M      mask image (linear; coverage = alpha of a 2/4-channel file, else channel 0);\n"
-    "                the word 'alpha' uses GT's alpha channel\n"
-    "  --align MODE  none | mean | lsq (default mean)\n"
-    "  --linear      PNG/JPEG inputs hold linear values (default: sRGB colour). EXR/HDR are linear.\n"
-    "  --orm         ORM images (linear, glTF order): scores roughness G and metallic B only, no\n"
-    "                alignment, no sRGB curve (clip, composite); prints psnr, ssim, l1 (no flip)\n"
-    "  --layer NAME  EXR layer of PRED and GT to score (default: the R, G, B[, A] layer; e.g. albedo,\n"
-    "                orm, diffuse, specular of a file written by mf render). Multi-layer EXR files\n"
-    "                are read one layer at a time; other formats have no layers.\n"
-    "Alpha channels of PRED and GT are dropped before scoring. Exit code 1 on bad images (sizes\n"
-    "differ, NaN pixels, empty mask), 2 on bad usage.\n";
+typedef struct {
+    const char *mask, *align, *layer;
+    int linear, orm;
+} MetricsArgs;
+
+#define A MetricsArgs
+static const MfOpt k_args[] = {
+    MF_OPT_STR(A, mask, NULL, "mask image (linear; coverage = alpha of a 2/4-channel file, else channel 0); the word "
+               "'alpha' uses GT's alpha channel", .meta = "M|alpha", .unset = "none"),
+    MF_OPT_STR(A, align, NULL, "per-channel scale alignment", .choices = "none|mean|lsq", .unset = "mean"),
+    MF_OPT_BOOL(A, linear, 0, "PNG/JPEG inputs hold linear values (default: sRGB colour); EXR/HDR are linear"),
+    MF_OPT_BOOL(A, orm, 0, "ORM images (linear, glTF order): roughness G and metallic B only, no alignment, no sRGB "
+                "curve (clip, composite); prints psnr, ssim, l1 (no flip)"),
+    MF_OPT_STR(A, layer, NULL, "EXR layer of PRED and GT to score (e.g. albedo, orm, diffuse, specular of a file written by "
+               "mf render; multi-layer EXR files are read one layer at a time)", .meta = "NAME",
+               .unset = "the R, G, B[, A] layer"),
+};
+#undef A
+static const MfOptTable k_args_table = MF_OPT_TABLE("Options", k_args);
+
+static char usage[8192];
+__attribute__((constructor)) static void metrics_usage(void) {
+    const MfOptTable *t[] = {&k_args_table};
+    mf_opts_usage_text(usage, sizeof usage,
+                       "usage: mf metrics PRED GT [--mask M|alpha] [--align none|mean|lsq] [--linear] [--orm] [--layer NAME]\n"
+                       "\n"
+                       "Scores the prediction PRED against the ground truth GT with the evaluation protocol:\n"
+                       "per-channel scale alignment in linear space inside the mask (mean: ratio of means;\n"
+                       "lsq: least squares; none), then linear -> sRGB, clip to [0,1], composite on black with the\n"
+                       "mask; then PSNR (dB, data range 1, capped at 100), SSIM (scikit-image settings of Wang et al.),\n"
+                       "L1 and LDR-FLIP (67.02 pixels per degree). Prints one 'name value' line per metric:\n"
+                       "psnr, ssim, l1, flip, and with a mask also psnr_masked, ssim_masked, l1_masked, flip_masked\n"
+                       "(averages over mask pixels with coverage > 0.5).\n",
+                       t, 1,
+                       "Alpha channels of PRED and GT are dropped before scoring. Exit code 1 on bad images (sizes\n"
+                       "differ, NaN pixels, empty mask), 2 on bad usage.\n");
+}
 
 /* Copies the colour channels (alpha dropped) of src into dst. */
 static int color_only(const MfImage *src, MfImage *dst) {
@@ -44,43 +59,27 @@ static int color_only(const MfImage *src, MfImage *dst) {
     return MF_OK;
 }
 
+static int metrics_run(const MetricsArgs *a, const char *pred_path, const char *gt_path, EvAlign mode);
+
 static int cmd_metrics(int argc, char **argv) {
-    const char *pos[2] = {NULL, NULL}, *mask_path = NULL, *align_s = "mean", *layer = "";
-    int npos = 0, linear = 0, orm = 0, align_given = 0;
-    for (int i = 1; i < argc; i++) {
-        int r;
-        if ((r = mf_opt_str(argc, argv, &i, "--mask", &mask_path)) != 0) {
-            if (r < 0) return MF_EXIT_USAGE;
-        } else if ((r = mf_opt_str(argc, argv, &i, "--align", &align_s)) != 0) {
-            if (r < 0) return MF_EXIT_USAGE;
-            align_given = 1;
-        } else if ((r = mf_opt_str(argc, argv, &i, "--layer", &layer)) != 0) {
-            if (r < 0) return MF_EXIT_USAGE;
-        } else if (!strcmp(argv[i], "--orm")) {
-            orm = 1;
-        } else if (!strcmp(argv[i], "--linear")) {
-            linear = 1;
-        } else if (argv[i][0] == '-' && argv[i][1] != '\0') {
-            mf_fail(MF_EARG, "unknown option '%s' (see mf metrics --help)", argv[i]);
-            return MF_EXIT_USAGE;
-        } else if (npos < 2) {
-            pos[npos++] = argv[i];
-        } else {
-            mf_fail(MF_EARG, "too many arguments ('%s'); expected PRED GT", argv[i]);
-            return MF_EXIT_USAGE;
-        }
-    }
-    if (npos != 2) {
-        mf_fail(MF_EARG, "expected PRED GT (see mf metrics --help)");
-        return MF_EXIT_USAGE;
-    }
-    EvAlign mode;
-    if (ev_align_parse(align_s, &mode)) return MF_EXIT_USAGE;
-    if (orm && align_given) {
-        mf_fail(MF_EARG, "--orm scores ORM without alignment; drop --align");
-        return MF_EXIT_USAGE;
-    }
-    const char *pred_path = pos[0], *gt_path = pos[1];
+    MetricsArgs a;
+    mf_opts_defaults(&k_args_table, &a);
+    MfOptBind bind = {&k_args_table, &a};
+    MfOptParse p;
+    int rc = mf_cli_parse(&bind, 1, argc, argv, 2, &p);
+    if (rc >= 0) return rc;
+    EvAlign mode = EV_ALIGN_MEAN;
+    if (p.npos != 2) rc = MF_EXIT_USAGE, mf_fail(MF_EARG, "expected PRED GT (see mf metrics --help)");
+    else if (a.align && ev_align_parse(a.align, &mode)) rc = MF_EXIT_USAGE;
+    else if (a.orm && a.align) rc = MF_EXIT_USAGE, mf_fail(MF_EARG, "--orm scores ORM without alignment; drop --align");
+    else rc = metrics_run(&a, p.pos[0], p.pos[1], mode);
+    mf_opts_parse_free(&p);
+    return rc;
+}
+
+static int metrics_run(const MetricsArgs *a, const char *pred_path, const char *gt_path, EvAlign mode) {
+    const char *mask_path = a->mask, *layer = a->layer ? a->layer : "";
+    int linear = a->linear, orm = a->orm;
     MfEncoding enc = (linear || orm) ? MF_ENC_LINEAR : MF_ENC_SRGB;
 
     MfImage pred = {0}, gt = {0}, mask = {0}, pc = {0}, gc = {0}, po = {0}, go = {0};

@@ -78,16 +78,128 @@ static int cmd_recon(int argc, char **argv) {
     return rc;
 }
 
+/* The training views at --res (all of them with --side: its filter needs the mesh), and the mesh
+ * path (--mesh, else the data set's, else DATA/mesh.obj) into mesh_path. */
+static int load_views(const char *data, const ReconArgs *a, DsViews *dv, char mesh_path[MF_PATH_MAX]) {
+    DsLoadOptions lo = {0, strcmp(a->side, "all") ? 0 : a->max_views, 1, 0, a->mask};
+    int rc = ds_load_width(data, a->split, &lo, a->res, dv);
+    if (rc) return rc;
+    if (a->mesh) snprintf(mesh_path, MF_PATH_MAX, "%s", a->mesh);
+    else if (dv->mesh_path[0]) snprintf(mesh_path, MF_PATH_MAX, "%s", dv->mesh_path);
+    else rc = mf_path_join(mesh_path, MF_PATH_MAX, data, "mesh.obj");
+    if (rc) ds_views_free(dv);
+    return rc;
+}
+
+/* --side S: only the views whose camera lies on that side of the mesh's bounding-box centre, then
+ * the first --max-views of them (the one-sided few-view split). */
+static int keep_side(DsViews *dv, const MfMesh *mesh, const ReconArgs *a) {
+    if (!strcmp(a->side, "all")) return MF_OK;
+    MfVec3 lo, hi, dir = {0, 0, 0};
+    mf_mesh_bounds(mesh, &lo, &hi);
+    float *axis = a->side[1] == 'x' ? &dir.x : a->side[1] == 'y' ? &dir.y : &dir.z;
+    *axis = a->side[0] == '-' ? -1.0f : 1.0f;
+    int rc = ds_views_keep_side(dv, mf_scale(mf_add(lo, hi), 0.5f), dir, a->max_views);
+    if (!rc) mf_log_info("--side %s: training on %d view(s)", a->side, dv->n);
+    return rc;
+}
+
+/* The views' premultiplied images move into views (n,); dv is freed. */
+static int move_views(DsViews *dv, MfReconView **views, int *n) {
+    ds_views_premultiply(dv);
+    *views = calloc((size_t)dv->n, sizeof **views);
+    int rc = *views ? MF_OK : mf_fail(MF_ENOMEM, "out of memory");
+    for (int i = 0; i < dv->n && !rc; ++i) {
+        (*views)[i].cam = dv->views[i].cam;
+        (*views)[i].ref = dv->views[i].rgba;
+        memset(&dv->views[i].rgba, 0, sizeof dv->views[i].rgba);
+    }
+    *n = rc ? 0 : dv->n;
+    ds_views_free(dv);
+    return rc;
+}
+
+static int load_mesh(const char *path, MfMesh *mesh) {
+    if (mf_mesh_read(path, mesh)) return mf_fail_prefix(MF_EIO, "mesh (supply one with --mesh; geometry recovery is not implemented yet)");
+    if (mesh->uv) return MF_OK;
+    mf_mesh_free(mesh);
+    return mf_fail(MF_EARG, "%s: the mesh has no UVs; mf recon refuses it (unwrap it first, e.g. in Blender)", path);
+}
+
+/* MaterialFusion's prior term; a missing or mismatched weights file stops before the
+ * optimisation starts. Returns an exit code. */
+static int load_sds(const char *weights, const MfSdsOpts *so, MfSds **sds) {
+    MfPrior *prior = NULL;
+    if (mf_prior_load_path(weights, &prior)) {
+        mf_fail_prefix(MF_EIO, "materialfusion needs the prior's weights (MFCK version 1, mf-prior format %d; "
+                       "make train-prior makes them; the nvdiffrecmc baseline runs without)", MF_PRIOR_FORMAT_VERSION);
+        return MF_EXIT_FAIL;
+    }
+    if (mf_sds_new(prior, so, sds)) {
+        mf_prior_free(prior);
+        return MF_EXIT_USAGE;
+    }
+    return MF_EXIT_OK;
+}
+
+/* Temporaries a killed run left in the result folder (its snapshots included) are of no use to
+ * anyone: resume rewrites every output, so they are removed, not reused. Then --resume. */
+static int prepare_out(MfRecon *r, const char *out, int resume) {
+    int stale = 0, rc = mf_remove_stale_tmp(out, 3, &stale);
+    if (!rc && stale) mf_log_info("%s: removed %d temporary file%s left by an interrupted run", out, stale, stale == 1 ? "" : "s");
+    char ck[MF_PATH_MAX];
+    if (rc || !resume || (rc = mf_path_join(ck, sizeof ck, out, "checkpoint.mfck"))) return rc;
+    if (!mf_file_exists(ck)) {
+        mf_log_info("%s: no checkpoint, starting from scratch", ck);
+        return MF_OK;
+    }
+    rc = mf_recon_load_checkpoint(r, ck);
+    if (!rc) mf_log_info("resuming %s at iteration %d", ck, mf_recon_iteration(r));
+    return rc;
+}
+
+/* run.json, also when the guard stopped the run (rc != 0): what happened, and why. Every option
+ * as resolved, render timings, the prior's seconds, recoveries. Returns rc or run.json's error. */
+static int write_run(int rc, int argc, char **argv, const char *out, const ReconArgs *a, const MfReconOpts *o,
+                     const MfSdsOpts *so, MfRecon *r, MfSds *sds, double wall) {
+    char stopped[1024];
+    snprintf(stopped, sizeof stopped, "%s", rc ? mf_error() : "");
+    cJSON *opts = cJSON_CreateObject();
+    mf_opts_to_json(&k_args_table, a, opts);
+    mf_opts_to_json(&mf_recon_opt_table, o, opts);
+    if (sds) mf_opts_to_json(&mf_sds_opt_table, so, opts);
+    double tf, ta;
+    mf_recon_timing(r, &tf, &ta);
+    cJSON_AddNumberToObject(opts, "forward_render_s", tf);
+    cJSON_AddNumberToObject(opts, "adjoint_render_s", ta);
+    cJSON_AddNumberToObject(opts, "adjoint_over_forward", tf > 0 ? ta / tf : 0.0);
+    if (sds) cJSON_AddNumberToObject(opts, "prior_s", mf_sds_seconds(sds)); /* wall s of the prior's work */
+    int nrec;
+    const MfReconRecovery *rec = mf_recon_recoveries(r, &nrec);
+    cJSON *ra = cJSON_AddArrayToObject(opts, "recoveries");
+    for (int k = 0; k < nrec && k < 64; ++k) {
+        cJSON *e = cJSON_CreateObject();
+        cJSON_AddNumberToObject(e, "iter", rec[k].iter);
+        cJSON_AddStringToObject(e, "reason", rec[k].reason);
+        cJSON_AddNumberToObject(e, "lr_scale", rec[k].lr_scale);
+        cJSON_AddItemToArray(ra, e);
+    }
+    cJSON_AddNumberToObject(opts, "lr_scale", mf_recon_lr_scale(r));
+    if (rc) cJSON_AddStringToObject(opts, "stopped", stopped);
+    int wrc = mf_write_run_json(out, argc, argv, o->seed, wall, opts);
+    if (rc) return mf_fail(rc, "%s", stopped); /* the run's error, not run.json's */
+    return wrc;
+}
+
 static int cmd_recon_run(int argc, char **argv, const MfOptParse *p, ReconArgs *a, MfReconOpts *po, MfSdsOpts *pso) {
     MfReconOpts o = *po;
     MfSdsOpts so = *pso;
-    const char *data = p->npos ? p->pos[0] : NULL, *out = a->out, *method = a->method, *mesh_path = a->mesh, *split = a->split;
-    int res = a->res, max_views = a->max_views, resume = a->resume;
-    char wdefault[MF_PATH_MAX];
+    const char *data = p->npos ? p->pos[0] : NULL, *out = a->out;
+    char wdefault[MF_PATH_MAX], mesh_path[MF_PATH_MAX];
     mf_prior_default_weights(wdefault, sizeof wdefault); /* $MF_PRIOR_WEIGHTS, else the committed weights */
     const char *weights = a->prior_weights ? a->prior_weights : wdefault;
     if (!data || !out) { mf_fail(MF_EARG, "need DATASET_DIR and -o RESULT_DIR (see mf recon --help)"); return MF_EXIT_USAGE; }
-    int is_mf = !strcmp(method, "materialfusion");
+    int is_mf = !strcmp(a->method, "materialfusion");
     if (so.t_min > so.t_max) {
         mf_fail(MF_EARG, "--t-min %d is above --t-max %d", so.t_min, so.t_max);
         return MF_EXIT_USAGE;
@@ -95,141 +207,35 @@ static int cmd_recon_run(int argc, char **argv, const MfOptParse *p, ReconArgs *
     so.seed = mf_hash64(o.seed, 0x5d5);
     double t0 = mf_now();
     DsViews dv;
-    int one_side = strcmp(a->side, "all") != 0;
-    DsLoadOptions lo = {0, one_side ? 0 : max_views, 1, 0, a->mask}; /* one side: all views, then the first N there */
-    /* --res: find the downsample factor from the first image's size */
-    if (ds_load(data, split, &lo, &dv)) return MF_EXIT_FAIL;
-    if (res > 0 && res != dv.w) {
-        if (dv.w % res || dv.h % (dv.w / res)) {
-            mf_fail(MF_EARG, "--res %d: the images are %dx%d, not a multiple of %d", res, dv.w, dv.h, res);
-            ds_views_free(&dv);
-            return MF_EXIT_USAGE;
-        }
-        lo.downsample = dv.w / res; /* before freeing dv, which zeroes it */
+    MfReconView *views = NULL;
+    MfMesh mesh = {0};
+    int nviews = 0, rc = load_views(data, a, &dv, mesh_path);
+    if (rc) return rc == MF_EARG ? MF_EXIT_USAGE : MF_EXIT_FAIL; /* MF_EARG: --res does not divide the images */
+    if ((rc = load_mesh(mesh_path, &mesh)) || (rc = keep_side(&dv, &mesh, a)) || (rc = move_views(&dv, &views, &nviews))) {
         ds_views_free(&dv);
-        if (ds_load(data, split, &lo, &dv)) return MF_EXIT_FAIL;
-    }
-    char mp[MF_PATH_MAX];
-    if (!mesh_path) {
-        if (dv.mesh_path[0]) snprintf(mp, sizeof mp, "%s", dv.mesh_path);
-        else if (mf_path_join(mp, sizeof mp, data, "mesh.obj")) { ds_views_free(&dv); return MF_EXIT_FAIL; }
-        mesh_path = mp;
-    }
-    MfMesh mesh;
-    if (mf_mesh_read(mesh_path, &mesh)) {
-        ds_views_free(&dv);
-        mf_fail_prefix(MF_EIO, "mesh (supply one with --mesh; geometry recovery is not implemented yet)");
-        return MF_EXIT_FAIL;
-    }
-    if (one_side) {
-        MfVec3 lo_b, hi_b, dir = {0, 0, 0};
-        mf_mesh_bounds(&mesh, &lo_b, &hi_b);
-        float *axis = a->side[1] == 'x' ? &dir.x : a->side[1] == 'y' ? &dir.y : &dir.z;
-        *axis = a->side[0] == '-' ? -1.0f : 1.0f;
-        if (ds_views_keep_side(&dv, mf_scale(mf_add(lo_b, hi_b), 0.5f), dir, max_views)) {
-            mf_mesh_free(&mesh);
-            ds_views_free(&dv);
-            return MF_EXIT_FAIL;
-        }
-        mf_log_info("--side %s: training on %d view(s)", a->side, dv.n);
-    }
-    if (!mesh.uv) {
-        mf_fail(MF_EARG, "%s: the mesh has no UVs; mf recon refuses it (unwrap it first, e.g. in Blender)", mesh_path);
         mf_mesh_free(&mesh);
-        ds_views_free(&dv);
         return MF_EXIT_FAIL;
     }
-    /* a missing or mismatched weights file stops before the optimisation starts */
     MfSds *sds = NULL;
-    if (is_mf) {
-        MfPrior *prior = NULL;
-        if (mf_prior_load_path(weights, &prior)) {
-            mf_fail_prefix(MF_EIO, "materialfusion needs the prior's weights (MFCK version 1, mf-prior format %d; "
-                           "make train-prior makes them; the nvdiffrecmc baseline runs without)", MF_PRIOR_FORMAT_VERSION);
-            mf_mesh_free(&mesh);
-            ds_views_free(&dv);
-            return MF_EXIT_FAIL;
-        }
-        if (mf_sds_new(prior, &so, &sds)) {
-            mf_prior_free(prior);
-            mf_mesh_free(&mesh);
-            ds_views_free(&dv);
-            return MF_EXIT_USAGE;
-        }
-    }
-    MfReconView *views = calloc((size_t)dv.n, sizeof *views);
-    int rc = views ? MF_OK : mf_fail(MF_ENOMEM, "out of memory");
-    for (int i = 0; i < dv.n && !rc; ++i) {
-        const MfImage *src = &dv.views[i].rgba;
-        views[i].cam = dv.views[i].cam;
-        if ((rc = mf_image_alloc(&views[i].ref, src->w, src->h, 4))) break;
-        for (size_t p = 0; p < (size_t)src->w * src->h; ++p) {
-            float a = src->data[4 * p + 3];
-            for (int c = 0; c < 3; ++c) views[i].ref.data[4 * p + c] = src->data[4 * p + c] * a;
-            views[i].ref.data[4 * p + 3] = a;
-        }
-    }
-    int nviews = dv.n;
-    ds_views_free(&dv);
     MfRecon *r = NULL;
-    if (!rc) rc = mf_recon_new(&mesh, views, nviews, &o, &r);
-    for (int i = 0; views && i < nviews; ++i) mf_image_free(&views[i].ref); /* moved into r on success */
+    int exit_code = is_mf ? load_sds(weights, &so, &sds) : MF_EXIT_OK;
+    if (!exit_code) rc = mf_recon_new(&mesh, views, nviews, &o, &r);
+    for (int i = 0; i < nviews; ++i) mf_image_free(&views[i].ref); /* moved into r on success */
     free(views);
-    /* temporaries a killed run left in the result folder (its snapshots included) are of no
-     * use to anyone: resume rewrites every output, so they are removed, not reused */
-    int stale = 0;
-    if (!rc && !(rc = mf_remove_stale_tmp(out, 3, &stale)) && stale)
-        mf_log_info("%s: removed %d temporary file%s left by an interrupted run", out, stale, stale == 1 ? "" : "s");
-    if (!rc && resume) {
-        char ck[MF_PATH_MAX];
-        if (!(rc = mf_path_join(ck, sizeof ck, out, "checkpoint.mfck"))) {
-            if (mf_file_exists(ck)) {
-                rc = mf_recon_load_checkpoint(r, ck);
-                if (!rc) mf_log_info("resuming %s at iteration %d", ck, mf_recon_iteration(r));
-            } else {
-                mf_log_info("%s: no checkpoint, starting from scratch", ck);
-            }
-        }
-    }
-    if (!rc) mf_log_info("recon: %d views %dx%d, %d iterations, batch %d, textures %d^2, env %dx%d", nviews,
-                         mf_recon_view(r, 0)->cam.w, mf_recon_view(r, 0)->cam.h, o.iters, o.batch, o.tex_res, o.env_w, o.env_h);
-    MfReconHook hook = {mf_sds_hook, sds};
-    int ran = 0;
-    if (!rc) rc = mf_recon_run(r, is_mf ? &hook : NULL, out), ran = 1;
-    if (ran) { /* run.json also when the guard stopped the run: what happened, and why */
-        char stopped[1024];
-        snprintf(stopped, sizeof stopped, "%s", rc ? mf_error() : "");
-        cJSON *opts = cJSON_CreateObject();
+    if (!exit_code && !rc) rc = prepare_out(r, out, a->resume);
+    if (!exit_code && !rc)
+        mf_log_info("recon: %d views %dx%d, %d iterations, batch %d, textures %d^2, env %dx%d", nviews, mf_recon_view(r, 0)->cam.w,
+                    mf_recon_view(r, 0)->cam.h, o.iters, o.batch, o.tex_res, o.env_w, o.env_h);
+    if (!exit_code && !rc) {
+        MfReconHook hook = {mf_sds_hook, sds};
+        rc = mf_recon_run(r, is_mf ? &hook : NULL, out);
         a->mesh = mesh_path, a->prior_weights = weights; /* as resolved */
-        mf_opts_to_json(&k_args_table, a, opts);
-        mf_opts_to_json(&mf_recon_opt_table, &o, opts);
-        if (is_mf) mf_opts_to_json(&mf_sds_opt_table, &so, opts);
-        double tf, ta;
-        mf_recon_timing(r, &tf, &ta);
-        cJSON_AddNumberToObject(opts, "forward_render_s", tf);
-        cJSON_AddNumberToObject(opts, "adjoint_render_s", ta);
-        cJSON_AddNumberToObject(opts, "adjoint_over_forward", tf > 0 ? ta / tf : 0.0);
-        if (is_mf) cJSON_AddNumberToObject(opts, "prior_s", mf_sds_seconds(sds)); /* wall s of the prior's work */
-        int nrec;
-        const MfReconRecovery *rec = mf_recon_recoveries(r, &nrec);
-        cJSON *ra = cJSON_AddArrayToObject(opts, "recoveries");
-        for (int k = 0; k < nrec && k < 64; ++k) {
-            cJSON *e = cJSON_CreateObject();
-            cJSON_AddNumberToObject(e, "iter", rec[k].iter);
-            cJSON_AddStringToObject(e, "reason", rec[k].reason);
-            cJSON_AddNumberToObject(e, "lr_scale", rec[k].lr_scale);
-            cJSON_AddItemToArray(ra, e);
-        }
-        cJSON_AddNumberToObject(opts, "lr_scale", mf_recon_lr_scale(r));
-        if (rc) cJSON_AddStringToObject(opts, "stopped", stopped);
-        int wrc = mf_write_run_json(out, argc, argv, o.seed, mf_now() - t0, opts);
-        if (rc) mf_fail(rc, "%s", stopped); /* the run's error, not run.json's */
-        else rc = wrc;
+        rc = write_run(rc, argc, argv, out, a, &o, &so, r, sds, mf_now() - t0);
     }
     mf_recon_free(r);
     mf_sds_free(sds);
     mf_mesh_free(&mesh);
-    return rc ? MF_EXIT_FAIL : MF_EXIT_OK;
+    return exit_code ? exit_code : rc ? MF_EXIT_FAIL : MF_EXIT_OK;
 }
 
 __attribute__((constructor)) static void recon_usage(void) {

@@ -9,19 +9,18 @@
 #include "eval/ev_report.h"
 #include "prior/mf_prior_train.h"
 
-#define USAGE_TRAIN_PRIOR \
-    "usage: mf train-prior DATA_DIR -o CKPT_DIR [--steps N] [--ae-steps N] [--batch B] [--seed S]\n" \
-    "                      [--dn-samples N] [--resume] [--loss-csv PATH] [--ckpt-every K] [--lr-ae X] [--lr X] [--warmup N]\n" \
-    "  Trains the autoencoder (--ae-steps, default 1000), freezes it, then the denoiser + image encoder\n" \
-    "  (--steps, default 2000) on DATA_DIR (prior-train layout: manifest.json, rgb/ albedo/ orm/ PNGs).\n" \
-    "  Writes CKPT_DIR/prior.mfck (weights for `mf prior`), CKPT_DIR/{ae,dn}_state.mfck (resumable state,\n" \
-    "  every --ckpt-every steps, default 200) and the loss curve CSV (default reports/prior/loss.csv).\n" \
-    "  --resume continues from the state files exactly (same seed -> same result as one run).\n" \
-    "  --dn-samples N: the denoiser trains on N samples spread evenly over the split (their latents are\n" \
-    "  encoded once; default all); the autoencoder always uses every sample.\n" \
-    "  Defaults: batch 16, seed 1, AdamW lr 5e-4 (AE) / 3e-4 (denoiser), wd 1e-2, warm-up 100 steps.\n" \
-    "  Model size: --ae-c1/--ae-c2 (AE channels, default 32/64), --unet-c1/--unet-c2 (default 64/128;\n" \
-    "  c1 multiple of 8, c2 >= c1 and a multiple of 8). --stop-after N stops (with a checkpoint) after N steps.\n"
+static char usage[8192];
+__attribute__((constructor)) static void train_prior_usage(void) {
+    const MfOptTable *t[] = {&mf_train_prior_opt_table};
+    mf_opts_usage_text(usage, sizeof usage,
+                       "usage: mf train-prior DATA_DIR -o CKPT_DIR [--steps N] [--ae-steps N] [--batch B] [--seed S]\n"
+                       "                      [--dn-samples N] [--resume] [--loss-csv PATH] [--ckpt-every K] [--lr-ae X] [--lr X] [--warmup N]\n"
+                       "  Trains the autoencoder (--ae-steps), freezes it, then the denoiser + image encoder (--steps) on\n"
+                       "  DATA_DIR (prior-train layout: manifest.json, rgb/ albedo/ orm/ PNGs). Writes CKPT_DIR/prior.mfck\n"
+                       "  (weights for `mf prior`), CKPT_DIR/{ae,dn}_state.mfck (resumable state) and the loss curve CSV.\n"
+                       "  AdamW weight decay 1e-2.\n",
+                       t, 1, NULL);
+}
 
 /* Plots the loss CSV (phase,step,loss,lr) next to it as .png: one series per phase, the denoiser's
  * steps after the autoencoder's; a 50-step moving average keeps the curves readable. */
@@ -78,40 +77,24 @@ static void plot_loss(const char *csv) {
     for (int j = 0; j < 2; ++j) free(x[j]), free(y[j]);
 }
 
+static int train_prior_run(const MfTrainPriorOpts *po);
+
 static int cmd_train_prior(int argc, char **argv) {
     MfTrainPriorOpts o;
     mf_train_prior_defaults(&o);
-    int seed = 1, ae_steps = -1;
-    for (int i = 1; i < argc; ++i) {
-        int r;
-        if ((r = mf_opt_str(argc, argv, &i, "-o", &o.out_dir)) || (r = mf_opt_int(argc, argv, &i, "--steps", &o.steps)) ||
-            (r = mf_opt_int(argc, argv, &i, "--ae-steps", &ae_steps)) ||
-            (r = mf_opt_int(argc, argv, &i, "--batch", &o.batch)) || (r = mf_opt_int(argc, argv, &i, "--seed", &seed)) ||
-            (r = mf_opt_str(argc, argv, &i, "--loss-csv", &o.loss_csv)) ||
-            (r = mf_opt_int(argc, argv, &i, "--ckpt-every", &o.ckpt_every)) ||
-            (r = mf_opt_float(argc, argv, &i, "--lr-ae", &o.lr_ae)) || (r = mf_opt_float(argc, argv, &i, "--lr", &o.lr_dn)) ||
-            (r = mf_opt_int(argc, argv, &i, "--warmup", &o.warmup)) ||
-            (r = mf_opt_int(argc, argv, &i, "--dn-samples", &o.dn_samples)) ||
-            (r = mf_opt_int(argc, argv, &i, "--stop-after", &o.stop_after)) ||
-            (r = mf_opt_int(argc, argv, &i, "--ae-c1", &o.ae_c1)) || (r = mf_opt_int(argc, argv, &i, "--ae-c2", &o.ae_c2)) ||
-            (r = mf_opt_int(argc, argv, &i, "--unet-c1", &o.dn_c1)) || (r = mf_opt_int(argc, argv, &i, "--unet-c2", &o.dn_c2))) {
-            if (r < 0) return MF_EXIT_USAGE;
-            continue;
-        }
-        if (!strcmp(argv[i], "--resume")) o.resume = 1;
-        else if (!strcmp(argv[i], "--tiny")) o.tiny = 1;
-        else if (argv[i][0] != '-' && !o.data_dir) o.data_dir = argv[i];
-        else {
-            mf_fail(MF_EARG, "train-prior: unknown argument '%s'", argv[i]);
-            return MF_EXIT_USAGE;
-        }
-    }
-    if (!o.data_dir || !o.out_dir) {
-        mf_fail(MF_EARG, "train-prior: need DATA_DIR and -o CKPT_DIR");
-        return MF_EXIT_USAGE;
-    }
-    o.seed = (uint64_t)seed;
-    o.ae_steps = ae_steps >= 0 ? ae_steps : 1000;
+    MfOptBind bind = {&mf_train_prior_opt_table, &o};
+    MfOptParse p;
+    int rc = mf_cli_parse(&bind, 1, argc, argv, 1, &p);
+    if (rc >= 0) return rc;
+    o.data_dir = p.npos ? p.pos[0] : NULL;
+    if (!o.data_dir || !o.out_dir) rc = MF_EXIT_USAGE, mf_fail(MF_EARG, "train-prior: need DATA_DIR and -o CKPT_DIR");
+    else rc = train_prior_run(&o);
+    mf_opts_parse_free(&p);
+    return rc;
+}
+
+static int train_prior_run(const MfTrainPriorOpts *po) {
+    MfTrainPriorOpts o = *po;
     MfTrainPriorResult r;
     int rc = mf_train_prior(&o, &r);
     plot_loss(o.loss_csv ? o.loss_csv : "reports/prior/loss.csv");
@@ -131,5 +114,5 @@ static int cmd_train_prior(int argc, char **argv) {
     return MF_EXIT_OK;
 }
 
-MF_COMMAND(train_prior, "train-prior", "train the material prior (autoencoder, then denoiser)", USAGE_TRAIN_PRIOR,
+MF_COMMAND(train_prior, "train-prior", "train the material prior (autoencoder, then denoiser)", usage,
            cmd_train_prior)

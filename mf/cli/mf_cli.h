@@ -7,8 +7,8 @@
  * `mf help` lists them; `mf <cmd> --help` (or -h) prints the usage text. A command returns the
  * process exit code (0 ok, 1 runtime failure, 2 usage error); main() prints mf_error() on failure.
  * Options: a command declares them in a table (io/mf_opts.h) and parses with mf_opts_parse, which
- * gives it flags, --config, --print-config, --help lines and range checks in one place (render,
- * gen, recon, eval, relight, bench-render do); the mf_opt_* helpers below remain for the others. */
+ * gives it flags, --config, --print-config, --help lines and range checks in one place; every
+ * command does (mf_cli_parse below is the usual call). */
 #ifndef MF_CLI_H
 #define MF_CLI_H
 
@@ -36,11 +36,11 @@ void mf_cli_register(const MfCommand *cmd);
 #define MF_EXIT_FAIL 1
 #define MF_EXIT_USAGE 2
 
-/* Older option helpers (commands not yet on a table): return 1 and advance *i when argv[*i] is `name` with a value. On a
- * missing or malformed value they set the error and return -1. */
-int mf_opt_str(int argc, char **argv, int *i, const char *name, const char **out);
-int mf_opt_int(int argc, char **argv, int *i, const char *name, int *out);
-int mf_opt_float(int argc, char **argv, int *i, const char *name, float *out);
+/* Parses a command's options with mf_opts_parse into the bound structs (their defaults already
+ * set). Returns -1 when the command goes on (free p with mf_opts_parse_free), else the exit code
+ * to return at once (p already freed): MF_EXIT_USAGE on a bad option, MF_EXIT_OK after
+ * --print-config printed the options. */
+int mf_cli_parse(const MfOptBind *b, int nb, int argc, char **argv, int max_pos, MfOptParse *p);
 
 /* `mf <cmd> --print-config`: prints the options of the bound tables (after --config and flags)
  * as one JSON object on stdout, a valid --config file for the same command; returns MF_EXIT_OK. */

@@ -30,6 +30,7 @@
 #include "prior/mf_ae.h"
 #include "prior/mf_denoiser.h"
 #include "prior/mf_diffusion.h"
+#include "io/mf_image.h"
 
 #define MF_PRIOR_FORMAT_VERSION 1
 /* Loading refuses (by field) meta text longer than this, and configurations with more channels
@@ -116,6 +117,16 @@ int mf_prior_sample(MfPrior *p, const float *rgb, int B, int V, int joint, int n
  * guided DDIM steps [t, .8t, .6t, .4t, .2t] and then x0; zhat (B, 2zc, h, h). */
 int mf_prior_sds_denoise(MfPrior *p, const float *zmat, const float *rgb, int B, int V, int joint, int t,
                          float guidance, uint64_t seed, float *zhat);
+
+/* Material maps predicted for nv views (mf_prior_mean.c): each the mean of S samples of `steps`
+ * DDIM steps (decoded maps averaged in [-1, 1]), the sample seeds drawn from seed. rgb: (nv,) RGBA
+ * images with raw channel values (the file's own encoding, as mf_prior_prepare_image takes them).
+ * joint: the nv views are whole objects of V consecutive views, denoised jointly (multi-view);
+ * else each view alone (V ignored). Outputs (nv,) each, allocated here at the prior's resolution
+ * (R, R, 4): albedo linear (decoded as sRGB), ORM linear with R = 1, alpha = the input's
+ * box-filtered coverage; colour 0 where that is below 1e-3. */
+int mf_prior_predict_mean(MfPrior *p, const MfImage *rgb, int nv, int V, int joint, int S, int steps, float guidance,
+                          uint64_t seed, MfImage *albedo, MfImage *orm);
 
 /* Maps an RGBA image (h, w, 4) with raw channel values in [0, 1] (the file's own encoding) to
  * out (3, R, R) = (2 v - 1) * alpha after box-filtering (area averaging of v*alpha and alpha) to

@@ -14,12 +14,6 @@
 #include "io/mf_image.h"
 #include "nn/mf_nn_ckpt.h"
 
-void mf_train_prior_defaults(MfTrainPriorOpts *o) {
-    memset(o, 0, sizeof *o);
-    o->steps = 2000, o->ae_steps = 1000, o->batch = 16, o->ckpt_every = 200, o->warmup = 100;
-    o->seed = 1, o->lr_ae = 5e-4f, o->lr_dn = 3e-4f, o->weight_decay = 1e-2f;
-}
-
 /* ---- data ------------------------------------------------------------------------------------ */
 
 typedef struct {

@@ -21,6 +21,7 @@
 
 #include <stdint.h>
 
+#include "io/mf_opts.h"
 #include "prior/mf_prior.h"
 
 typedef struct {
@@ -52,6 +53,9 @@ typedef struct {
     int stopped;                          /* stop_after reached */
 } MfTrainPriorResult;
 
+/* The options as a table (mf_prior_train_opts.c: flags, --config keys, defaults, ranges, docs);
+ * mf_train_prior_defaults fills o from it (weight decay 1e-2, not an option). */
+extern const MfOptTable mf_train_prior_opt_table;
 void mf_train_prior_defaults(MfTrainPriorOpts *o);
 int mf_train_prior(const MfTrainPriorOpts *o, MfTrainPriorResult *res);
 

@@ -1,0 +1,65 @@
+/* ev_prior2d: the prior's 2D evaluation table (MaterialFusion's Table 3, `mf eval-prior`) on a
+ * test-2d split (prior-train layout: DIR/{rgb,albedo,orm}/NNNNNN.png, RGBA 8-bit, rgb and albedo
+ * sRGB, orm linear, alpha = coverage; DIR/manifest.json "count" and "views_per_object", the
+ * views of an object consecutive).
+ *
+ * Methods (fixed order, ev_prior2d_methods): StableMaterial (each view alone), StableMaterialMV
+ * (the views of an object jointly), Input image, Retinex (albedo only), Train-mean ORM (ORM
+ * only). The predictions are made by the caller (mf/prior, baselines/bl_prior2d.h); this module
+ * reads the split, scores and writes. Scores follow the evaluation layer's protocol: albedo
+ * aligned per channel in linear space by the ratio of means inside the GT mask
+ * (ev_protocol_prepare, EV_ALIGN_MEAN), then sRGB, PSNR / SSIM / L1 inside the mask; ORM on
+ * roughness and metallic (ev_protocol_prepare_orm), PSNR / L1 inside the mask. Records go to an
+ * EvTable under data set "test-2d", scene = the sample number "NNNNNN". */
+#ifndef EV_PRIOR2D_H
+#define EV_PRIOR2D_H
+
+#include "eval/ev_table.h"
+#include "io/mf_image.h"
+
+enum { EV_P2_SM, EV_P2_MV, EV_P2_INPUT, EV_P2_RETINEX, EV_P2_MEAN_ORM, EV_PRIOR2D_NM };
+extern const char *const ev_prior2d_methods[EV_PRIOR2D_NM];
+/* The table's metrics: albedo_psnr, albedo_ssim, albedo_l1, orm_psnr, orm_l1. */
+#define EV_PRIOR2D_NK 5
+extern const char *const ev_prior2d_metrics[EV_PRIOR2D_NK];
+
+typedef struct {
+    int n, V, R;                            /* samples (whole objects), views per object, image size */
+    MfImage *rgb_raw, *rgb, *albedo, *orm;  /* owned; (n,) each, RGBA (R, R, 4): raw codes / linear / linear / linear */
+} EvPrior2dSplit;
+
+/* Reads DIR/<kind>/NNNNNN.png (sample i) with the given encoding; refuses a non-RGBA image. */
+int ev_prior2d_read(const char *dir, const char *kind, int i, MfEncoding enc, MfImage *out);
+/* Reads the first max_objects objects (0: all) of a split; every image must be R x R. */
+int ev_prior2d_load(const char *dir, int max_objects, EvPrior2dSplit *s);
+void ev_prior2d_free(EvPrior2dSplit *s);
+
+/* Predictions per method: albedo[m], orm[m] owned, (n,) each, NULL where method m predicts no
+ * such map (or was not run). */
+typedef struct {
+    int n;
+    MfImage *albedo[EV_PRIOR2D_NM], *orm[EV_PRIOR2D_NM];
+} EvPrior2dPreds;
+
+/* Allocates empty images for every method's maps (the multi-view method's only when mv). */
+int ev_prior2d_preds_alloc(EvPrior2dPreds *p, int n, int mv);
+void ev_prior2d_preds_free(EvPrior2dPreds *p);
+
+/* Scores every prediction against the split's ground truth into t (view by view, methods in order). */
+int ev_prior2d_score(const EvPrior2dSplit *s, const EvPrior2dPreds *p, EvTable *t);
+
+/* The settings the table's caption and table2d.json state. */
+typedef struct {
+    const char *test_dir;
+    int samples, steps, seed;
+    float guidance, retinex_sigma, train_roughness, train_metallic;
+    double sm_wall_s, mv_wall_s; /* wall seconds of the two prior methods */
+} EvPrior2dInfo;
+
+/* Writes OUT/table2d.md (paper layout), table2d.csv (every record), table2d.json (settings and
+ * timings) and examples2d.png (rows: the first views, up to 4; columns: input, GT albedo, SM, MV,
+ * Retinex, GT ORM, SM ORM, MV ORM; a failure to write the picture is only logged). */
+int ev_prior2d_write(const char *out, const EvTable *t, const EvPrior2dSplit *s, const EvPrior2dPreds *p,
+                     const EvPrior2dInfo *info);
+
+#endif
