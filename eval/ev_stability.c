@@ -1,6 +1,7 @@
 /* ev_stability: see ev_stability.h. */
 #include "eval/ev_stability.h"
 
+#include <cJSON.h>
 #include <fcntl.h>
 #include <ftw.h>
 #include <math.h>
@@ -20,6 +21,8 @@
 #include "eval/ev_table.h"
 #include "io/mf_exr.h"
 #include "io/mf_image.h"
+#include "io/mf_json.h"
+#include "nn/mf_nn_ckpt.h"
 
 /* Variants (ev_stab_scene.h). */
 static const EvStabVariant k_variants[] = {
@@ -151,6 +154,34 @@ int ev_stab_scan_dir(const char *dir, int *exr_files, int *nonfinite) {
     return MF_OK;
 }
 
+void ev_stab_scan_ckpt(const char *dir, long *values, long *nonfinite) {
+    char p[MF_PATH_MAX];
+    MfTensorSpec *specs = NULL;
+    float *data = NULL;
+    int n = 0;
+    *values = -1, *nonfinite = 0;
+    if (mf_path_join(p, sizeof p, dir, "checkpoint.mfck") || !mf_file_exists(p) || mf_ckpt_read(p, &specs, &n, &data, NULL)) {
+        mf_error_clear();
+        return;
+    }
+    size_t k = mf_specs_numel(specs, n);
+    for (size_t i = 0; i < k; ++i) *nonfinite += !isfinite(data[i]);
+    *values = (long)k;
+    free(specs);
+    free(data);
+}
+
+/* Entries of dir/run.json's options.recoveries; -1 when it cannot be read. */
+static int count_recoveries(const char *dir) {
+    char p[MF_PATH_MAX];
+    cJSON *j = NULL;
+    if (mf_path_join(p, sizeof p, dir, "run.json") || mf_json_load(p, &j)) return mf_error_clear(), -1;
+    const cJSON *rec = cJSON_GetObjectItem(cJSON_GetObjectItem(j, "options"), "recoveries");
+    int n = cJSON_IsArray(rec) ? cJSON_GetArraySize(rec) : -1;
+    cJSON_Delete(j);
+    return n;
+}
+
 /* 1 when the file at `path` contains `needle`. */
 static int file_mentions(const char *path, const char *needle) {
     char *data = NULL;
@@ -248,14 +279,16 @@ static int write_report(const char *out_dir, const EvStabCell *const *cells, con
     mf_sb_printf(&m, "Scene variants:\n\n| scene | what |\n|---|---|\n");
     for (size_t i = 0; i < sizeof k_variants / sizeof k_variants[0]; ++i)
         mf_sb_printf(&m, "| %s | %s |\n", k_variants[i].id, k_variants[i].what);
-    mf_sb_printf(&m, "\n| kind | scene | case | exit | bound | expected | EXR / non-finite | render dB | relit dB | albedo dB | "
-                     "ORM dB | rough | metal | wall s | peak RSS MB |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
-    mf_sb_printf(&c, "kind,scene,case,exit,expected,exr_files,nonfinite,render_db,relit_db,albedo_db,orm_db,relit_delta,albedo_delta,"
+    mf_sb_printf(&m, "\n| kind | scene | case | exit | bound | expected | EXR / non-finite | ckpt floats / non-finite | recoveries | render dB | relit dB | albedo dB | "
+                     "ORM dB | rough | metal | wall s | peak RSS MB |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    mf_sb_printf(&c, "kind,scene,case,exit,expected,exr_files,nonfinite,ckpt_values,ckpt_nonfinite,recoveries,render_db,relit_db,albedo_db,orm_db,relit_delta,albedo_delta,"
                      "orm_delta,rough,rough_true,metal,metal_true,wall_s,peak_rss_mb\n");
     for (int i = 0; i < n; ++i) {
         const EvStabResult *r = &res[i];
         const EvStabCell *e = cells[i];
-        char bound[32] = "-", rd[16], q[3][48], rough[32] = "-", metal[32] = "-";
+        char bound[32] = "-", rd[16], q[3][48], rough[32] = "-", metal[32] = "-", ck[48] = "-", rec[16] = "-";
+        if (r->ckpt_values >= 0) snprintf(ck, sizeof ck, "%ld / %ld", r->ckpt_values, r->ckpt_nonfinite);
+        if (r->recoveries >= 0) snprintf(rec, sizeof rec, "%d", r->recoveries);
         if (e->max_delta_db > 0) snprintf(bound, sizeof bound, "±%.1f dB", e->max_delta_db);
         if (e->min_render_db > 0) snprintf(bound, sizeof bound, ">= %.0f dB", e->min_render_db);
         fmt_db(rd, sizeof rd, r->render_db, 0);
@@ -268,11 +301,12 @@ static int write_report(const char *out_dir, const EvStabCell *const *cells, con
         }
         if (!isnan(r->rough[0])) snprintf(rough, sizeof rough, "%.2f (%.2f)", r->rough[0], r->rough[1]);
         if (!isnan(r->metal[0])) snprintf(metal, sizeof metal, "%.2f (%.2f)", r->metal[0], r->metal[1]);
-        mf_sb_printf(&m, "| %s | %s | %s | %d | %s | %s | %d / %d | %s | %s | %s | %s | %s | %s | %.1f | %.0f |\n", e->kind, e->variant,
-                     e->name, r->exit_code, bound, r->ok ? "yes" : "**NO**", r->exr_files, r->nonfinite, rd, q[0], q[1], q[2], rough, metal,
+        mf_sb_printf(&m, "| %s | %s | %s | %d | %s | %s | %d / %d | %s | %s | %s | %s | %s | %s | %s | %s | %.1f | %.0f |\n", e->kind,
+                     e->variant, e->name, r->exit_code, bound, r->ok ? "yes" : "**NO**", r->exr_files, r->nonfinite, ck, rec, rd, q[0], q[1], q[2], rough, metal,
                      r->wall_s, r->peak_rss_kb / 1024.0);
-        mf_sb_printf(&c, "%s,%s,\"%s\",%d,%d,%d,%d,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.4f,%.4f,%.4f,%.4f,%.2f,%.1f\n", e->kind,
-                     e->variant, e->name, r->exit_code, r->ok, r->exr_files, r->nonfinite, r->render_db, r->db[0], r->db[1], r->db[2],
+        mf_sb_printf(&c, "%s,%s,\"%s\",%d,%d,%d,%d,%ld,%ld,%d,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.4f,%.4f,%.4f,%.4f,%.2f,%.1f\n", e->kind,
+                     e->variant, e->name, r->exit_code, r->ok, r->exr_files, r->nonfinite, r->ckpt_values, r->ckpt_nonfinite, r->recoveries,
+                     r->render_db, r->db[0], r->db[1], r->db[2],
                      r->delta[0], r->delta[1], r->delta[2], r->rough[0], r->rough[1], r->metal[0], r->metal[1], r->wall_s,
                      r->peak_rss_kb / 1024.0);
     }
@@ -280,7 +314,7 @@ static int write_report(const char *out_dir, const EvStabCell *const *cells, con
         mf_sb_printf(&m, "\nMemory row (baseline, reference scene, same settings):\n\n| iterations | exit | peak RSS MB | wall s |\n|---|---|---|---|\n");
         for (int i = 0; i < nmem; ++i) {
             mf_sb_printf(&m, "| %d | %d | %.0f | %.1f |\n", mem_iters[i], mem[i].exit_code, mem[i].peak_rss_kb / 1024.0, mem[i].wall_s);
-            mf_sb_printf(&c, "memory,reference,\"baseline %d iterations\",%d,%d,0,0,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,%.2f,%.1f\n",
+            mf_sb_printf(&c, "memory,reference,\"baseline %d iterations\",%d,%d,0,0,-1,0,-1,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,%.2f,%.1f\n",
                          mem_iters[i], mem[i].exit_code, mem[i].exit_code == 0, mem[i].wall_s, mem[i].peak_rss_kb / 1024.0);
         }
     }
@@ -298,6 +332,7 @@ static int cell_ok(const EvStabCell *c, const EvStabResult *r, const char *err_p
     if (r->nonfinite) return 0;
     if (c->refuse) return r->exit_code != 0 && file_mentions(err_path, c->refuse);
     if (r->exit_code != 0) return 0;
+    if (strcmp(c->kind, "render") && (r->ckpt_values <= 0 || r->ckpt_nonfinite)) return 0;
     for (int k = 0; k < 3 && c->max_delta_db > 0; ++k)
         if (isnan(r->delta[k]) || fabs(r->delta[k]) > c->max_delta_db) return 0;
     return !(c->min_render_db > 0) || (!isnan(r->render_db) && r->render_db >= c->min_render_db);
@@ -327,6 +362,7 @@ int ev_stab_grid(const char *mf, const char *work, const char *out_dir, int iter
         EvStabResult *r = &results[*n_out];
         memset(r, 0, sizeof *r);
         r->render_db = NAN;
+        r->ckpt_values = r->recoveries = -1;
         for (int k = 0; k < 3; ++k) r->db[k] = r->delta[k] = NAN;
         r->rough[0] = r->rough[1] = r->metal[0] = r->metal[1] = NAN;
         snprintf(out, sizeof out, "%s/cell%02d", work, i);
@@ -337,6 +373,8 @@ int ev_stab_grid(const char *mf, const char *work, const char *out_dir, int iter
         if (render && is_reference(c, "render")) snprintf(ref_render, sizeof ref_render, "%s", out);
         else if (render && ref_render[0] && r->exit_code == 0) r->render_db = render_psnr(out, ref_render);
         if (!render && r->exit_code == 0) {
+            ev_stab_scan_ckpt(out, &r->ckpt_values, &r->ckpt_nonfinite);
+            r->recoveries = count_recoveries(out);
             score_recon(scene, out, r);
             if (is_reference(c, c->kind)) ref[m] = r;
             for (int k = 0; k < 3 && ref[m]; ++k) r->delta[k] = r->db[k] - ref[m]->db[k];

@@ -10,7 +10,9 @@
  * Recon cells: relit / albedo / ORM PSNR of the result against the variant's own ground truth
  * (ev_eval_scene, scale-aligned as `mf eval`), their difference to the reference recon cell of
  * the same method, and the mean roughness / metallic of the result's orm.png against gt/orm.png
- * (texel means, unseen texels included). */
+ * (texel means, unseen texels included); checkpoint.mfck read whatever its table
+ * (mf_ckpt_read) and every value (parameters and optimiser moments) checked finite; the guard's
+ * recoveries counted from run.json. */
 #ifndef EV_STABILITY_H
 #define EV_STABILITY_H
 
@@ -41,6 +43,9 @@ typedef struct {
     double delta[3];    /* recon: db - the reference cell's db (NaN when either is missing) */
     double rough[2], metal[2]; /* recon: mean roughness / metallic, {result, truth} (NaN: not read) */
     double render_db;   /* render: worst view PSNR against the reference render (NaN: not compared) */
+    long ckpt_values;   /* recon: floats in checkpoint.mfck (mf_ckpt_read; -1: missing or unreadable) */
+    long ckpt_nonfinite; /* recon: how many of them are NaN/Inf (parameters and Adam moments alike) */
+    int recoveries;     /* recon: entries of run.json's options.recoveries (-1: not read) */
     int ok;             /* 1 when the cell behaved as expected (see EvStabCell) */
 } EvStabResult;
 
@@ -50,6 +55,10 @@ int ev_stab_run(const char *cmd, const char *stderr_path, EvStabResult *r);
 
 /* Counts the .exr files under `dir` (recursively) and those that hold a non-finite value. */
 int ev_stab_scan_dir(const char *dir, int *exr_files, int *nonfinite);
+
+/* dir/checkpoint.mfck: *values = its float count (-1 when missing or unreadable), *nonfinite =
+ * how many are NaN/Inf. */
+void ev_stab_scan_ckpt(const char *dir, long *values, long *nonfinite);
 
 /* Runs the grid: builds the variants the cells use under work/scenes/, then every cell of
  * ev_stab_cells() (quick != 0: only those marked quick, and no memory row); recon cells run

@@ -13,6 +13,31 @@
 #include "core/mf_fs.h"
 #include "eval/ev_stability.h"
 #include "mf_test.h"
+#include "nn/mf_nn_ckpt.h"
+
+/* The checkpoint scan reads a checkpoint of any table and counts its NaN/Inf values. */
+MF_TEST(stability_checkpoint_scan) {
+    char dir[1024], path[1100];
+    snprintf(dir, sizeof dir, "%s", mf_test_path("stab_ckpt"));
+    snprintf(path, sizeof path, "%s/checkpoint.mfck", dir);
+    CHECK_OK(mf_mkdirs(dir));
+    MfTensorSpec specs[2];
+    int s0[1] = {3}, s1[2] = {2, 2};
+    mf_spec_set(&specs[0], "kd", "value", 1, s0);
+    mf_spec_set(&specs[1], "env", "m2", 2, s1);
+    float data[7] = {0.5f, 1.0f, 2.0f, 0.0f, 1e-30f, 3.0f, 4.0f};
+    long values = 0, bad = 0;
+    CHECK_OK(mf_ckpt_save(path, specs, 2, data, NULL));
+    ev_stab_scan_ckpt(dir, &values, &bad);
+    CHECK(values == 7 && bad == 0);
+    data[1] = NAN, data[5] = INFINITY;
+    CHECK_OK(mf_ckpt_save(path, specs, 2, data, NULL));
+    ev_stab_scan_ckpt(dir, &values, &bad);
+    CHECK(values == 7 && bad == 2);
+    remove(path);
+    ev_stab_scan_ckpt(dir, &values, &bad);
+    CHECK(values == -1);
+}
 
 MF_TEST(stability_quick_grid) {
     const char *mf = getenv("MF_BIN");
@@ -36,7 +61,12 @@ MF_TEST(stability_quick_grid) {
                   c->refuse ? c->refuse : "nothing");
         if (c->refuse) continue;
         CHECK_MSG(r->exr_files > 0, "%s / %s / %s wrote no EXR", c->kind, c->variant, c->name);
-        if (strcmp(c->kind, "render")) CHECK_MSG(!isnan(r->db[0]) && !isnan(r->rough[0]), "%s / %s / %s: not scored", c->kind, c->variant, c->name);
+        if (strcmp(c->kind, "render")) {
+            CHECK_MSG(!isnan(r->db[0]) && !isnan(r->rough[0]), "%s / %s / %s: not scored", c->kind, c->variant, c->name);
+            CHECK_MSG(r->ckpt_values > 0 && r->ckpt_nonfinite == 0, "%s / %s / %s: checkpoint %ld floats, %ld non-finite", c->kind,
+                      c->variant, c->name, r->ckpt_values, r->ckpt_nonfinite);
+            CHECK(r->recoveries >= 0);
+        }
         bounded += c->max_delta_db > 0 || c->min_render_db > 0;
         CHECK(r->peak_rss_kb > 0 && r->wall_s > 0);
     }
