@@ -1,8 +1,10 @@
 /* ev_stability: see ev_stability.h. */
 #include "eval/ev_stability.h"
 
+#include <cJSON.h>
 #include <fcntl.h>
 #include <ftw.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -14,26 +16,92 @@
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "core/mf_strbuf.h"
+#include "eval/ev_eval.h"
+#include "eval/ev_metrics.h"
+#include "eval/ev_table.h"
 #include "io/mf_exr.h"
+#include "io/mf_image.h"
+#include "io/mf_json.h"
+#include "nn/mf_nn_ckpt.h"
 
-/* Recon cells: the tiny scene at the test budget of tests/test_pipeline_tiny.c (64 px texels,
- * 32 x 16 env). Refusal cells give an out-of-range value and must name the option. */
+/* Variants (ev_stab_scene.h). */
+static const EvStabVariant k_variants[] = {
+    {"reference", EV_VAR_REFERENCE, 0, "000_cup as generated"},
+    {"mirror_sun", EV_VAR_MIRROR_SUN, 0, "roughness 0 (floor), metallic 1, HDR sun (2 deg disc, 3 W/m^2) added to the env"},
+    {"grazing", EV_VAR_GRAZING, 0, "training cameras at 0.5 deg elevation"},
+    {"albedo_0", EV_VAR_ALBEDO, 0, "black albedo (kd = 0; its albedo dB is 100 by construction: scale alignment to a black truth)"},
+    {"albedo_1", EV_VAR_ALBEDO, 1, "white albedo (kd = 1)"},
+    {"env_-8", EV_VAR_ENV_STOPS, -8, "env strength -8 stops (8-bit training PNGs)"},
+    {"env_-4", EV_VAR_ENV_STOPS, -4, "env strength -4 stops (8-bit training PNGs)"},
+    {"env_+4", EV_VAR_ENV_STOPS, 4, "env strength +4 stops (8-bit training PNGs, clipped)"},
+    {"env_+8", EV_VAR_ENV_STOPS, 8, "env strength +8 stops (8-bit training PNGs, clipped)"},
+    {"exr_-8", EV_VAR_EXPOSURE_EXR, -8, "training images as float EXR x 2^-8"},
+    {"exr_-4", EV_VAR_EXPOSURE_EXR, -4, "training images as float EXR x 2^-4"},
+    {"exr_+4", EV_VAR_EXPOSURE_EXR, 4, "training images as float EXR x 2^4"},
+    {"exr_+8", EV_VAR_EXPOSURE_EXR, 8, "training images as float EXR x 2^8"},
+    {"png_-4", EV_VAR_EXPOSURE_PNG, -4, "training PNGs darkened 4 stops (8-bit)"},
+    {"saturated", EV_VAR_SATURATE, 2, "training PNGs x 4 (2 stops), clipped at 1"},
+    {"scale_1e-4", EV_VAR_SCALE, 1e-4, "mesh and cameras x 1e-4"},
+    {"scale_1e-2", EV_VAR_SCALE, 1e-2, "mesh and cameras x 1e-2"},
+    {"scale_1e2", EV_VAR_SCALE, 1e2, "mesh and cameras x 1e2"},
+    {"scale_1e4", EV_VAR_SCALE, 1e4, "mesh and cameras x 1e4"},
+    {"sliver", EV_VAR_SLIVER, 0, "every triangle split into a 1e-4 sliver pair, plus a zero-area triangle each"},
+    {"one_view", EV_VAR_ONE_VIEW, 0, "one training view"},
+    {"mask_2x2", EV_VAR_MASK, 0, "training masks cut to 2 x 2 pixels"},
+};
+
+const EvStabVariant *ev_stab_variant(const char *id) {
+    for (size_t i = 0; i < sizeof k_variants / sizeof k_variants[0]; ++i)
+        if (!strcmp(k_variants[i].id, id)) return &k_variants[i];
+    return NULL;
+}
+
+/* Expectations: float exposure is divided out exactly by the loop's power-of-two level
+ * (README "The methods"), so EXR cells must match the reference within EXP_EXR_DB; 8-bit
+ * darkening within the seed-to-seed spread measured there (EXP_PNG_DB); scaled scenes must
+ * render within float precision of x1 (EXP_SCALE_RENDER_DB, issue 18) and reconstruct within
+ * EXP_SCALE_DB. Cells without a stated expectation must run with finite outputs only. */
+#define EXP_EXR_DB 0.3
+#define EXP_PNG_DB 1.0
+#define EXP_SCALE_DB 0.3
+#define EXP_SCALE_RENDER_DB 50.0
+#define R(var, q, mindb) {"render", "render", var, "", NULL, 0, mindb, q}
+#define B(var, q, maxd) {"recon", "baseline", var, "", NULL, maxd, 0, q}
+#define M(var, q, maxd) {"recon", "materialfusion", var, "", NULL, maxd, 0, q}
+
+/* Recon cells: the variant's scene at the test budget of tests/test_pipeline_tiny.c (64 px
+ * texels, 32 x 16 env). Refusal cells give an out-of-range value and must name the option. */
 static const EvStabCell k_cells[] = {
-    {"reference", "render", "", NULL},
-    {"1 sample per pixel", "render", "--spp 1", NULL},
-    {"4x4 pixels", "render", "--width 4 --height 4", NULL},
-    {"reference", "baseline", "", NULL},
-    {"one iteration", "baseline", "--iters 1", NULL},
-    {"views at 8 px", "baseline", "--res 8", NULL},
-    {"lr at its maximum (1)", "baseline", "--lr 1", NULL},
-    {"init light at its minimum (0.01)", "baseline", "--init-light 0.01", NULL},
-    {"init light at its maximum (1000)", "baseline", "--init-light 1000", NULL},
-    {"lr -1 (refused)", "baseline", "--lr -1", "--lr"},
-    {"lr 1e30 (refused)", "baseline", "--lr 1e30", "--lr"},
-    {"init light 1e30 (refused)", "baseline", "--init-light 1e30", "--init-light"},
-    {"reference", "materialfusion", "", NULL},
-    {"lr at its maximum (1)", "materialfusion", "--lr 1", NULL},
-    {"init light at its maximum (1000)", "materialfusion", "--init-light 1000", NULL},
+    {"reference", "render", "reference", "", NULL, 0, 0, 1},
+    {"1 sample per pixel", "render", "reference", "--spp 1", NULL, 0, 0, 0},
+    {"4x4 pixels", "render", "reference", "--width 4 --height 4", NULL, 0, 0, 0},
+    {"reference", "baseline", "reference", "", NULL, 0, 0, 1},
+    {"one iteration", "baseline", "reference", "--iters 1", NULL, 0, 0, 0},
+    {"views at 8 px", "baseline", "reference", "--res 8", NULL, 0, 0, 0},
+    {"lr at its maximum (1)", "baseline", "reference", "--lr 1", NULL, 0, 0, 1},
+    {"init light at its minimum (0.01)", "baseline", "reference", "--init-light 0.01", NULL, 0, 0, 0},
+    {"init light at its maximum (1000)", "baseline", "reference", "--init-light 1000", NULL, 0, 0, 1},
+    {"lr -1 (refused)", "baseline", "reference", "--lr -1", "--lr", 0, 0, 1},
+    {"lr 1e30 (refused)", "baseline", "reference", "--lr 1e30", "--lr", 0, 0, 1},
+    {"init light 1e30 (refused)", "baseline", "reference", "--init-light 1e30", "--init-light", 0, 0, 1},
+    {"reference", "materialfusion", "reference", "", NULL, 0, 0, 0},
+    {"lr at its maximum (1)", "materialfusion", "reference", "--lr 1", NULL, 0, 0, 0},
+    {"init light at its maximum (1000)", "materialfusion", "reference", "--init-light 1000", NULL, 0, 0, 0},
+    R("mirror_sun", 0, 0), B("mirror_sun", 1, 0), M("mirror_sun", 0, 0),
+    R("grazing", 0, 0), B("grazing", 0, 0),
+    R("albedo_0", 0, 0), B("albedo_0", 0, 0), M("albedo_0", 0, 0),
+    R("albedo_1", 0, 0), B("albedo_1", 0, 0),
+    R("env_-8", 0, 0), B("env_-8", 0, 0), B("env_-4", 0, 0), B("env_+4", 0, 0), R("env_+8", 0, 0), B("env_+8", 0, 0),
+    B("exr_-8", 1, EXP_EXR_DB), M("exr_-8", 0, EXP_EXR_DB), B("exr_-4", 0, EXP_EXR_DB), B("exr_+4", 0, EXP_EXR_DB),
+    B("exr_+8", 1, EXP_EXR_DB),
+    B("png_-4", 0, EXP_PNG_DB), B("saturated", 0, 0),
+    R("scale_1e-4", 1, EXP_SCALE_RENDER_DB), B("scale_1e-4", 0, EXP_SCALE_DB),
+    R("scale_1e-2", 0, EXP_SCALE_RENDER_DB), B("scale_1e-2", 0, EXP_SCALE_DB),
+    R("scale_1e2", 0, EXP_SCALE_RENDER_DB), B("scale_1e2", 0, EXP_SCALE_DB),
+    R("scale_1e4", 1, EXP_SCALE_RENDER_DB), B("scale_1e4", 0, EXP_SCALE_DB), M("scale_1e4", 0, EXP_SCALE_DB),
+    R("sliver", 0, 0), B("sliver", 0, 0),
+    B("one_view", 0, 0), M("one_view", 0, 0),
+    B("mask_2x2", 1, 0), M("mask_2x2", 0, 0),
 };
 
 const EvStabCell *ev_stab_cells(int *n) {
@@ -86,6 +154,34 @@ int ev_stab_scan_dir(const char *dir, int *exr_files, int *nonfinite) {
     return MF_OK;
 }
 
+void ev_stab_scan_ckpt(const char *dir, long *values, long *nonfinite) {
+    char p[MF_PATH_MAX];
+    MfTensorSpec *specs = NULL;
+    float *data = NULL;
+    int n = 0;
+    *values = -1, *nonfinite = 0;
+    if (mf_path_join(p, sizeof p, dir, "checkpoint.mfck") || !mf_file_exists(p) || mf_ckpt_read(p, &specs, &n, &data, NULL)) {
+        mf_error_clear();
+        return;
+    }
+    size_t k = mf_specs_numel(specs, n);
+    for (size_t i = 0; i < k; ++i) *nonfinite += !isfinite(data[i]);
+    *values = (long)k;
+    free(specs);
+    free(data);
+}
+
+/* Entries of dir/run.json's options.recoveries; -1 when it cannot be read. */
+static int count_recoveries(const char *dir) {
+    char p[MF_PATH_MAX];
+    cJSON *j = NULL;
+    if (mf_path_join(p, sizeof p, dir, "run.json") || mf_json_load(p, &j)) return mf_error_clear(), -1;
+    const cJSON *rec = cJSON_GetObjectItem(cJSON_GetObjectItem(j, "options"), "recoveries");
+    int n = cJSON_IsArray(rec) ? cJSON_GetArraySize(rec) : -1;
+    cJSON_Delete(j);
+    return n;
+}
+
 /* 1 when the file at `path` contains `needle`. */
 static int file_mentions(const char *path, const char *needle) {
     char *data = NULL;
@@ -94,13 +190,6 @@ static int file_mentions(const char *path, const char *needle) {
     int hit = strstr(data, needle) != NULL;
     free(data);
     return hit;
-}
-
-static int sh_ok(const char *cmd, const char *err_path) {
-    EvStabResult r;
-    if (ev_stab_run(cmd, err_path, &r)) return MF_EIO;
-    if (r.exit_code != 0) return mf_fail(MF_EIO, "stability grid set-up failed (exit %d, see %s): %s", r.exit_code, err_path, cmd);
-    return MF_OK;
 }
 
 /* One cell's command line into cmd. */
@@ -112,6 +201,64 @@ static void cell_cmd(char *cmd, size_t cap, const char *mf, const char *scene, c
                  strcmp(c->kind, "baseline") ? "materialfusion" : "nvdiffrecmc", iters, c->args);
 }
 
+/* Mean of channels 1 and 2 (roughness, metallic) of an ORM image file. */
+static int orm_means(const char *path, double *rough, double *metal) {
+    MfImage im;
+    if (mf_image_read(path, MF_ENC_LINEAR, &im)) return mf_error_clear(), MF_EIO;
+    double s1 = 0, s2 = 0;
+    size_t n = (size_t)im.w * im.h;
+    for (size_t i = 0; i < n && im.c >= 3; ++i) s1 += im.data[i * im.c + 1], s2 += im.data[i * im.c + 2];
+    *rough = im.c >= 3 ? s1 / (double)n : NAN;
+    *metal = im.c >= 3 ? s2 / (double)n : NAN;
+    mf_image_free(&im);
+    return MF_OK;
+}
+
+/* Recon cell quality: ev_eval_scene of the result against its scene, and the ORM texel means. */
+static void score_recon(const char *scene, const char *out, EvStabResult *r) {
+    EvTable t;
+    ev_table_init(&t);
+    EvEvalOpts o = ev_eval_opts_default();
+    int excluded = 0;
+    static const char *metric[3] = {"relit_psnr", "albedo_psnr", "orm_psnr"};
+    if (ev_eval_scene(scene, out, "m", "stability", "000_cup", &o, &t, NULL, &excluded) == MF_OK)
+        for (int k = 0; k < 3; ++k) {
+            EvStat st = ev_table_stat(&t, "m", "stability", metric[k]);
+            if (st.n) r->db[k] = st.mean;
+        }
+    else
+        mf_error_clear();
+    ev_table_free(&t);
+    char p[MF_PATH_MAX];
+    if (!mf_path_join(p, sizeof p, out, "orm.png")) orm_means(p, &r->rough[0], &r->metal[0]);
+    if (!mf_path_join(p, sizeof p, scene, "gt/orm.png")) orm_means(p, &r->rough[1], &r->metal[1]);
+}
+
+/* Render cell: the worst per-view PSNR of its RGB against the reference render's (NaN when a
+ * view is missing in either). */
+static double render_psnr(const char *out, const char *ref_out) {
+    double worst = NAN;
+    for (int i = 0;; ++i) {
+        char rel[32], a[MF_PATH_MAX], b[MF_PATH_MAX];
+        snprintf(rel, sizeof rel, "r_%03d.exr", i);
+        if (mf_path_join(a, sizeof a, out, rel) || mf_path_join(b, sizeof b, ref_out, rel) || !mf_file_exists(a) || !mf_file_exists(b))
+            break;
+        MfImage x = {0}, y = {0};
+        double db = NAN;
+        if (mf_exr_read_layer(a, "", "RGB", &x) || mf_exr_read_layer(b, "", "RGB", &y) || ev_psnr(&x, &y, NULL, &db)) mf_error_clear(), db = NAN;
+        mf_image_free(&x);
+        mf_image_free(&y);
+        if (isnan(db)) return NAN;
+        if (isnan(worst) || db < worst) worst = db;
+    }
+    return worst;
+}
+
+static void fmt_db(char *buf, size_t cap, double v, int sign) {
+    if (isnan(v)) snprintf(buf, cap, "-");
+    else snprintf(buf, cap, sign ? "%+.2f" : "%.2f", v);
+}
+
 static int write_report(const char *out_dir, const EvStabCell *const *cells, const EvStabResult *res, int n, int iters,
                         const EvStabResult *mem, const int *mem_iters, int nmem, double total_s) {
     char md[1024], csv[1024];
@@ -119,26 +266,56 @@ static int write_report(const char *out_dir, const EvStabCell *const *cells, con
     snprintf(csv, sizeof csv, "%s/grid.csv", out_dir);
     MfStrBuf m = {0}, c = {0};
     mf_sb_printf(&m, "# Numerical-stability grid\n\nGenerated by `make bench-stability` (`mf bench-stability`); do not edit. "
-                     "Scene: `mf gen --split tiny`, 000_cup (8 train views, 64 px). Recon cells: %d iterations, "
+                     "Scenes: `mf gen --split tiny`'s 000_cup (8 train views, 32 px) and the hard-case variants below, each "
+                     "rendered with its own ground truth (eval/ev_stab_scene.h). Recon cells: %d iterations, "
                      "--tex-res 64 --env-w 32 --env-h 16. Non-finite: EXR files under the cell's output holding a NaN/Inf "
-                     "(the recon guard refuses to write them). Expected: the cell runs with exit 0, or a refusal cell exits "
-                     "non-zero with a message naming its option. Whole grid: %.0f s wall.\n\n",
+                     "(the recon guard refuses to write them). Render dB: worst view PSNR (linear RGB) against the reference "
+                     "render, for the scenes whose images should not change (reference, scale, sliver). Recon dB: relit / albedo / ORM PSNR against the scene's own ground truth (`mf eval`'s "
+                     "scale-aligned protocol), then the difference to the same method's reference cell. Rough / metal: texel "
+                     "means of the result's orm.png, truth in brackets. Expected: exit 0 (or, for a refusal cell, non-zero "
+                     "with a message naming its option), no non-finite value, and the cell's stated bound when it has one "
+                     "(|delta| <= bound dB on relit, albedo and ORM; render dB >= bound). Whole grid: %.0f s wall.\n\n",
                  iters, total_s);
-    mf_sb_printf(&m, "| kind | case | exit | expected | EXR files | non-finite | wall s | peak RSS MB |\n|---|---|---|---|---|---|---|---|\n");
-    mf_sb_printf(&c, "kind,case,exit,expected,exr_files,nonfinite,wall_s,peak_rss_mb\n");
+    mf_sb_printf(&m, "Scene variants:\n\n| scene | what |\n|---|---|\n");
+    for (size_t i = 0; i < sizeof k_variants / sizeof k_variants[0]; ++i)
+        mf_sb_printf(&m, "| %s | %s |\n", k_variants[i].id, k_variants[i].what);
+    mf_sb_printf(&m, "\n| kind | scene | case | exit | bound | expected | EXR / non-finite | ckpt floats / non-finite | recoveries | render dB | relit dB | albedo dB | "
+                     "ORM dB | rough | metal | wall s | peak RSS MB |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    mf_sb_printf(&c, "kind,scene,case,exit,expected,exr_files,nonfinite,ckpt_values,ckpt_nonfinite,recoveries,render_db,relit_db,albedo_db,orm_db,relit_delta,albedo_delta,"
+                     "orm_delta,rough,rough_true,metal,metal_true,wall_s,peak_rss_mb\n");
     for (int i = 0; i < n; ++i) {
         const EvStabResult *r = &res[i];
-        mf_sb_printf(&m, "| %s | %s | %d | %s | %d | %d | %.1f | %.0f |\n", cells[i]->kind, cells[i]->name, r->exit_code,
-                     r->ok ? "yes" : "**NO**", r->exr_files, r->nonfinite, r->wall_s, r->peak_rss_kb / 1024.0);
-        mf_sb_printf(&c, "%s,\"%s\",%d,%d,%d,%d,%.2f,%.1f\n", cells[i]->kind, cells[i]->name, r->exit_code, r->ok, r->exr_files,
-                     r->nonfinite, r->wall_s, r->peak_rss_kb / 1024.0);
+        const EvStabCell *e = cells[i];
+        char bound[32] = "-", rd[16], q[3][48], rough[32] = "-", metal[32] = "-", ck[48] = "-", rec[16] = "-";
+        if (r->ckpt_values >= 0) snprintf(ck, sizeof ck, "%ld / %ld", r->ckpt_values, r->ckpt_nonfinite);
+        if (r->recoveries >= 0) snprintf(rec, sizeof rec, "%d", r->recoveries);
+        if (e->max_delta_db > 0) snprintf(bound, sizeof bound, "±%.1f dB", e->max_delta_db);
+        if (e->min_render_db > 0) snprintf(bound, sizeof bound, ">= %.0f dB", e->min_render_db);
+        fmt_db(rd, sizeof rd, r->render_db, 0);
+        for (int k = 0; k < 3; ++k) {
+            char a[16], d[16];
+            fmt_db(a, sizeof a, r->db[k], 0);
+            fmt_db(d, sizeof d, r->delta[k], 1);
+            if (isnan(r->delta[k])) snprintf(q[k], sizeof q[k], "%s", a);
+            else snprintf(q[k], sizeof q[k], "%s (%s)", a, d);
+        }
+        if (!isnan(r->rough[0])) snprintf(rough, sizeof rough, "%.2f (%.2f)", r->rough[0], r->rough[1]);
+        if (!isnan(r->metal[0])) snprintf(metal, sizeof metal, "%.2f (%.2f)", r->metal[0], r->metal[1]);
+        mf_sb_printf(&m, "| %s | %s | %s | %d | %s | %s | %d / %d | %s | %s | %s | %s | %s | %s | %s | %s | %.1f | %.0f |\n", e->kind,
+                     e->variant, e->name, r->exit_code, bound, r->ok ? "yes" : "**NO**", r->exr_files, r->nonfinite, ck, rec, rd, q[0], q[1], q[2], rough, metal,
+                     r->wall_s, r->peak_rss_kb / 1024.0);
+        mf_sb_printf(&c, "%s,%s,\"%s\",%d,%d,%d,%d,%ld,%ld,%d,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.4f,%.4f,%.4f,%.4f,%.2f,%.1f\n", e->kind,
+                     e->variant, e->name, r->exit_code, r->ok, r->exr_files, r->nonfinite, r->ckpt_values, r->ckpt_nonfinite, r->recoveries,
+                     r->render_db, r->db[0], r->db[1], r->db[2],
+                     r->delta[0], r->delta[1], r->delta[2], r->rough[0], r->rough[1], r->metal[0], r->metal[1], r->wall_s,
+                     r->peak_rss_kb / 1024.0);
     }
     if (nmem) {
-        mf_sb_printf(&m, "\nMemory row (baseline, same settings):\n\n| iterations | peak RSS MB | wall s |\n|---|---|---|\n");
+        mf_sb_printf(&m, "\nMemory row (baseline, reference scene, same settings):\n\n| iterations | exit | peak RSS MB | wall s |\n|---|---|---|---|\n");
         for (int i = 0; i < nmem; ++i) {
-            mf_sb_printf(&m, "| %d | %.0f | %.1f |\n", mem_iters[i], mem[i].peak_rss_kb / 1024.0, mem[i].wall_s);
-            mf_sb_printf(&c, "memory,\"baseline %d iterations\",%d,%d,0,0,%.2f,%.1f\n", mem_iters[i], mem[i].exit_code,
-                         mem[i].exit_code == 0, mem[i].wall_s, mem[i].peak_rss_kb / 1024.0);
+            mf_sb_printf(&m, "| %d | %d | %.0f | %.1f |\n", mem_iters[i], mem[i].exit_code, mem[i].peak_rss_kb / 1024.0, mem[i].wall_s);
+            mf_sb_printf(&c, "memory,reference,\"baseline %d iterations\",%d,%d,0,0,-1,0,-1,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,nan,%.2f,%.1f\n",
+                         mem_iters[i], mem[i].exit_code, mem[i].exit_code == 0, mem[i].wall_s, mem[i].peak_rss_kb / 1024.0);
         }
     }
     int rc = mf_sb_write(&m, md);
@@ -146,40 +323,76 @@ static int write_report(const char *out_dir, const EvStabCell *const *cells, con
     return rc ? rc : rc2;
 }
 
+/* Variants whose renders should equal the reference's (to float precision): render dB is
+ * reported only for them. */
+static int same_images(const EvStabVariant *v) {
+    return v->kind == EV_VAR_REFERENCE || v->kind == EV_VAR_SCALE || v->kind == EV_VAR_SLIVER;
+}
+
+static int is_reference(const EvStabCell *c, const char *kind) {
+    return !strcmp(c->kind, kind) && !strcmp(c->variant, "reference") && !c->args[0];
+}
+
+/* Whether a finished cell is as expected (see EvStabCell). */
+static int cell_ok(const EvStabCell *c, const EvStabResult *r, const char *err_path) {
+    if (r->nonfinite) return 0;
+    if (c->refuse) return r->exit_code != 0 && file_mentions(err_path, c->refuse);
+    if (r->exit_code != 0) return 0;
+    if (strcmp(c->kind, "render") && (r->ckpt_values <= 0 || r->ckpt_nonfinite)) return 0;
+    for (int k = 0; k < 3 && c->max_delta_db > 0; ++k)
+        if (isnan(r->delta[k]) || fabs(r->delta[k]) > c->max_delta_db) return 0;
+    return !(c->min_render_db > 0) || (!isnan(r->render_db) && r->render_db >= c->min_render_db);
+}
+
 int ev_stab_grid(const char *mf, const char *work, const char *out_dir, int iters, int mem_iters, int quick,
                  EvStabResult *results, int cap, int *n_out) {
-    char scene[1024], cmd[4096], err[1100], out[1100];
+    char layout[1024], scene[1200], vdir[1100], cmd[4096], err[1100], out[1100], ref_render[1100] = "";
     struct timespec t0, t1;
     clock_gettime(CLOCK_MONOTONIC, &t0);
     *n_out = 0;
-    if (mf_mkdirs(work) || mf_mkdirs(out_dir)) return MF_EIO;
-    snprintf(scene, sizeof scene, "%s/scene/000_cup", work);
-    snprintf(err, sizeof err, "%s/setup.err", work);
-    if (!mf_file_exists(scene)) {
-        snprintf(cmd, sizeof cmd, "exec %s gen --split tiny -o %s/scene --no-render", mf, work);
-        if (sh_ok(cmd, err)) return MF_EIO;
-    }
-    snprintf(cmd, sizeof cmd, "exec %s render %s/render_train.json -o %s/train --png", mf, scene, scene);
-    if (sh_ok(cmd, err)) return MF_EIO;
+    snprintf(layout, sizeof layout, "%s/layout", work);
+    int rc = mf_mkdirs(work);
+    if (rc || (rc = mf_mkdirs(out_dir)) || (rc = ev_stab_layout(layout))) return rc;
     int nc;
     const EvStabCell *cells = ev_stab_cells(&nc);
-    const EvStabCell *ran[64];
-    for (int i = 0; i < nc && *n_out < cap && *n_out < 64; ++i) {
+    const EvStabCell *ran[EV_STAB_MAX_CELLS];
+    const EvStabResult *ref[2] = {NULL, NULL}; /* baseline, materialfusion reference cells */
+    for (int i = 0; i < nc && *n_out < cap && *n_out < EV_STAB_MAX_CELLS; ++i) {
         const EvStabCell *c = &cells[i];
-        if (quick && !strcmp(c->kind, "materialfusion")) continue;
+        const EvStabVariant *v = ev_stab_variant(c->variant);
+        if (quick && !c->quick) continue;
+        if (!v) return mf_fail(MF_EARG, "stability cell %d: unknown scene variant '%s'", i, c->variant);
+        snprintf(vdir, sizeof vdir, "%s/scenes/%s", work, v->id);
+        snprintf(scene, sizeof scene, "%s/000_cup", vdir);
+        if ((rc = ev_stab_variant_build(layout, v, vdir))) return mf_fail_prefix(rc, "stability scene variant %s", v->id);
         EvStabResult *r = &results[*n_out];
         memset(r, 0, sizeof *r);
+        r->render_db = NAN;
+        r->ckpt_values = r->recoveries = -1;
+        for (int k = 0; k < 3; ++k) r->db[k] = r->delta[k] = NAN;
+        r->rough[0] = r->rough[1] = r->metal[0] = r->metal[1] = NAN;
         snprintf(out, sizeof out, "%s/cell%02d", work, i);
         snprintf(err, sizeof err, "%s/cell%02d.err", work, i);
         cell_cmd(cmd, sizeof cmd, mf, scene, out, c, iters);
         if (ev_stab_run(cmd, err, r) || ev_stab_scan_dir(out, &r->exr_files, &r->nonfinite)) return MF_EIO;
-        r->ok = r->nonfinite == 0 && (c->refuse ? r->exit_code != 0 && file_mentions(err, c->refuse) : r->exit_code == 0);
+        int render = !strcmp(c->kind, "render"), m = !strcmp(c->kind, "materialfusion");
+        if (render && is_reference(c, "render")) snprintf(ref_render, sizeof ref_render, "%s", out);
+        else if (render && ref_render[0] && r->exit_code == 0 && same_images(v)) r->render_db = render_psnr(out, ref_render);
+        if (!render && r->exit_code == 0) {
+            ev_stab_scan_ckpt(out, &r->ckpt_values, &r->ckpt_nonfinite);
+            r->recoveries = count_recoveries(out);
+            score_recon(scene, out, r);
+            if (is_reference(c, c->kind)) ref[m] = r;
+            for (int k = 0; k < 3 && ref[m]; ++k) r->delta[k] = r->db[k] - ref[m]->db[k];
+        }
+        r->ok = cell_ok(c, r, err);
         ran[(*n_out)++] = c;
     }
     EvStabResult mem[2];
     int mem_n[2] = {50, mem_iters}, nmem = quick ? 0 : 2;
     for (int i = 0; i < nmem; ++i) {
-        static const EvStabCell base = {"memory", "baseline", "", NULL};
+        static const EvStabCell base = {"memory", "baseline", "reference", "", NULL, 0, 0, 0};
+        snprintf(scene, sizeof scene, "%s/scenes/reference/000_cup", work);
         snprintf(out, sizeof out, "%s/mem%d", work, i);
         snprintf(err, sizeof err, "%s/mem%d.err", work, i);
         cell_cmd(cmd, sizeof cmd, mf, scene, out, &base, mem_n[i]);

@@ -1,19 +1,36 @@
-/* ev_stability: the numerical-stability grid (issue 18, item 1), a first, reduced version.
+/* ev_stability: the numerical-stability grid (issue 18, item 1).
  *
  * Each cell is one `mf` command run as a child process (fork + exec through /bin/sh, so the
- * child IS mf and wait4's ru_maxrss is mf's peak RSS). Per cell: exit code, wall seconds, peak
- * RSS, whether any EXR under the cell's output folder holds a NaN/Inf (mf_exr_read refuses them),
- * and, for cells expected to be refused, whether stderr names the option. */
+ * child IS mf and wait4's ru_maxrss is mf's peak RSS) on one scene variant (ev_stab_scene.h:
+ * the tiny split's 000_cup, unchanged or rewritten into a hard case). Per cell: exit code, wall
+ * seconds, peak RSS, whether any EXR under the cell's output folder holds a NaN/Inf
+ * (mf_exr_read refuses them), and, for cells expected to be refused, whether stderr names the
+ * option. Render cells: the worst per-view PSNR of their linear RGB against the reference
+ * render cell's (same cameras; meaningful where the images should not change, e.g. scale).
+ * Recon cells: relit / albedo / ORM PSNR of the result against the variant's own ground truth
+ * (ev_eval_scene, scale-aligned as `mf eval`), their difference to the reference recon cell of
+ * the same method, and the mean roughness / metallic of the result's orm.png against gt/orm.png
+ * (texel means, unseen texels included); checkpoint.mfck read whatever its table
+ * (mf_ckpt_read) and every value (parameters and optimiser moments) checked finite; the guard's
+ * recoveries counted from run.json. */
 #ifndef EV_STABILITY_H
 #define EV_STABILITY_H
 
 #include <stddef.h>
 
+#include "eval/ev_stab_scene.h"
+
+#define EV_STAB_MAX_CELLS 128
+
 typedef struct {
-    const char *name;   /* cell label, e.g. "baseline lr=1 (max)" */
-    const char *kind;   /* "render", "baseline" or "materialfusion" */
-    const char *args;   /* extra arguments appended to the cell's command */
-    const char *refuse; /* NULL: must succeed; else the option name a refusal must mention */
+    const char *name;    /* cell label, e.g. "lr at its maximum (1)" */
+    const char *kind;    /* "render", "baseline" or "materialfusion" */
+    const char *variant; /* scene variant id (ev_stab_variant) */
+    const char *args;    /* extra arguments appended to the cell's command */
+    const char *refuse;  /* NULL: must succeed; else the option name a refusal must mention */
+    double max_delta_db; /* recon, > 0: |relit|, |albedo| and |ORM| dB difference to the reference cell <= this */
+    double min_render_db; /* render, > 0: PSNR against the reference render >= this */
+    int quick;           /* 1: in the subset `make test` runs */
 } EvStabCell;
 
 typedef struct {
@@ -22,7 +39,14 @@ typedef struct {
     long peak_rss_kb;   /* child's peak resident set size, KiB */
     int nonfinite;      /* EXR files under the cell's output with a NaN/Inf */
     int exr_files;      /* EXR files scanned */
-    int ok;             /* 1 when the cell behaved as expected (ran, or refused naming the option) */
+    double db[3];       /* recon: relit, albedo, ORM PSNR (NaN: not scored / no view scored) */
+    double delta[3];    /* recon: db - the reference cell's db (NaN when either is missing) */
+    double rough[2], metal[2]; /* recon: mean roughness / metallic, {result, truth} (NaN: not read) */
+    double render_db;   /* render: worst view PSNR against the reference render (NaN: not compared) */
+    long ckpt_values;   /* recon: floats in checkpoint.mfck (mf_ckpt_read; -1: missing or unreadable) */
+    long ckpt_nonfinite; /* recon: how many of them are NaN/Inf (parameters and Adam moments alike) */
+    int recoveries;     /* recon: entries of run.json's options.recoveries (-1: not read) */
+    int ok;             /* 1 when the cell behaved as expected (see EvStabCell) */
 } EvStabResult;
 
 /* Runs `cmd` (a /bin/sh command line, run with exec so the child is the command itself) with
@@ -32,14 +56,21 @@ int ev_stab_run(const char *cmd, const char *stderr_path, EvStabResult *r);
 /* Counts the .exr files under `dir` (recursively) and those that hold a non-finite value. */
 int ev_stab_scan_dir(const char *dir, int *exr_files, int *nonfinite);
 
-/* Runs the grid on the tiny split: `mf gen --split tiny` into work/scene, renders its views,
- * then every cell of ev_stab_cells(); recon cells run `iters` iterations (memory row: 50 and
- * `mem_iters`). Writes out_dir/README.md and out_dir/grid.csv atomically. quick != 0 runs the
- * subset used by `make test` (no MaterialFusion cells, no memory row). */
+/* dir/checkpoint.mfck: *values = its float count (-1 when missing or unreadable), *nonfinite =
+ * how many are NaN/Inf. */
+void ev_stab_scan_ckpt(const char *dir, long *values, long *nonfinite);
+
+/* Runs the grid: builds the variants the cells use under work/scenes/, then every cell of
+ * ev_stab_cells() (quick != 0: only those marked quick, and no memory row); recon cells run
+ * `iters` iterations (memory row: 50 and `mem_iters`). results[i] belongs to the i-th cell run
+ * (ev_stab_cells order, skipping the others). Writes out_dir/README.md and out_dir/grid.csv
+ * atomically. */
 int ev_stab_grid(const char *mf_bin, const char *work, const char *out_dir, int iters, int mem_iters, int quick,
                  EvStabResult *results, int cap, int *n_out);
 
 /* The grid's cells; *n gets their count. */
 const EvStabCell *ev_stab_cells(int *n);
+/* The variant of that id, or NULL. */
+const EvStabVariant *ev_stab_variant(const char *id);
 
 #endif

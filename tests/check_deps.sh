@@ -19,7 +19,7 @@ allowed() { # folder -> folders it may include (besides itself)
     fusion)    echo "core io scene render nn inverse prior" ;;
     baselines) echo "core io inverse" ;;
     datasets)  echo "core io scene render nn" ;;
-    eval)      echo "core io scene render datasets" ;;
+    eval)      echo "core io scene render nn datasets" ;;   # nn: checkpoint files (the stability grid scans them)
     cli)       echo "core io scene render nn geom inverse prior fusion baselines datasets eval" ;;
     *)         echo "?" ;;
   esac

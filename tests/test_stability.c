@@ -1,7 +1,10 @@
-/* The fast subset of the numerical-stability grid (eval/ev_stability.h; issue 18): the tiny
- * scene's render cells and baseline recon cells at 20 iterations through `mf` (MF_BIN). Every
- * cell must behave as expected: no NaN/Inf in any EXR it writes, exit 0 for the cells inside the
- * options' ranges (their bounds included), and a refusal naming the option for the others. */
+/* The fast subset of the numerical-stability grid (eval/ev_stability.h; issue 18): the cells
+ * marked quick, recon at 20 iterations, through `mf` (MF_BIN). Every cell must behave as
+ * expected: no NaN/Inf in any EXR it writes, exit 0 inside the options' ranges (bounds
+ * included), a refusal naming the option for the others, and the cell's stated bound: float
+ * training images x 2^-8 and x 2^8 reconstruct within 0.3 dB of the reference (relit, albedo,
+ * ORM), a scene scaled x 1e-4 and x 1e4 renders within 50 dB of x 1; recon cells are scored. */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -10,6 +13,31 @@
 #include "core/mf_fs.h"
 #include "eval/ev_stability.h"
 #include "mf_test.h"
+#include "nn/mf_nn_ckpt.h"
+
+/* The checkpoint scan reads a checkpoint of any table and counts its NaN/Inf values. */
+MF_TEST(stability_checkpoint_scan) {
+    char dir[1024], path[1100];
+    snprintf(dir, sizeof dir, "%s", mf_test_path("stab_ckpt"));
+    snprintf(path, sizeof path, "%s/checkpoint.mfck", dir);
+    CHECK_OK(mf_mkdirs(dir));
+    MfTensorSpec specs[2];
+    int s0[1] = {3}, s1[2] = {2, 2};
+    mf_spec_set(&specs[0], "kd", "value", 1, s0);
+    mf_spec_set(&specs[1], "env", "m2", 2, s1);
+    float data[7] = {0.5f, 1.0f, 2.0f, 0.0f, 1e-30f, 3.0f, 4.0f};
+    long values = 0, bad = 0;
+    CHECK_OK(mf_ckpt_save(path, specs, 2, data, NULL));
+    ev_stab_scan_ckpt(dir, &values, &bad);
+    CHECK(values == 7 && bad == 0);
+    data[1] = NAN, data[5] = INFINITY;
+    CHECK_OK(mf_ckpt_save(path, specs, 2, data, NULL));
+    ev_stab_scan_ckpt(dir, &values, &bad);
+    CHECK(values == 7 && bad == 2);
+    remove(path);
+    ev_stab_scan_ckpt(dir, &values, &bad);
+    CHECK(values == -1);
+}
 
 MF_TEST(stability_quick_grid) {
     const char *mf = getenv("MF_BIN");
@@ -17,21 +45,32 @@ MF_TEST(stability_quick_grid) {
     char work[1024], out[1100];
     snprintf(work, sizeof work, "%s", mf_test_path("stability"));
     snprintf(out, sizeof out, "%s/report", work);
-    EvStabResult res[64];
-    int n = 0;
-    CHECK_OK(ev_stab_grid(mf, work, out, 20, 50, 1, res, 64, &n));
-    int nc;
+    EvStabResult res[EV_STAB_MAX_CELLS];
+    int n = 0, nc, nq = 0, bounded = 0;
+    CHECK_OK(ev_stab_grid(mf, work, out, 20, 50, 1, res, EV_STAB_MAX_CELLS, &n));
     const EvStabCell *cells = ev_stab_cells(&nc);
-    CHECK(n >= 10 && n < nc); /* quick: no MaterialFusion cells */
+    for (int i = 0; i < nc; ++i) nq += cells[i].quick;
+    CHECK(n == nq && n >= 10);
     for (int i = 0, k = 0; i < nc && k < n; ++i) {
-        if (!strcmp(cells[i].kind, "materialfusion")) continue;
+        const EvStabCell *c = &cells[i];
+        if (!c->quick) continue;
         const EvStabResult *r = &res[k++];
-        CHECK_MSG(r->nonfinite == 0, "%s / %s: %d EXR files with NaN/Inf", cells[i].kind, cells[i].name, r->nonfinite);
-        CHECK_MSG(r->ok, "%s / %s: exit %d, not as expected (refusal must name %s)", cells[i].kind, cells[i].name, r->exit_code,
-                  cells[i].refuse ? cells[i].refuse : "nothing");
-        if (!cells[i].refuse) CHECK_MSG(r->exr_files > 0, "%s / %s wrote no EXR", cells[i].kind, cells[i].name);
+        CHECK_MSG(r->nonfinite == 0, "%s / %s / %s: %d EXR files with NaN/Inf", c->kind, c->variant, c->name, r->nonfinite);
+        CHECK_MSG(r->ok, "%s / %s / %s: exit %d, render %.2f dB, delta %.2f / %.2f / %.2f dB: not as expected (refusal must name %s)",
+                  c->kind, c->variant, c->name, r->exit_code, r->render_db, r->delta[0], r->delta[1], r->delta[2],
+                  c->refuse ? c->refuse : "nothing");
+        if (c->refuse) continue;
+        CHECK_MSG(r->exr_files > 0, "%s / %s / %s wrote no EXR", c->kind, c->variant, c->name);
+        if (strcmp(c->kind, "render")) {
+            CHECK_MSG(!isnan(r->db[0]) && !isnan(r->rough[0]), "%s / %s / %s: not scored", c->kind, c->variant, c->name);
+            CHECK_MSG(r->ckpt_values > 0 && r->ckpt_nonfinite == 0, "%s / %s / %s: checkpoint %ld floats, %ld non-finite", c->kind,
+                      c->variant, c->name, r->ckpt_values, r->ckpt_nonfinite);
+            CHECK(r->recoveries >= 0);
+        }
+        bounded += c->max_delta_db > 0 || c->min_render_db > 0;
         CHECK(r->peak_rss_kb > 0 && r->wall_s > 0);
     }
+    CHECK(bounded >= 4); /* exposure x 2^-8, x 2^8 and scale x 1e-4, x 1e4 */
     char md[1200];
     snprintf(md, sizeof md, "%s/README.md", out);
     CHECK(mf_file_exists(md));

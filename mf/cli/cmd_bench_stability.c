@@ -57,9 +57,9 @@ static int bench_stability_run(const StabArgs *a) {
         mf_fail(MF_EARG, "--mf, --work and -o are required");
         return MF_EXIT_USAGE;
     }
-    EvStabResult res[64];
+    EvStabResult res[EV_STAB_MAX_CELLS];
     int n = 0;
-    if (ev_stab_grid(mf, work, out, iters, mem_iters, quick, res, 64, &n)) return MF_EXIT_FAIL;
+    if (ev_stab_grid(mf, work, out, iters, mem_iters, quick, res, EV_STAB_MAX_CELLS, &n)) return MF_EXIT_FAIL;
     int bad = 0;
     for (int i = 0; i < n; ++i) bad += !res[i].ok;
     printf("stability grid: %d cells, %d not as expected -> %s/README.md\n", n, bad, out);

@@ -85,7 +85,7 @@ static int rd(Reader *r, void *out, size_t n) {
     return 1;
 }
 
-int mf_ckpt_load(const char *path, const MfTensorSpec *specs, int n, float *data, char **meta) {
+int mf_ckpt_read(const char *path, MfTensorSpec **specs, int *n, float **data, char **meta) {
     char *buf = NULL;
     size_t len = 0;
     int rc = mf_read_file(path, &buf, &len);
@@ -93,6 +93,7 @@ int mf_ckpt_load(const char *path, const MfTensorSpec *specs, int n, float *data
     Reader r = {(const unsigned char *)buf, len, 0};
     char magic[4];
     uint32_t version, nt, mlen;
+    MfTensorSpec *fs = NULL;
     if (!rd(&r, magic, 4)) {
         rc = mf_fail(MF_EFORMAT, "%s: truncated checkpoint (%zu bytes, no header)", path, len);
         goto done;
@@ -121,7 +122,7 @@ int mf_ckpt_load(const char *path, const MfTensorSpec *specs, int n, float *data
         rc = mf_fail(MF_EFORMAT, "%s: truncated checkpoint (header lists %u tensors)", path, nt);
         goto done;
     }
-    MfTensorSpec *fs = calloc(nt ? nt : 1, sizeof *fs);
+    fs = calloc(nt ? nt : 1, sizeof *fs);
     if (!fs) {
         rc = mf_fail(MF_ENOMEM, "%s: out of memory", path);
         goto done;
@@ -131,7 +132,6 @@ int mf_ckpt_load(const char *path, const MfTensorSpec *specs, int n, float *data
         uint32_t nl, nd;
         if (!rd(&r, &nl, 4) || nl >= MF_NN_NAME_MAX || !rd(&r, fs[i].name, nl) || !rd(&r, &nd, 4) ||
             nd < 1 || nd > MF_NN_MAXDIM) {
-            free(fs);
             rc = mf_fail(MF_EFORMAT, "%s: truncated or malformed tensor table at entry %u", path, i);
             goto done;
         }
@@ -139,7 +139,6 @@ int mf_ckpt_load(const char *path, const MfTensorSpec *specs, int n, float *data
         for (uint32_t k = 0; k < nd; ++k) {
             uint32_t s;
             if (!rd(&r, &s, 4)) {
-                free(fs);
                 rc = mf_fail(MF_EFORMAT, "%s: truncated tensor table at entry %u", path, i);
                 goto done;
             }
@@ -149,19 +148,16 @@ int mf_ckpt_load(const char *path, const MfTensorSpec *specs, int n, float *data
         if (k > len / sizeof(float) || total > len / sizeof(float) - k) {
             rc = mf_fail(MF_EFORMAT, "%s: truncated checkpoint (tensor '%s' needs more data than the file holds)",
                          path, fs[i].name);
-            free(fs);
             goto done;
         }
         total += k;
     }
     size_t need = r.pos + total * sizeof(float) + 8;
     if (len < need) {
-        free(fs);
         rc = mf_fail(MF_EFORMAT, "%s: truncated checkpoint (%zu bytes, header says %zu)", path, len, need);
         goto done;
     }
     if (len > need) {
-        free(fs);
         rc = mf_fail(MF_EFORMAT, "%s: %zu trailing bytes after the checkpoint (expected %zu bytes)", path,
                      len - need, need);
         goto done;
@@ -169,22 +165,45 @@ int mf_ckpt_load(const char *path, const MfTensorSpec *specs, int n, float *data
     uint64_t stored, h = mf_fnv1a64(MF_FNV64_INIT, buf, need - 8);
     memcpy(&stored, buf + need - 8, 8);
     if (stored != h) {
-        free(fs);
         rc = mf_fail(MF_EFORMAT, "%s: checksum mismatch (file corrupt): stored %016llx, computed %016llx",
                      path, (unsigned long long)stored, (unsigned long long)h);
         goto done;
     }
-    if ((int)nt != n) {
-        free(fs);
-        rc = mf_fail(MF_EFORMAT, "%s: tensor count %u in the file, the model has %d", path, nt, n);
+    float *d = malloc(total ? total * sizeof(float) : 1);
+    char *m = meta ? malloc((size_t)mlen + 1) : NULL;
+    if (!d || (meta && !m)) {
+        free(d);
+        free(m);
+        rc = mf_fail(MF_ENOMEM, "%s: out of memory", path);
         goto done;
     }
-    for (int i = 0; i < n; ++i) {
+    memcpy(d, buf + r.pos, total * sizeof(float));
+    if (m) {
+        memcpy(m, buf + meta_pos, mlen);
+        m[mlen] = '\0';
+        *meta = m;
+    }
+    *specs = fs, *n = (int)nt, *data = d;
+    fs = NULL;
+    rc = MF_OK;
+done:
+    free(fs);
+    free(buf);
+    return rc;
+}
+
+int mf_ckpt_load(const char *path, const MfTensorSpec *specs, int n, float *data, char **meta) {
+    MfTensorSpec *fs = NULL;
+    float *fd = NULL;
+    char *fm = NULL;
+    int nt = 0, rc = mf_ckpt_read(path, &fs, &nt, &fd, meta ? &fm : NULL);
+    if (rc) return rc;
+    if (nt != n) rc = mf_fail(MF_EFORMAT, "%s: tensor count %d in the file, the model has %d", path, nt, n);
+    for (int i = 0; i < n && !rc; ++i) {
         if (strcmp(fs[i].name, specs[i].name) != 0) {
             rc = mf_fail(MF_EFORMAT, "%s: name mismatch at tensor %d: file has '%s', model expects '%s'",
                          path, i, fs[i].name, specs[i].name);
-            free(fs);
-            goto done;
+            break;
         }
         int same = fs[i].ndim == specs[i].ndim;
         for (int k = 0; same && k < fs[i].ndim; ++k) same = fs[i].shape[k] == specs[i].shape[k];
@@ -194,24 +213,14 @@ int mf_ckpt_load(const char *path, const MfTensorSpec *specs, int n, float *data
             shape_str(b, sizeof b, specs[i].ndim, specs[i].shape);
             rc = mf_fail(MF_EFORMAT, "%s: shape mismatch for tensor '%s': file has %s, model expects %s",
                          path, specs[i].name, a, b);
-            free(fs);
-            goto done;
         }
     }
+    if (!rc) {
+        memcpy(data, fd, mf_specs_numel(fs, nt) * sizeof(float));
+        if (meta) *meta = fm, fm = NULL;
+    }
+    free(fm);
+    free(fd);
     free(fs);
-    if (meta) {
-        char *m = malloc((size_t)mlen + 1);
-        if (!m) {
-            rc = mf_fail(MF_ENOMEM, "%s: out of memory", path);
-            goto done;
-        }
-        memcpy(m, buf + meta_pos, mlen);
-        m[mlen] = '\0';
-        *meta = m;
-    }
-    memcpy(data, buf + r.pos, total * sizeof(float));
-    rc = MF_OK;
-done:
-    free(buf);
     return rc;
 }

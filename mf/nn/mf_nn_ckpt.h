@@ -34,4 +34,9 @@ int mf_ckpt_save(const char *path, const MfTensorSpec *specs, int n, const float
  * caller frees). data and *meta are untouched on failure. */
 int mf_ckpt_load(const char *path, const MfTensorSpec *specs, int n, float *data, char **meta);
 
+/* Reads any valid checkpoint, whatever its table (every check of mf_ckpt_load but the table
+ * match): *specs (*n tensors), *data (their floats in table order) and, if meta is not NULL,
+ * *meta (NUL-terminated): heap copies the caller frees. Outputs are untouched on failure. */
+int mf_ckpt_read(const char *path, MfTensorSpec **specs, int *n, float **data, char **meta);
+
 #endif
