@@ -98,6 +98,17 @@ typedef struct {
     int snapshot_every;   /* 0: none */
     int checkpoint_every; /* 0: only at the end */
     uint64_t seed;
+    /* budgets from the data (mf_budget.h; each off by default) */
+    int early_stop;       /* 1: hold out views (holdout_every) and stop on their PSNR */
+    int holdout_every;    /* views 0, N, 2N, ... are held out of the loss with early_stop */
+    int es_every;         /* held-out evaluation period (iterations) */
+    int es_patience;      /* evaluations without improvement before stopping */
+    float es_min_delta;   /* dB an evaluation must beat the best by to count as improvement */
+    int metal_auto;       /* 1: after metal_warmup iterations, freeze metallic at 0 when ... */
+    int metal_warmup;     /* ... the fraction of visible texels with metallic > 0.5 ... */
+    float metal_frac;     /* ... is below this */
+    int tex_auto;         /* 1: tex_res from the views' texel density (power of two, clamped) */
+    int tex_auto_min, tex_auto_max;
 } MfReconOpts;
 
 /* The defaults, from the option table (mf_recon_opts.c: defaults, ranges and docs are written there). */
@@ -159,7 +170,8 @@ const MfReconRecovery *mf_recon_recoveries(const MfRecon *r, int *n);
 /* The current learning-rate multiplier (1 until a recovery; restored from a checkpoint). */
 float mf_recon_lr_scale(const MfRecon *r);
 
-/* Accessors for hooks and tests. */
+/* Accessors for hooks and tests (those of the budgets are in mf_budget.h). */
+
 int mf_recon_iteration(const MfRecon *r);
 MfParamBlock *mf_recon_block(MfRecon *r, MfBlockId id);
 const MfReconOpts *mf_recon_opts(const MfRecon *r);
