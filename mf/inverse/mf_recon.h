@@ -102,6 +102,7 @@ typedef struct {
     int early_stop;       /* 1: hold out views (holdout_every) and stop on their PSNR */
     int holdout_every;    /* views 0, N, 2N, ... are held out of the loss with early_stop */
     int es_every;         /* held-out evaluation period (iterations) */
+    int es_pixel_samples; /* primary rays per pixel of the held-out renders */
     int es_patience;      /* evaluations without improvement before stopping */
     float es_min_delta;   /* dB an evaluation must beat the best by to count as improvement */
     int metal_auto;       /* 1: after metal_warmup iterations, freeze metallic at 0 when ... */
