@@ -582,12 +582,22 @@ static int holdout_psnr(MfRecon *r, double *psnr) {
         double t0 = mf_now();
         rc = mf_diff_forward(&s, &v->cam, &fo, &out);
         r->t_forward += mf_now() - t0;
+        /* per-channel scale of the render: ratio of the means inside the reference's mask (as mf
+         * eval aligns relit views), so a drift of the albedo/light scale, which relighting
+         * scores do not see either, is not taken for a loss of quality */
+        size_t npx = (size_t)v->cam.w * v->cam.h;
+        double sr[3] = {0, 0, 0}, sf[3] = {0, 0, 0};
+        for (size_t p = 0; p < npx; ++p)
+            if (v->ref.data[4 * p + 3] > 0.5f)
+                for (int c = 0; c < 3; ++c) sr[c] += out.rgb[3 * p + c], sf[c] += v->ref.data[4 * p + c];
+        float k[3];
+        for (int c = 0; c < 3; ++c) k[c] = sr[c] > 0.0 ? (float)(sf[c] / sr[c]) : 1.0f;
         double se = 0.0;
         size_t cnt = 0;
-        for (size_t p = 0; !rc && p < (size_t)v->cam.w * v->cam.h; ++p) {
+        for (size_t p = 0; !rc && p < npx; ++p) {
             if (!(out.alpha[p] > 0.0f) && !(v->ref.data[4 * p + 3] > 0.0f)) continue;
             for (int c = 0; c < 3; ++c) {
-                float a = mf_clampf(mf_linear_to_srgb(out.rgb[3 * p + c]), 0.0f, 1.0f);
+                float a = mf_clampf(mf_linear_to_srgb(k[c] * out.rgb[3 * p + c]), 0.0f, 1.0f);
                 float b = mf_clampf(mf_linear_to_srgb(v->ref.data[4 * p + c]), 0.0f, 1.0f);
                 se += (double)(a - b) * (a - b);
             }
