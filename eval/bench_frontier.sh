@@ -11,7 +11,7 @@
 # gamma_i = 1 - (i / iters)^p depends on the total, so it gets one run per iteration count.
 #
 # Environment (all optional): MF, DATA (the split folder), RESULTS, OUT, SCENES, METHODS,
-# F_RES, F_SPP, F_ITERS, F_MF_ITERS, F_CONFIG, F_FLAGS (1: the budget-flag rows), F_EVAL_VIEWS, F_EVAL_SPP, F_EVAL_PS.
+# F_RES, F_SPP, F_ITERS, F_MF_ITERS, F_CONFIG, F_FLAGS (1: the budget-flag rows), F_METAL_SPLITS, F_EVAL_VIEWS, F_EVAL_SPP, F_EVAL_PS.
 set -eu
 MF=${MF:-build/mf}
 DATA=${DATA:-data/test-3d}
@@ -25,6 +25,7 @@ F_ITERS=${F_ITERS:-"50 100 200 400"}
 F_MF_ITERS=${F_MF_ITERS:-$F_ITERS} # MaterialFusion's ladder (one run per point)
 F_CONFIG=${F_CONFIG:-baselines/nvdiffrecmc.json}
 F_FLAGS=${F_FLAGS:-1}
+F_METAL_SPLITS=${F_METAL_SPLITS:-"test-3d test-3d-pov64"}
 # mf eval's protocol, reduced (its defaults: every test view, spp 4, 4 pixel samples): the same
 # for every point, so differences between points stay comparable
 F_EVAL_VIEWS=${F_EVAL_VIEWS:-4}
@@ -84,14 +85,35 @@ for m in $METHODS; do
         done
     done
 done
+# metal_auto's decision on every scene of the metal-test splits (the warm-up only: 50 iterations at
+# 64 px), against the ground truth (manifest "diffuse", else object.json's parts) -> metal.csv
+for sp in $F_METAL_SPLITS; do
+    [ -d "$(dirname "$DATA")/$sp" ] || { echo "bench-frontier: $(dirname "$DATA")/$sp missing: metal test skipped on it"; continue; }
+    for d in "$(dirname "$DATA")/$sp"/*/; do
+        [ -f "$d/transforms_train.json" ] || continue
+        s=$(basename "$d")
+        mkdir -p "$RESULTS/metal/$sp"
+        [ -f "$RESULTS/metal/$sp/$s/run.json" ] && continue
+        echo "bench-frontier: metal test $sp/$s"
+        "$MF" recon "$d" -o "$RESULTS/metal/$sp/$s" --config "$F_CONFIG" --res 64 --iters 50 --metal-auto --metal-warmup 50 \
+            --snapshot-every 0 --checkpoint-every 50 >"$RESULTS/metal/$sp/$s.log" 2>&1 ||
+            echo "bench-frontier: metal test $sp/$s failed (log: $RESULTS/metal/$sp/$s.log)"
+    done
+done
+python3 eval/frontier.py metal --metal "$RESULTS/metal" --data "$(dirname "$DATA")" --out "$OUT"
 # one result folder per budget point (eval's layout), then one mf eval over all of them
 python3 eval/frontier.py stage --runs "$RESULTS/runs" --eval "$RESULTS/eval" --iters "$F_ITERS"
 methods=$(ls "$RESULTS/eval" | tr '\n' ',' | sed 's/,$//')
-"$MF" eval "$DATA" --results "$RESULTS/eval" --methods "$methods" --scenes "$(echo $SCENES | tr ' ' ',')" \
-    --max-views "$F_EVAL_VIEWS" --spp "$F_EVAL_SPP" --pixel-samples "$F_EVAL_PS" --no-curves -o "$OUT/eval"
+# scored already when no staged result is newer than the report's scores
+if [ -f "$OUT/eval/scenes.csv" ] && [ -z "$(find "$RESULTS/eval" -name run.json -newer "$OUT/eval/scenes.csv")" ]; then
+    echo "bench-frontier: $OUT/eval is up to date"
+else
+    "$MF" eval "$DATA" --results "$RESULTS/eval" --methods "$methods" --scenes "$(echo $SCENES | tr ' ' ',')" \
+        --max-views "$F_EVAL_VIEWS" --spp "$F_EVAL_SPP" --pixel-samples "$F_EVAL_PS" --no-curves -o "$OUT/eval"
+fi
 # every point paired with the default budget (mean difference, 95% CI, wins, t-test and sign-test p)
 if [ -d "$RESULTS/eval/nvdiffrecmc_$F_DEFAULT" ]; then
     "$MF" compare "$OUT/eval/scenes.csv" --ref "nvdiffrecmc_$F_DEFAULT" -o "$OUT/paired"
 fi
-python3 eval/frontier.py report --eval-dir "$OUT/eval" --runs "$RESULTS/runs" --out "$OUT" --default "$F_DEFAULT" \
-    --mf "$MF"
+python3 eval/frontier.py report --eval-dir "$OUT/eval" --points "$RESULTS/eval" --out "$OUT" --default "$F_DEFAULT" \
+    --ladder "config $F_CONFIG; scenes $SCENES; methods $METHODS; resolution $F_RES px; spp $F_SPP; baseline iterations $F_ITERS; MaterialFusion iterations $F_MF_ITERS; budget flags on the baseline at $F_DEFAULT; mf eval on $F_EVAL_VIEWS test views per scene with --spp $F_EVAL_SPP --pixel-samples $F_EVAL_PS (its defaults: every view, 4, 4)."

@@ -50,7 +50,12 @@
  * (sRGB), orm.png (linear, R = 1), normal.png (8-bit linear, glTF tangent space; only with
  * normal_map), env.exr, mesh.obj (+ mesh.mtl), scene.glb, log.csv
  * (iter, wall_s, loss_total, loss_image, loss_reg, loss_sds, train_psnr), snapshots/iter_NNNNN/
- * (albedo.png, orm.png, env.exr every snapshot_every iterations) and checkpoint.mfck. */
+ * (albedo.png, orm.png, env.exr every snapshot_every iterations) and checkpoint.mfck.
+ *
+ * Budgets from the data (mf_budget.h; each off by default): early_stop holds views out of step 2's
+ * permutation and ends the run on their PSNR (holdout.csv; the checkpoint is written at the stop);
+ * metal_auto sets ORM B to 0 and freezes it after metal_warmup iterations when the scene shows no
+ * metal (the decision is stored in the checkpoint); tex_auto picks tex_res in mf_recon_new. */
 #ifndef MF_RECON_H
 #define MF_RECON_H
 
