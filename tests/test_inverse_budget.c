@@ -244,6 +244,45 @@ MF_TEST(inverse_budget_metal_auto) {
     CHECK_MSG(st == 0 && frac > 0.5 && mx > 0.5f, "metallic: state %d, fraction %g, max metallic %g", st, frac, mx);
 }
 
+/* A hook whose loss grows every iteration (so the guard's best state stays the starting one, from
+ * before the freeze) and that poisons a gradient at iteration 4, the last: the recovery must not bring the
+ * pre-freeze metallic back (at the last iteration no Adam step projects it afterwards). */
+static int rising_nan_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double *loss) {
+    (void)ctx, (void)batch, (void)nb;
+    *loss = 10.0 * it;
+    if (it == 4) mf_recon_block(r, MF_BLOCK_KD)->g[0] = NAN;
+    return MF_OK;
+}
+
+MF_TEST(inverse_budget_metal_frozen_through_recovery) {
+    MfMesh mesh;
+    CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
+    MfReconView v[NV];
+    memset(v, 0, sizeof v);
+    CHECK_OK(sphere_views(&mesh, 24, 0.0f, v));
+    MfReconOpts o = tiny_opts();
+    o.iters = 5;
+    o.metal_auto = 1;
+    o.metal_warmup = 1; /* every texel starts at 0.25: fixed at 0 after the first iteration */
+    o.div_patience = 1000;
+    MfRecon *r = NULL;
+    CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r));
+    MfReconHook hook = {rising_nan_hook, NULL};
+    char dir[512];
+    snprintf(dir, sizeof dir, "%s", mf_test_path("metal_recover"));
+    CHECK_OK(mf_recon_run(r, &hook, dir));
+    int nrec = 0;
+    mf_recon_recoveries(r, &nrec);
+    double frac;
+    CHECK(nrec == 1 && mf_recon_metal_state(r, &frac) == 1);
+    const MfParamBlock *orm = mf_recon_block(r, MF_BLOCK_ORM);
+    float mx = 0.0f;
+    for (size_t i = 2; i < orm->n; i += 3) mx = fmaxf(mx, orm->p[i]);
+    CHECK_MSG(mx == 0.0f, "metallic %g after the recovery", mx);
+    mf_recon_free(r);
+    mf_mesh_free(&mesh);
+}
+
 /* ---- texture side from the texel density ---- */
 
 MF_TEST(inverse_budget_texel_side) {

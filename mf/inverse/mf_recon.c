@@ -546,6 +546,7 @@ static int recover(MfRecon *r, int it, const char *why, const char *ckpt) {
                        it, why, r->nrec_total, r->lr_scale);
     }
     mf_param_snapshot_restore(&r->good, r->blocks, r->nblocks, &r->adam);
+    mf_param_project(&r->blocks[MF_BLOCK_ORM]); /* a state from before metal_auto froze metallic at 0 */
     r->lr_scale *= MF_RECON_RECOVERY_LR;
     r->guard.streak = 0;
     r->nrec_total++;
@@ -565,8 +566,8 @@ static int recover(MfRecon *r, int it, const char *why, const char *ckpt) {
 /* ---- budgets from the data (mf_budget.h) ---- */
 
 /* Mean over the held-out views of the PSNR (sRGB, inside the union of the rendered and the
- * reference masks) of a forward render of the current state; each view's seed is fixed, so
- * successive evaluations differ by the parameters only. */
+ * reference masks, after a per-channel scale) of a forward render of the current state; each
+ * view's seed is fixed, so successive evaluations differ by the parameters only. */
 static int holdout_psnr(MfRecon *r, double *psnr) {
     int rc = sync_env(r), n = 0;
     double sum = 0.0;
