@@ -281,6 +281,11 @@ def readme(a, rows, flags):
             where = "knee at %d iterations (%.1f s, relit %.2f dB; best %.2f dB)" % (k["iters"], k["wall_s"],
                                                                                    k["relit_psnr"], best)
         L.append("- %s, %d px, spp %d: %s. Relit PSNR by iterations: %s." % (m, res, spp, where, steps))
+        walls = [r["wall_s"] for r in pts]
+        if any(b <= a for a, b in zip(walls, walls[1:])):
+            L.append("  Its wall times do not grow with the iterations: its runs were made at different moments on "
+                     "this shared machine, under different loads, so read its cost from the iteration counts (the "
+                     "baseline's points, snapshots of one run, are timed under one load per scene).")
     if flags:
         L += ["", "## Budget flags (each alone, paired per scene with the same budget without it)", "",
               "Wall time ratio: mean over the scenes of the flag's loop wall time over its reference's, both measured "
