@@ -249,8 +249,7 @@ bench-geom: $(DATA)/test-3d/.rendered | $(BUILD)/mf
 # Speed/error frontier (issue 16): relit/albedo/ORM PSNR against wall time over a ladder of budgets
 # for the baseline and MaterialFusion on 3 test-3d scenes, and the budget flags of mf recon ->
 # reports/frontier/ (eval/bench_frontier.sh; resumable). The default ladder is the reduced one
-# the committed snapshot ran (64 px, spp 2, 50/100/200/400 iterations; it ran MaterialFusion at
-# 50/100/200 only: F_MF_ITERS="50 100 200", reports/frontier/README.md); BENCH_FULL=1 runs the
+# the committed snapshot ran (64 px, spp 2, 50/100/200/400 iterations, both methods); BENCH_FULL=1 runs the
 # ladder up to the published budget (baselines/nvdiffrecmc_full.json: 128 px, spp 8, 5000
 # iterations; days on 2 cores). F_RES, F_SPP, F_ITERS, F_MF_ITERS, SCENES override the ladder.
 .PHONY: bench-frontier

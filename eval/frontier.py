@@ -285,7 +285,8 @@ def readme(a, rows, flags):
         if any(b <= a for a, b in zip(walls, walls[1:])):
             L.append("  Its wall times do not grow with the iterations: its runs were made at different moments on "
                      "this shared machine, under different loads, so read its cost from the iteration counts (the "
-                     "baseline's points, snapshots of one run, are timed under one load per scene).")
+                     "baseline's points, snapshots of one run, are timed under one load per scene); wall times compared "
+                     "across lines carry the same caveat.")
     if flags:
         L += ["", "## Budget flags (each alone, paired per scene with the same budget without it)", "",
               "Wall time ratio: mean over the scenes of the flag's loop wall time over its reference's, both measured "
