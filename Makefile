@@ -264,6 +264,18 @@ bench-geom: $(DATA)/test-3d/.rendered | $(BUILD)/mf
 	@mv $(GEOM_REPORT)/.README.md.tmp $(GEOM_REPORT)/README.md
 	@cat $(GEOM_REPORT)/README.md
 
+# Speed/error frontier (issue 16): relit/albedo/ORM PSNR against wall time over a ladder of budgets
+# for the baseline and MaterialFusion on 3 test-3d scenes, and the budget flags of mf recon ->
+# reports/frontier/ (eval/bench_frontier.sh; resumable). The default ladder is the reduced one
+# the committed snapshot ran (64 px, spp 2, 50/100/200/400 iterations, both methods); BENCH_FULL=1 runs the
+# ladder up to the published budget (baselines/nvdiffrecmc_full.json: 128 px, spp 8, 5000
+# iterations; days on 2 cores). F_RES, F_SPP, F_ITERS, F_MF_ITERS, SCENES override the ladder.
+.PHONY: bench-frontier
+bench-frontier: $(BUILD)/mf $(DATA)/test-3d/.rendered
+	MF=$(MF) DATA=$(DATA)/test-3d RESULTS=$(RESULTS)/frontier OUT=reports/frontier \
+	  $(if $(filter 1,$(BENCH_FULL)),F_RES="64 128" F_SPP="2 4 8" F_ITERS="100 400 1000 2000 5000" F_CONFIG=baselines/nvdiffrecmc_full.json F_DEFAULT=none) \
+	  sh eval/bench_frontier.sh
+
 # The same tables on a reduced setting (3 scenes, 64 px training, 100 iterations).
 bench-quick: $(BUILD)/mf
 	$(MAKE) --no-print-directory bench-split BENCH_SPLIT=test-3d SCENE_LIMIT=3 RESULTS=$(RESULTS)/quick \

@@ -19,6 +19,8 @@
 enum { RES = 16, NV = 4 };
 
 /* iters and ckpt_every override the small defaults (6 and 0) when positive. */
+static int g_holdout_every; /* > 0: make_recon_n's runs hold views out (early_stop) */
+
 static int make_recon_n(MfMesh *mesh, MfRecon **out, int iters, int ckpt_every) {
     int rc = mf_shape_uv_sphere(mesh, mf_v3(0, 0, 0), 0.5f, 16, 8);
     if (rc) return rc;
@@ -49,6 +51,7 @@ static int make_recon_n(MfMesh *mesh, MfRecon **out, int iters, int ckpt_every) 
     mf_env_free(&env);
     mf_rtscene_free(rt);
     MfReconOpts o = mf_recon_opts_default();
+    if (g_holdout_every) o.early_stop = 1, o.holdout_every = g_holdout_every;
     o.iters = iters > 0 ? iters : 6;
     o.tex_res = 8;
     o.env_w = 8;
@@ -318,6 +321,28 @@ MF_TEST(fusion_sds_pick_views) {
     CHECK(mf_sds_pick_views(s, r, 0, batch, 1, v) == NV);
     for (int i = 0; i < NV; ++i) seen |= 1 << v[i];
     CHECK(seen == (1 << NV) - 1);
+    mf_sds_free(s);
+    mf_recon_free(r);
+    mf_mesh_free(&mesh);
+}
+
+/* With early_stop the held-out views (here 0 and 2 of 4) never get the prior term either. */
+MF_TEST(fusion_sds_pick_views_skips_holdout) {
+    MfMesh mesh;
+    MfRecon *r = NULL;
+    g_holdout_every = 2;
+    int rc = make_recon(&mesh, &r);
+    g_holdout_every = 0;
+    CHECK_OK(rc);
+    MfSdsOpts o = mf_sds_opts_default();
+    o.k_views = 8;
+    MfSds *s = tiny_sds_opts(&o);
+    if (!r || !s) return;
+    int batch[1] = {3}, v[MF_SDS_MAX_VIEWS];
+    for (int it = 0; it < 4; ++it) {
+        CHECK(mf_sds_pick_views(s, r, it, batch, 1, v) == 2);
+        CHECK(v[0] == 3 && v[1] == 1);
+    }
     mf_sds_free(s);
     mf_recon_free(r);
     mf_mesh_free(&mesh);

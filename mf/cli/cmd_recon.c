@@ -15,6 +15,7 @@
 #include "datasets/ds_load.h"
 #include "fusion/mf_sds.h"
 #include "fusion/mf_sds_opts.h"
+#include "inverse/mf_budget.h"
 #include "inverse/mf_recon_opts.h"
 #include "io/mf_gltf_read.h"
 
@@ -158,6 +159,33 @@ static int prepare_out(MfRecon *r, const char *out, int resume) {
     return rc;
 }
 
+/* run.json: what the budgets from the data decided (mf_budget.h). */
+static void budgets_to_json(const MfRecon *r, cJSON *opts) {
+    const MfEarlyStop *es = mf_recon_early_stop(r);
+    if (es) {
+        cJSON *e = cJSON_AddObjectToObject(opts, "early_stop_result");
+        cJSON_AddNumberToObject(e, "stop_iter", es->stop_iter);
+        cJSON_AddNumberToObject(e, "best_iter", es->best_iter);
+        cJSON_AddNumberToObject(e, "best_holdout_psnr", es->best);
+        cJSON *hv = cJSON_AddArrayToObject(e, "holdout_views");
+        for (int i = 0; i < mf_recon_nviews(r); ++i)
+            if (mf_recon_is_holdout(r, i)) cJSON_AddItemToArray(hv, cJSON_CreateNumber(i));
+        cJSON *c = cJSON_AddArrayToObject(e, "curve"); /* [iteration, held-out PSNR dB] */
+        for (int k = 0; k < es->n; ++k) {
+            double row[2] = {es->iter[k], es->psnr[k]};
+            cJSON_AddItemToArray(c, cJSON_CreateDoubleArray(row, 2));
+        }
+    }
+    double frac;
+    int ms = mf_recon_metal_state(r, &frac);
+    if (mf_recon_opts(r)->metal_auto) {
+        cJSON *m = cJSON_AddObjectToObject(opts, "metal_auto_result");
+        cJSON_AddNumberToObject(m, "metal_fraction", frac);
+        cJSON_AddStringToObject(m, "decision", ms < 0 ? "not tested" : (ms ? "metallic fixed at 0" : "metallic kept"));
+    }
+    if (mf_recon_opts(r)->tex_auto) cJSON_AddNumberToObject(opts, "tex_auto_median_side", mf_recon_texel_side(r));
+}
+
 /* run.json, also when the guard stopped the run (rc != 0): what happened, and why. Every option
  * as resolved, render timings, the prior's seconds, recoveries. Returns rc or run.json's error. */
 static int write_run(int rc, int argc, char **argv, const char *out, const ReconArgs *a, const MfReconOpts *o,
@@ -166,7 +194,8 @@ static int write_run(int rc, int argc, char **argv, const char *out, const Recon
     snprintf(stopped, sizeof stopped, "%s", rc ? mf_error() : "");
     cJSON *opts = cJSON_CreateObject();
     mf_opts_to_json(&k_args_table, a, opts);
-    mf_opts_to_json(&mf_recon_opt_table, o, opts);
+    mf_opts_to_json(&mf_recon_opt_table, mf_recon_opts(r), opts); /* as resolved (tex_auto) */
+    budgets_to_json(r, opts);
     if (sds) mf_opts_to_json(&mf_sds_opt_table, so, opts);
     double tf, ta;
     mf_recon_timing(r, &tf, &ta);
@@ -225,7 +254,7 @@ static int cmd_recon_run(int argc, char **argv, const MfOptParse *p, ReconArgs *
     if (!exit_code && !rc) rc = prepare_out(r, out, a->resume);
     if (!exit_code && !rc)
         mf_log_info("recon: %d views %dx%d, %d iterations, batch %d, textures %d^2, env %dx%d", nviews, mf_recon_view(r, 0)->cam.w,
-                    mf_recon_view(r, 0)->cam.h, o.iters, o.batch, o.tex_res, o.env_w, o.env_h);
+                    mf_recon_view(r, 0)->cam.h, o.iters, o.batch, mf_recon_opts(r)->tex_res, o.env_w, o.env_h);
     if (!exit_code && !rc) {
         MfReconHook hook = {mf_sds_hook, sds};
         rc = mf_recon_run(r, is_mf ? &hook : NULL, out);

@@ -7,6 +7,7 @@
 #include "core/mf_error.h"
 #include "core/mf_log.h"
 #include "core/mf_rng.h"
+#include "inverse/mf_budget.h"
 #include "render/mf_diffrender.h"
 #include "io/mf_image.h"
 
@@ -261,13 +262,15 @@ int mf_sds_loss(MfSds *s, MfRecon *r, const MfSdsTargets *t, float scale, int gr
 }
 
 int mf_sds_pick_views(const MfSds *s, MfRecon *r, int it, const int *batch, int nb, int *views) {
-    int nv = mf_recon_nviews(r), want = s->o.k_views < nv ? s->o.k_views : nv, k = 0;
+    int nv = mf_recon_nviews(r), ntrain = 0, k = 0;
+    for (int v = 0; v < nv; ++v) ntrain += !mf_recon_is_holdout(r, v); /* early_stop's held-out views never enter */
+    int want = s->o.k_views < ntrain ? s->o.k_views : ntrain;
     for (int i = 0; i < nb && k < want; ++i) views[k++] = batch[i];
     if (k == want) return k;
     MfRng rng;
     mf_rng_seed(&rng, view_seed(s, it, -1, 4), 0);
     for (int tries = 0; k < want; ++tries) { /* random distinct views; a sequential fill after many draws */
-        int v = tries < 64 * MF_SDS_MAX_VIEWS ? (int)mf_rng_below(&rng, (uint32_t)nv) : tries % nv, used = 0;
+        int v = tries < 64 * MF_SDS_MAX_VIEWS ? (int)mf_rng_below(&rng, (uint32_t)nv) : tries % nv, used = mf_recon_is_holdout(r, v);
         for (int j = 0; j < k && !used; ++j) used = views[j] == v;
         if (!used) views[k++] = v;
     }
@@ -292,6 +295,7 @@ int mf_sds_coverage(MfRecon *r, float **out, size_t *ntex) {
     MfDiffScene ds = {.rt = mf_recon_rtscene(r), .kd = &kdi, .orm = &ormi, .env = mf_recon_env(r)};
     int rc = MF_OK;
     for (int v = 0; v < mf_recon_nviews(r) && !rc; ++v) {
+        if (mf_recon_is_holdout(r, v)) continue; /* early_stop's held-out views are not training data */
         const MfReconView *view = mf_recon_view(r, v);
         memset(g, 0, kd->n * sizeof(float));
         MfDiffGrads dg = {.dkd = g};

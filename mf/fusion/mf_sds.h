@@ -104,7 +104,8 @@ void mf_sds_targets_free(MfSdsTargets *t);
  * non-zero, adds scale * dLoss/d(texels) into the kd and ORM blocks' gradients. */
 int mf_sds_loss(MfSds *s, MfRecon *r, const MfSdsTargets *t, float scale, int grads, double *loss);
 /* The views of iteration it that get the prior term (the hook's choice): batch's first k_views,
- * then distinct other views drawn at random (seeded by it). views (MF_SDS_MAX_VIEWS); returns count. */
+ * then distinct other views drawn at random (seeded by it; never early_stop's held-out views).
+ * views (MF_SDS_MAX_VIEWS); returns count. */
 int mf_sds_pick_views(const MfSds *s, MfRecon *r, int it, const int *batch, int nb, int *views);
 
 #endif

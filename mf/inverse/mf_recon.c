@@ -10,6 +10,7 @@
 #include "core/mf_fs.h"
 #include "core/mf_log.h"
 #include "core/mf_rng.h"
+#include "inverse/mf_budget.h"
 #include "inverse/mf_denoise.h"
 #include "render/mf_diffrender.h"
 #include "inverse/mf_loss.h"
@@ -44,6 +45,12 @@ struct MfRecon {
     MfReconRecovery rec[64];    /* this process's recoveries (the first 64) */
     int nrec;                   /* recoveries in this process */
     int nrec_total;             /* recoveries including earlier (resumed) runs */
+    int *train;                 /* owned; (ntrain,) the views in the loss (all but the held-out ones) */
+    int ntrain;
+    MfEarlyStop *es;            /* owned with early_stop (held-out curve and patience state), else NULL */
+    int metal_state;            /* metal_auto: -1 not tested yet, 0 metallic kept, 1 frozen at 0 */
+    double metal_fraction;      /* metal_auto: the fraction measured by the test (-1 before it) */
+    double texel_side;          /* tex_auto: median sqrt(screen px / UV area) (0 when off) */
 };
 
 long mf_peak_rss_bytes(void) {
@@ -108,15 +115,34 @@ int mf_recon_new(const MfMesh *mesh, MfReconView *views, int nviews, const MfRec
     if (nviews < 1) return mf_fail(MF_EARG, "no training views");
     int rc = mf_opts_check(&mf_recon_opt_table, opts); /* names the option, its value and its range */
     if (rc) return mf_fail_prefix(rc, "reconstruction options");
+    if (opts->tex_auto && opts->tex_auto_min > opts->tex_auto_max)
+        return mf_fail(MF_EARG, "reconstruction options: tex_auto_min %d is above tex_auto_max %d", opts->tex_auto_min,
+                       opts->tex_auto_max);
+    if (opts->early_stop && nviews < 2)
+        return mf_fail(MF_EARG, "reconstruction options: early_stop holds out views and needs at least 2 (there is %d)", nviews);
     MfRecon *r = calloc(1, sizeof *r);
     if (!r) return mf_fail(MF_ENOMEM, "out of memory");
     r->mesh = mesh;
     r->o = *opts;
     r->lr_scale = 1.0f;
+    r->metal_state = -1;
+    r->metal_fraction = -1.0;
     mf_divguard_init(&r->guard, opts->div_factor, opts->div_patience);
-    int T = opts->tex_res;
-    size_t ntex = (size_t)T * T * 3, nenv = (size_t)opts->env_w * opts->env_h * 3;
     rc = mf_rtscene_new(mesh, &r->rt);
+    if (!rc && opts->tex_auto && !(rc = mf_budget_texel_side(r->rt, mesh, views, nviews, &r->texel_side, NULL))) {
+        r->o.tex_res = mf_budget_pow2_side(r->texel_side, opts->tex_auto_min, opts->tex_auto_max);
+        mf_log_info("recon: tex_auto: median %.1f texels per side for 1 pixel per texel over the %d views: tex_res %d",
+                    r->texel_side, nviews, r->o.tex_res);
+    }
+    if (!rc && !(r->train = malloc((size_t)nviews * sizeof(int)))) rc = mf_fail(MF_ENOMEM, "out of memory");
+    for (int i = 0; !rc && i < nviews; ++i)
+        if (!opts->early_stop || !mf_budget_is_holdout(i, opts->holdout_every)) r->train[r->ntrain++] = i;
+    if (!rc && opts->early_stop) {
+        if (!(r->es = malloc(sizeof *r->es))) rc = mf_fail(MF_ENOMEM, "out of memory");
+        else mf_early_stop_init(r->es);
+    }
+    int T = r->o.tex_res;
+    size_t ntex = (size_t)T * T * 3, nenv = (size_t)opts->env_w * opts->env_h * 3;
     if (!rc) rc = mf_param_init(&r->blocks[MF_BLOCK_KD], "kd", ntex, 3, NULL);
     if (!rc) rc = mf_param_init(&r->blocks[MF_BLOCK_ORM], "orm", ntex, 3, NULL);
     if (!rc) rc = mf_param_init(&r->blocks[MF_BLOCK_ENV], "env", nenv, 3, NULL);
@@ -185,6 +211,8 @@ void mf_recon_free(MfRecon *r) {
     free(r->views);
     free(r->uv_mask);
     free(r->tan);
+    free(r->train);
+    free(r->es);
     free(r);
 }
 
@@ -211,6 +239,14 @@ static MfImage block_image(const MfParamBlock *b, int w, int h) {
     MfImage im = {w, h, 3, b->p};
     return im;
 }
+const MfEarlyStop *mf_recon_early_stop(const MfRecon *r) { return r->es; }
+int mf_recon_metal_state(const MfRecon *r, double *fraction) {
+    *fraction = r->metal_fraction;
+    return r->metal_state;
+}
+double mf_recon_texel_side(const MfRecon *r) { return r->texel_side; }
+int mf_recon_is_holdout(const MfRecon *r, int view) { return r->o.early_stop && mf_budget_is_holdout(view, r->o.holdout_every); }
+
 MfImage mf_recon_kd_image(const MfRecon *r) { return block_image(&r->blocks[MF_BLOCK_KD], r->o.tex_res, r->o.tex_res); }
 MfImage mf_recon_orm_image(const MfRecon *r) { return block_image(&r->blocks[MF_BLOCK_ORM], r->o.tex_res, r->o.tex_res); }
 MfImage mf_recon_normal_image(const MfRecon *r) { return block_image(&r->blocks[MF_BLOCK_NORMAL], r->o.tex_res, r->o.tex_res); }
@@ -247,12 +283,13 @@ static int save_checkpoint(const MfRecon *r, const char *path, double wall) {
         memcpy(buf + off, pb->m, pb->n * sizeof(float)), off += pb->n;
         memcpy(buf + off, pb->v, pb->n * sizeof(float)), off += pb->n;
     }
-    char meta[384];
+    char meta[512];
     snprintf(meta, sizeof meta,
              "{\"kind\":\"mf-recon\",\"iteration\":%d,\"adam_t\":%ld,\"wall_s\":%.17g,\"tex_res\":%d,\"env_w\":%d,\"env_h\":%d,"
-             "\"lr_scale\":%.9g,\"loss_min\":%.17g,\"recoveries\":%d,\"exposure\":%.9g}",
+             "\"lr_scale\":%.9g,\"loss_min\":%.17g,\"recoveries\":%d,\"exposure\":%.9g,\"metal_state\":%d,\"metal_fraction\":%.17g}",
              r->it, r->adam.t, wall, r->o.tex_res, r->o.env_w, r->o.env_h, r->lr_scale,
-             isfinite(r->guard.loss_min) ? r->guard.loss_min : -1.0, r->nrec_total, r->exposure);
+             isfinite(r->guard.loss_min) ? r->guard.loss_min : -1.0, r->nrec_total, r->exposure, r->metal_state,
+             r->metal_fraction);
     int rc = mf_ckpt_save(path, specs, r->nblocks * 3, buf, meta);
     free(buf);
     return rc;
@@ -301,6 +338,11 @@ int mf_recon_load_checkpoint(MfRecon *r, const char *path) {
     if (pl) sscanf(pl, "\"lr_scale\":%f", &lr_scale);
     if (pm) sscanf(pm, "\"loss_min\":%lf", &loss_min);
     if (pr) sscanf(pr, "\"recoveries\":%d", &nrec);
+    int metal_state = -1;
+    double metal_fraction = -1.0;
+    const char *pms = meta ? strstr(meta, "\"metal_state\":") : NULL, *pmf = meta ? strstr(meta, "\"metal_fraction\":") : NULL;
+    if (pms) sscanf(pms, "\"metal_state\":%d", &metal_state);
+    if (pmf) sscanf(pmf, "\"metal_fraction\":%lf", &metal_fraction);
     float expo = 1.0f;
     const char *pe = meta ? strstr(meta, "\"exposure\":") : NULL;
     if (pe) sscanf(pe, "\"exposure\":%f", &expo);
@@ -326,6 +368,9 @@ int mf_recon_load_checkpoint(MfRecon *r, const char *path) {
     r->wall_offset = wall;
     r->lr_scale = lr_scale;
     r->nrec_total = nrec;
+    r->metal_state = metal_state;
+    r->metal_fraction = metal_fraction;
+    if (metal_state == 1) mf_param_set_bounds(&r->blocks[MF_BLOCK_ORM], 2, 0.0f, 0.0f);
     mf_divguard_init(&r->guard, r->o.div_factor, r->o.div_patience);
     if (isfinite(loss_min) && loss_min >= 0.0) r->guard.loss_min = loss_min;
     free(buf);
@@ -501,6 +546,7 @@ static int recover(MfRecon *r, int it, const char *why, const char *ckpt) {
                        it, why, r->nrec_total, r->lr_scale);
     }
     mf_param_snapshot_restore(&r->good, r->blocks, r->nblocks, &r->adam);
+    mf_param_project(&r->blocks[MF_BLOCK_ORM]); /* a state from before metal_auto froze metallic at 0 */
     r->lr_scale *= MF_RECON_RECOVERY_LR;
     r->guard.streak = 0;
     r->nrec_total++;
@@ -517,58 +563,170 @@ static int recover(MfRecon *r, int it, const char *why, const char *ckpt) {
     return MF_OK;
 }
 
+/* ---- budgets from the data (mf_budget.h) ---- */
+
+/* Mean over the held-out views of the PSNR (sRGB, inside the union of the rendered and the
+ * reference masks, after a per-channel scale) of a forward render of the current state; each
+ * view's seed is fixed, so successive evaluations differ by the parameters only. */
+static int holdout_psnr(MfRecon *r, double *psnr) {
+    int rc = sync_env(r), n = 0;
+    double sum = 0.0;
+    MfImage kd = mf_recon_kd_image(r), orm = mf_recon_orm_image(r), nm = mf_recon_normal_image(r);
+    MfDiffScene s = {.rt = r->rt, .kd = &kd, .orm = &orm, .env = &r->env, .normal = r->o.normal_map ? &nm : NULL,
+                     .tangent = r->tan};
+    for (int vi = 0; vi < r->nviews && !rc; ++vi) {
+        if (!mf_budget_is_holdout(vi, r->o.holdout_every)) continue;
+        const MfReconView *v = &r->views[vi];
+        MfDiffOpts fo = {r->o.spp_sqrt, r->o.es_pixel_samples, mf_hash64(mf_hash64(r->o.seed, 0x686f6c64ULL), (uint64_t)vi)};
+        MfRenderOut out;
+        if ((rc = mf_render_out_alloc(&out, v->cam.w, v->cam.h))) break;
+        double t0 = mf_now();
+        rc = mf_diff_forward(&s, &v->cam, &fo, &out);
+        r->t_forward += mf_now() - t0;
+        /* per-channel scale of the render: ratio of the means inside the reference's mask (as mf
+         * eval aligns relit views), so a drift of the albedo/light scale, which relighting
+         * scores do not see either, is not taken for a loss of quality */
+        size_t npx = (size_t)v->cam.w * v->cam.h;
+        double sr[3] = {0, 0, 0}, sf[3] = {0, 0, 0};
+        for (size_t p = 0; p < npx; ++p)
+            if (v->ref.data[4 * p + 3] > 0.5f)
+                for (int c = 0; c < 3; ++c) sr[c] += out.rgb[3 * p + c], sf[c] += v->ref.data[4 * p + c];
+        float k[3];
+        for (int c = 0; c < 3; ++c) k[c] = sr[c] > 0.0 ? (float)(sf[c] / sr[c]) : 1.0f;
+        double se = 0.0;
+        size_t cnt = 0;
+        for (size_t p = 0; !rc && p < npx; ++p) {
+            if (!(out.alpha[p] > 0.0f) && !(v->ref.data[4 * p + 3] > 0.0f)) continue;
+            for (int c = 0; c < 3; ++c) {
+                float a = mf_clampf(mf_linear_to_srgb(k[c] * out.rgb[3 * p + c]), 0.0f, 1.0f);
+                float b = mf_clampf(mf_linear_to_srgb(v->ref.data[4 * p + c]), 0.0f, 1.0f);
+                se += (double)(a - b) * (a - b);
+            }
+            cnt += 3;
+        }
+        mf_render_out_free(&out);
+        if (!rc && cnt) sum += 10.0 * log10(1.0 / fmax(se / (double)cnt, 1e-10)), n++;
+    }
+    *psnr = n ? sum / n : 0.0;
+    return rc;
+}
+
+/* metal_auto: the fraction of the training views' visible texels with metallic > 0.5; below
+ * metal_frac the channel is set to 0 and frozen (its Adam moments zeroed). */
+static int metal_test(MfRecon *r) {
+    int T = r->o.tex_res;
+    unsigned char *vis = malloc((size_t)T * T), *skip = calloc((size_t)r->nviews, 1);
+    if (!vis || !skip) {
+        free(vis), free(skip);
+        return mf_fail(MF_ENOMEM, "out of memory");
+    }
+    for (int i = 0; i < r->nviews; ++i) skip[i] = (unsigned char)mf_recon_is_holdout(r, i);
+    size_t nvis = mf_budget_visible_texels(r->rt, r->views, r->nviews, skip, T, vis);
+    MfParamBlock *orm = &r->blocks[MF_BLOCK_ORM];
+    r->metal_fraction = mf_budget_metal_fraction(orm->p, vis, (size_t)T * T, 0.5f);
+    r->metal_state = r->metal_fraction < r->o.metal_frac;
+    if (r->metal_state) {
+        for (size_t i = 2; i < orm->n; i += 3) orm->p[i] = orm->m[i] = orm->v[i] = 0.0f;
+        mf_param_set_bounds(orm, 2, 0.0f, 0.0f);
+    }
+    mf_log_info("recon: metal_auto at iteration %d: %.4f of %zu visible texels have metallic > 0.5 (threshold %g): %s",
+                r->it, r->metal_fraction, nvis, r->o.metal_frac, r->metal_state ? "metallic fixed at 0" : "metallic kept");
+    free(vis), free(skip);
+    return MF_OK;
+}
+
+/* Opens a per-iteration CSV log for writing: fresh (header) when the run starts at iteration 0,
+ * else keeps the rows up to the resumed iteration; each kept row is passed to keep (may be NULL). */
+static FILE *open_iter_log(const char *path, const char *header, int it0, void (*keep)(void *, const char *), void *ctx) {
+    if (it0 == 0) {
+        FILE *f = fopen(path, "w");
+        if (f) fprintf(f, "%s\n", header);
+        if (!f) mf_fail(MF_EIO, "%s: cannot write", path);
+        return f;
+    }
+    char *old = NULL;
+    size_t len = 0;
+    if (mf_read_file(path, &old, &len) != MF_OK) {
+        mf_fail(MF_EIO, "%s: resume needs the run's %s", path, strrchr(path, '/') ? strrchr(path, '/') + 1 : path);
+        return NULL;
+    }
+    FILE *f = fopen(path, "w");
+    if (f) {
+        char *save = NULL;
+        for (char *ln = strtok_r(old, "\n", &save); ln; ln = strtok_r(NULL, "\n", &save)) {
+            int it;
+            if (sscanf(ln, "%d,", &it) == 1) {
+                if (it > it0) break;
+                if (keep) keep(ctx, ln);
+            }
+            fprintf(f, "%s\n", ln);
+        }
+    } else {
+        mf_fail(MF_EIO, "%s: cannot write", path);
+    }
+    free(old);
+    return f;
+}
+
+/* Replays a kept holdout.csv row through the patience rule: the resumed state is the one the
+ * uninterrupted run had. */
+static void replay_holdout(void *ctx, const char *ln) {
+    MfRecon *r = ctx;
+    int it;
+    double psnr;
+    if (sscanf(ln, "%d,%lf", &it, &psnr) == 2) mf_early_stop_observe(r->es, it, psnr, r->o.es_patience, r->o.es_min_delta);
+}
+
 int mf_recon_run(MfRecon *r, const MfReconHook *hook, const char *out_dir) {
-    char logp[MF_PATH_MAX], ckpt[MF_PATH_MAX];
+    char logp[MF_PATH_MAX], ckpt[MF_PATH_MAX], holdp[MF_PATH_MAX];
     int rc = mf_mkdirs(out_dir);
     if (rc || (rc = mf_path_join(logp, sizeof logp, out_dir, "log.csv")) ||
-        (rc = mf_path_join(ckpt, sizeof ckpt, out_dir, "checkpoint.mfck")))
+        (rc = mf_path_join(ckpt, sizeof ckpt, out_dir, "checkpoint.mfck")) ||
+        (rc = mf_path_join(holdp, sizeof holdp, out_dir, "holdout.csv")))
         return rc;
-    /* log.csv: rewritten from scratch on a fresh run; on resume, rows past the checkpoint's
-     * iteration are dropped so the log matches an uninterrupted run. */
-    FILE *log = NULL;
-    if (r->it == 0) {
-        log = fopen(logp, "w");
-        if (log) fprintf(log, "iter,wall_s,loss_total,loss_image,loss_reg,loss_sds,train_psnr\n");
-    } else {
-        char *old = NULL;
-        size_t len = 0;
-        if (mf_read_file(logp, &old, &len) != MF_OK) return mf_fail(MF_EIO, "%s: resume needs the run's log.csv", logp);
-        log = fopen(logp, "w");
-        if (log) {
-            char *save = NULL;
-            for (char *ln = strtok_r(old, "\n", &save); ln; ln = strtok_r(NULL, "\n", &save)) {
-                int it;
-                if (sscanf(ln, "%d,", &it) == 1 && it > r->it) break;
-                fprintf(log, "%s\n", ln);
-            }
+    /* log.csv (and holdout.csv with early_stop): rewritten from scratch on a fresh run; on
+     * resume, rows past the checkpoint's iteration are dropped so the logs match an
+     * uninterrupted run, and the held-out rows kept rebuild the patience state. */
+    FILE *log = open_iter_log(logp, "iter,wall_s,loss_total,loss_image,loss_reg,loss_sds,train_psnr", r->it, NULL, NULL);
+    if (!log) return MF_EIO;
+    FILE *hlog = NULL;
+    if (r->es) {
+        mf_early_stop_init(r->es);
+        if (!(hlog = open_iter_log(holdp, "iter,wall_s,holdout_psnr", r->it, replay_holdout, r))) {
+            fclose(log);
+            return MF_EIO;
         }
-        free(old);
     }
-    if (!log) return mf_fail(MF_EIO, "%s: cannot write", logp);
     /* the first good state is the starting one (fresh or resumed) */
     if ((rc = mf_param_snapshot_save(&r->good, r->blocks, r->nblocks, &r->adam))) {
         fclose(log);
+        if (hlog) fclose(hlog);
         return rc;
     }
     MfProgress prog;
     mf_progress_begin(&prog, "recon", (size_t)(r->o.iters - r->it));
     double t0 = mf_now();
-    int nb = r->o.batch < r->nviews ? r->o.batch : r->nviews;
-    int *perm = malloc((size_t)r->nviews * sizeof(int));
-    if (!perm) { fclose(log); return mf_fail(MF_ENOMEM, "out of memory"); }
-    while (r->it < r->o.iters && rc == MF_OK) {
+    int nt = r->ntrain, nb = r->o.batch < nt ? r->o.batch : nt;
+    int *perm = malloc((size_t)nt * sizeof(int));
+    if (!perm) {
+        fclose(log);
+        if (hlog) fclose(hlog);
+        return mf_fail(MF_ENOMEM, "out of memory");
+    }
+    while (r->it < r->o.iters && !(r->es && r->es->stop_iter) && rc == MF_OK) {
         int it = r->it;
-        /* views of this iteration: epoch-wise permutation derived from (seed, epoch) */
-        int per_epoch = (r->nviews + nb - 1) / nb, epoch = it / per_epoch, slot = it % per_epoch;
+        /* views of this iteration: epoch-wise permutation of the training views (all views
+         * unless early_stop holds some out) derived from (seed, epoch) */
+        int per_epoch = (nt + nb - 1) / nb, epoch = it / per_epoch, slot = it % per_epoch;
         MfRng prng;
         mf_rng_seed(&prng, mf_hash64(r->o.seed, 0x7065726dULL), (uint64_t)epoch);
-        for (int i = 0; i < r->nviews; ++i) perm[i] = i;
-        for (int i = r->nviews - 1; i > 0; --i) {
+        for (int i = 0; i < nt; ++i) perm[i] = r->train[i];
+        for (int i = nt - 1; i > 0; --i) {
             int j = (int)mf_rng_below(&prng, (uint32_t)(i + 1)), t = perm[i];
             perm[i] = perm[j], perm[j] = t;
         }
         int batch[64], n = 0;
-        for (int k = 0; k < nb && n < 64; ++k) batch[n++] = perm[(slot * nb + k) % r->nviews];
+        for (int k = 0; k < nb && n < 64; ++k) batch[n++] = perm[(slot * nb + k) % nt];
         for (int b = 0; b < r->nblocks; ++b) mf_param_zero_grad(&r->blocks[b]);
         if ((rc = sync_env(r))) break;
         IterStats st = {0};
@@ -620,18 +778,31 @@ int mf_recon_run(MfRecon *r, const MfReconHook *hook, const char *out_dir) {
         fprintf(log, "%d,%.3f,%.6g,%.6g,%.6g,%.6g,%.4f\n", r->it, wall, st.image + st.reg + st.sds, st.image, st.reg,
                 st.sds, st.psnr);
         fflush(log);
+        if (r->o.metal_auto && r->metal_state < 0 && r->it >= r->o.metal_warmup && (rc = metal_test(r))) break;
+        if (r->es && r->it % r->o.es_every == 0) {
+            double hp;
+            if ((rc = holdout_psnr(r, &hp))) break;
+            fprintf(hlog, "%d,%.3f,%.17g\n", r->it, r->wall_offset + mf_now() - t0, hp);
+            fflush(hlog);
+            if (mf_early_stop_observe(r->es, r->it, hp, r->o.es_patience, r->o.es_min_delta))
+                mf_log_info("recon: early stop at iteration %d: held-out PSNR %.3f dB, best %.3f dB at iteration %d "
+                            "(%d evaluations without an improvement above %g dB)", r->it, hp, r->es->best,
+                            r->es->best_iter, r->o.es_patience, r->o.es_min_delta);
+        }
         if (r->o.snapshot_every > 0 && r->it % r->o.snapshot_every == 0) {
             char d[MF_PATH_MAX], name[32];
             snprintf(name, sizeof name, "snapshots/iter_%05d", r->it);
             if ((rc = mf_path_join(d, sizeof d, out_dir, name)) || (rc = write_textures(r, d))) break;
         }
-        if ((r->o.checkpoint_every > 0 && r->it % r->o.checkpoint_every == 0) || r->it == r->o.iters)
+        if ((r->o.checkpoint_every > 0 && r->it % r->o.checkpoint_every == 0) || r->it == r->o.iters ||
+            (r->es && r->es->stop_iter))
             if ((rc = save_checkpoint(r, ckpt, wall))) break;
         mf_progress_add(&prog, 1);
     }
     mf_progress_end(&prog);
     free(perm);
     fclose(log);
+    if (hlog) fclose(hlog);
     if (rc) return rc;
     return mf_recon_write_result(r, out_dir);
 }

@@ -50,7 +50,12 @@
  * (sRGB), orm.png (linear, R = 1), normal.png (8-bit linear, glTF tangent space; only with
  * normal_map), env.exr, mesh.obj (+ mesh.mtl), scene.glb, log.csv
  * (iter, wall_s, loss_total, loss_image, loss_reg, loss_sds, train_psnr), snapshots/iter_NNNNN/
- * (albedo.png, orm.png, env.exr every snapshot_every iterations) and checkpoint.mfck. */
+ * (albedo.png, orm.png, env.exr every snapshot_every iterations) and checkpoint.mfck.
+ *
+ * Budgets from the data (mf_budget.h; each off by default): early_stop holds views out of step 2's
+ * permutation and ends the run on their PSNR (holdout.csv; the checkpoint is written at the stop);
+ * metal_auto sets ORM B to 0 and freezes it after metal_warmup iterations when the scene shows no
+ * metal (the decision is stored in the checkpoint); tex_auto picks tex_res in mf_recon_new. */
 #ifndef MF_RECON_H
 #define MF_RECON_H
 
@@ -98,6 +103,18 @@ typedef struct {
     int snapshot_every;   /* 0: none */
     int checkpoint_every; /* 0: only at the end */
     uint64_t seed;
+    /* budgets from the data (mf_budget.h; each off by default) */
+    int early_stop;       /* 1: hold out views (holdout_every) and stop on their PSNR */
+    int holdout_every;    /* views 0, N, 2N, ... are held out of the loss with early_stop */
+    int es_every;         /* held-out evaluation period (iterations) */
+    int es_pixel_samples; /* primary rays per pixel of the held-out renders */
+    int es_patience;      /* evaluations without improvement before stopping */
+    float es_min_delta;   /* dB an evaluation must beat the best by to count as improvement */
+    int metal_auto;       /* 1: after metal_warmup iterations, freeze metallic at 0 when ... */
+    int metal_warmup;     /* ... the fraction of visible texels with metallic > 0.5 ... */
+    float metal_frac;     /* ... is below this */
+    int tex_auto;         /* 1: tex_res from the views' texel density (power of two, clamped) */
+    int tex_auto_min, tex_auto_max;
 } MfReconOpts;
 
 /* The defaults, from the option table (mf_recon_opts.c: defaults, ranges and docs are written there). */
@@ -159,7 +176,8 @@ const MfReconRecovery *mf_recon_recoveries(const MfRecon *r, int *n);
 /* The current learning-rate multiplier (1 until a recovery; restored from a checkpoint). */
 float mf_recon_lr_scale(const MfRecon *r);
 
-/* Accessors for hooks and tests. */
+/* Accessors for hooks and tests (those of the budgets are in mf_budget.h). */
+
 int mf_recon_iteration(const MfRecon *r);
 MfParamBlock *mf_recon_block(MfRecon *r, MfBlockId id);
 const MfReconOpts *mf_recon_opts(const MfRecon *r);

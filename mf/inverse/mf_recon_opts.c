@@ -39,6 +39,19 @@ static const MfOpt k_opts[] = {
     MF_OPT_INT(R, snapshot_every, 50, 0, 10000000, "texture snapshot period (0: none)"),
     MF_OPT_INT(R, checkpoint_every, 50, 0, 10000000, "checkpoint period (0: at the end only)"),
     MF_OPT_U64(R, seed, 1, 0, 9007199254740992.0, "random seed"),
+    /* budgets from the data (mf_budget.h): off until measured to pay (reports/frontier) */
+    MF_OPT_BOOL(R, early_stop, 0, "1: hold out views 0, N, 2N, ... (N = holdout_every) from the loss and stop when their PSNR stops improving"),
+    MF_OPT_INT(R, holdout_every, 8, 2, 1000000, "early_stop: every Nth training view is held out"),
+    MF_OPT_INT(R, es_every, 25, 1, 10000000, "early_stop: held-out PSNR evaluated every N iterations"),
+    MF_OPT_INT(R, es_pixel_samples, 4, 1, MF_OPT_PIXEL_SAMPLES_MAX, "early_stop: primary rays per pixel of the held-out renders (their noise is not a change of the state)"),
+    MF_OPT_INT(R, es_patience, 3, 1, 1000000, "early_stop: stop after N evaluations in a row without improvement"),
+    MF_OPT_FLOAT(R, es_min_delta, 0.05, 0, 100, "early_stop: an improvement is a held-out PSNR above the best by more than X dB"),
+    MF_OPT_BOOL(R, metal_auto, 0, "1: after metal_warmup iterations, fix metallic at 0 if under metal_frac of the visible texels have metallic > 0.5"),
+    MF_OPT_INT(R, metal_warmup, 50, 1, 10000000, "metal_auto: warm-up iterations before the test"),
+    MF_OPT_FLOAT(R, metal_frac, 0.02, 0, 1, "metal_auto: largest fraction of metallic texels that counts as no metal"),
+    MF_OPT_BOOL(R, tex_auto, 0, "1: tex_res = the power of two nearest 1 pixel per texel over the training views (median over visible triangles)"),
+    MF_OPT_INT(R, tex_auto_min, 32, 4, 8192, "tex_auto: smallest texture side"),
+    MF_OPT_INT(R, tex_auto_max, 1024, 4, 8192, "tex_auto: largest texture side"),
 };
 #undef R
 const MfOptTable mf_recon_opt_table = MF_OPT_TABLE("Options of both methods", k_opts);

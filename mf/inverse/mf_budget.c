@@ -1,0 +1,116 @@
+#include "inverse/mf_budget.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/mf_error.h"
+
+static int cmp_double(const void *a, const void *b) {
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* Marks in seen (nt,) the triangles hit by a primary ray through a pixel centre of view v. */
+static void mark_hit_triangles(const MfRtScene *rt, const MfReconView *v, unsigned char *seen) {
+    for (int py = 0; py < v->cam.h; ++py)
+        for (int px = 0; px < v->cam.w; ++px) {
+            MfVec3 org, dir;
+            MfHit hit;
+            mf_camera_ray(&v->cam, (float)px + 0.5f, (float)py + 0.5f, &org, &dir);
+            if (mf_rtscene_intersect(rt, org, dir, 0.0f, INFINITY, &hit)) seen[hit.tri] = 1;
+        }
+}
+
+int mf_budget_texel_side(const MfRtScene *rt, const MfMesh *mesh, const MfReconView *views, int nviews,
+                         double *median_side, long *npairs) {
+    if (!mesh->uv) return mf_fail(MF_EARG, "texel density: the mesh has no UVs");
+    unsigned char *seen = malloc((size_t)mesh->nt + 1);
+    double *s = malloc(((size_t)mesh->nt * (size_t)nviews + 1) * sizeof(double)); /* (pairs,) */
+    if (!seen || !s) {
+        free(seen), free(s);
+        return mf_fail(MF_ENOMEM, "texel density: out of memory");
+    }
+    size_t n = 0;
+    for (int v = 0; v < nviews; ++v) {
+        memset(seen, 0, (size_t)mesh->nt);
+        mark_hit_triangles(rt, &views[v], seen);
+        for (int t = 0; t < mesh->nt; ++t) {
+            if (!seen[t]) continue;
+            float px[3], py[3], u[3], w[3];
+            int front = 1;
+            for (int k = 0; k < 3; ++k) {
+                uint32_t i = mesh->tri[3 * t + k];
+                MfVec3 p = mf_v3(mesh->pos[3 * i], mesh->pos[3 * i + 1], mesh->pos[3 * i + 2]);
+                front &= mf_camera_project(&views[v].cam, p, &px[k], &py[k]);
+                u[k] = mesh->uv[2 * i], w[k] = mesh->uv[2 * i + 1];
+            }
+            double a_scr = 0.5 * fabs((double)(px[1] - px[0]) * (py[2] - py[0]) - (double)(px[2] - px[0]) * (py[1] - py[0]));
+            double a_uv = 0.5 * fabs((double)(u[1] - u[0]) * (w[2] - w[0]) - (double)(u[2] - u[0]) * (w[1] - w[0]));
+            if (front && a_uv > 1e-12 && a_scr > 0.0) s[n++] = sqrt(a_scr / a_uv);
+        }
+    }
+    double med = 0.0;
+    if (n) {
+        qsort(s, n, sizeof *s, cmp_double);
+        med = n % 2 ? s[n / 2] : 0.5 * (s[n / 2 - 1] + s[n / 2]);
+    }
+    *median_side = med;
+    if (npairs) *npairs = (long)n;
+    free(seen), free(s);
+    return MF_OK;
+}
+
+int mf_budget_pow2_side(double side, int lo, int hi) {
+    if (!(side > 0.0)) return hi;
+    double e = round(log2(side));
+    e = e < 0 ? 0 : (e > 30 ? 30 : e);
+    int t = 1 << (int)e;
+    return t < lo ? lo : (t > hi ? hi : t);
+}
+
+size_t mf_budget_visible_texels(const MfRtScene *rt, const MfReconView *views, int nviews, const unsigned char *skip,
+                                int T, unsigned char *mask) {
+    memset(mask, 0, (size_t)T * T);
+    size_t marked = 0;
+    for (int v = 0; v < nviews; ++v) {
+        if (skip && skip[v]) continue;
+        const MfCamera *cam = &views[v].cam;
+        for (int py = 0; py < cam->h; ++py)
+            for (int px = 0; px < cam->w; ++px) {
+                MfVec3 org, dir;
+                MfHit hit;
+                mf_camera_ray(cam, (float)px + 0.5f, (float)py + 0.5f, &org, &dir);
+                if (!mf_rtscene_intersect(rt, org, dir, 0.0f, INFINITY, &hit)) continue;
+                int x = (int)floorf(hit.uv.x * T), y = (int)floorf((1.0f - hit.uv.y) * T);
+                x = ((x % T) + T) % T, y = ((y % T) + T) % T; /* repeat wrap */
+                unsigned char *m = &mask[(size_t)y * T + x];
+                marked += !*m;
+                *m = 1;
+            }
+    }
+    return marked;
+}
+
+double mf_budget_metal_fraction(const float *orm, const unsigned char *mask, size_t ntex, float thresh) {
+    size_t vis = 0, metal = 0;
+    for (size_t i = 0; i < ntex; ++i)
+        if (mask[i]) vis++, metal += orm[3 * i + 2] > thresh;
+    return vis ? (double)metal / (double)vis : 0.0;
+}
+
+void mf_early_stop_init(MfEarlyStop *es) {
+    memset(es, 0, sizeof *es);
+    es->best = -1.0;
+}
+
+int mf_early_stop_observe(MfEarlyStop *es, int iter, double psnr, int patience, double min_delta) {
+    if (es->n < MF_BUDGET_CURVE_MAX) es->iter[es->n] = iter, es->psnr[es->n] = psnr, es->n++;
+    if (es->best < 0.0 || psnr > es->best + min_delta) {
+        es->best = psnr, es->best_iter = iter, es->bad = 0;
+        return 0;
+    }
+    if (++es->bad < patience) return 0;
+    es->stop_iter = iter;
+    return 1;
+}

@@ -1,0 +1,68 @@
+/* mf_budget: budgets of the inverse loop chosen from the data (issue 16), each behind a flag of
+ * the reconstruction options (mf_recon_opts.c) and used by mf_recon:
+ *   - texture side from the projected texel density of the training views (tex_auto);
+ *   - visible texels (hit by a primary ray through a training pixel's centre), on which the
+ *     "no metal" test (metal_auto) counts metallic texels;
+ *   - early stopping on held-out training views (early_stop): which views are held out, and
+ *     the patience rule on their PSNR.
+ * Units: pixels of the training views at their training resolution; UV area in the unit square
+ * (a texture of side T has T^2 texels over it). Pure functions, no logging. */
+#ifndef MF_BUDGET_H
+#define MF_BUDGET_H
+
+#include "inverse/mf_recon.h"
+#include "render/mf_rtscene.h"
+
+/* Texel density: for each (triangle, view) pair where the triangle is hit by at least one
+ * primary ray through a pixel centre (visible), s = sqrt(screen area in pixels / UV area); the
+ * side T = s gives one pixel per texel on that triangle. Returns the median s over the pairs in
+ * *median_side (0 when nothing is visible or every visible triangle has zero UV area) and the
+ * number of pairs in *npairs (may be NULL). */
+int mf_budget_texel_side(const MfRtScene *rt, const MfMesh *mesh, const MfReconView *views, int nviews,
+                         double *median_side, long *npairs);
+/* The power of two nearest to side (in log2), clamped to [lo, hi] (lo, hi powers of two or
+ * not: the result is clamped after rounding). side <= 0 gives hi (no information: the cap). */
+int mf_budget_pow2_side(double side, int lo, int hi);
+
+/* mask (T, T): 1 where a texel is hit (nearest texel of the hit's UV, repeat wrap) by a primary
+ * ray through a pixel centre of one of the views, else 0. skip (may be NULL): views i with
+ * skip[i] != 0 are not used. Returns the number of texels marked. */
+size_t mf_budget_visible_texels(const MfRtScene *rt, const MfReconView *views, int nviews, const unsigned char *skip,
+                                int T, unsigned char *mask);
+/* Fraction of the texels with mask != 0 whose metallic (channel 2 of orm, (T*T, 3)) is above
+ * thresh; 0 when the mask is empty. */
+double mf_budget_metal_fraction(const float *orm, const unsigned char *mask, size_t ntex, float thresh);
+
+/* Early stopping: views with index % every == 0 are held out (0, every, 2*every, ...). */
+static inline int mf_budget_is_holdout(int view, int every) { return every > 0 && view % every == 0; }
+
+#define MF_BUDGET_CURVE_MAX 4096
+typedef struct {
+    double best;      /* best held-out PSNR so far (dB; -1 before the first evaluation) */
+    int best_iter;    /* iteration of the best */
+    int bad;          /* evaluations in a row without an improvement of more than min_delta */
+    int stop_iter;    /* iteration the run stopped at (0: not stopped) */
+    int n;            /* evaluations recorded */
+    int iter[MF_BUDGET_CURVE_MAX];    /* (n,) iteration of each evaluation */
+    double psnr[MF_BUDGET_CURVE_MAX]; /* (n,) its held-out PSNR */
+} MfEarlyStop;
+
+void mf_early_stop_init(MfEarlyStop *es);
+/* Records the evaluation (iter, psnr); returns 1 when the run must stop: psnr has not exceeded
+ * the best by more than min_delta for `patience` evaluations in a row (sets stop_iter). */
+int mf_early_stop_observe(MfEarlyStop *es, int iter, double psnr, int patience, double min_delta);
+
+/* What a run's budgets decided (mf_recon.c). The early-stop state and held-out curve
+ * (borrowed; NULL without early_stop); the curve is also logged to RESULT/holdout.csv (iter,
+ * wall_s, holdout_psnr); once stop_iter != 0 the run is over (a resumed stopped run does no
+ * more iterations). */
+const MfEarlyStop *mf_recon_early_stop(const MfRecon *r);
+/* 1 when view i is held out of the loss (early_stop), else 0. */
+int mf_recon_is_holdout(const MfRecon *r, int view);
+/* metal_auto: -1 not tested (yet), 0 metallic kept, 1 fixed at 0; *fraction the measured
+ * fraction of visible metallic texels (-1 before the test). */
+int mf_recon_metal_state(const MfRecon *r, double *fraction);
+/* tex_auto: the measured median side for 1 pixel per texel (0 when tex_auto is off). */
+double mf_recon_texel_side(const MfRecon *r);
+
+#endif

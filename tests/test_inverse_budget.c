@@ -1,0 +1,328 @@
+/* Tests of the budgets from the data (mf/inverse/mf_budget, used by mf_recon): early stopping on
+ * held-out views (held out of the loss, stop rule, exact resume), the "no metal" test and its
+ * freezing of the metallic channel, and the texture side from the projected texel density.
+ * Small sphere scenes rendered by the forward renderer (32 px, 8 views). */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/mf_error.h"
+#include "core/mf_fs.h"
+#include "inverse/mf_budget.h"
+#include "inverse/mf_recon.h"
+#include "mf_test.h"
+#include "render/mf_integrator.h"
+#include "scene/mf_shapes.h"
+
+enum { NV = 8 };
+
+/* NV views of mesh around the origin at distance 1.8, res px, under a sky/ground env; the
+ * material: albedo (0.6, 0.4, 0.2), roughness 0.4, the given metallic. */
+static int sphere_views(const MfMesh *mesh, int res, float metallic, MfReconView *views) {
+    MfRtScene *rt = NULL;
+    int rc = mf_rtscene_new(mesh, &rt);
+    if (rc) return rc;
+    MfImage e;
+    if ((rc = mf_image_alloc(&e, 16, 8, 3))) return rc;
+    for (int y = 0; y < 8; ++y)
+        for (int x = 0; x < 16; ++x) {
+            float *p = mf_image_px(&e, x, y);
+            p[0] = p[1] = p[2] = y < 4 ? 1.0f : 0.3f;
+            if (y == 2 && x == 3) p[0] = p[1] = p[2] = 8.0f;
+        }
+    MfEnvMap env;
+    if ((rc = mf_env_init(&env, &e))) return rc;
+    MfTexMaterial mat = {NULL, NULL, mf_v3(0.6f, 0.4f, 0.2f), mf_v3(1.0f, 0.4f, metallic), NULL};
+    MfRenderInput in = {rt, mesh, &mat, 1, &env, NULL, 0};
+    MfRenderOpts ro = {4, 2, 99, MF_LOBE_ALL};
+    for (int v = 0; v < NV && !rc; ++v) {
+        float az = 2.0f * MF_PI * v / NV, el = (v % 2 ? 0.6f : -0.6f);
+        MfVec3 eye = mf_v3(1.8f * cosf(az) * cosf(el), 1.8f * sinf(az) * cosf(el), 1.8f * sinf(el));
+        MfMat4 c2w = mf_mat4_look_at(eye, mf_v3(0, 0, 0), mf_v3(0, 0, 1));
+        double m[16];
+        for (int i = 0; i < 16; ++i) m[i] = c2w.m[i];
+        if ((rc = mf_camera_init(&views[v].cam, res, res, 0.6911, m, "view"))) break;
+        MfRenderOut out;
+        if ((rc = mf_render(&in, &views[v].cam, &ro, &out, NULL))) break;
+        if ((rc = mf_image_alloc(&views[v].ref, res, res, 4))) break;
+        for (int i = 0; i < res * res; ++i) {
+            for (int c = 0; c < 3; ++c) views[v].ref.data[4 * i + c] = out.rgb[3 * i + c];
+            views[v].ref.data[4 * i + 3] = out.alpha[i];
+        }
+        mf_render_out_free(&out);
+    }
+    mf_env_free(&env);
+    mf_rtscene_free(rt);
+    return rc;
+}
+
+static MfReconOpts tiny_opts(void) {
+    MfReconOpts o = mf_recon_opts_default();
+    o.tex_res = 8;
+    o.env_w = 16;
+    o.env_h = 8;
+    o.lr = 0.03f;
+    o.spp_sqrt = 1;
+    o.snapshot_every = 0;
+    o.checkpoint_every = 0;
+    return o;
+}
+
+/* ---- early stop ---- */
+
+MF_TEST(inverse_budget_early_stop_rule) {
+    MfEarlyStop es;
+    mf_early_stop_init(&es);
+    /* improves, then two evaluations within min_delta 0.1 of the best: stops at the second */
+    CHECK(!mf_early_stop_observe(&es, 10, 20.0, 2, 0.1));
+    CHECK(!mf_early_stop_observe(&es, 20, 21.0, 2, 0.1));
+    CHECK(!mf_early_stop_observe(&es, 30, 21.05, 2, 0.1));
+    CHECK(es.bad == 1 && es.best_iter == 20);
+    CHECK(mf_early_stop_observe(&es, 40, 20.5, 2, 0.1));
+    CHECK(es.stop_iter == 40 && es.n == 4 && es.psnr[3] == 20.5);
+    /* an improvement resets the count */
+    mf_early_stop_init(&es);
+    CHECK(!mf_early_stop_observe(&es, 1, 10.0, 2, 0.0));
+    CHECK(!mf_early_stop_observe(&es, 2, 9.0, 2, 0.0));
+    CHECK(!mf_early_stop_observe(&es, 3, 11.0, 2, 0.0));
+    CHECK(!mf_early_stop_observe(&es, 4, 10.0, 2, 0.0));
+    CHECK(es.stop_iter == 0 && es.best_iter == 3);
+    CHECK(mf_budget_is_holdout(0, 8) && mf_budget_is_holdout(16, 8) && !mf_budget_is_holdout(7, 8));
+}
+
+/* A hook recording which views the loss used. */
+static int record_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double *loss) {
+    int *used = ctx;
+    (void)r, (void)it;
+    for (int k = 0; k < nb; ++k) used[batch[k]]++;
+    *loss = 0.0;
+    return MF_OK;
+}
+
+/* Held-out views never enter the loss; with nothing learning (lr 0) the held-out PSNR never
+ * improves, so the run stops after 1 + patience evaluations, and says so in holdout.csv. */
+MF_TEST(inverse_budget_holdout_not_in_loss_and_stops) {
+    MfMesh mesh;
+    CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
+    MfReconView v[NV];
+    memset(v, 0, sizeof v);
+    CHECK_OK(sphere_views(&mesh, 24, 0.0f, v));
+    MfReconOpts o = tiny_opts();
+    o.iters = 100;
+    o.lr = 0.0f;
+    o.early_stop = 1;
+    o.holdout_every = 4; /* views 0 and 4 */
+    o.es_every = 3;
+    o.es_patience = 2;
+    MfRecon *r = NULL;
+    CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r));
+    int used[NV] = {0};
+    MfReconHook hook = {record_hook, used};
+    char dir[512];
+    snprintf(dir, sizeof dir, "%s", mf_test_path("es_stop"));
+    CHECK_OK(mf_recon_run(r, &hook, dir));
+    CHECK(used[0] == 0 && used[4] == 0);
+    for (int i = 0; i < NV; ++i) CHECK_MSG(i % 4 == 0 || used[i] > 0, "training view %d never used", i);
+    const MfEarlyStop *es = mf_recon_early_stop(r);
+    CHECK(es && es->stop_iter == 9 && mf_recon_iteration(r) == 9 && es->n == 3);
+    CHECK(es && es->psnr[0] > 5.0 && es->psnr[0] == es->psnr[2]); /* fixed seeds: same state, same PSNR */
+    char p[1024], *txt = NULL;
+    snprintf(p, sizeof p, "%s/holdout.csv", dir);
+    CHECK_OK(mf_read_file(p, &txt, NULL));
+    int rows = 0;
+    for (char *c = txt; c && *c; ++c) rows += *c == '\n';
+    CHECK(rows == 4);
+    free(txt);
+    mf_recon_free(r);
+    /* early_stop needs a view to hold out and one to train on */
+    MfReconView one[1];
+    memset(one, 0, sizeof one);
+    CHECK_OK(mf_image_alloc(&one[0].ref, 4, 4, 4));
+    one[0].cam = v[0].cam;
+    CHECK_ERR(mf_recon_new(&mesh, one, 1, &o, &r), "early_stop");
+    mf_image_free(&one[0].ref);
+    for (int i = 0; i < NV; ++i) mf_image_free(&v[i].ref);
+    mf_mesh_free(&mesh);
+}
+
+/* An interrupted early-stopped run resumes to the same stop iteration and bytes. */
+MF_TEST(inverse_budget_early_stop_resume_is_exact) {
+    MfMesh mesh;
+    CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
+    MfReconOpts o = tiny_opts();
+    o.iters = 100;
+    o.early_stop = 1;
+    o.holdout_every = 4;
+    o.es_every = 2;
+    o.es_patience = 2;
+    o.es_min_delta = 100.0f; /* nothing counts as an improvement: stops at 2 * (1 + 2) */
+    MfRecon *full = NULL, *half = NULL;
+    MfReconView v1[NV], v2[NV], v3[NV];
+    memset(v1, 0, sizeof v1), memset(v2, 0, sizeof v2), memset(v3, 0, sizeof v3);
+    CHECK_OK(sphere_views(&mesh, 24, 0.0f, v1));
+    CHECK_OK(sphere_views(&mesh, 24, 0.0f, v2));
+    CHECK_OK(sphere_views(&mesh, 24, 0.0f, v3));
+    char fd[512], hd[512], ck[1024];
+    snprintf(fd, sizeof fd, "%s", mf_test_path("es_full"));
+    snprintf(hd, sizeof hd, "%s", mf_test_path("es_half"));
+    CHECK_OK(mf_recon_new(&mesh, v1, NV, &o, &full));
+    CHECK_OK(mf_recon_run(full, NULL, fd));
+    CHECK(mf_recon_iteration(full) == 6);
+    MfReconOpts oh = o;
+    oh.iters = 4; /* interrupted after two evaluations (one without improvement) */
+    CHECK_OK(mf_recon_new(&mesh, v2, NV, &oh, &half));
+    CHECK_OK(mf_recon_run(half, NULL, hd));
+    mf_recon_free(half);
+    CHECK_OK(mf_recon_new(&mesh, v3, NV, &o, &half));
+    snprintf(ck, sizeof ck, "%s/checkpoint.mfck", hd);
+    CHECK_OK(mf_recon_load_checkpoint(half, ck));
+    CHECK_OK(mf_recon_run(half, NULL, hd));
+    const MfEarlyStop *a = mf_recon_early_stop(full), *b = mf_recon_early_stop(half);
+    CHECK(a->stop_iter == 6 && b->stop_iter == 6 && b->n == 3 && a->psnr[2] == b->psnr[2]);
+    for (int k = 0; k < MF_BLOCK_NORMAL; ++k) {
+        const MfParamBlock *x = mf_recon_block(full, k), *y = mf_recon_block(half, k);
+        CHECK_MSG(x->n == y->n && !memcmp(x->p, y->p, x->n * sizeof(float)), "block %s differs after resume", x->name);
+    }
+    /* a stopped run resumed again does no more iterations */
+    mf_recon_free(half);
+    MfReconView v4[NV];
+    memset(v4, 0, sizeof v4);
+    CHECK_OK(sphere_views(&mesh, 24, 0.0f, v4));
+    CHECK_OK(mf_recon_new(&mesh, v4, NV, &o, &half));
+    CHECK_OK(mf_recon_load_checkpoint(half, ck));
+    CHECK(mf_recon_iteration(half) == 6); /* the checkpoint was written at the stop */
+    CHECK_OK(mf_recon_run(half, NULL, hd));
+    CHECK(mf_recon_iteration(half) == 6 && mf_recon_early_stop(half)->stop_iter == 6);
+    mf_recon_free(half);
+    mf_recon_free(full);
+    mf_mesh_free(&mesh);
+}
+
+/* ---- metallic fixed at 0 when the scene shows no metal ---- */
+
+MF_TEST(inverse_budget_metal_fraction) {
+    float orm[4 * 3] = {1, 0.5f, 0.9f, 1, 0.5f, 0.1f, 1, 0.5f, 0.6f, 1, 0.5f, 0.9f};
+    unsigned char mask[4] = {1, 1, 1, 0};
+    CHECK_NEAR(mf_budget_metal_fraction(orm, mask, 4, 0.5f), 2.0 / 3.0, 1e-12);
+    memset(mask, 0, sizeof mask);
+    CHECK(mf_budget_metal_fraction(orm, mask, 4, 0.5f) == 0.0);
+}
+
+/* After the warm-up, a dielectric sphere gets metallic fixed at 0 (every texel, frozen after);
+ * a metallic one keeps its channel. */
+static void metal_run(float gt_metal, float init_metal, const char *name, int *state, double *frac, float *max_metal) {
+    MfMesh mesh;
+    CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
+    MfReconView v[NV];
+    memset(v, 0, sizeof v);
+    CHECK_OK(sphere_views(&mesh, 24, gt_metal, v));
+    MfReconOpts o = tiny_opts();
+    o.iters = 24;
+    o.metal_auto = 1;
+    o.metal_warmup = 16;
+    o.init_metal = init_metal;
+    MfRecon *r = NULL;
+    CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r));
+    char dir[512];
+    snprintf(dir, sizeof dir, "%s", mf_test_path(name));
+    CHECK_OK(mf_recon_run(r, NULL, dir));
+    *state = mf_recon_metal_state(r, frac);
+    const MfParamBlock *orm = mf_recon_block(r, MF_BLOCK_ORM);
+    *max_metal = 0.0f;
+    for (size_t i = 2; i < orm->n; i += 3) *max_metal = fmaxf(*max_metal, orm->p[i]);
+    mf_recon_free(r);
+    mf_mesh_free(&mesh);
+}
+
+MF_TEST(inverse_budget_metal_auto) {
+    int st;
+    double frac;
+    float mx;
+    metal_run(0.0f, 0.25f, "metal_no", &st, &frac, &mx);
+    CHECK_MSG(st == 1 && frac < 0.02 && mx == 0.0f, "dielectric: state %d, fraction %g, max metallic %g", st, frac, mx);
+    metal_run(1.0f, 0.75f, "metal_yes", &st, &frac, &mx);
+    CHECK_MSG(st == 0 && frac > 0.5 && mx > 0.5f, "metallic: state %d, fraction %g, max metallic %g", st, frac, mx);
+}
+
+/* A hook whose loss grows every iteration (so the guard's best state stays the starting one, from
+ * before the freeze) and that poisons a gradient at iteration 4, the last: the recovery must not bring the
+ * pre-freeze metallic back (at the last iteration no Adam step projects it afterwards). */
+static int rising_nan_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double *loss) {
+    (void)ctx, (void)batch, (void)nb;
+    *loss = 10.0 * it;
+    if (it == 4) mf_recon_block(r, MF_BLOCK_KD)->g[0] = NAN;
+    return MF_OK;
+}
+
+MF_TEST(inverse_budget_metal_frozen_through_recovery) {
+    MfMesh mesh;
+    CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
+    MfReconView v[NV];
+    memset(v, 0, sizeof v);
+    CHECK_OK(sphere_views(&mesh, 24, 0.0f, v));
+    MfReconOpts o = tiny_opts();
+    o.iters = 5;
+    o.metal_auto = 1;
+    o.metal_warmup = 1; /* every texel starts at 0.25: fixed at 0 after the first iteration */
+    o.div_patience = 1000;
+    MfRecon *r = NULL;
+    CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r));
+    MfReconHook hook = {rising_nan_hook, NULL};
+    char dir[512];
+    snprintf(dir, sizeof dir, "%s", mf_test_path("metal_recover"));
+    CHECK_OK(mf_recon_run(r, &hook, dir));
+    int nrec = 0;
+    mf_recon_recoveries(r, &nrec);
+    double frac;
+    CHECK(nrec == 1 && mf_recon_metal_state(r, &frac) == 1);
+    const MfParamBlock *orm = mf_recon_block(r, MF_BLOCK_ORM);
+    float mx = 0.0f;
+    for (size_t i = 2; i < orm->n; i += 3) mx = fmaxf(mx, orm->p[i]);
+    CHECK_MSG(mx == 0.0f, "metallic %g after the recovery", mx);
+    mf_recon_free(r);
+    mf_mesh_free(&mesh);
+}
+
+/* ---- texture side from the texel density ---- */
+
+MF_TEST(inverse_budget_texel_side) {
+    CHECK(mf_budget_pow2_side(90.0, 16, 1024) == 64);
+    CHECK(mf_budget_pow2_side(91.0, 16, 1024) == 128);
+    CHECK(mf_budget_pow2_side(3.0, 16, 1024) == 16);
+    CHECK(mf_budget_pow2_side(1e6, 16, 1024) == 1024);
+    CHECK(mf_budget_pow2_side(0.0, 16, 1024) == 1024);
+    MfMesh mesh;
+    CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
+    MfRtScene *rt = NULL;
+    CHECK_OK(mf_rtscene_new(&mesh, &rt));
+    double side[2];
+    for (int k = 0; k < 2; ++k) {
+        MfReconView v[NV];
+        memset(v, 0, sizeof v);
+        CHECK_OK(sphere_views(&mesh, 32 << k, 0.0f, v));
+        long n = 0;
+        CHECK_OK(mf_budget_texel_side(rt, &mesh, v, NV, &side[k], &n));
+        CHECK(n > 0);
+        if (k == 1) { /* mf_recon_new picks the power of two */
+            MfReconOpts o = tiny_opts();
+            o.tex_auto = 1;
+            MfRecon *r = NULL;
+            CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r));
+            CHECK(r && mf_recon_opts(r)->tex_res == mf_budget_pow2_side(side[1], 32, 1024));
+            CHECK(r && mf_recon_texel_side(r) == side[1]);
+            mf_recon_free(r);
+            o.tex_auto_min = 512, o.tex_auto_max = 256;
+            CHECK_ERR(mf_recon_new(&mesh, v, NV, &o, &r), "tex_auto_min");
+        }
+        for (int i = 0; i < NV; ++i) mf_image_free(&v[i].ref);
+    }
+    /* twice the pixels per side: twice the texels per side */
+    CHECK_MSG(fabs(side[1] / side[0] - 2.0) < 0.1, "sides %g at 32 px, %g at 64 px", side[0], side[1]);
+    /* at 64 px fx = 64 / (2 tan(0.3456)) = 88.9 px; the sphere's nearest point is 1.3 away, where
+     * a world unit spans 68.4 px (4676 px^2 per unit^2); at its equator one unit of UV area is
+     * 2 pi^2 r^2 = 4.93 unit^2 of surface: s = sqrt(4676 * 4.93) = 152 facing the camera, less
+     * where foreshortened. The median (measured 72) must lie well inside. */
+    CHECK_MSG(side[1] > 40.0 && side[1] < 152.0, "side %g at 64 px", side[1]);
+    mf_rtscene_free(rt);
+    mf_mesh_free(&mesh);
+}
