@@ -44,14 +44,16 @@ static void stem_of(const char *path, char *out, size_t cap) {
     if (dot && dot != out) *dot = '\0';
 }
 
+static void view_images_free(DsView *view) {
+    mf_image_free(&view->rgba);
+    mf_image_free(&view->albedo);
+    mf_image_free(&view->orm);
+    mf_image_free(&view->normal);
+}
+
 void ds_views_free(DsViews *v) {
     if (!v) return;
-    for (int i = 0; i < v->n && v->views; ++i) {
-        mf_image_free(&v->views[i].rgba);
-        mf_image_free(&v->views[i].albedo);
-        mf_image_free(&v->views[i].orm);
-        mf_image_free(&v->views[i].normal);
-    }
+    for (int i = 0; i < v->n && v->views; ++i) view_images_free(&v->views[i]);
     free(v->views);
     memset(v, 0, sizeof *v);
 }
@@ -66,10 +68,7 @@ int ds_views_keep_side(DsViews *v, MfVec3 centre, MfVec3 side, int max_views) {
             ++kept;
             continue;
         }
-        mf_image_free(&view->rgba);
-        mf_image_free(&view->albedo);
-        mf_image_free(&view->orm);
-        mf_image_free(&view->normal);
+        view_images_free(view);
     }
     v->n = kept;
     if (kept == 0)

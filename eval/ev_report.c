@@ -20,13 +20,21 @@ static const char *gnuplot_bin(void) { return "/usr/bin/gnuplot"; }
 
 int ev_gnuplot_available(void) { return access(gnuplot_bin(), X_OK) == 0; }
 
-/* Runs `gnuplot script` with output to log; MF_EEXT on failure. */
-static int run_gnuplot(const char *script, const char *log) {
+/* Runs `gnuplot script` (which writes tmp_png) with output to log, removes the data and script
+ * files, then renames tmp_png to png_path and removes the log; on failure (MF_EEXT) tmp_png is
+ * discarded and the log kept. */
+static int run_gnuplot(const char *script, const char *data, const char *log, const char *tmp_png, const char *png_path) {
     char *argv[] = {(char *)gnuplot_bin(), (char *)script, NULL};
     int run = mf_run_logged(argv, log);
-    if (run > 0) return mf_fail(MF_EEXT, "%s: cannot start gnuplot: %s", script, strerror(run));
-    if (run < 0) return mf_fail(MF_EEXT, "%s: gnuplot failed (see %s)", script, log);
-    return MF_OK;
+    remove(data);
+    remove(script);
+    if (run) {
+        mf_discard_file(tmp_png);
+        return run > 0 ? mf_fail(MF_EEXT, "%s: cannot start gnuplot: %s", script, strerror(run))
+                       : mf_fail(MF_EEXT, "%s: gnuplot failed (see %s)", script, log);
+    }
+    remove(log);
+    return mf_commit_file(tmp_png, png_path);
 }
 
 static void gp_quote(FILE *f, const char *s) {
@@ -81,15 +89,7 @@ int ev_plot_png(const char *png_path, const char *title, const char *xlabel, con
     }
     fprintf(f, "\n");
     fclose(f);
-    rc = run_gnuplot(script, log);
-    remove(data);
-    remove(script);
-    if (rc) {
-        mf_discard_file(tmp_png);
-        return rc;
-    }
-    remove(log);
-    return mf_commit_file(tmp_png, png_path);
+    return run_gnuplot(script, data, log, tmp_png, png_path);
 }
 
 int ev_grid_png(const char *png_path, const MfImage *const *cells, int rows, int cols, int cell_w, int cell_h,
@@ -247,15 +247,7 @@ int ev_plot_speed_error(const char *png_path, const EvTable *t, const char *cons
     fprintf(f, "\n");
     fclose(f);
     free(shown);
-    rc = run_gnuplot(script, log);
-    remove(data);
-    remove(script);
-    if (rc) {
-        mf_discard_file(tmp_png);
-        return rc;
-    }
-    remove(log);
-    return mf_commit_file(tmp_png, png_path);
+    return run_gnuplot(script, data, log, tmp_png, png_path);
 }
 
 int ev_report_speed_error(const char *out_dir, const EvTable *t, const char *const *methods, int nm, const char *dataset,
