@@ -40,7 +40,7 @@ LIB_OBJ  := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
 CLI_OBJ  := $(CLI_C:%.c=$(BUILD)/obj/%.o)
 TEST_OBJ := $(TEST_C:%.c=$(BUILD)/obj/%.o)
 
-.PHONY: FORCE all deps deps-fuzz fuzz fuzz-lib fuzz-seeds test check-deps asan bench-geom bench-render bench-baseline bench-prior bench-quick bench bench-split bench-runs bench-external recon-runs train-prior train-prior-wide eval-prior bench-domain bench-matrix bench-stability test-slurm clean
+.PHONY: FORCE all deps deps-node deps-fuzz fuzz fuzz-lib fuzz-seeds test check-deps asan bench-geom bench-render bench-baseline bench-prior bench-quick bench bench-split bench-runs bench-external recon-runs train-prior train-prior-wide eval-prior bench-domain bench-matrix bench-stability test-slurm clean
 all: $(BUILD)/mf $(BUILD)/mf_tests
 
 deps:
@@ -50,6 +50,18 @@ deps:
 	  SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
 	  $$SUDO apt-get update -q && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -q --no-install-recommends $$missing; \
 	else echo "make deps: all Debian packages present"; fi
+	@$(MAKE) --no-print-directory deps-node
+
+# The Khronos glTF validator (npm package, pinned) for make test's .glb checks, into .deps/node.
+# Optional: without node/npm or the registry, make test skips that check and says so.
+GLTF_VALIDATOR_VERSION := 2.0.0-dev.3.10
+deps-node:
+	@if [ -f .deps/node/node_modules/gltf-validator/package.json ]; then echo "make deps: gltf-validator present (.deps/node)"; \
+	elif command -v npm >/dev/null 2>&1; then \
+	  mkdir -p .deps/node && npm install --prefix .deps/node --no-audit --no-fund --no-save gltf-validator@$(GLTF_VALIDATOR_VERSION) >/dev/null 2>&1 \
+	  && echo "make deps: installed gltf-validator $(GLTF_VALIDATOR_VERSION) into .deps/node" \
+	  || echo "make deps: npm install gltf-validator failed; make test will skip the Khronos .glb check"; \
+	else echo "make deps: no npm; make test will skip the Khronos .glb check"; fi
 
 $(BUILD)/obj/%.o: %.c
 	@mkdir -p $(dir $@)
@@ -120,9 +132,9 @@ fuzz: $(FUZZ_NAMES:%=$(FUZZ_BUILD)/fuzz_%) fuzz-seeds
 
 # The tests find the mf binary through MF_BIN and ../shared through MF_SHARED. The .glb files
 # they write are checked with the Khronos glTF validator when node and the npm package
-# gltf-validator are present (found through NODE_PATH or GLTF_VALIDATOR_MODULES=<dir>/node_modules,
-# e.g. after `npm install gltf-validator` in <dir>); otherwise that check is skipped with a message.
-GLTF_VALIDATOR_MODULES ?=
+# gltf-validator are present (`make deps` installs it into .deps/node; or NODE_PATH, or
+# GLTF_VALIDATOR_MODULES=<dir>/node_modules); otherwise that check is skipped with a message.
+GLTF_VALIDATOR_MODULES ?= $(abspath .deps/node/node_modules)
 test: check-deps $(BUILD)/mf $(BUILD)/mf_tests $(BUILD)/fuzz-seeds/.done
 	@NODE_PATH="$(GLTF_VALIDATOR_MODULES)$${NODE_PATH:+:$$NODE_PATH}"; export NODE_PATH; \
 	if command -v node >/dev/null 2>&1 && node -e "require('gltf-validator')" >/dev/null 2>&1; then \
