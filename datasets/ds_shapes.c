@@ -986,7 +986,8 @@ int ds_object_write(const DsObject *o, const char *scene_dir) {
     cJSON *root = cJSON_CreateObject(), *parts = cJSON_CreateArray();
     char seedstr[32];
     snprintf(seedstr, sizeof seedstr, "%llu", (unsigned long long)o->seed);
-    cJSON_AddStringToObject(root, "family", ds_family_name(o->family));
+    if (o->asset[0]) cJSON_AddStringToObject(root, "asset", o->asset);
+    else cJSON_AddStringToObject(root, "family", ds_family_name(o->family));
     cJSON_AddStringToObject(root, "seed", seedstr);
     cJSON_AddNumberToObject(root, "triangles", o->mesh.nt);
     cJSON_AddNumberToObject(root, "texture_size", o->kd.w);

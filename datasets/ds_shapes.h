@@ -65,6 +65,7 @@ typedef struct {
     DsPart parts[DS_MAX_PARTS];
     MfImage kd;   /* owned; (res, res, 3) linear base colour */
     MfImage orm;  /* owned; (res, res, 3) linear: R = 1, G roughness, B metallic */
+    char asset[64]; /* non-empty: read from this asset (ds_asset.h; its stem), family/seed/parts unused */
 } DsObject;
 
 const char *ds_family_name(DsFamily f);

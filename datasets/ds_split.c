@@ -8,6 +8,7 @@
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "core/mf_rng.h"
+#include "datasets/ds_asset.h"
 #include "datasets/ds_cameras.h"
 #include "datasets/ds_gen.h"
 #include "datasets/ds_shapes.h"
@@ -102,15 +103,16 @@ int ds_write_split(DsSplitSpec *s, const char *out_dir, const char *env_dir, uin
     MfMat4 *c2w = malloc(sizeof(MfMat4) * (size_t)(s->n_train > s->n_test ? s->n_train : s->n_test));
     int *perm = malloc(sizeof(int) * (size_t)np);
     if (!c2w || !perm) rc = mf_fail(MF_ENOMEM, "out of memory");
+    if (s->asset) s->n_scenes = 1;
     if (!rc) rc = mf_mkdirs(out_dir);
     for (int k = 0; k < s->n_scenes && !rc; ++k) {
         DsFamily fam = (DsFamily)(k % DS_FAM_COUNT);
         uint64_t oseed = ds_object_seed(DS_STREAM_TEST, seed, (uint64_t)k);
-        char sdir[MF_PATH_MAX], p[MF_PATH_MAX], name[64];
-        snprintf(name, sizeof name, "%03d_%s", k, ds_family_name(fam));
-        if ((rc = mf_path_join(sdir, sizeof sdir, out_dir, name))) break;
+        char sdir[MF_PATH_MAX], p[MF_PATH_MAX], name[80];
         DsObject o;
-        if ((rc = ds_object_generate(&o, fam, oseed, s->tex_res))) break;
+        if ((rc = s->asset ? ds_object_from_asset(s->asset, &o) : ds_object_generate(&o, fam, oseed, s->tex_res))) break;
+        snprintf(name, sizeof name, "%03d_%s", k, s->asset ? o.asset : ds_family_name(fam));
+        if ((rc = mf_path_join(sdir, sizeof sdir, out_dir, name))) { ds_object_free(&o); break; }
         if (s->diffuse) ds_object_make_diffuse(&o); /* metallic 0, roughness >= 0.6 */
         if (s->ambiguous) ds_object_make_ambiguous(&o, (DsAmbiguity)(k % DS_AMBIG_COUNT));
         rc = ds_object_write(&o, sdir);
@@ -145,7 +147,8 @@ int ds_write_split(DsSplitSpec *s, const char *out_dir, const char *env_dir, uin
         snprintf(envname, sizeof envname, "%s", probes[perm[0]]);
         strip_ext(envname);
         cJSON_AddStringToObject(sc, "name", name);
-        cJSON_AddStringToObject(sc, "family", ds_family_name(fam));
+        if (s->asset) cJSON_AddStringToObject(sc, "asset", s->asset);
+        else cJSON_AddStringToObject(sc, "family", ds_family_name(fam));
         if (s->ambiguous) cJSON_AddStringToObject(sc, "ambiguity", ds_ambiguity_name((DsAmbiguity)(k % DS_AMBIG_COUNT)));
         char seedstr[32];
         snprintf(seedstr, sizeof seedstr, "%llu", (unsigned long long)oseed);

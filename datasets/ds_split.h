@@ -37,6 +37,7 @@ typedef struct {
     int ambiguous;  /* 1: scene k's object gets material ambiguity k mod DS_AMBIG_COUNT (ds_gen.h) */
     int povray;     /* 1: --render makes the lit views (train, test, relit) with POV-Ray */
     int pov_radiosity; /* POV-Ray radiosity count (0: DS_SPLIT_POV_RADIOSITY) */
+    const char *asset; /* NULL: procedural objects; else one scene, 000_<stem>, from this glTF asset (ds_asset.h) */
     float r_min, r_max; /* camera distance range (default 1.5-2.0 as specified; note: with
                            camera_angle_x 0.6911 and extent-1 objects, 17% of such views crop
                            the object at the frame border, 0% at 2.2-2.8) */
@@ -51,7 +52,8 @@ typedef struct {
  * glossy, dark albedo, in turn; ds_object_make_ambiguous). MF_EARG for an unknown name. */
 int ds_split_spec(const char *name, DsSplitSpec *out);
 
-/* Resolves s->n_relight == DS_RELIGHT_ALL to the probe count - 1 (in place). */
+/* Resolves s->n_relight == DS_RELIGHT_ALL to the probe count - 1 (in place). With s->asset, writes
+ * one scene (s->n_scenes set to 1) whose object is the asset; split.json names it ("asset"). */
 int ds_write_split(DsSplitSpec *s, const char *out_dir, const char *env_dir, uint64_t seed);
 
 /* Renders a split written by ds_write_split (reads out_dir/split.json and the scene files) into

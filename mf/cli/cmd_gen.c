@@ -30,6 +30,8 @@
     "  and DIR/manifest.json (counts, seeds, FNV-1a 64 of every file), and renders the images\n" \
     "  in-process (--no-render: the layout only): train/ test/ r_NNN.png, gt/albedo/ gt/orm/ r_NNN.png, relight/<env>/r_NNN.exr\n" \
     "  (test-3d-diffuse: diffuse objects, lit views by POV-Ray; test-3d-ambig: material ambiguity). Rerunning resumes.\n" \
+    "  --asset FILE.glb: one scene, DIR/000_<name>/, whose object is a glTF asset (normalised like ours; its\n" \
+    "    base colour and occlusion/roughness/metallic textures become gt/kd.png, gt/orm.png).\n" \
     "  --compare-povray FILE.md: render the relit test views (first --views N, at --res R) with both\n" \
     "    renderers and append a table row (PSNR, mean relative error) to FILE.md.\n" \
     "  Probes: *.exr of --env-dir (default Blender's studio lights).\n" \
@@ -112,7 +114,7 @@ static int gen_envs(const char *dir, int count, int seed, const char *kind, int 
 }
 
 typedef struct {
-    const char *out, *family, *split, *env_dir, *compare_povray, *envs, *kind, *train_lights, *renderer, *content;
+    const char *out, *family, *split, *env_dir, *compare_povray, *envs, *kind, *train_lights, *renderer, *content, *asset;
     int diffuse, widen;
     int seed, tex_res, train, test, width, count, res, views, spp, pixel_samples, threads, scenes, pov_radiosity, env_width;
     int no_render, render;
@@ -135,6 +137,8 @@ static const MfOpt k_args[] = {
     MF_OPT_FLOAT(A, r_min, 1.5, 0.1, 100, "camera distance, lower end (2.2 / 2.8 cropped no view of 1500 checked)"),
     MF_OPT_FLOAT(A, r_max, 2.0, 0.1, 100, "camera distance, upper end"),
     MF_OPT_STR(A, split, NULL, "write a whole split: tiny small full test-3d test-3d-diffuse test-3d-ambig prior-train test-2d", .meta = "NAME"),
+    MF_OPT_STR(A, asset, NULL, "split (tiny small full test-3d ...): one scene from this glTF asset (.glb/.gltf with UVs and one "
+               "material; its textures are the ground truth) instead of the procedural objects", .meta = "FILE"),
     MF_OPT_BOOL(A, no_render, 0, "split: write the layout only, render no image"),
     MF_OPT_BOOL(A, render, 0, "split: render the images (the default; kept for scripts)"),
     MF_OPT_STR(A, env_dir, NULL, "folder of *.exr light probes", .unset = "Blender's studio lights", .meta = "DIR"),
@@ -250,6 +254,7 @@ static int gen_split(const GenArgs *a) {
     if (a->test > 0) spec.n_test = a->test;
     if (a->width > 0) spec.width = a->width;
     spec.pov_radiosity = a->pov_radiosity;
+    spec.asset = a->asset;
     double t0 = mf_now();
     int nv = 0;
     if (ds_write_split(&spec, out, a->env_dir, (uint64_t)a->seed)) return MF_EXIT_FAIL;
@@ -298,6 +303,10 @@ static int gen_run(const GenArgs *a) {
     int prior_split = split && (!strcmp(split, "prior-train") || !strcmp(split, "test-2d"));
     if (train_lights && !prior_split) {
         mf_fail(MF_EARG, "--train-lights applies to --split prior-train or test-2d");
+        return MF_EXIT_USAGE;
+    }
+    if (a->asset && (!split || prior_split)) {
+        mf_fail(MF_EARG, "--asset applies to a scene split (--split tiny|small|full|test-3d|test-3d-diffuse|test-3d-ambig)");
         return MF_EXIT_USAGE;
     }
     return prior_split ? gen_prior_split(a, tl) : split ? gen_split(a) : gen_object(a);
