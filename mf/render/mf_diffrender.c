@@ -19,7 +19,7 @@ static void estimator_of(const MfDiffScene *s, const MfDiffOpts *o, const float 
     r->m = (MfTexMaterial){.kd = s->kd, .orm = s->orm, .normal = s->normal};
     r->m_s = (MfTexMaterial){.kd = s->kd_s ? s->kd_s : s->kd, .orm = s->orm_s ? s->orm_s : s->orm,
                              .normal = s->normal_s ? s->normal_s : s->normal};
-    r->e = (MfEstimator){.rt = s->rt, .mesh = mf_rtscene_mesh(s->rt), .mats = &r->m, .mats_s = &r->m_s, .nmat = 1,
+    r->e = (MfEstimator){.rt = s->rt, .rt_s = s->rt_s, .mesh = mf_rtscene_mesh(s->rt), .mats = &r->m, .mats_s = &r->m_s, .nmat = 1,
                          .env = s->env, .env_s = s->env_s ? s->env_s : s->env, .tan = tan, .spp_sqrt = o->spp_sqrt,
                          .pixel_samples = o->pixel_samples, .lobes = MF_LOBE_ALL, .seed = o->seed};
 }
@@ -73,7 +73,13 @@ int mf_diff_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts
     size_t norm = g->dorm ? (size_t)s->orm->w * s->orm->h * 3 : 0;
     size_t nenv = g->denv ? (size_t)s->env->img.w * s->env->img.h * 3 : 0;
     size_t nnm = (g->dnormal && s->normal) ? (size_t)s->normal->w * s->normal->h * 3 : 0;
-    size_t per = nkd + norm + nenv + nnm;
+    const MfMesh *mesh = mf_rtscene_mesh(s->rt);
+    size_t npos = g->dpos ? (size_t)mesh->nv * 3 : 0; /* dpos, then the vertex normals' adjoint */
+    if (npos && s->normal) {
+        free(tan_owned);
+        return mf_fail(MF_EARG, "diffrender: vertex-position gradients with a normal map are not supported");
+    }
+    size_t per = nkd + norm + nenv + nnm + 2 * npos;
     int nt = omp_get_max_threads();
     float *buf = calloc((size_t)nt * per + 1, sizeof(float));
     if (!buf) {
@@ -84,7 +90,8 @@ int mf_diff_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts
     {
         float *b = buf + (size_t)omp_get_thread_num() * per;
         MfEstAdjoint a = {adj->drgb, adj->ddiffuse, adj->dspecular, nkd ? b : NULL, norm ? b + nkd : NULL,
-                          nnm ? b + nkd + norm + nenv : NULL, nenv ? b + nkd + norm : NULL};
+                          nnm ? b + nkd + norm + nenv : NULL, nenv ? b + nkd + norm : NULL,
+                          npos ? b + per - 2 * npos : NULL, npos ? b + per - npos : NULL};
         /* static schedule: the rows a thread handles, and so the summation order, are fixed */
 #pragma omp for schedule(static, 1)
         for (int y = 0; y < cam->h; ++y)
@@ -96,6 +103,17 @@ int mf_diff_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts
         for (size_t i = 0; i < norm; ++i) g->dorm[i] += b[nkd + i];
         for (size_t i = 0; i < nenv; ++i) g->denv[i] += b[nkd + norm + i];
         for (size_t i = 0; i < nnm; ++i) g->dnormal[i] += b[nkd + norm + nenv + i];
+        if (t > 0)
+            for (size_t i = 0; i < 2 * npos; ++i) buf[per - 2 * npos + i] += b[per - 2 * npos + i];
+    }
+    if (npos) { /* thread 0's buffer now holds the sums: positions, then normals */
+        float *dp = buf + per - 2 * npos;
+        if (mesh->nrm && (rc = mf_mesh_normals_backward(mesh, dp + npos, dp))) {
+            free(buf);
+            free(tan_owned);
+            return rc;
+        }
+        for (size_t i = 0; i < npos; ++i) g->dpos[i] += dp[i];
     }
     free(buf);
     free(tan_owned);

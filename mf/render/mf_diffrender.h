@@ -19,7 +19,15 @@
  * test keep the geometric normal. Its adjoint goes through the BRDF's dependence on the normal
  * (cosines and the half vector's cosine; the BRDF is isotropic) into the map's texels. Without
  * a map every output is bit-identical to the renderer without this feature.
- * The visibility boundary's gradient is ignored (geometry is fixed here), as in nvdiffrecmc.
+ * Vertex positions (MfDiffGrads.dpos): each primary hit moves with its triangle's vertices (the
+ * ray-plane intersection, render/mf_hitgrad.h), so its UV, the kd/ORM lookups there and the
+ * interpolated shading normal change; the normal's adjoint goes through the BRDF's cosines and
+ * then through mf_mesh_compute_normals (exact when the mesh's normals are that function of its
+ * positions, as for a marching-tets mesh; for a mesh without normals, through the face normal).
+ * Not differentiated: the hit's position in shadow-ray origins and point/sun light directions
+ * (the env is at infinity: its directions do not depend on the hit), the depth AOV, and the
+ * visibility boundary (silhouettes and shadow edges; render/mf_antialias.h covers the primary
+ * silhouettes of a pixel-centre pass), as in nvdiffrecmc.
  *
  * Outputs of the forward pass are MfRenderOut's (rgb, diffuse, specular premultiplied by
  * coverage; albedo, orm, depth averaged over the hits; normal the renormalised average of the
@@ -54,6 +62,8 @@ typedef struct {
     const MfImage *normal_s; /* borrowed; its sampling copy, NULL = normal */
     const float *tangent;    /* borrowed; (nv, 4) mf_mesh_tangents of rt's mesh, or NULL =
                                 computed per call when a normal map is given */
+    const MfRtScene *rt_s;   /* borrowed; sampling copy of the geometry, NULL = rt: gradient checks
+                                of dpos keep it at the unperturbed mesh (mf_estimator.h) */
 } MfDiffScene;
 
 typedef struct {
@@ -73,6 +83,7 @@ typedef struct {
     float *dorm; /* (th, tw, 3) +=, or NULL (channel R never receives gradient) */
     float *denv; /* (eh, ew, 3) +=, or NULL */
     float *dnormal; /* (th, tw, 3) += normal-map texels, or NULL (ignored without a normal map) */
+    float *dpos;    /* (nv, 3) += rt's mesh's vertex positions, or NULL; refused with a normal map */
 } MfDiffGrads;
 
 /* out must be allocated for cam->w x cam->h (mf_render_out_alloc); fills every AOV, as mf_render. */
