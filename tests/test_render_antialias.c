@@ -77,6 +77,28 @@ MF_TEST(render_antialias_adjoint) {
     mf_aa_forward(a2, in, AC, o2);
     CHECK(!memcmp(o1, o2, sizeof o1));
     mf_aa_free(a2);
+    /* a quad's shared diagonal is no silhouette: pixels whose 4-neighbours all lie on their own
+     * quad keep their colour (some of them do touch the other triangle); the front quad's
+     * outline over the back quad (an inner occlusion edge) is blended */
+    const int *tri = mf_aa_tri(a);
+    int diag = 0, kept = 1, inner = 0;
+    for (int y = 0; y < AH; ++y)
+        for (int x = 0; x < AW; ++x) {
+            int i = y * AW + x, t = tri[i], same = t >= 0, other_tri = 0, back = 0;
+            const int nb[4][2] = {{x - 1, y}, {x + 1, y}, {x, y - 1}, {x, y + 1}};
+            for (int k = 0; k < 4; ++k) {
+                if (nb[k][0] < 0 || nb[k][0] >= AW || nb[k][1] < 0 || nb[k][1] >= AH) continue;
+                int u = tri[nb[k][1] * AW + nb[k][0]];
+                same &= u >= 0 && u / 2 == t / 2;
+                other_tri |= u >= 0 && u != t && u / 2 == t / 2;
+                back |= t >= 2 && u >= 0 && u < 2;
+            }
+            int changed = memcmp(o1 + (size_t)i * AC, in + (size_t)i * AC, AC * sizeof(float)) != 0;
+            if (same) kept &= !changed, diag += other_tri;
+            inner += back && changed;
+        }
+    CHECK_MSG(kept && diag > 0, "pixels along a quad's diagonal changed (%d pixels there)", diag);
+    CHECK_MSG(inner > 0, "the front quad's outline over the back quad was not blended");
     double gmax = 0, emax = 0;
     const float h = 1e-4f; /* world units; about 2e-3 pixels */
     for (int i = 0; i < 8 * 3; ++i) {
