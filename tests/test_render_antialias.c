@@ -9,6 +9,7 @@
 #include "core/mf_error.h"
 #include "core/mf_rng.h"
 #include "render/mf_antialias.h"
+#include "render/mf_diffrender.h"
 #include "mf_test.h"
 
 static int camera(MfCamera *cam, int w, int h, MfVec3 eye, MfVec3 at, MfVec3 up) {
@@ -190,4 +191,106 @@ MF_TEST(render_antialias_edge_length) {
         mf_rtscene_free(rt);
         mf_mesh_free(&m);
     }
+}
+
+/* T2, last part: through the differentiable renderer (MfDiffOpts.antialias), d(loss)/d(shift of
+ * a quad) against central differences of 256-spp renders (box-filtered pixels, common random
+ * numbers), for the outer silhouette (the back quad on the background) and for a quad in front
+ * of a quad (inner occlusion edges). Flat quads with one texel each under a constant sky: the
+ * only gradient is the visibility boundary's. */
+enum { RW = 24, RH = 24 };
+
+static void quad(MfMesh *m, int v0, int t0, float cx, float cy, float z, float half, float deg, float u) {
+    float c = cosf(deg * (float)MF_PI / 180.0f), s = sinf(deg * (float)MF_PI / 180.0f);
+    const float corner[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+    for (int k = 0; k < 4; ++k) {
+        float x = half * corner[k][0], y = half * corner[k][1];
+        float *p = m->pos + 3 * (v0 + k);
+        p[0] = cx + c * x - s * y;
+        p[1] = cy + s * x + c * y;
+        p[2] = z;
+        m->uv[2 * (v0 + k)] = u;
+        m->uv[2 * (v0 + k) + 1] = 0.5f;
+    }
+    set_tri(m, t0, v0, v0 + 1, v0 + 2);
+    set_tri(m, t0 + 1, v0, v0 + 2, v0 + 3);
+}
+
+typedef struct {
+    MfMesh m;
+    MfImage kd, orm;
+    MfEnvMap env;
+    MfCamera cam;
+    float w[RW * RH * 3];
+} QuadScene;
+
+static double quad_loss(QuadScene *q, const MfDiffOpts *o) {
+    MfRtScene *rt;
+    MfRenderOut out;
+    if (mf_mesh_compute_normals(&q->m) || mf_rtscene_new(&q->m, &rt)) return NAN;
+    if (mf_render_out_alloc(&out, RW, RH)) return NAN;
+    MfDiffScene s = {.rt = rt, .kd = &q->kd, .orm = &q->orm, .env = &q->env};
+    double j = NAN;
+    if (!mf_diff_forward(&s, &q->cam, o, &out)) {
+        j = 0;
+        for (int i = 0; i < RW * RH * 3; ++i) j += (double)q->w[i] * out.rgb[i];
+    }
+    mf_render_out_free(&out);
+    mf_rtscene_free(rt);
+    return j;
+}
+
+MF_TEST(render_antialias_vs_supersampling) {
+    QuadScene q;
+    memset(&q, 0, sizeof q);
+    CHECK_OK(mf_mesh_alloc(&q.m, 8, 4, 0, 1));
+    quad(&q.m, 0, 0, 0.0f, 0.0f, 0.0f, 0.5f, 12.0f, 0.25f);     /* back: texel 0 */
+    /* front: texel 1, near the camera so that its shadow on the back quad is negligible (the
+     * reference sees shadows move; antialiasing does not) */
+    quad(&q.m, 4, 2, 0.01f, 0.004f, 1.8f, 0.04f, -20.0f, 0.75f);
+    CHECK_OK(mf_image_alloc(&q.kd, 2, 1, 3));
+    CHECK_OK(mf_image_alloc(&q.orm, 2, 1, 3));
+    const float kd[6] = {0.9f, 0.8f, 0.7f, 0.1f, 0.2f, 0.3f}, orm[6] = {1, 1, 0, 1, 1, 0};
+    memcpy(q.kd.data, kd, sizeof kd);
+    memcpy(q.orm.data, orm, sizeof orm);
+    CHECK_OK(mf_env_init_constant(&q.env, 8, 4, mf_v3(1, 1, 1)));
+    CHECK_OK(camera(&q.cam, RW, RH, mf_v3(0, 0, 2.2f), mf_v3(0, 0, 0), mf_v3(0, 1, 0)));
+    MfDiffOpts oa = {.spp_sqrt = 2, .pixel_samples = 4, .seed = 3, .antialias = 1};
+    MfDiffOpts ref = {.spp_sqrt = 1, .pixel_samples = 256, .seed = 11};
+    const float hs[2] = {0.03f, 0.0055f}; /* world units: about 0.45 pixels at either quad's depth */
+    const char *name[2] = {"outer silhouette (back quad)", "quad in front of a quad"};
+    for (int axis = 0; axis < 2; ++axis) {
+        /* the loss weighs the right (x shifts) or lower (y shifts) half of the image, so the two
+         * opposite edges of a quad do not cancel */
+        for (int y = 0; y < RH; ++y)
+            for (int x = 0; x < RW; ++x)
+                for (int c = 0; c < 3; ++c)
+                    q.w[3 * (y * RW + x) + c] = ((axis ? y >= RH / 2 : x >= RW / 2) ? 1.0f : 0.0f) * (1.0f + 0.2f * (float)c);
+        MfRtScene *rt;
+        CHECK_OK(mf_mesh_compute_normals(&q.m));
+        CHECK_OK(mf_rtscene_new(&q.m, &rt));
+        MfDiffScene s = {.rt = rt, .kd = &q.kd, .orm = &q.orm, .env = &q.env};
+        float dpos[8 * 3] = {0};
+        MfDiffAdjoint adj = {.drgb = q.w};
+        MfDiffGrads g = {.dpos = dpos};
+        CHECK_OK(mf_diff_backward(&s, &q.cam, &oa, &adj, &g));
+        mf_rtscene_free(rt);
+        for (int which = 0; which < 2; ++which) {
+            double ga = 0, j[2], h = hs[which];
+            for (int v = 4 * which; v < 4 * which + 4; ++v) ga += dpos[3 * v + axis];
+            for (int sgn = 0; sgn < 2; ++sgn) {
+                for (int v = 4 * which; v < 4 * which + 4; ++v) q.m.pos[3 * v + axis] += (float)(sgn ? -h : h);
+                j[sgn] = quad_loss(&q, &ref);
+                for (int v = 4 * which; v < 4 * which + 4; ++v) q.m.pos[3 * v + axis] -= (float)(sgn ? -h : h);
+            }
+            double fd = (j[0] - j[1]) / (2.0 * h);
+            if (getenv("MF_TEST_VERBOSE")) printf("    %s, shift %c: antialiased %.4f, 256 spp %.4f\n", name[which], "xy"[axis], ga, fd);
+            CHECK_MSG(fabs(ga - fd) <= 0.1 * fabs(fd), "%s, shift along %c: antialiased gradient %.4f, 256-spp differences %.4f",
+                      name[which], "xy"[axis], ga, fd);
+        }
+    }
+    mf_mesh_free(&q.m);
+    mf_image_free(&q.kd);
+    mf_image_free(&q.orm);
+    mf_env_free(&q.env);
 }

@@ -119,7 +119,7 @@ static double loss(Fix *f, const MfDiffOpts *o, float *min_alpha) {
 MF_TEST(render_hitgrad_dpos) {
     Fix f;
     CHECK_OK(fix_init(&f));
-    MfDiffOpts o = {2, 2, 5};
+    MfDiffOpts o = {.spp_sqrt = 2, .pixel_samples = 2, .seed = 5};
     float amin = 0;
     double j0 = loss(&f, &o, &amin);
     CHECK(isfinite(j0));
@@ -128,7 +128,7 @@ MF_TEST(render_hitgrad_dpos) {
     float *dpos = calloc((size_t)f.mesh.nv * 3, sizeof(float)), *dkd = calloc(TW * TH * 3, sizeof(float));
     float *dkd2 = calloc(TW * TH * 3, sizeof(float));
     MfDiffScene s = {.rt = f.rt0, .kd = &f.kd, .orm = &f.orm, .env = &f.env};
-    MfDiffAdjoint adj = {f.wr, f.wd, f.ws};
+    MfDiffAdjoint adj = {.drgb = f.wr, .ddiffuse = f.wd, .dspecular = f.ws};
     MfDiffGrads g = {.dkd = dkd, .dpos = dpos}, g2 = {.dkd = dkd2};
     CHECK_OK(mf_diff_backward(&s, &f.cam, &o, &adj, &g));
     CHECK_OK(mf_diff_backward(&s, &f.cam, &o, &adj, &g2));

@@ -60,8 +60,9 @@ static int edge_cmp(const void *x, const void *y) {
     return (a->te > b->te) - (a->te < b->te);
 }
 
-/* opp (nt, 3): the vertex opposite edge k in the triangle across it; -1 boundary, -2 non-manifold */
-static int topology(const MfMesh *m, int *opp) {
+/* opp (nt, 3): the vertex opposite edge k in the triangle across it; -1 boundary, -2 non-manifold;
+ * nbr (nt, 3): that triangle (-1 when there is not exactly one) */
+static int topology(const MfMesh *m, int *opp, int *nbr) {
     size_t n = (size_t)m->nt * 3;
     EdgeRec *e = malloc(n * sizeof *e + 1);
     if (!e) return mf_fail(MF_ENOMEM, "antialias: out of memory for %zu edges", n);
@@ -75,6 +76,7 @@ static int topology(const MfMesh *m, int *opp) {
         while (j < n && e[j].lo == e[i].lo && e[j].hi == e[i].hi) ++j;
         for (size_t k = i; k < j; ++k) {
             int te = e[k].te;
+            nbr[te] = -1;
             if (j - i == 1) {
                 opp[te] = -1;
             } else if (j - i > 2) {
@@ -82,6 +84,7 @@ static int topology(const MfMesh *m, int *opp) {
             } else {
                 int o = e[k == i ? i + 1 : i].te; /* the other triangle's edge */
                 opp[te] = (int)m->tri[o - o % 3 + (o % 3 + 2) % 3];
+                nbr[te] = o / 3;
             }
         }
         i = j;
@@ -100,8 +103,8 @@ static double side(const double *a, const double *b, const double *c) {
 
 /* The crossing of pair (A = occluder pixel (xa, ya), B) along axis ax (0: horizontal, 1: vertical)
  * with a silhouette edge of triangle t; 1 and *c filled when found. */
-static int find_cross(const MfMesh *m, const MfCamera *cam, const int *opp, int t, int xa, int ya, int xb, int yb,
-                      int ax, Cross *c) {
+static int cross_tri(const MfMesh *m, const MfCamera *cam, const int *opp, int t, int xa, int ya, int xb, int yb,
+                     int ax, Cross *c) {
     const uint32_t *f = m->tri + 3 * t;
     Proj pr[3];
     for (int k = 0; k < 3; ++k)
@@ -151,6 +154,16 @@ static int find_cross(const MfMesh *m, const MfCamera *cam, const int *opp, int 
     return 0;
 }
 
+/* cross_tri on A's triangle t, then (when the line between the centres leaves t through an edge
+ * it shares with the same surface, e.g. near a corner of a quad) on t's neighbours */
+static int find_cross(const MfMesh *m, const MfCamera *cam, const int *opp, const int *nbr, int t, int xa, int ya,
+                      int xb, int yb, int ax, Cross *c) {
+    if (cross_tri(m, cam, opp, t, xa, ya, xb, yb, ax, c)) return 1;
+    for (int k = 0; k < 3; ++k)
+        if (nbr[3 * t + k] >= 0 && cross_tri(m, cam, opp, nbr[3 * t + k], xa, ya, xb, yb, ax, c)) return 1;
+    return 0;
+}
+
 static int push(MfAa *a, const Cross *c) {
     if (a->ncr == a->cap) {
         int cap = a->cap ? 2 * a->cap : 256;
@@ -184,9 +197,9 @@ static MfAa *aa_alloc(const MfMesh *m, const MfCamera *cam) {
 /* the crossings of a's G-buffer (serial scan: fixed order) */
 static int crossings(MfAa *a, const MfCamera *cam) {
     const MfMesh *m = a->mesh;
-    int *opp = malloc((size_t)m->nt * 3 * sizeof(int) + 1);
+    int *opp = malloc((size_t)m->nt * 6 * sizeof(int) + 1), *nbr = opp + (size_t)m->nt * 3;
     if (!opp) return mf_fail(MF_ENOMEM, "antialias: out of memory for the edge table");
-    int rc = topology(m, opp);
+    int rc = topology(m, opp, nbr);
     for (int y = 0; y < cam->h && !rc; ++y)
         for (int x = 0; x < cam->w && !rc; ++x)
             for (int ax = 0; ax < 2 && !rc; ++ax) {
@@ -196,8 +209,8 @@ static int crossings(MfAa *a, const MfCamera *cam) {
                 if (ti == tj) continue;
                 int first = tj < 0 || (ti >= 0 && a->depth[i] <= a->depth[j]); /* (x, y) is the occluder */
                 Cross c;
-                int found = first ? find_cross(m, cam, opp, ti, x, y, x2, y2, ax, &c)
-                                  : find_cross(m, cam, opp, tj, x2, y2, x, y, ax, &c);
+                int found = first ? find_cross(m, cam, opp, nbr, ti, x, y, x2, y2, ax, &c)
+                                  : find_cross(m, cam, opp, nbr, tj, x2, y2, x, y, ax, &c);
                 if (!found) continue;
                 c.a = first ? i : j;
                 c.b = first ? j : i;

@@ -4,8 +4,10 @@
 
 #include <omp.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "core/mf_error.h"
+#include "render/mf_antialias.h"
 #include "render/mf_estimator.h"
 #include "scene/mf_texture.h"
 
@@ -21,7 +23,8 @@ static void estimator_of(const MfDiffScene *s, const MfDiffOpts *o, const float 
                              .normal = s->normal_s ? s->normal_s : s->normal};
     r->e = (MfEstimator){.rt = s->rt, .rt_s = s->rt_s, .mesh = mf_rtscene_mesh(s->rt), .mats = &r->m, .mats_s = &r->m_s, .nmat = 1,
                          .env = s->env, .env_s = s->env_s ? s->env_s : s->env, .tan = tan, .spp_sqrt = o->spp_sqrt,
-                         .pixel_samples = o->pixel_samples, .lobes = MF_LOBE_ALL, .seed = o->seed};
+                         .pixel_samples = o->pixel_samples, .lobes = MF_LOBE_ALL, .seed = o->seed,
+                         .centre = o->antialias != 0};
 }
 
 static int check(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o) {
@@ -60,6 +63,54 @@ int mf_diff_forward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts 
     }
     mf_est_render_rows(&est.e, cam, 0, cam->h, out, NULL, NULL);
     free(tan_owned);
+    if (!o->antialias) return MF_OK;
+    MfAa *aa;
+    if ((rc = mf_aa_new(s->rt, cam, &aa))) return rc;
+    size_t n = (size_t)cam->w * cam->h;
+    float *tmp = malloc(n * 3 * sizeof(float));
+    if (!tmp) {
+        mf_aa_free(aa);
+        return mf_fail(MF_ENOMEM, "diffrender: out of memory for antialiasing");
+    }
+    float *img[4] = {out->rgb, out->diffuse, out->specular, out->alpha};
+    for (int k = 0; k < 4; ++k) {
+        int c = k < 3 ? 3 : 1;
+        memcpy(tmp, img[k], n * c * sizeof(float));
+        mf_aa_forward(aa, tmp, c, img[k]);
+    }
+    free(tmp);
+    mf_aa_free(aa);
+    return MF_OK;
+}
+
+/* Antialiasing's adjoint: the pre-antialiasing image (rendered with o's seed), then adj's image
+ * adjoints mapped through the blend into aa_adj (buffers in *bufs, free it) and the silhouette
+ * edges' vertex gradients into dpos (may be NULL). */
+static int antialias_backward(const MfDiffScene *s, const MfEstimator *e, const MfCamera *cam, const MfDiffAdjoint *adj,
+                              MfDiffAdjoint *aa_adj, float **bufs, float *dpos) {
+    size_t n = (size_t)cam->w * cam->h;
+    MfRenderOut pre;
+    MfAa *aa;
+    *bufs = calloc(n * 9 + 1, sizeof(float));
+    if (!*bufs) return mf_fail(MF_ENOMEM, "diffrender: out of memory for antialiasing adjoints");
+    int rc = mf_render_out_alloc(&pre, cam->w, cam->h);
+    if (rc) return rc;
+    mf_est_render_rows(e, cam, 0, cam->h, &pre, NULL, NULL);
+    if ((rc = mf_aa_new(s->rt, cam, &aa))) {
+        mf_render_out_free(&pre);
+        return rc;
+    }
+    const float *in[3] = {pre.rgb, pre.diffuse, pre.specular}, *d[3] = {adj->drgb, adj->ddiffuse, adj->dspecular};
+    const float *o[3] = {NULL, NULL, NULL};
+    for (int k = 0; k < 3; ++k)
+        if (d[k]) {
+            mf_aa_backward(aa, in[k], 3, d[k], *bufs + k * n * 3, dpos);
+            o[k] = *bufs + k * n * 3;
+        }
+    if (adj->dalpha && dpos) mf_aa_backward(aa, pre.alpha, 1, adj->dalpha, NULL, dpos);
+    *aa_adj = (MfDiffAdjoint){o[0], o[1], o[2], NULL};
+    mf_aa_free(aa);
+    mf_render_out_free(&pre);
     return MF_OK;
 }
 
@@ -79,11 +130,22 @@ int mf_diff_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts
         free(tan_owned);
         return mf_fail(MF_EARG, "diffrender: vertex-position gradients with a normal map are not supported");
     }
+    float *aa_bufs = NULL;
+    MfDiffAdjoint aa_adj;
+    if (o->antialias) {
+        if ((rc = antialias_backward(s, &est.e, cam, adj, &aa_adj, &aa_bufs, g->dpos))) {
+            free(aa_bufs);
+            free(tan_owned);
+            return rc;
+        }
+        adj = &aa_adj;
+    }
     size_t per = nkd + norm + nenv + nnm + 2 * npos;
     int nt = omp_get_max_threads();
     float *buf = calloc((size_t)nt * per + 1, sizeof(float));
     if (!buf) {
         free(tan_owned);
+        free(aa_bufs);
         return mf_fail(MF_ENOMEM, "diffrender: out of memory for %d gradient buffers of %zu floats", nt, per);
     }
 #pragma omp parallel num_threads(nt)
@@ -111,12 +173,14 @@ int mf_diff_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts
         if (mesh->nrm && (rc = mf_mesh_normals_backward(mesh, dp + npos, dp))) {
             free(buf);
             free(tan_owned);
+            free(aa_bufs);
             return rc;
         }
         for (size_t i = 0; i < npos; ++i) g->dpos[i] += dp[i];
     }
     free(buf);
     free(tan_owned);
+    free(aa_bufs);
     return MF_OK;
 }
 

@@ -29,6 +29,12 @@
  * visibility boundary (silhouettes and shadow edges; render/mf_antialias.h covers the primary
  * silhouettes of a pixel-centre pass), as in nvdiffrecmc.
  *
+ * Antialiasing (MfDiffOpts.antialias, off by default): every primary ray goes through the pixel
+ * centre and the composited outputs (rgb, diffuse, specular, alpha) are blended across screen-
+ * space silhouette edges (render/mf_antialias.h), which gives the visibility boundary a gradient
+ * (to the edges' vertices) for primary rays; the backward pass renders the pre-antialiasing image
+ * once more with its own seed (its colours weight the edge gradient), so it costs one more
+ * forward pass.
  * Outputs of the forward pass are MfRenderOut's (rgb, diffuse, specular premultiplied by
  * coverage; albedo, orm, depth averaged over the hits; normal the renormalised average of the
  * hits' shading normals, mapped when a normal map is given). Given dLoss/d(rgb, diffuse,
@@ -70,12 +76,17 @@ typedef struct {
     int spp_sqrt;      /* n: n^2 light + n^2 BSDF samples per pixel sample, [1, 1024] */
     int pixel_samples; /* primary rays per pixel, [1, 1024] */
     uint64_t seed;
+    int antialias;     /* 1: primary rays through pixel centres, then render/mf_antialias.h on rgb,
+                          diffuse, specular and alpha (the other AOVs are left as traced); the
+                          adjoint adds the silhouette edges' vertex gradients to dpos. 0: off */
 } MfDiffOpts;
 
 typedef struct {
     const float *drgb;      /* (h, w, 3) dLoss/d rgb, or NULL */
     const float *ddiffuse;  /* (h, w, 3) dLoss/d diffuse light, or NULL */
     const float *dspecular; /* (h, w, 3) dLoss/d specular radiance, or NULL */
+    const float *dalpha;    /* (h, w) dLoss/d alpha, or NULL; used with antialias only (coverage
+                               depends on nothing else that is differentiated) */
 } MfDiffAdjoint;
 
 typedef struct {

@@ -348,6 +348,7 @@ void mf_est_pixel(const MfEstimator *e, const MfCamera *cam, int x, int y, MfRen
     for (int k = 0; k < ps; ++k) {
         float px, py;
         mf_pixel_sampler_pos(&smp, k, &px, &py);
+        if (e->centre) px = (float)x + 0.5f, py = (float)y + 0.5f;
         MfVec3 org, dir;
         mf_camera_ray(cam, px, py, &org, &dir);
         raylog_push(log, org, dir, 0.0f, INFINITY, 0);
@@ -432,6 +433,7 @@ int mf_est_primary_hits(const MfEstimator *e, const MfCamera *cam, int x, int y,
     for (int k = 0; k < e->pixel_samples; ++k) {
         float px, py;
         mf_pixel_sampler_pos(&smp, k, &px, &py);
+        if (e->centre) px = (float)x + 0.5f, py = (float)y + 0.5f;
         MfVec3 org, dir;
         mf_camera_ray(cam, px, py, &org, &dir);
         if (mf_rtscene_intersect(e->rt, org, dir, 0.0f, INFINITY, &hits[n])) ++n;

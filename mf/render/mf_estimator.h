@@ -61,6 +61,8 @@ typedef struct {
     int spp_sqrt, pixel_samples;   /* [1, MF_MAX_SPP_SQRT], [1, MF_MAX_PIXEL_SAMPLES] */
     int lobes;                     /* MfLobes */
     uint64_t seed;
+    int centre;                    /* 1: every primary ray through the pixel centre (the random
+                                      stream is drawn as without it); for mf_antialias.h */
 } MfEstimator;
 
 /* One thread's adjoint: the pixel adjoints (read) and its gradient buffers (+=). */
