@@ -185,7 +185,9 @@ MF_TEST(render_antialias_edge_length) {
         /* the edge on screen: world x right = pixel x, world y = -pixel y (camera up = +y) */
         double px = cam.cx + s * c0x, py = cam.cy - s * c0y;
         double L = chord(px, py, dx, -dy, EW, EH);
-        if (getenv("MF_TEST_VERBOSE")) printf("    %2.0f deg: d(sum alpha)/d delta %.3f, edge length %.3f px (%d crossings)\n", angles[k], g, L, mf_aa_count(a));
+        if (getenv("MF_TEST_VERBOSE"))
+            printf("    %2.0f deg: d(sum alpha)/d delta %.3f, edge length %.3f px (%d crossings)\n", angles[k], g, L,
+                   mf_aa_count(a));
         CHECK_MSG(fabs(g - L) <= 0.05 * L, "%.0f degrees: d(sum alpha)/d delta = %.3f, edge length %.3f px", angles[k], g, L);
         mf_aa_free(a);
         mf_rtscene_free(rt);

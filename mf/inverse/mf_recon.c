@@ -577,7 +577,8 @@ static int holdout_psnr(MfRecon *r, double *psnr) {
     for (int vi = 0; vi < r->nviews && !rc; ++vi) {
         if (!mf_budget_is_holdout(vi, r->o.holdout_every)) continue;
         const MfReconView *v = &r->views[vi];
-        MfDiffOpts fo = {.spp_sqrt = r->o.spp_sqrt, .pixel_samples = r->o.es_pixel_samples, .seed = mf_hash64(mf_hash64(r->o.seed, 0x686f6c64ULL), (uint64_t)vi)};
+        MfDiffOpts fo = {.spp_sqrt = r->o.spp_sqrt, .pixel_samples = r->o.es_pixel_samples,
+                         .seed = mf_hash64(mf_hash64(r->o.seed, 0x686f6c64ULL), (uint64_t)vi)};
         MfRenderOut out;
         if ((rc = mf_render_out_alloc(&out, v->cam.w, v->cam.h))) break;
         double t0 = mf_now();

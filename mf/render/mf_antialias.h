@@ -8,8 +8,9 @@
  * surface's pixel (A) is the occluder; an edge of A's triangle that is a silhouette in screen
  * space (a boundary edge, a non-manifold edge, or an edge whose neighbour triangle folds to the
  * same side of it as A's triangle) and whose projected segment crosses the line between the two
- * pixel centres, at distance t in [0, 1] from A's centre, blends them as a one-dimensional box
- * filter would:
+ * pixel centres, at distance t in [0, 1] from A's centre (when none does, the same is tried on
+ * the triangles across A's triangle's edges: the line may leave it through an edge shared with
+ * the same surface, near a quad's corner), blends them as a one-dimensional box filter would:
  *   t > 1/2:  B += (t - 1/2) (A - B)        (A's surface reaches into B's footprint)
  *   t < 1/2:  A += (1/2 - t) (B - A)        (A's footprint is partly uncovered)
  * Horizontal pairs take edges at least as steep as 45 degrees (|dy| >= |dx| on screen),

@@ -21,8 +21,8 @@ static void estimator_of(const MfDiffScene *s, const MfDiffOpts *o, const float 
     r->m = (MfTexMaterial){.kd = s->kd, .orm = s->orm, .normal = s->normal};
     r->m_s = (MfTexMaterial){.kd = s->kd_s ? s->kd_s : s->kd, .orm = s->orm_s ? s->orm_s : s->orm,
                              .normal = s->normal_s ? s->normal_s : s->normal};
-    r->e = (MfEstimator){.rt = s->rt, .rt_s = s->rt_s, .mesh = mf_rtscene_mesh(s->rt), .mats = &r->m, .mats_s = &r->m_s, .nmat = 1,
-                         .env = s->env, .env_s = s->env_s ? s->env_s : s->env, .tan = tan, .spp_sqrt = o->spp_sqrt,
+    r->e = (MfEstimator){.rt = s->rt, .rt_s = s->rt_s, .mesh = mf_rtscene_mesh(s->rt), .mats = &r->m,
+                         .mats_s = &r->m_s, .nmat = 1, .env = s->env, .env_s = s->env_s ? s->env_s : s->env, .tan = tan, .spp_sqrt = o->spp_sqrt,
                          .pixel_samples = o->pixel_samples, .lobes = MF_LOBE_ALL, .seed = o->seed,
                          .centre = o->antialias != 0};
 }

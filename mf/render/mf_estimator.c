@@ -358,8 +358,8 @@ void mf_est_pixel(const MfEstimator *e, const MfCamera *cam, int x, int y, MfRen
         MfHit hs;
         int geo_s = e->rt_s && e->rt_s != e->rt && mf_rtscene_intersect(e->rt_s, org, dir, 0.0f, INFINITY, &hs);
         int id = (h.mat >= 0 && h.mat < e->nmat) ? h.mat : 0;
-        Shading sh = {.e = e, .h = &h, .hs = geo_s ? &hs : &h, .id = id, .mat = material_at(&e->mats[id], h.uv), .wo_w = mf_neg(dir),
-                      .a = adj ? &a : NULL, .adj = adj};
+        Shading sh = {.e = e, .h = &h, .hs = geo_s ? &hs : &h, .id = id, .mat = material_at(&e->mats[id], h.uv),
+                      .wo_w = mf_neg(dir), .a = adj ? &a : NULL, .adj = adj};
         /* shading normal: the material's normal map, or the hit's; and the sampling copy's */
         const MfImage *map = e->tan ? e->mats[id].normal : NULL;
         const MfImage *map_s = map && e->mats_s ? e->mats_s[id].normal : map;

@@ -10,7 +10,8 @@ static inline int wrap_index(int i, int n, MfWrap wrap) {
 }
 
 /* Texel offsets (into h*w) of the 4 bilinear taps, their weights and the fractions (tx, ty). */
-static void tex_taps(const MfImage *tex, float u, float v, MfWrap wrap, size_t idx[4], float wt[4], float *ftx, float *fty) {
+static void tex_taps(const MfImage *tex, float u, float v, MfWrap wrap, size_t idx[4], float wt[4], float *ftx,
+                     float *fty) {
     int W = tex->w, H = tex->h;
     float x = u * (float)W - 0.5f, y = (1.0f - v) * (float)H - 0.5f;
     if (!isfinite(x)) x = 0.0f;
