@@ -417,7 +417,7 @@ MF_TEST(fusion_sds_coverage_weight) {
     for (size_t t = 0; t < nt; ++t) {
         int count = 0;
         for (int v = 0; v < NV; ++v) {
-            MfDiffOpts dopt = {1, 1, 0x5eedu + (uint64_t)v};
+            MfDiffOpts dopt = {.spp_sqrt = 1, .pixel_samples = 1, .seed = 0x5eedu + (uint64_t)v};
             for (size_t i = 0; i < nt * 3; ++i) kd.data[i] = 0.5f;
             CHECK_OK(mf_diff_aov_forward(&ds, &mf_recon_view(r, v)->cam, &dopt, a0, m, NULL));
             kd.data[3 * t] = 0.9f;

@@ -225,7 +225,7 @@ static void scene_free(Scene *s) {
 
 static int render(Scene *sc, int spp_sqrt, MfRenderOut *out) {
     MfDiffScene s = {.rt = sc->rt, .kd = &sc->kd, .orm = &sc->orm, .env = &sc->env};
-    MfDiffOpts o = {spp_sqrt, 1, 77}; /* same seed: the same primary hit per pixel */
+    MfDiffOpts o = {.spp_sqrt = spp_sqrt, .pixel_samples = 1, .seed = 77}; /* same seed: the same primary hit per pixel */
     int rc = mf_render_out_alloc(out, RW, RH);
     return rc ? rc : mf_diff_forward(&s, &sc->cam, &o, out);
 }

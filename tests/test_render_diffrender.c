@@ -122,11 +122,11 @@ static double check_block(Fixture *f, const MfDiffOpts *o, float *param, const f
 MF_TEST(render_diffrender_gradients) {
     Fixture f;
     CHECK_OK(fixture_init(&f));
-    MfDiffOpts o = {2, 2, 7};
+    MfDiffOpts o = {.spp_sqrt = 2, .pixel_samples = 2, .seed = 7};
     MfDiffScene s = scene_of(&f);
     float *dkd = calloc(TW * TH * 3, sizeof(float)), *dorm = calloc(TW * TH * 3, sizeof(float));
     float *denv = calloc(EW * EH * 3, sizeof(float));
-    MfDiffAdjoint adj = {f.wr, f.wd, f.ws};
+    MfDiffAdjoint adj = {.drgb = f.wr, .ddiffuse = f.wd, .dspecular = f.ws};
     MfDiffGrads g = {.dkd = dkd, .dorm = dorm, .denv = denv};
     CHECK_OK(mf_diff_backward(&s, &f.cam, &o, &adj, &g));
     double gsum = 0;
@@ -165,7 +165,7 @@ static double aov_objective(Fixture *f, const MfDiffOpts *o) {
 MF_TEST(render_diffrender_aov_gradients) {
     Fixture f;
     CHECK_OK(fixture_init(&f));
-    MfDiffOpts o = {1, 3, 5};
+    MfDiffOpts o = {.spp_sqrt = 1, .pixel_samples = 3, .seed = 5};
     MfDiffScene s = scene_of(&f);
     float dkd[TW * TH * 3] = {0}, dorm[TW * TH * 3] = {0};
     MfDiffGrads g = {.dkd = dkd, .dorm = dorm};
@@ -196,11 +196,11 @@ MF_TEST(render_diffrender_normal_map_gradients) {
     Fixture f;
     CHECK_OK(fixture_init(&f));
     f.use_nm = 1;
-    MfDiffOpts o = {2, 2, 7};
+    MfDiffOpts o = {.spp_sqrt = 2, .pixel_samples = 2, .seed = 7};
     MfDiffScene s = scene_of(&f);
     float *dnm = calloc(TW * TH * 3, sizeof(float)), *dkd = calloc(TW * TH * 3, sizeof(float));
     float *denv = calloc(EW * EH * 3, sizeof(float));
-    MfDiffAdjoint adj = {f.wr, f.wd, f.ws};
+    MfDiffAdjoint adj = {.drgb = f.wr, .ddiffuse = f.wd, .dspecular = f.ws};
     MfDiffGrads g = {.dkd = dkd, .denv = denv, .dnormal = dnm};
     CHECK_OK(mf_diff_backward(&s, &f.cam, &o, &adj, &g));
     double gsum = 0;
@@ -229,7 +229,7 @@ MF_TEST(render_diffrender_normal_map_gradients) {
 MF_TEST(render_diffrender_flat_normal_map_is_identity) {
     Fixture f;
     CHECK_OK(fixture_init(&f));
-    MfDiffOpts o = {2, 2, 9};
+    MfDiffOpts o = {.spp_sqrt = 2, .pixel_samples = 2, .seed = 9};
     MfRenderOut a, b;
     CHECK_OK(mf_render_out_alloc(&a, W, H));
     CHECK_OK(mf_render_out_alloc(&b, W, H));
@@ -248,7 +248,7 @@ MF_TEST(render_diffrender_flat_normal_map_is_identity) {
     CHECK(mx > 0.05);
     CHECK_MSG(worst < 1e-4 * mx, "flat normal map changes the image by %.3g (max %.3g)", worst, mx);
     float dn[TW * TH * 3] = {0};
-    MfDiffAdjoint adj = {f.wr, f.wd, f.ws};
+    MfDiffAdjoint adj = {.drgb = f.wr, .ddiffuse = f.wd, .dspecular = f.ws};
     MfDiffGrads g = {.dnormal = dn};
     s.normal = NULL; /* absent map: nothing accumulated */
     CHECK_OK(mf_diff_backward(&s, &f.cam, &o, &adj, &g));
@@ -276,7 +276,7 @@ MF_TEST(render_diffrender_forward_equals_render) {
     const int cases[4][3] = {{2, 1, 0}, {2, 3, 0}, {3, 2, 1}, {1, 1, 1}}; /* spp_sqrt, pixel samples, normal map */
     for (int c = 0; c < 4; ++c) {
         f.use_nm = cases[c][2];
-        MfDiffOpts o = {cases[c][0], cases[c][1], 31 + (uint64_t)c};
+        MfDiffOpts o = {.spp_sqrt = cases[c][0], .pixel_samples = cases[c][1], .seed = 31 + (uint64_t)c};
         MfDiffScene s = {.rt = f.rt, .kd = &f.kd, .orm = &f.orm, .env = &f.env, .normal = f.use_nm ? &f.nm : NULL};
         MfTexMaterial mat = {.kd = &f.kd, .orm = &f.orm, .normal = s.normal};
         MfRenderInput in = {.rt = f.rt, .mesh = &f.mesh, .mats = &mat, .nmat = 1, .env = &f.env};

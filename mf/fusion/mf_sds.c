@@ -81,7 +81,7 @@ static int render_maps(MfSds *s, MfRecon *r, const MfSdsTargets *t, float *ain, 
     MfImage kd = mf_recon_kd_image(r), orm = mf_recon_orm_image(r);
     MfDiffScene ds = {.rt = mf_recon_rtscene(r), .kd = &kd, .orm = &orm, .env = mf_recon_env(r)};
     for (int k = 0; k < t->n; ++k) {
-        MfDiffOpts o = {1, s->o.aov_samples, t->aov_seed[k]};
+        MfDiffOpts o = {.spp_sqrt = 1, .pixel_samples = s->o.aov_samples, .seed = t->aov_seed[k]};
         float *a = aa + k * 3 * rr, *m = ao + k * 3 * rr;
         const float *mask = t->mask + k * rr;
         int rc = mf_diff_aov_forward(&ds, &t->cam[k], &o, a, m, NULL);
@@ -244,7 +244,7 @@ static int loss_of(MfSds *s, MfRecon *r, const MfSdsTargets *t, Maps *m, float s
                 a[3 * p + c] = dain[(k * 3 + c) * rr + p] * 2.0f * mk * srgb_deriv(a[3 * p + c]);
                 m[3 * p + c] = doin[(k * 3 + c) * rr + p] * 2.0f * mk * (mv >= 0.0f && mv <= 1.0f);
             }
-        MfDiffOpts o = {1, s->o.aov_samples, t->aov_seed[k]};
+        MfDiffOpts o = {.spp_sqrt = 1, .pixel_samples = s->o.aov_samples, .seed = t->aov_seed[k]};
         rc = mf_diff_aov_backward(&ds, &t->cam[k], &o, a, m, g);
     }
 done:
@@ -299,7 +299,7 @@ int mf_sds_coverage(MfRecon *r, float **out, size_t *ntex) {
         const MfReconView *view = mf_recon_view(r, v);
         memset(g, 0, kd->n * sizeof(float));
         MfDiffGrads dg = {.dkd = g};
-        MfDiffOpts o = {1, 1, 0x5eedu + (uint64_t)v};
+        MfDiffOpts o = {.spp_sqrt = 1, .pixel_samples = 1, .seed = 0x5eedu + (uint64_t)v};
         rc = mf_diff_aov_backward(&ds, &view->cam, &o, ones, NULL, &dg);
         for (size_t t = 0; t < nt && !rc; ++t) w[t] += (g[3 * t] > 0.0f);
     }

@@ -389,7 +389,7 @@ static int view_step(MfRecon *r, int vi, uint64_t vseed, float scale, IterStats 
     MfImage kd = mf_recon_kd_image(r), orm = mf_recon_orm_image(r), nm = mf_recon_normal_image(r);
     MfDiffScene s = {.rt = r->rt, .kd = &kd, .orm = &orm, .env = &r->env, .normal = r->o.normal_map ? &nm : NULL,
                      .tangent = r->tan};
-    MfDiffOpts fo = {r->o.spp_sqrt, r->o.pixel_samples, mf_hash64(vseed, 1)};
+    MfDiffOpts fo = {.spp_sqrt = r->o.spp_sqrt, .pixel_samples = r->o.pixel_samples, .seed = mf_hash64(vseed, 1)};
     MfRenderOut out;
     float *dz = NULL, *dn = NULL, *gbuf = NULL; /* denoiser: (h, w), (3, h, w, 3), (4, h, w, 3) */
     float *dmod_c = NULL;                       /* (h, w, 3) F(diffuse) of the seed-C render */
@@ -446,7 +446,7 @@ static int view_step(MfRecon *r, int vi, uint64_t vseed, float scale, IterStats 
     st->psnr += 10.0 * log10(1.0 / fmax(se / (double)(npx * 3), 1e-10)) * scale;
     MfDiffOpts bo = fo;
     bo.seed = mf_hash64(vseed, 3); /* decorrelated from the primal samples */
-    MfDiffAdjoint adj = {drgb, dd, ds};
+    MfDiffAdjoint adj = {.drgb = drgb, .ddiffuse = dd, .dspecular = ds};
     MfDiffGrads g = {.dkd = r->blocks[MF_BLOCK_KD].g, .dorm = r->blocks[MF_BLOCK_ORM].g, .denv = r->blocks[MF_BLOCK_ENV].g,
                      .dnormal = r->o.normal_map ? r->blocks[MF_BLOCK_NORMAL].g : NULL};
     if (r->o.denoise) {
@@ -577,7 +577,8 @@ static int holdout_psnr(MfRecon *r, double *psnr) {
     for (int vi = 0; vi < r->nviews && !rc; ++vi) {
         if (!mf_budget_is_holdout(vi, r->o.holdout_every)) continue;
         const MfReconView *v = &r->views[vi];
-        MfDiffOpts fo = {r->o.spp_sqrt, r->o.es_pixel_samples, mf_hash64(mf_hash64(r->o.seed, 0x686f6c64ULL), (uint64_t)vi)};
+        MfDiffOpts fo = {.spp_sqrt = r->o.spp_sqrt, .pixel_samples = r->o.es_pixel_samples,
+                         .seed = mf_hash64(mf_hash64(r->o.seed, 0x686f6c64ULL), (uint64_t)vi)};
         MfRenderOut out;
         if ((rc = mf_render_out_alloc(&out, v->cam.w, v->cam.h))) break;
         double t0 = mf_now();

@@ -4,8 +4,10 @@
 
 #include <omp.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "core/mf_error.h"
+#include "render/mf_antialias.h"
 #include "render/mf_estimator.h"
 #include "scene/mf_texture.h"
 
@@ -19,9 +21,10 @@ static void estimator_of(const MfDiffScene *s, const MfDiffOpts *o, const float 
     r->m = (MfTexMaterial){.kd = s->kd, .orm = s->orm, .normal = s->normal};
     r->m_s = (MfTexMaterial){.kd = s->kd_s ? s->kd_s : s->kd, .orm = s->orm_s ? s->orm_s : s->orm,
                              .normal = s->normal_s ? s->normal_s : s->normal};
-    r->e = (MfEstimator){.rt = s->rt, .mesh = mf_rtscene_mesh(s->rt), .mats = &r->m, .mats_s = &r->m_s, .nmat = 1,
-                         .env = s->env, .env_s = s->env_s ? s->env_s : s->env, .tan = tan, .spp_sqrt = o->spp_sqrt,
-                         .pixel_samples = o->pixel_samples, .lobes = MF_LOBE_ALL, .seed = o->seed};
+    r->e = (MfEstimator){.rt = s->rt, .rt_s = s->rt_s, .mesh = mf_rtscene_mesh(s->rt), .mats = &r->m,
+                         .mats_s = &r->m_s, .nmat = 1, .env = s->env, .env_s = s->env_s ? s->env_s : s->env, .tan = tan, .spp_sqrt = o->spp_sqrt,
+                         .pixel_samples = o->pixel_samples, .lobes = MF_LOBE_ALL, .seed = o->seed,
+                         .centre = o->antialias != 0};
 }
 
 static int check(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o) {
@@ -60,6 +63,54 @@ int mf_diff_forward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts 
     }
     mf_est_render_rows(&est.e, cam, 0, cam->h, out, NULL, NULL);
     free(tan_owned);
+    if (!o->antialias) return MF_OK;
+    MfAa *aa;
+    if ((rc = mf_aa_new(s->rt, cam, &aa))) return rc;
+    size_t n = (size_t)cam->w * cam->h;
+    float *tmp = malloc(n * 3 * sizeof(float));
+    if (!tmp) {
+        mf_aa_free(aa);
+        return mf_fail(MF_ENOMEM, "diffrender: out of memory for antialiasing");
+    }
+    float *img[4] = {out->rgb, out->diffuse, out->specular, out->alpha};
+    for (int k = 0; k < 4; ++k) {
+        int c = k < 3 ? 3 : 1;
+        memcpy(tmp, img[k], n * c * sizeof(float));
+        mf_aa_forward(aa, tmp, c, img[k]);
+    }
+    free(tmp);
+    mf_aa_free(aa);
+    return MF_OK;
+}
+
+/* Antialiasing's adjoint: the pre-antialiasing image (rendered with o's seed), then adj's image
+ * adjoints mapped through the blend into aa_adj (buffers in *bufs, free it) and the silhouette
+ * edges' vertex gradients into dpos (may be NULL). */
+static int antialias_backward(const MfDiffScene *s, const MfEstimator *e, const MfCamera *cam, const MfDiffAdjoint *adj,
+                              MfDiffAdjoint *aa_adj, float **bufs, float *dpos) {
+    size_t n = (size_t)cam->w * cam->h;
+    MfRenderOut pre;
+    MfAa *aa;
+    *bufs = calloc(n * 9 + 1, sizeof(float));
+    if (!*bufs) return mf_fail(MF_ENOMEM, "diffrender: out of memory for antialiasing adjoints");
+    int rc = mf_render_out_alloc(&pre, cam->w, cam->h);
+    if (rc) return rc;
+    mf_est_render_rows(e, cam, 0, cam->h, &pre, NULL, NULL);
+    if ((rc = mf_aa_new(s->rt, cam, &aa))) {
+        mf_render_out_free(&pre);
+        return rc;
+    }
+    const float *in[3] = {pre.rgb, pre.diffuse, pre.specular}, *d[3] = {adj->drgb, adj->ddiffuse, adj->dspecular};
+    const float *o[3] = {NULL, NULL, NULL};
+    for (int k = 0; k < 3; ++k)
+        if (d[k]) {
+            mf_aa_backward(aa, in[k], 3, d[k], *bufs + k * n * 3, dpos);
+            o[k] = *bufs + k * n * 3;
+        }
+    if (adj->dalpha && dpos) mf_aa_backward(aa, pre.alpha, 1, adj->dalpha, NULL, dpos);
+    *aa_adj = (MfDiffAdjoint){o[0], o[1], o[2], NULL};
+    mf_aa_free(aa);
+    mf_render_out_free(&pre);
     return MF_OK;
 }
 
@@ -73,18 +124,36 @@ int mf_diff_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts
     size_t norm = g->dorm ? (size_t)s->orm->w * s->orm->h * 3 : 0;
     size_t nenv = g->denv ? (size_t)s->env->img.w * s->env->img.h * 3 : 0;
     size_t nnm = (g->dnormal && s->normal) ? (size_t)s->normal->w * s->normal->h * 3 : 0;
-    size_t per = nkd + norm + nenv + nnm;
+    const MfMesh *mesh = mf_rtscene_mesh(s->rt);
+    size_t npos = g->dpos ? (size_t)mesh->nv * 3 : 0; /* dpos, then the vertex normals' adjoint */
+    if (npos && s->normal) {
+        free(tan_owned);
+        return mf_fail(MF_EARG, "diffrender: vertex-position gradients with a normal map are not supported");
+    }
+    float *aa_bufs = NULL;
+    MfDiffAdjoint aa_adj;
+    if (o->antialias) {
+        if ((rc = antialias_backward(s, &est.e, cam, adj, &aa_adj, &aa_bufs, g->dpos))) {
+            free(aa_bufs);
+            free(tan_owned);
+            return rc;
+        }
+        adj = &aa_adj;
+    }
+    size_t per = nkd + norm + nenv + nnm + 2 * npos;
     int nt = omp_get_max_threads();
     float *buf = calloc((size_t)nt * per + 1, sizeof(float));
     if (!buf) {
         free(tan_owned);
+        free(aa_bufs);
         return mf_fail(MF_ENOMEM, "diffrender: out of memory for %d gradient buffers of %zu floats", nt, per);
     }
 #pragma omp parallel num_threads(nt)
     {
         float *b = buf + (size_t)omp_get_thread_num() * per;
         MfEstAdjoint a = {adj->drgb, adj->ddiffuse, adj->dspecular, nkd ? b : NULL, norm ? b + nkd : NULL,
-                          nnm ? b + nkd + norm + nenv : NULL, nenv ? b + nkd + norm : NULL};
+                          nnm ? b + nkd + norm + nenv : NULL, nenv ? b + nkd + norm : NULL,
+                          npos ? b + per - 2 * npos : NULL, npos ? b + per - npos : NULL};
         /* static schedule: the rows a thread handles, and so the summation order, are fixed */
 #pragma omp for schedule(static, 1)
         for (int y = 0; y < cam->h; ++y)
@@ -96,9 +165,22 @@ int mf_diff_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts
         for (size_t i = 0; i < norm; ++i) g->dorm[i] += b[nkd + i];
         for (size_t i = 0; i < nenv; ++i) g->denv[i] += b[nkd + norm + i];
         for (size_t i = 0; i < nnm; ++i) g->dnormal[i] += b[nkd + norm + nenv + i];
+        if (t > 0)
+            for (size_t i = 0; i < 2 * npos; ++i) buf[per - 2 * npos + i] += b[per - 2 * npos + i];
+    }
+    if (npos) { /* thread 0's buffer now holds the sums: positions, then normals */
+        float *dp = buf + per - 2 * npos;
+        if (mesh->nrm && (rc = mf_mesh_normals_backward(mesh, dp + npos, dp))) {
+            free(buf);
+            free(tan_owned);
+            free(aa_bufs);
+            return rc;
+        }
+        for (size_t i = 0; i < npos; ++i) g->dpos[i] += dp[i];
     }
     free(buf);
     free(tan_owned);
+    free(aa_bufs);
     return MF_OK;
 }
 

@@ -19,8 +19,22 @@
  * test keep the geometric normal. Its adjoint goes through the BRDF's dependence on the normal
  * (cosines and the half vector's cosine; the BRDF is isotropic) into the map's texels. Without
  * a map every output is bit-identical to the renderer without this feature.
- * The visibility boundary's gradient is ignored (geometry is fixed here), as in nvdiffrecmc.
+ * Vertex positions (MfDiffGrads.dpos): each primary hit moves with its triangle's vertices (the
+ * ray-plane intersection, render/mf_hitgrad.h), so its UV, the kd/ORM lookups there and the
+ * interpolated shading normal change; the normal's adjoint goes through the BRDF's cosines and
+ * then through mf_mesh_compute_normals (exact when the mesh's normals are that function of its
+ * positions, as for a marching-tets mesh; for a mesh without normals, through the face normal).
+ * Not differentiated: the hit's position in shadow-ray origins and point/sun light directions
+ * (the env is at infinity: its directions do not depend on the hit), the depth AOV, and the
+ * visibility boundary (silhouettes and shadow edges; render/mf_antialias.h covers the primary
+ * silhouettes of a pixel-centre pass), as in nvdiffrecmc.
  *
+ * Antialiasing (MfDiffOpts.antialias, off by default): every primary ray goes through the pixel
+ * centre and the composited outputs (rgb, diffuse, specular, alpha) are blended across screen-
+ * space silhouette edges (render/mf_antialias.h), which gives the visibility boundary a gradient
+ * (to the edges' vertices) for primary rays; the backward pass renders the pre-antialiasing image
+ * once more with its own seed (its colours weight the edge gradient), so it costs one more
+ * forward pass.
  * Outputs of the forward pass are MfRenderOut's (rgb, diffuse, specular premultiplied by
  * coverage; albedo, orm, depth averaged over the hits; normal the renormalised average of the
  * hits' shading normals, mapped when a normal map is given). Given dLoss/d(rgb, diffuse,
@@ -54,18 +68,25 @@ typedef struct {
     const MfImage *normal_s; /* borrowed; its sampling copy, NULL = normal */
     const float *tangent;    /* borrowed; (nv, 4) mf_mesh_tangents of rt's mesh, or NULL =
                                 computed per call when a normal map is given */
+    const MfRtScene *rt_s;   /* borrowed; sampling copy of the geometry, NULL = rt: gradient checks
+                                of dpos keep it at the unperturbed mesh (mf_estimator.h) */
 } MfDiffScene;
 
 typedef struct {
     int spp_sqrt;      /* n: n^2 light + n^2 BSDF samples per pixel sample, [1, 1024] */
     int pixel_samples; /* primary rays per pixel, [1, 1024] */
     uint64_t seed;
+    int antialias;     /* 1: primary rays through pixel centres, then render/mf_antialias.h on rgb,
+                          diffuse, specular and alpha (the other AOVs are left as traced); the
+                          adjoint adds the silhouette edges' vertex gradients to dpos. 0: off */
 } MfDiffOpts;
 
 typedef struct {
     const float *drgb;      /* (h, w, 3) dLoss/d rgb, or NULL */
     const float *ddiffuse;  /* (h, w, 3) dLoss/d diffuse light, or NULL */
     const float *dspecular; /* (h, w, 3) dLoss/d specular radiance, or NULL */
+    const float *dalpha;    /* (h, w) dLoss/d alpha, or NULL; used with antialias only (coverage
+                               depends on nothing else that is differentiated) */
 } MfDiffAdjoint;
 
 typedef struct {
@@ -73,6 +94,7 @@ typedef struct {
     float *dorm; /* (th, tw, 3) +=, or NULL (channel R never receives gradient) */
     float *denv; /* (eh, ew, 3) +=, or NULL */
     float *dnormal; /* (th, tw, 3) += normal-map texels, or NULL (ignored without a normal map) */
+    float *dpos;    /* (nv, 3) += rt's mesh's vertex positions, or NULL; refused with a normal map */
 } MfDiffGrads;
 
 /* out must be allocated for cam->w x cam->h (mf_render_out_alloc); fills every AOV, as mf_render. */

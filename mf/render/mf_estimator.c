@@ -6,6 +6,7 @@
 #include <stdlib.h>
 
 #include "core/mf_error.h"
+#include "render/mf_hitgrad.h"
 #include "render/mf_normalmap.h"
 #include "scene/mf_tangent.h"
 #include "scene/mf_texture.h"
@@ -138,6 +139,7 @@ typedef struct { MfVec3 g, gd, gs; } Adj;
 typedef struct {
     const MfEstimator *e;
     const MfHit *h;
+    const MfHit *hs;      /* the sampling geometry's hit (rt_s), or h */
     int id;               /* material id */
     Mat mat;              /* evaluated material */
     MfBrdfCtx bc;         /* evaluated BRDF at wo */
@@ -235,11 +237,11 @@ static int shade(Shading *sh, MfVec3 ns, MfVec3 ns_s, int sep, MfRng *rng, MfRay
     /* the sampling BRDF: another material (sampling copies) or another frame (normal map copy) */
     const MfTexMaterial *tms = e->mats_s ? &e->mats_s[sh->id] : NULL;
     const MfTexMaterial *tm = &e->mats[sh->id];
-    int sepm = tms && (tms->kd != tm->kd || tms->orm != tm->orm);
+    int sepm = (tms && (tms->kd != tm->kd || tms->orm != tm->orm)) || sh->hs != h;
     MfBrdfCtx bc_s;
     const MfBrdfCtx *bs = &sh->bc;
     if (sepm || sep) {
-        Mat ms = sepm ? material_at(tms, h->uv) : sh->mat;
+        Mat ms = sepm ? material_at(tms ? tms : tm, sh->hs->uv) : sh->mat;
         mf_brdf_prepare(&bc_s, &ms.m, wo_s, lobes);
         bs = &bc_s;
     }
@@ -259,7 +261,7 @@ static int shade(Shading *sh, MfVec3 ns, MfVec3 ns_s, int sep, MfRng *rng, MfRay
             for (int t = 0; t < nb; ++t) {
                 MfVec3 wi_w = dir[t];
                 float pl = pdf[t];
-                if (!(pl > 0.0f) || mf_dot(wi_w, h->ng) <= 0.0f) continue;
+                if (!(pl > 0.0f) || mf_dot(wi_w, sh->hs->ng) <= 0.0f) continue;
                 MfVec3 wi = mf_to_local(&fr, wi_w);
                 if (wi.z <= 0.0f) continue;
                 float pb;
@@ -286,7 +288,7 @@ static int shade(Shading *sh, MfVec3 ns, MfVec3 ns_s, int sep, MfRng *rng, MfRay
                 if (!mf_brdf_ctx_sample(bs, u0, u1, u2, &wi, &pb, &f)) continue;
                 if (!(pb > 0.0f) || wi.z <= 0.0f) continue;
                 MfVec3 wi_w = mf_to_world(&fr_s, wi);
-                if (mf_dot(wi_w, h->ng) <= 0.0f) continue;
+                if (mf_dot(wi_w, sh->hs->ng) <= 0.0f) continue;
                 if (sep && (wi = mf_to_local(&fr, wi_w)).z <= 0.0f) continue; /* below the shading horizon: f = 0 */
                 if (other) {
                     float p_unused;
@@ -346,28 +348,31 @@ void mf_est_pixel(const MfEstimator *e, const MfCamera *cam, int x, int y, MfRen
     for (int k = 0; k < ps; ++k) {
         float px, py;
         mf_pixel_sampler_pos(&smp, k, &px, &py);
+        if (e->centre) px = (float)x + 0.5f, py = (float)y + 0.5f;
         MfVec3 org, dir;
         mf_camera_ray(cam, px, py, &org, &dir);
         raylog_push(log, org, dir, 0.0f, INFINITY, 0);
         MfHit h;
         if (!mf_rtscene_intersect(e->rt, org, dir, 0.0f, INFINITY, &h)) continue;
         ++hits;
+        MfHit hs;
+        int geo_s = e->rt_s && e->rt_s != e->rt && mf_rtscene_intersect(e->rt_s, org, dir, 0.0f, INFINITY, &hs);
         int id = (h.mat >= 0 && h.mat < e->nmat) ? h.mat : 0;
-        Shading sh = {.e = e, .h = &h, .id = id, .mat = material_at(&e->mats[id], h.uv), .wo_w = mf_neg(dir),
-                      .a = adj ? &a : NULL, .adj = adj};
+        Shading sh = {.e = e, .h = &h, .hs = geo_s ? &hs : &h, .id = id, .mat = material_at(&e->mats[id], h.uv),
+                      .wo_w = mf_neg(dir), .a = adj ? &a : NULL, .adj = adj};
         /* shading normal: the material's normal map, or the hit's; and the sampling copy's */
         const MfImage *map = e->tan ? e->mats[id].normal : NULL;
         const MfImage *map_s = map && e->mats_s ? e->mats_s[id].normal : map;
-        MfVec3 ns = h.ns, ns_s = h.ns;
+        MfVec3 ns = h.ns, ns_s = sh.hs->ns;
         MfNmapFrame nf;
-        int sep = 0;
+        int sep = geo_s;
         if (map) {
             nf = mf_nmap_frame(e->mesh, e->tan, &h);
             ns = ns_s = mf_nmap_normal(&nf, map, h.uv, sh.wo_w);
-            sep = map_s && map_s != map;
-            if (sep) ns_s = mf_nmap_normal(&nf, map_s, h.uv, sh.wo_w);
+            sep = geo_s || (map_s && map_s != map);
+            if (sep) ns_s = mf_nmap_normal(&nf, map_s ? map_s : map, h.uv, sh.wo_w);
         }
-        sh.want_dn = adj && adj->dnormal && map && id == 0;
+        sh.want_dn = adj && ((adj->dnormal && map) || (adj->dpos && !map)) && id == 0;
         int lit = shade(&sh, ns, ns_s, sep, &smp.rng, log);
         if (adj) {
             if (!lit || id != 0) continue; /* nothing to add; gradient buffers are material 0's */
@@ -377,7 +382,13 @@ void mf_est_pixel(const MfEstimator *e, const MfCamera *cam, int x, int y, MfRen
             const MfTexMaterial *tm = &e->mats[0];
             if (adj->dkd && tm->kd) mf_tex_sample_backward(tm->kd, h.uv.x, h.uv.y, MF_WRAP_REPEAT, gkd, adj->dkd);
             if (adj->dorm && tm->orm) mf_tex_sample_backward(tm->orm, h.uv.x, h.uv.y, MF_WRAP_REPEAT, gorm, adj->dorm);
-            if (sh.want_dn) mf_nmap_normal_backward(&nf, map, h.uv, sh.wo_w, sh.dn, adj->dnormal);
+            if (sh.want_dn && map) mf_nmap_normal_backward(&nf, map, h.uv, sh.wo_w, sh.dn, adj->dnormal);
+            if (adj->dpos && !map) { /* the hit moves with the vertices: its UV and shading normal */
+                MfVec2 duv = {0.0f, 0.0f};
+                if (tm->kd) mf_tex_sample_grad_uv(tm->kd, h.uv.x, h.uv.y, MF_WRAP_REPEAT, gkd, 3, &duv.x, &duv.y);
+                if (tm->orm) mf_tex_sample_grad_uv(tm->orm, h.uv.x, h.uv.y, MF_WRAP_REPEAT, gorm, 3, &duv.x, &duv.y);
+                mf_hit_backward(e->mesh, &h, org, dir, duv, sh.dn, adj->dpos, adj->dnrm);
+            }
             continue;
         }
         MfVec3 kdw = mf_scale(sh.mat.m.kd, 1.0f - sh.mat.m.metallic);
@@ -422,6 +433,7 @@ int mf_est_primary_hits(const MfEstimator *e, const MfCamera *cam, int x, int y,
     for (int k = 0; k < e->pixel_samples; ++k) {
         float px, py;
         mf_pixel_sampler_pos(&smp, k, &px, &py);
+        if (e->centre) px = (float)x + 0.5f, py = (float)y + 0.5f;
         MfVec3 org, dir;
         mf_camera_ray(cam, px, py, &org, &dir);
         if (mf_rtscene_intersect(e->rt, org, dir, 0.0f, INFINITY, &hits[n])) ++n;

@@ -18,13 +18,19 @@
  * Sampling and evaluation parameters may differ (the differentiable renderer's gradient checks
  * freeze sampling): directions, pdfs and MIS weights come from mats_s / env_s and the sampling
  * copy's normal map; BRDF values and radiance from mats / env. With the same copies (the forward
- * renderer) both are the same numbers.
+ * renderer) both are the same numbers. A sampling copy of the geometry (rt_s, for gradient
+ * checks with respect to vertex positions) is traced along the same primary ray; its hit gives
+ * the sampling frame (without a normal map), the sampling material's UV and the geometric
+ * normal of the below-the-surface tests, so drawn directions, pdfs and MIS weights stay fixed
+ * while rt's vertices move (shadow rays and shading use rt's hit).
  *
  * Forward (out != NULL): writes the pixel's AOVs (MfRenderOut: rgb, diffuse, specular averaged
  * over all pixel samples, i.e. premultiplied by alpha; albedo, orm, normal (renormalised shading
  * normal), depth averaged over the hits). Adjoint (adj != NULL): given dLoss/d(rgb, diffuse,
  * specular) of the pixel, accumulates (+=) dLoss/d(material 0's kd, ORM and normal-map texels)
- * and dLoss/d(env texels) into the caller's (per-thread) buffers, with sampling detached
+ * and dLoss/d(env texels) into the caller's (per-thread) buffers, and when dpos is given
+ * dLoss/d(vertex positions, normals) through the primary hit's UV (texture gradients) and
+ * shading normal (mf_hitgrad.h; no normal map), with sampling detached
  * (d/dθ E[f L / p] = E[d(f L)/dθ / p]); pixels with a zero adjoint are skipped (no rays). The
  * adjoint of delta lights reaches the material only. The same seed gives the same samples in
  * both passes. */
@@ -42,6 +48,7 @@
 
 typedef struct {
     const MfRtScene *rt;           /* borrowed */
+    const MfRtScene *rt_s;         /* borrowed; sampling copy of the geometry, or NULL = rt (see below) */
     const MfMesh *mesh;            /* borrowed; rt's mesh */
     const MfTexMaterial *mats;     /* borrowed; (nmat,) evaluated; ids outside [0, nmat) use 0 */
     const MfTexMaterial *mats_s;   /* borrowed; (nmat,) sampling copies, or NULL = mats */
@@ -54,6 +61,8 @@ typedef struct {
     int spp_sqrt, pixel_samples;   /* [1, MF_MAX_SPP_SQRT], [1, MF_MAX_PIXEL_SAMPLES] */
     int lobes;                     /* MfLobes */
     uint64_t seed;
+    int centre;                    /* 1: every primary ray through the pixel centre (the random
+                                      stream is drawn as without it); for mf_antialias.h */
 } MfEstimator;
 
 /* One thread's adjoint: the pixel adjoints (read) and its gradient buffers (+=). */
@@ -63,6 +72,8 @@ typedef struct {
     float *dorm;    /* borrowed; (th, tw, 3) material 0's ORM texels (R gets none), or NULL */
     float *dnormal; /* borrowed; (th, tw, 3) material 0's normal-map texels, or NULL */
     float *denv;    /* borrowed; (eh, ew, 3) env texels, or NULL */
+    float *dpos;    /* borrowed; (nv, 3) vertex positions through the hit point (mf_hitgrad.h), or NULL */
+    float *dnrm;    /* borrowed; (nv, 3) vertex normals through the shading normal; with dpos */
 } MfEstAdjoint;
 
 /* The film positions of one pixel's samples and the pixel's random stream. */

@@ -65,6 +65,50 @@ int mf_mesh_compute_normals(MfMesh *m) {
     return MF_OK;
 }
 
+/* Adjoint of mf_mesh_compute_normals: n_i = A_i / |A_i|, A_i = sum over the triangles t at i of
+ * c_t = (p1 - p0) x (p2 - p0). */
+int mf_mesh_normals_backward(const MfMesh *m, const float *dnrm, float *dpos) {
+    float *A = calloc((size_t)m->nv * 3 + 1, sizeof(float)); /* (nv, 3) A_i, then dLoss/dA_i */
+    if (!A) return mf_fail(MF_ENOMEM, "out of memory for the mesh normals' adjoint");
+    for (int t = 0; t < m->nt; ++t) {
+        const uint32_t *f = m->tri + 3 * t;
+        MfVec3 n = mf_cross(mf_sub(vtx(m, f[1]), vtx(m, f[0])), mf_sub(vtx(m, f[2]), vtx(m, f[0])));
+        for (int k = 0; k < 3; ++k) {
+            A[3 * f[k]] += n.x;
+            A[3 * f[k] + 1] += n.y;
+            A[3 * f[k] + 2] += n.z;
+        }
+    }
+    for (int i = 0; i < m->nv; ++i) { /* d(A/|A|) = (g - n (n.g)) / |A|; a zero A gives the constant (0, 0, 1) */
+        MfVec3 a = mf_v3(A[3 * i], A[3 * i + 1], A[3 * i + 2]), g = mf_v3(dnrm[3 * i], dnrm[3 * i + 1], dnrm[3 * i + 2]);
+        float l = mf_len(a);
+        MfVec3 d = mf_v3s(0.0f);
+        if (l > 0.0f) {
+            MfVec3 n = mf_scale(a, 1.0f / l);
+            d = mf_scale(mf_madd(g, n, -mf_dot(n, g)), 1.0f / l);
+        }
+        A[3 * i] = d.x;
+        A[3 * i + 1] = d.y;
+        A[3 * i + 2] = d.z;
+    }
+    for (int t = 0; t < m->nt; ++t) { /* dc_t = sum of dA at its corners; d(e1 x e2) = (e2 x g, g x e1) */
+        const uint32_t *f = m->tri + 3 * t;
+        MfVec3 g = mf_v3s(0.0f);
+        for (int k = 0; k < 3; ++k) g = mf_add(g, mf_v3(A[3 * f[k]], A[3 * f[k] + 1], A[3 * f[k] + 2]));
+        MfVec3 e1 = mf_sub(vtx(m, f[1]), vtx(m, f[0])), e2 = mf_sub(vtx(m, f[2]), vtx(m, f[0]));
+        MfVec3 g1 = mf_cross(e2, g), g2 = mf_cross(g, e1);
+        MfVec3 g0 = mf_neg(mf_add(g1, g2));
+        const MfVec3 gk[3] = {g0, g1, g2};
+        for (int k = 0; k < 3; ++k) {
+            dpos[3 * f[k]] += gk[k].x;
+            dpos[3 * f[k] + 1] += gk[k].y;
+            dpos[3 * f[k] + 2] += gk[k].z;
+        }
+    }
+    free(A);
+    return MF_OK;
+}
+
 void mf_mesh_bounds(const MfMesh *m, MfVec3 *lo, MfVec3 *hi) {
     MfVec3 a = mf_v3s(FLT_MAX), b = mf_v3s(-FLT_MAX);
     for (int i = 0; i < m->nv; ++i) {

@@ -26,6 +26,9 @@ int mf_mesh_alloc(MfMesh *m, int nv, int nt, int with_nrm, int with_uv);
 void mf_mesh_free(MfMesh *m);
 /* Area-weighted smooth vertex normals (allocates nrm if NULL). */
 int mf_mesh_compute_normals(MfMesh *m);
+/* Adjoint of mf_mesh_compute_normals at m's positions: dpos (nv, 3) += from dnrm (nv, 3),
+ * dLoss/d(the unit normals). Serial, deterministic. */
+int mf_mesh_normals_backward(const MfMesh *m, const float *dnrm, float *dpos);
 /* Axis-aligned bounds. */
 void mf_mesh_bounds(const MfMesh *m, MfVec3 *lo, MfVec3 *hi);
 /* Counts triangles with area below eps (degenerate). */

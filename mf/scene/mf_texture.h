@@ -17,5 +17,10 @@ void mf_tex_sample(const MfImage *tex, float u, float v, MfWrap wrap, float *out
 /* Adjoint of mf_tex_sample: dtex (h, w, c) += bilinear weights * dout (c,). Not thread-safe on
  * dtex: callers accumulate per thread and reduce. */
 void mf_tex_sample_backward(const MfImage *tex, float u, float v, MfWrap wrap, const float *dout, float *dtex);
+/* Gradient of <dout, mf_tex_sample(u, v)> with respect to (u, v), += into *du, *dv; dout (nc,),
+ * nc <= tex->c channels (the rest count as 0). Piecewise linear lookup: the derivative of the
+ * bilinear cell (u, v) lies in (zero where clamping holds the taps equal). */
+void mf_tex_sample_grad_uv(const MfImage *tex, float u, float v, MfWrap wrap, const float *dout, int nc, float *du,
+                           float *dv);
 
 #endif
