@@ -32,7 +32,8 @@ void mf_bake_point(const MfMesh *m, const int *tid, const float *bary, size_t i,
 int mf_bake_gutter(float *img, int res, int c, const int *tid, int gutter, const float *fill);
 
 /* Bakes the volume texture vol (c channels) onto m's UV layout: a (res, res, vol->c) image
- * (allocated into out) with gutter rings of dilation. Fails (out untouched) when m has no UVs. */
+ * (allocated into out) with gutter rings of dilation (zeros everywhere when no texel is covered).
+ * Fails (out untouched) when m has no UVs. */
 int mf_bake_volume(const MfMesh *m, const MfVoltex *vol, int res, int gutter, MfImage *out);
 
 #endif
