@@ -56,8 +56,9 @@ int mf_bake_gutter(float *img, int res, int c, const int *tid, int gutter, const
     size_t npx = (size_t)res * res;
     unsigned char *cov = malloc(npx), *nxt = malloc(npx);
     double *mean = calloc((size_t)c, sizeof *mean);
-    if (!cov || !nxt || !mean) {
-        free(cov), free(nxt), free(mean);
+    float *acc = malloc((size_t)c * sizeof *acc);
+    if (!cov || !nxt || !mean || !acc) {
+        free(cov), free(nxt), free(mean), free(acc);
         return mf_fail(MF_ENOMEM, "out of memory for baking");
     }
     for (size_t i = 0; i < npx; ++i) cov[i] = tid[i] >= 0;
@@ -68,24 +69,18 @@ int mf_bake_gutter(float *img, int res, int c, const int *tid, int gutter, const
                 size_t i = (size_t)y * res + x;
                 if (cov[i]) continue;
                 int cnt = 0;
-                for (int dy = -1; dy <= 1; ++dy)
+                for (int k = 0; k < c; ++k) acc[k] = 0.0f;
+                for (int dy = -1; dy <= 1; ++dy) /* neighbours summed in a fixed order */
                     for (int dx = -1; dx <= 1; ++dx) {
                         int xx = x + dx, yy = y + dy;
                         if ((!dx && !dy) || xx < 0 || yy < 0 || xx >= res || yy >= res) continue;
-                        cnt += cov[(size_t)yy * res + xx];
+                        size_t jn = (size_t)yy * res + xx;
+                        if (!cov[jn]) continue;
+                        for (int k = 0; k < c; ++k) acc[k] += img[(size_t)c * jn + k];
+                        ++cnt;
                     }
                 if (!cnt) continue;
-                for (int k = 0; k < c; ++k) { /* neighbours summed in a fixed order, per channel */
-                    float s = 0.0f;
-                    for (int dy = -1; dy <= 1; ++dy)
-                        for (int dx = -1; dx <= 1; ++dx) {
-                            int xx = x + dx, yy = y + dy;
-                            if ((!dx && !dy) || xx < 0 || yy < 0 || xx >= res || yy >= res) continue;
-                            size_t jn = (size_t)yy * res + xx;
-                            if (cov[jn]) s += img[(size_t)c * jn + k];
-                        }
-                    img[(size_t)c * i + k] = s / cnt;
-                }
+                for (int k = 0; k < c; ++k) img[(size_t)c * i + k] = acc[k] / cnt;
                 nxt[i] = 1;
             }
         memcpy(cov, nxt, npx);
@@ -103,6 +98,7 @@ int mf_bake_gutter(float *img, int res, int c, const int *tid, int gutter, const
     free(cov);
     free(nxt);
     free(mean);
+    free(acc);
     return MF_OK;
 }
 
