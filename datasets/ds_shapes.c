@@ -9,6 +9,7 @@
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "core/mf_rng.h"
+#include "geom/mf_bake.h"
 #include "io/mf_json.h"
 #include "io/mf_obj.h"
 
@@ -766,36 +767,8 @@ static int bake(DsObject *o, int res, int gutter) {
     int rc = MF_OK;
     if (!tid || !bary) { rc = mf_fail(MF_ENOMEM, "out of memory for baking"); goto done; }
     if ((rc = mf_image_alloc(&kd, res, res, 3)) || (rc = mf_image_alloc(&orm, res, res, 3))) goto done;
-    for (size_t i = 0; i < npx; ++i) tid[i] = -1;
-    /* 1. rasterise UV footprints (serial, deterministic: the later triangle wins on shared edges) */
-    for (int t = 0; t < m->nt; ++t) {
-        const uint32_t *f = m->tri + 3 * t;
-        float X[3], Y[3];
-        for (int k = 0; k < 3; ++k) {
-            X[k] = m->uv[2 * f[k]] * (float)res;
-            Y[k] = (1.0f - m->uv[2 * f[k] + 1]) * (float)res;
-        }
-        float den = (X[1] - X[0]) * (Y[2] - Y[0]) - (X[2] - X[0]) * (Y[1] - Y[0]);
-        if (fabsf(den) < 1e-12f) continue;
-        int x0 = (int)floorf(fminf(X[0], fminf(X[1], X[2]))), x1 = (int)ceilf(fmaxf(X[0], fmaxf(X[1], X[2])));
-        int y0 = (int)floorf(fminf(Y[0], fminf(Y[1], Y[2]))), y1 = (int)ceilf(fmaxf(Y[0], fmaxf(Y[1], Y[2])));
-        if (x0 < 0) x0 = 0;
-        if (y0 < 0) y0 = 0;
-        if (x1 > res - 1) x1 = res - 1;
-        if (y1 > res - 1) y1 = res - 1;
-        for (int y = y0; y <= y1; ++y)
-            for (int x = x0; x <= x1; ++x) {
-                float px = (float)x + 0.5f, py = (float)y + 0.5f;
-                float b1 = ((px - X[0]) * (Y[2] - Y[0]) - (X[2] - X[0]) * (py - Y[0])) / den;
-                float b2 = ((X[1] - X[0]) * (py - Y[0]) - (px - X[0]) * (Y[1] - Y[0])) / den;
-                float b0 = 1.0f - b1 - b2;
-                if (b0 < -1e-5f || b1 < -1e-5f || b2 < -1e-5f) continue;
-                size_t i = (size_t)y * res + x;
-                tid[i] = t;
-                bary[2 * i] = b1;
-                bary[2 * i + 1] = b2;
-            }
-    }
+    /* 1. rasterise UV footprints (mf_bake_raster: serial, the later triangle wins on shared edges) */
+    if ((rc = mf_bake_raster(m, res, tid, bary))) goto done;
     /* 2. evaluate materials at the 3D surface points (parallel over texels, pure functions) */
 #pragma omp parallel for schedule(dynamic, 4)
     for (int y = 0; y < res; ++y)
@@ -804,13 +777,9 @@ static int bake(DsObject *o, int res, int gutter) {
             float *ok = kd.data + 3 * i, *oo = orm.data + 3 * i;
             oo[0] = 1.0f;
             if (tid[i] < 0) continue;
-            const uint32_t *f = m->tri + 3 * tid[i];
-            float w[3] = {1.0f - bary[2 * i] - bary[2 * i + 1], bary[2 * i], bary[2 * i + 1]};
-            MfVec3 p = mf_v3s(0.0f), n = mf_v3s(0.0f);
-            for (int k = 0; k < 3; ++k) {
-                p = mf_madd(p, mf_v3(m->pos[3 * f[k]], m->pos[3 * f[k] + 1], m->pos[3 * f[k] + 2]), w[k]);
-                n = mf_madd(n, mf_v3(m->nrm[3 * f[k]], m->nrm[3 * f[k] + 1], m->nrm[3 * f[k] + 2]), w[k]);
-            }
+            float pp[3], nn[3];
+            mf_bake_point(m, tid, bary, i, pp, nn);
+            MfVec3 p = mf_v3(pp[0], pp[1], pp[2]), n = mf_v3(nn[0], nn[1], nn[2]);
             const DsPart *part = &o->parts[m->mat[tid[i]]];
             MfVec3 lp = mf_mat4_point(&part->obj_to_local, p), ln = mf_norm(mf_mat4_dir(&part->obj_to_local, n));
             MfVec3 c;
@@ -819,48 +788,10 @@ static int bake(DsObject *o, int res, int gutter) {
             ok[0] = c.x; ok[1] = c.y; ok[2] = c.z;
             oo[1] = r; oo[2] = mt;
         }
-    /* 3. gutter: dilate `gutter` rings (average of covered 8-neighbours from the previous ring) */
-    {
-        unsigned char *cov = malloc(npx), *nxt = malloc(npx);
-        if (!cov || !nxt) { free(cov); free(nxt); rc = mf_fail(MF_ENOMEM, "out of memory for baking"); goto done; }
-        for (size_t i = 0; i < npx; ++i) cov[i] = tid[i] >= 0;
-        for (int g = 0; g < gutter; ++g) {
-            memcpy(nxt, cov, npx);
-            for (int y = 0; y < res; ++y)
-                for (int x = 0; x < res; ++x) {
-                    size_t i = (size_t)y * res + x;
-                    if (cov[i]) continue;
-                    float sk[3] = {0, 0, 0}, so[3] = {0, 0, 0};
-                    int cnt = 0;
-                    for (int dy = -1; dy <= 1; ++dy)
-                        for (int dx = -1; dx <= 1; ++dx) {
-                            int xx = x + dx, yy = y + dy;
-                            if ((!dx && !dy) || xx < 0 || yy < 0 || xx >= res || yy >= res) continue;
-                            size_t jn = (size_t)yy * res + xx;
-                            if (!cov[jn]) continue;
-                            for (int k = 0; k < 3; ++k) { sk[k] += kd.data[3 * jn + k]; so[k] += orm.data[3 * jn + k]; }
-                            ++cnt;
-                        }
-                    if (!cnt) continue;
-                    for (int k = 0; k < 3; ++k) { kd.data[3 * i + k] = sk[k] / cnt; orm.data[3 * i + k] = so[k] / cnt; }
-                    nxt[i] = 1;
-                }
-            memcpy(cov, nxt, npx);
-        }
-        /* the rest: mean of covered texels */
-        double mk[3] = {0, 0, 0}, mo[3] = {0, 0, 0};
-        size_t nc = 0;
-        for (size_t i = 0; i < npx; ++i)
-            if (tid[i] >= 0) { for (int k = 0; k < 3; ++k) { mk[k] += kd.data[3 * i + k]; mo[k] += orm.data[3 * i + k]; } ++nc; }
-        for (size_t i = 0; i < npx; ++i)
-            if (!cov[i])
-                for (int k = 0; k < 3; ++k) {
-                    kd.data[3 * i + k] = nc ? (float)(mk[k] / nc) : 0.5f;
-                    orm.data[3 * i + k] = nc ? (float)(mo[k] / nc) : (k == 0 ? 1.0f : 0.5f);
-                }
-        free(cov);
-        free(nxt);
-    }
+    /* 3. gutter: `gutter` rings of dilation, then the mean of the covered texels */
+    static const float kd_fill[3] = {0.5f, 0.5f, 0.5f}, orm_fill[3] = {1.0f, 0.5f, 0.5f};
+    if ((rc = mf_bake_gutter(kd.data, res, 3, tid, gutter, kd_fill)) || (rc = mf_bake_gutter(orm.data, res, 3, tid, gutter, orm_fill)))
+        goto done;
     o->kd = kd;
     o->orm = orm;
     kd.data = orm.data = NULL;

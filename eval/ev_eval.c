@@ -10,6 +10,7 @@
 #include "core/mf_log.h"
 #include "core/mf_rng.h"
 #include "datasets/ds_load.h"
+#include "eval/ev_geom.h"
 #include "eval/ev_metrics.h"
 #include "eval/ev_orb.h"
 #include "io/mf_gltf_read.h"
@@ -192,6 +193,32 @@ static int score_novel_views(const DsViews *dv, const EvResult *res, const MfRtS
     return rc;
 }
 
+/* Geometry against the scene's GT mesh (issue 14 item 11): Stanford-ORB Chamfer and point-pair
+ * normal error (ev_geom_score, EV_GEOM_SAMPLES area samples), and over the test cameras the
+ * image-space normal error and mask IoU (ev_geom_views). Nothing when the scene has no GT mesh;
+ * a failure (an unreadable GT mesh, a mesh without area) is logged by the caller, not fatal. */
+static int score_geometry(const DsViews *dv, const MfMesh *pred, const EvEvalOpts *o, EvTable *t, const char *method,
+                          const char *dataset, const char *scene) {
+    if (!dv->mesh_path[0] || dv->n < 1) return MF_OK;
+    MfMesh gt;
+    int rc = mf_mesh_read(dv->mesh_path, &gt);
+    if (rc) return rc;
+    MfCamera *cams = malloc(sizeof *cams * (size_t)dv->n);
+    EvGeomScore gs;
+    EvGeomViews gv;
+    if (!cams) rc = mf_fail(MF_ENOMEM, "out of memory for %d cameras", dv->n);
+    for (int i = 0; !rc && i < dv->n; ++i) cams[i] = dv->views[i].cam;
+    if (!rc) rc = ev_geom_score(&gt, pred, EV_GEOM_SAMPLES, o->seed, &gs);
+    if (!rc) rc = ev_geom_views(&gt, pred, cams, dv->n, &gv);
+    if (!rc) rc = ev_table_add(t, method, dataset, scene, "geom_chamfer", gs.chamfer);
+    if (!rc) rc = ev_table_add(t, method, dataset, scene, "geom_normal_deg", gs.normal_deg);
+    if (!rc) rc = ev_table_add(t, method, dataset, scene, "geom_view_normal_deg", gv.normal_deg);
+    if (!rc) rc = ev_table_add(t, method, dataset, scene, "geom_mask_iou", gv.mask_iou);
+    free(cams);
+    mf_mesh_free(&gt);
+    return rc;
+}
+
 int ev_eval_scene(const char *scene_dir, const char *result_dir, const char *method, const char *dataset,
                   const char *scene, const EvEvalOpts *o, EvTable *t, FILE *csv, int *excluded) {
     EvResult res;
@@ -312,6 +339,10 @@ int ev_eval_scene(const char *scene_dir, const char *result_dir, const char *met
     Acc nv = {{0}, 0};
     if (!rc && !flat && !grey && dv.n_relight == 0 && !alb.n && !orm.n)
         rc = score_novel_views(&dv, &res, rt, &mat, &ro, o->align, csv, method, dataset, scene, &nv, &bad);
+    if (!rc && !flat && !grey && !o->no_geom && score_geometry(&dv, &res.mesh, o, t, method, dataset, scene)) {
+        mf_log_warn("%s: geometry not scored: %s", scene, mf_error()); /* the other scores stand */
+        mf_error_clear();
+    }
     if (!rc) {
         static const char *names[7] = {"psnr", "ssim", "l1", "flip", "psnr_masked", "ssim_masked", "l1_masked"};
         const Acc *accs[4] = {&relit, &alb, &orm, &nv};

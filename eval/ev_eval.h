@@ -21,7 +21,12 @@
  * Per-view rows go to a CSV; per-scene means become EvTable records (metric names:
  * relit_psnr, relit_ssim, relit_l1, relit_flip, relit_psnr_masked, albedo_psnr, albedo_ssim,
  * albedo_l1, orm_psnr, orm_l1, orm3_psnr). A view whose score cannot be computed (e.g. an
- * empty mask) is excluded and counted, never turned into a NaN. */
+ * empty mask) is excluded and counted, never turned into a NaN.
+ * Geometry (issue 14), when the scene has a GT mesh (DsViews.mesh_path) and unless no_geom: the
+ * result's mesh against it, per scene only: geom_chamfer (Stanford-ORB Chamfer x 1e3, GT vertices
+ * vs EV_GEOM_SAMPLES area samples of the result), geom_normal_deg (the same point pairs),
+ * geom_view_normal_deg and geom_mask_iou (normal maps and masks ray-cast from the scored test
+ * cameras; eval/ev_geom.h). A method that keeps the given mesh scores about 0 / 0 / 0 / 1. */
 #ifndef EV_EVAL_H
 #define EV_EVAL_H
 
@@ -51,6 +56,9 @@ typedef struct {
 int ev_result_load(const char *dir, const char *mesh_path, EvResult *out);
 void ev_result_free(EvResult *r);
 
+/* Area samples of the result mesh for geom_chamfer (Stanford-ORB uses 30000). */
+#define EV_GEOM_SAMPLES 30000
+
 typedef struct {
     int spp_sqrt, pixel_samples; /* relighting render quality */
     EvAlign align;
@@ -59,6 +67,7 @@ typedef struct {
     int max_lights; /* 0: all relighting lights */
     const char *mesh_path; /* NULL: the result folder's mesh.obj */
     const char *mask;      /* NULL: the images' alpha; else DsLoadOptions.mask_dir (e.g. "masks": <scene>/masks/) */
+    int no_geom;           /* 1: skip the geometry records (geom_*) */
 } EvEvalOpts;
 
 /* Trivial guesses that every method must beat (pass as result_dir, with the scene's GT):

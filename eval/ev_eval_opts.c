@@ -12,6 +12,7 @@ static const MfOpt k_opts[] = {
     MF_OPT_INT(E, max_views, 0, 0, 1000000, "score at most N test views per scene (0: all)"),
     MF_OPT_STR(E, mask, NULL, "masks for test frames without alpha: DIR/<frame name>.png; a relative DIR is inside each scene",
                .unset = "the images' alpha; RGB frames: alpha 1 with a warning", .meta = "DIR"),
+    MF_OPT_BOOL(E, no_geom, 0, "skip the geometry columns (Chamfer, normal error, mask IoU against the scene's GT mesh)"),
 };
 #undef E
 const MfOptTable ev_eval_opt_table = MF_OPT_TABLE("Protocol options", k_opts);

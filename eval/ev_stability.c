@@ -219,6 +219,7 @@ static void score_recon(const char *scene, const char *out, EvStabResult *r) {
     EvTable t;
     ev_table_init(&t);
     EvEvalOpts o = ev_eval_opts_default();
+    o.no_geom = 1; /* only the material scores are read */
     int excluded = 0;
     static const char *metric[3] = {"relit_psnr", "albedo_psnr", "orm_psnr"};
     if (ev_eval_scene(scene, out, "m", "stability", "000_cup", &o, &t, NULL, &excluded) == MF_OK)

@@ -40,7 +40,7 @@ int ev_table_add(EvTable *t, const char *method, const char *dataset, const char
     return MF_OK;
 }
 
-int ev_metric_higher_better(const char *metric) { return strstr(metric, "psnr") || strstr(metric, "ssim"); }
+int ev_metric_higher_better(const char *metric) { return strstr(metric, "psnr") || strstr(metric, "ssim") || strstr(metric, "iou"); }
 
 EvStat ev_table_stat(const EvTable *t, const char *method, const char *dataset, const char *metric) {
     EvStat s = {0.0, 0.0, 0};

@@ -6,7 +6,7 @@
  * column group per dataset, one column per metric; in each column the best, second and third
  * methods are marked (Markdown: **bold**, _italic_, <u>underline</u>; LaTeX: \cellcolor{tabfirst},
  * {tabsecond}, {tabthird} as the paper's preamble defines them). Whether higher is better is
- * known per metric name (names containing psnr or ssim: higher; l1, flip, time, mem: lower).
+ * known per metric name (names containing psnr, ssim or iou: higher; l1, flip, time, mem: lower).
  * Non-finite values are refused at ev_table_add: a NaN never reaches a table. */
 #ifndef EV_TABLE_H
 #define EV_TABLE_H

@@ -33,6 +33,7 @@ static const char k_usage_head[] =
     "metallic, no scaling; orm3 adds a constant R channel). Metrics: PSNR, SSIM, L1, FLIP (LPIPS is\n"
     "not computed: it needs pretrained weights that cannot be obtained here). Writes REPORT_DIR/\n"
     "per_view.csv, scenes.csv, relight.{md,tex}, materials.{md,tex}, cost.md, runs.md (provenance), speed_error.png,\n"
+    "geometry.{md,tex} (scenes with a GT mesh: Chamfer x1e3 as Stanford-ORB, normal error, test-view mask IoU; --no-geom skips),\n"
     "paired.{md,csv} (every method minus the first over the shared scenes: mean, 95% CI, wins, paired\n"
     "t-test and sign-test p; mf compare recomputes it for another reference) and index.html. Methods default to every folder in RESULTS_DIR. --trivial adds two guesses every\n"
     "method must beat: trivial-grey (albedo 0.5 on the GT mesh under the true light) and\n"
