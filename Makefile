@@ -164,8 +164,8 @@ bench-render: $(BUILD)/mf
 # are then not disturbed by the other processes of a shared machine.
 NN_1THREAD := OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1
 bench-nn: $(BUILD)/mf
-	$(NN_1THREAD) ./$(BUILD)/mf bench-nn --batch 16 --channels 64 --size 16 --groups 8 -o reports/perf/nn-c64-16x16.md
-	$(NN_1THREAD) ./$(BUILD)/mf bench-nn --batch 16 --channels 128 --size 8 --groups 8 -o reports/perf/nn-c128-8x8.md
+	$(NN_1THREAD) ./$(BUILD)/mf bench-nn --batch 16 --channels 64 --size 16 --groups 8 --reps 30 -o reports/perf/nn-c64-16x16.md
+	$(NN_1THREAD) ./$(BUILD)/mf bench-nn --batch 16 --channels 128 --size 8 --groups 8 --reps 30 -o reports/perf/nn-c128-8x8.md
 # oneDNN's convolution against ours (tools/onednn_conv_bench.c). Optional: needs Debian's
 # libdnnl-dev, which make deps does not install and nothing else uses.
 bench-nn-onednn: $(BUILD)/libmf.a

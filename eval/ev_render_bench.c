@@ -147,6 +147,7 @@ int ev_render_bench(const MfRenderInput *in, const MfCamera *cam, const MfRender
         return mf_fail(MF_ENOMEM, "out of memory");
     }
     *r = (EvRenderBench){0};
+    getloadavg(&r->load[0], 1);
     RTCScene scene = (RTCScene)mf_rtscene_handle(in->rt);
     MfProgress prog;
     mf_progress_begin(&prog, "render + bare replay", (size_t)H);
@@ -183,6 +184,7 @@ int ev_render_bench(const MfRenderInput *in, const MfCamera *cam, const MfRender
     for (int v = 1; v < EV_NREPLAY; ++v)
         if (r->t_api[v] < r->t_api[r->best]) r->best = v;
     r->t_bare = r->t_api[r->best], r->c_bare = r->c_api[r->best], r->checksum = r->sum_api[0];
+    getloadavg(&r->load[1], 1);
     for (int v = 1; v < EV_NREPLAY && !rc; ++v)
         if (r->sum_api[v] != r->sum_api[0])
             rc = mf_fail(MF_EEXT, "bench-render: the %s replay's checksum %ld differs from %s's %ld", ev_replay_names[v],

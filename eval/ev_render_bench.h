@@ -22,6 +22,7 @@ typedef struct {
     double t_api[EV_NREPLAY], c_api[EV_NREPLAY]; /* wall and CPU seconds of each API's replay */
     long sum_api[EV_NREPLAY];   /* each replay's checksum (equal, else ev_render_bench fails) */
     int best;                   /* the fastest replay (EV_REPLAY_*) */
+    double load[2];             /* the machine's 1-minute load average at the start and the end */
     long n_primary, n_shadow;   /* rays the renderer traced */
     long checksum;              /* bare replay: primary hits + occluded shadow rays */
     double coverage;            /* mean alpha of the image */

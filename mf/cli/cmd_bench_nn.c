@@ -169,7 +169,9 @@ static int write_report(const BenchNnArgs *a, int G, int nb, const double *t, co
     int B = a->batch, C = a->channels, S = a->size, NG = a->gemm, reps = a->reps;
     int blas_threads = openblas_get_num_threads(), omp_threads = omp_get_max_threads();
     int P = S * S, CKK = C * 9;
-    const double *t_sq = t, *t_sh = t + reps, *t_cg = t + 2 * reps, *t_conv = t + 3 * reps, *t_res = t + 4 * reps;
+    double load = 0.0;
+    getloadavg(&load, 1);
+    const double *t_sq = tc, *t_sh = tc + reps, *t_cg = tc + 2 * reps, *t_conv = tc + 3 * reps, *t_res = tc + 4 * reps;
     double f_sq = 2.0 * NG * NG * (double)NG, f_sh = 2.0 * C * (double)P * CKK;
     double f_conv = 3.0 * 2.0 * B * C * (double)P * CKK; /* forward, dW, dX */
     /* resblock FLOPs: its two 3x3 convs and the time projection, forward + both backward GEMMs */
@@ -187,9 +189,10 @@ static int write_report(const BenchNnArgs *a, int G, int nb, const double *t, co
     char md[4096];
     snprintf(md, sizeof md,
              "# mf bench-nn\n\n"
-             "OpenBLAS threads %d, OpenMP threads %d; %d interleaved rounds after one warm-up. GFLOP/s: best\n"
-             "round (wall); ratios: the median over rounds of each round's ratio of CPU seconds (with one\n"
-             "thread, not affected by other processes' load), of wall seconds, and the ratio of the best\n"
+             "OpenBLAS threads %d, OpenMP threads %d; %d interleaved rounds after one warm-up. GFLOP/s and\n"
+             "seconds: the best round's CPU seconds; ratios: the median over rounds of each round's ratio of\n"
+             "CPU seconds (with one thread, not counting the time other processes hold the core; their cache\n"
+             "traffic still counts), of wall seconds, and the ratio of the best\n"
              "rounds' wall seconds.\n\n"
              "| measurement | shape | GFLOP/s |\n|---|---|---|\n"
              "| sgemm (reference) | %d x %d x %d | %.1f |\n"
