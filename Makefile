@@ -21,7 +21,7 @@ NATIVE   ?= 0
 ifeq ($(NATIVE),1)
 BUILD    ?= build-native
 ARCH     := -march=native
-NATIVE_CPU := $(shell $(or $(CC),cc) -march=native -E -v - </dev/null 2>&1 | grep -m1 cc1 | grep -o -- '-m[a-z0-9=.-]*' | sort | md5sum | cut -c1-32)
+NATIVE_CPU := $(shell $(CC) -march=native -E -v - </dev/null 2>&1 | grep -m1 cc1 | grep -o -- '-m[a-z0-9=.-]*' | sort | md5sum | cut -c1-32)
 $(shell mkdir -p $(BUILD) && { [ "$$(cat $(BUILD)/cpu 2>/dev/null)" = "$(NATIVE_CPU)" ] || { rm -rf $(BUILD)/obj $(BUILD)/*.a $(BUILD)/mf $(BUILD)/mf_tests; echo "$(NATIVE_CPU)" > $(BUILD)/cpu; }; })
 else
 BUILD    ?= build

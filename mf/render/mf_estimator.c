@@ -294,9 +294,8 @@ static int shade(Shading *sh, MfVec3 ns, MfVec3 ns_s, int sep, MfRng *rng, MfRay
             visible_n(e, h, na, dir, vis, log);
             int nv = 0;
             for (int a = 0; a < na; ++a)
-                if (vis[a]) acc[nv++] = acc[a];
+                if (vis[a]) acc[nv] = acc[a], dir[nv++] = dir[a];
             na = nv;
-            for (int a = 0; a < na; ++a) dir[a] = acc[a].wi_w;
             mf_env_eval_pdf_n(env, na, dir, Ls, NULL);
             for (int a = 0; a < na; ++a) contribute(sh, acc[a].wi, acc[a].wi_w, &acc[a].f, acc[a].p, Ls[a], 1);
         }
