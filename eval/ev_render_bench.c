@@ -3,7 +3,6 @@
 
 #include <embree3/rtcore.h>
 #include <stdlib.h>
-#include <time.h>
 
 #include "core/mf_error.h"
 #include "core/mf_log.h"
@@ -130,13 +129,6 @@ static const ReplayFn k_replay[EV_NREPLAY] = {replay_single, replay_packets, rep
 const char *const ev_replay_names[EV_NREPLAY] = {"rtcIntersect1 / rtcOccluded1", "rtcIntersect16 / rtcOccluded16 packets",
                                                  "rtcIntersect1M / rtcOccluded1M streams"};
 
-/* CPU seconds of all threads of this process (robust to other processes' load). */
-static double cpu_now(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 int ev_render_bench(const MfRenderInput *in, const MfCamera *cam, const MfRenderOpts *o, MfRenderOut *out, EvRenderBench *r) {
     int W = cam->w, H = cam->h, rc = mf_render_out_alloc(out, W, H);
     if (rc) return rc;
@@ -153,10 +145,10 @@ int ev_render_bench(const MfRenderInput *in, const MfCamera *cam, const MfRender
     mf_progress_begin(&prog, "render + bare replay", (size_t)H);
     for (int y0 = 0; y0 < H && !rc; y0 += CHUNK) {
         int y1 = y0 + CHUNK < H ? y0 + CHUNK : H;
-        double t0 = mf_now(), c0 = cpu_now();
+        double t0 = mf_now(), c0 = mf_cpu_now();
         rc = mf_render_rows(in, cam, o, y0, y1, out, NULL, NULL);
         r->t_render += mf_now() - t0;
-        r->c_render += cpu_now() - c0;
+        r->c_render += mf_cpu_now() - c0;
         for (int k = 0; k < CHUNK; ++k) logs[k].n = 0;
         if (!rc) rc = mf_render_rows(in, cam, o, y0, y1, out, logs, NULL);
         if (rc) break;
@@ -167,12 +159,12 @@ int ev_render_bench(const MfRenderInput *in, const MfCamera *cam, const MfRender
             }
         for (int v = 0; v < EV_NREPLAY; ++v) {
             ReplayFn fn = k_replay[v];
-            double t1 = mf_now(), c1 = cpu_now();
+            double t1 = mf_now(), c1 = mf_cpu_now();
             long acc = 0;
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : acc)
             for (int k = 0; k < y1 - y0; ++k) acc += fn(scene, &logs[k]);
             r->t_api[v] += mf_now() - t1;
-            r->c_api[v] += cpu_now() - c1;
+            r->c_api[v] += mf_cpu_now() - c1;
             r->sum_api[v] += acc;
         }
         mf_progress_add(&prog, (size_t)(y1 - y0));

@@ -16,8 +16,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
+#include "core/mf_log.h"
 #include "nn/mf_nn.h"
 
 #define CHECK(x)                                                                  \
@@ -28,12 +28,6 @@
             exit(1);                                                              \
         }                                                                         \
     } while (0)
-
-static double cpu_now(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 static float *fill(size_t n, float s) {
     float *p = malloc(n * sizeof(float));
@@ -120,18 +114,18 @@ static void bench_shape(dnnl_engine_t eng, dnnl_stream_t st, Shape sh, int round
     double *t = malloc(3 * (size_t)(rounds + 1) * sizeof *t), *q = malloc(2 * (size_t)rounds * sizeof *q);
     if (!t || !q) exit(1);
     for (int r = 0; r <= rounds; ++r) { /* round 0: warm-up */
-        double c0 = cpu_now();
+        double c0 = mf_cpu_now();
         cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, 1024, 1024, 1024, 1.0f, ga, 1024, gb, 1024, 0.0f, gc, 1024);
-        double c1 = cpu_now();
+        double c1 = mf_cpu_now();
         memset(din_m, 0, nact * sizeof(float)), memset(dw_m, 0, nw * sizeof(float)), memset(db_m, 0, (size_t)C * sizeof(float));
         mf_conv2d_forward(out_m, col, in, w, bias, B, C, S, S, C, 3, 1);
         mf_conv2d_backward(din_m, dw_m, db_m, col, dout, in, w, B, C, S, S, C, 3, 1);
-        double c2 = cpu_now();
+        double c2 = mf_cpu_now();
         CHECK(dnnl_primitive_execute(d.fwd, st, 4, af));
         CHECK(dnnl_primitive_execute(d.bwd_d, st, 3, abd));
         CHECK(dnnl_primitive_execute(d.bwd_w, st, 4, abw));
         CHECK(dnnl_stream_wait(st));
-        double c3 = cpu_now();
+        double c3 = mf_cpu_now();
         t[3 * r] = c1 - c0, t[3 * r + 1] = c2 - c1, t[3 * r + 2] = c3 - c2;
     }
     double fs = 2.0 * 1024 * 1024 * 1024, fc = 3.0 * 2.0 * B * C * (double)P * CKK;

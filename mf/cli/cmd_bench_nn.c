@@ -8,7 +8,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #include "cli/mf_cli.h"
 #include "core/mf_error.h"
@@ -39,17 +38,11 @@ __attribute__((constructor)) static void bench_nn_usage(void) {
     const MfOptTable *t[] = {&k_args_table};
     mf_opts_usage_text(usage, sizeof usage,
                        "usage: mf bench-nn [-o out.md] [--batch B] [--channels C] [--size S] [--gemm N] [--reps R]\n"
-                       "  Measures OpenBLAS sgemm GFLOP/s (N x N x N) and conv2d 3x3 stride 1 forward+backward\n"
-                       "  GFLOP/s on a (B, C, S, S) -> (B, C, S, S) layer, best of R interleaved rounds, and writes\n"
-                       "  a markdown table to -o.\n",
+                       "  Measures OpenBLAS sgemm GFLOP/s (N x N x N), conv2d 3x3 stride 1 forward+backward and\n"
+                       "  a residual block on a (B, C, S, S) -> (B, C, S, S) layer, and the conv's own GEMMs alone,\n"
+                       "  in R interleaved rounds (ratios: medians of the rounds' ratios), and writes a markdown\n"
+                       "  table to -o.\n",
                        t, 1, NULL);
-}
-
-/* CPU seconds of all threads of this process. */
-static double cpu_now(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
 /* Wall and CPU seconds t[f * reps + r], tc[...] of function f in round r; each round times every
@@ -60,9 +53,9 @@ static void round_times(int nfn, BenchFn *fns, void **ctxs, int reps, double *t,
     for (int f = 0; f < nfn; ++f) fns[f](ctxs[f]);
     for (int r = 0; r < reps; ++r)
         for (int f = 0; f < nfn; ++f) {
-            double t0 = mf_now(), c0 = cpu_now();
+            double t0 = mf_now(), c0 = mf_cpu_now();
             fns[f](ctxs[f]);
-            tc[f * reps + r] = cpu_now() - c0;
+            tc[f * reps + r] = mf_cpu_now() - c0;
             t[f * reps + r] = mf_now() - t0;
         }
 }
