@@ -4,13 +4,29 @@
 #   make test        build and run the test suite (last line: N passed, N failed, N skipped)
 #   make asan        the test suite under AddressSanitizer + UBSan
 #   make bench-render  renderer throughput vs a bare Embree loop -> reports/perf/
-# BUILD=dir selects the build folder (default build; asan uses build-asan).
+#   make bench-nn      conv / residual block vs OpenBLAS sgemm -> reports/perf/ (bench-nn-onednn: vs oneDNN)
+# BUILD=dir selects the build folder (default build; asan uses build-asan; NATIVE=1 build-native).
+#   make NATIVE=1    compile for this machine's CPU (-march=native) into build-native/ (below)
 
 DEB_PACKAGES := build-essential pkg-config libembree-dev libopenimageio-dev libopenexr-dev \
   libgsl-dev libcjson-dev libopenblas-dev povray blender-data python3-skimage python3-numpy \
   gnuplot-nox libmeshoptimizer-dev slurm-wlm munge
 
+# NATIVE=1: -march=native (this CPU's AVX2 / AVX-512 in our own loops) in its own folder. Such a
+# build runs only on CPUs with the same instructions, so it is never the default and never
+# shipped: $(BUILD)/cpu holds the flags gcc's -march=native resolves to here, and a NATIVE build
+# on a machine whose flags differ (a shared checkout, a copied folder) starts from scratch.
+# The default build targets plain x86-64 (-march=x86-64), so its binaries run on any x86-64 CPU.
+NATIVE   ?= 0
+ifeq ($(NATIVE),1)
+BUILD    ?= build-native
+ARCH     := -march=native
+NATIVE_CPU := $(shell $(CC) -march=native -E -v - </dev/null 2>&1 | grep -m1 cc1 | grep -o -- '-m[a-z0-9=.-]*' | sort | md5sum | cut -c1-32)
+$(shell mkdir -p $(BUILD) && { [ "$$(cat $(BUILD)/cpu 2>/dev/null)" = "$(NATIVE_CPU)" ] || { rm -rf $(BUILD)/obj $(BUILD)/*.a $(BUILD)/mf $(BUILD)/mf_tests; echo "$(NATIVE_CPU)" > $(BUILD)/cpu; }; })
+else
 BUILD    ?= build
+ARCH     := -march=x86-64
+endif
 # OpenMP threads sleep instead of spinning between parallel regions, so they do not fight
 # OpenBLAS's threads on 2 cores (measured: up to 10x slower conv/sgemm with spinning threads).
 export OMP_WAIT_POLICY ?= passive
@@ -21,8 +37,8 @@ SAN      ?=
 WARN     := -Wall -Wextra -Wno-unused-parameter
 INCLUDES := -Imf -I. -I$(BUILD)/gen -I/usr/include/OpenEXR -I/usr/include/Imath -I/usr/include/cjson \
             -I/usr/include/x86_64-linux-gnu/openblas-pthread
-CFLAGS   += -std=c17 $(OPT) -g $(WARN) -fopenmp -D_GNU_SOURCE $(SAN) $(INCLUDES) -MMD -MP
-CXXFLAGS += -std=c++17 $(OPT) -g $(WARN) $(SAN) $(INCLUDES) -MMD -MP
+CFLAGS   += -std=c17 $(OPT) $(ARCH) -g $(WARN) -fopenmp -D_GNU_SOURCE $(SAN) $(INCLUDES) -MMD -MP
+CXXFLAGS += -std=c++17 $(OPT) $(ARCH) -g $(WARN) $(SAN) $(INCLUDES) -MMD -MP
 LDLIBS   := -lembree3 -lOpenImageIO -lOpenImageIO_Util -lOpenEXRCore-3_1 -lImath-3_1 \
             -lcjson -lgsl -lmeshoptimizer -L/usr/lib/x86_64-linux-gnu/openblas-pthread -lopenblas \
             -lstdc++ -lm -lpthread
@@ -40,7 +56,7 @@ LIB_OBJ  := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
 CLI_OBJ  := $(CLI_C:%.c=$(BUILD)/obj/%.o)
 TEST_OBJ := $(TEST_C:%.c=$(BUILD)/obj/%.o)
 
-.PHONY: FORCE all deps deps-node deps-fuzz bench-asset fuzz fuzz-lib fuzz-seeds test check-deps asan bench-geom bench-render bench-baseline bench-prior bench-quick bench bench-split bench-runs bench-external recon-runs train-prior train-prior-wide eval-prior bench-domain bench-matrix bench-stability test-slurm clean
+.PHONY: FORCE all deps deps-node deps-fuzz bench-asset fuzz fuzz-lib fuzz-seeds test check-deps asan bench-geom bench-render bench-nn bench-nn-onednn bench-baseline bench-prior bench-quick bench bench-split bench-runs bench-external recon-runs train-prior train-prior-wide eval-prior bench-domain bench-matrix bench-stability test-slurm clean
 all: $(BUILD)/mf $(BUILD)/mf_tests
 
 deps:
@@ -154,6 +170,20 @@ asan:
 
 bench-render: $(BUILD)/mf
 	./$(BUILD)/mf bench-render -o reports/perf/render.md
+
+# The network's convolution and residual block against OpenBLAS sgemm at the prior's denoiser
+# shapes (batch 16, 8 groups; mf/prior/weights/prior.mfck), on one thread: ratios of CPU seconds
+# are then not disturbed by the other processes of a shared machine.
+NN_1THREAD := OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1
+bench-nn: $(BUILD)/mf
+	$(NN_1THREAD) ./$(BUILD)/mf bench-nn --batch 16 --channels 64 --size 16 --groups 8 --reps 30 -o reports/perf/nn-c64-16x16.md
+	$(NN_1THREAD) ./$(BUILD)/mf bench-nn --batch 16 --channels 128 --size 8 --groups 8 --reps 30 -o reports/perf/nn-c128-8x8.md
+# oneDNN's convolution against ours (tools/onednn_conv_bench.c). Optional: needs Debian's
+# libdnnl-dev, which make deps does not install and nothing else uses.
+bench-nn-onednn: $(BUILD)/libmf.a
+	@[ -f /usr/include/oneapi/dnnl/dnnl.h ] || { echo "bench-nn-onednn: oneDNN not found (apt-get install libdnnl-dev)"; exit 1; }
+	$(CC) $(CFLAGS) -o $(BUILD)/onednn_conv_bench tools/onednn_conv_bench.c $(BUILD)/libmf.a $(LDLIBS) -ldnnl
+	$(NN_1THREAD) ./$(BUILD)/onednn_conv_bench > reports/perf/nn-onednn.md.tmp && mv reports/perf/nn-onednn.md.tmp reports/perf/nn-onednn.md
 
 # ---- data sets and benchmarks (generated data in $(DATA), method outputs in $(RESULTS)) ----
 DATA        ?= data

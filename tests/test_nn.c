@@ -780,10 +780,12 @@ MF_TEST(nn_bench_cli_writes_report) {
     char *md = NULL;
     size_t len = 0;
     CHECK_OK(mf_read_file(out, &md, &len));
-    CHECK(md && strstr(md, "conv2d / sgemm ratio") && strstr(md, "B=1 C=4->4 8x8"));
+    CHECK(md && strstr(md, "**conv2d / sgemm**") && strstr(md, "B=1 C=4->4 8x8") && strstr(md, "the conv's GEMMs alone"));
     free(md);
     snprintf(cmd, sizeof cmd, "'%s' bench-nn --size 0 2> /dev/null", bin);
     CHECK(system(cmd) != 0);
+    snprintf(cmd, sizeof cmd, "'%s' bench-nn --batch 1 --channels 4 --size 8 --gemm 32 --reps 1 --groups 3 2> /dev/null", bin);
+    CHECK(system(cmd) != 0); /* 3 groups do not divide 4 channels */
 }
 
 /* ---- integration: a tiny network trained with AdamW, saved and reloaded ---------------------- */

@@ -1,6 +1,8 @@
 /* mf bench-nn: throughput of the nn engine against OpenBLAS sgemm, measured in one process.
- * Reports sgemm GFLOP/s (square N^3, and at the conv layer's own GEMM shape), the GFLOP/s of
- * conv2d forward+backward on a representative layer, and the ratio conv / sgemm. */
+ * Reports sgemm GFLOP/s (square N^3, at one image's GEMM shape, and the conv layer's own three
+ * GEMMs alone), the GFLOP/s of conv2d forward+backward and of a residual block, and the ratios to
+ * sgemm: the median over interleaved rounds of each round's ratio (robust to a shared machine's
+ * load) and the ratio of the best times. */
 #include <cblas.h>
 #include <omp.h>
 #include <stdio.h>
@@ -15,7 +17,7 @@
 
 typedef struct {
     const char *out;
-    int batch, channels, size, gemm, reps;
+    int batch, channels, size, gemm, reps, groups;
 } BenchNnArgs;
 
 #define A BenchNnArgs
@@ -25,7 +27,8 @@ static const MfOpt k_args[] = {
     MF_OPT_INT(A, channels, 64, 1, 4096, "conv layer channels C"),
     MF_OPT_INT(A, size, 32, 2, 4096, "conv layer image side S"),
     MF_OPT_INT(A, gemm, 1024, 16, 16384, "sgemm size N (N x N x N)"),
-    MF_OPT_INT(A, reps, 10, 1, 1000000, "interleaved rounds (best of)"),
+    MF_OPT_INT(A, reps, 10, 1, 1000000, "interleaved rounds (best of, median of ratios)"),
+    MF_OPT_INT(A, groups, 0, 0, 4096, "residual block group-norm groups (0: 32, or 8, or 1, the first dividing C)"),
 };
 #undef A
 static const MfOptTable k_args_table = MF_OPT_TABLE("Options", k_args);
@@ -35,24 +38,51 @@ __attribute__((constructor)) static void bench_nn_usage(void) {
     const MfOptTable *t[] = {&k_args_table};
     mf_opts_usage_text(usage, sizeof usage,
                        "usage: mf bench-nn [-o out.md] [--batch B] [--channels C] [--size S] [--gemm N] [--reps R]\n"
-                       "  Measures OpenBLAS sgemm GFLOP/s (N x N x N) and conv2d 3x3 stride 1 forward+backward\n"
-                       "  GFLOP/s on a (B, C, S, S) -> (B, C, S, S) layer, best of R interleaved rounds, and writes\n"
-                       "  a markdown table to -o.\n",
+                       "  Measures OpenBLAS sgemm GFLOP/s (N x N x N), conv2d 3x3 stride 1 forward+backward and\n"
+                       "  a residual block on a (B, C, S, S) -> (B, C, S, S) layer, and the conv's own GEMMs alone,\n"
+                       "  in R interleaved rounds (ratios: medians of the rounds' ratios), and writes a markdown\n"
+                       "  table to -o.\n",
                        t, 1, NULL);
 }
 
-/* Best wall times of reps rounds; each round times every function once, in turn, so the load of a
- * shared machine affects them alike. One warm-up run of each first. */
+/* Wall and CPU seconds t[f * reps + r], tc[...] of function f in round r; each round times every
+ * function once, in turn, so the load of a shared machine affects them alike. One warm-up run of
+ * each first. With one thread, CPU seconds do not count the time other processes hold the core. */
 typedef void (*BenchFn)(void *ctx);
-static void best_times(int nfn, BenchFn *fns, void **ctxs, int reps, double *best) {
-    for (int f = 0; f < nfn; ++f) fns[f](ctxs[f]), best[f] = 1e30;
+static void round_times(int nfn, BenchFn *fns, void **ctxs, int reps, double *t, double *tc) {
+    for (int f = 0; f < nfn; ++f) fns[f](ctxs[f]);
     for (int r = 0; r < reps; ++r)
         for (int f = 0; f < nfn; ++f) {
-            double t0 = mf_now();
+            double t0 = mf_now(), c0 = mf_cpu_now();
             fns[f](ctxs[f]);
-            double dt = mf_now() - t0;
-            if (dt < best[f]) best[f] = dt;
+            tc[f * reps + r] = mf_cpu_now() - c0;
+            t[f * reps + r] = mf_now() - t0;
         }
+}
+
+static int cmp_double(const void *a, const void *b) {
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* Median over rounds of (flops_a / t_a) / (flops_b / t_b); best: the ratio of the best times.
+ * q: scratch (reps,). */
+static double median_ratio(const double *ta, double fa, const double *tb, double fb, int reps, double *q, double *best) {
+    double ba = 1e30, bb = 1e30;
+    for (int r = 0; r < reps; ++r) {
+        q[r] = (fa / ta[r]) / (fb / tb[r]);
+        ba = ta[r] < ba ? ta[r] : ba;
+        bb = tb[r] < bb ? tb[r] : bb;
+    }
+    *best = (fa / ba) / (fb / bb);
+    qsort(q, (size_t)reps, sizeof *q, cmp_double);
+    return reps % 2 ? q[reps / 2] : 0.5 * (q[reps / 2 - 1] + q[reps / 2]);
+}
+
+static double min_of(const double *t, int n) {
+    double m = 1e30;
+    for (int i = 0; i < n; ++i) m = t[i] < m ? t[i] : m;
+    return m;
 }
 
 typedef struct {
@@ -70,6 +100,24 @@ typedef struct {
     int B, C, S;
     float *in, *w, *bias, *out, *col, *din, *dw, *db, *dout;
 } ConvCtx;
+
+/* The three GEMMs of conv2d forward+backward alone, at the shapes mf_conv2d_* give them (images
+ * grouped nb at a time, mf_nn_layers.c): out = w col, dw += dout col^T, dcol = w^T dout. */
+typedef struct {
+    int B, C, P, nb;
+    float *w, *col, *out, *dw, *dcol;
+} ConvGemmCtx;
+
+static void run_conv_gemms(void *p) {
+    ConvGemmCtx *g = p;
+    int CKK = 9 * g->C;
+    for (int b0 = 0; b0 < g->B; b0 += g->nb) {
+        int NP = (g->B - b0 < g->nb ? g->B - b0 : g->nb) * g->P;
+        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, g->C, NP, CKK, 1.0f, g->w, CKK, g->col, NP, 0.0f, g->out, NP);
+        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, g->C, CKK, NP, 1.0f, g->out, NP, g->col, NP, 1.0f, g->dw, CKK);
+        cblas_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, CKK, NP, g->C, 1.0f, g->w, CKK, g->out, NP, 0.0f, g->dcol, NP);
+    }
+}
 
 static void run_conv(void *p) {
     ConvCtx *c = p;
@@ -106,6 +154,59 @@ static int gemm_alloc(GemmCtx *g, int M, int N, int K) {
 
 static void gemm_free(GemmCtx *g) { free(g->a), free(g->b), free(g->c); }
 
+/* The report (printed, and written to a->out when set) from the round times t (wall), tc (CPU) of
+ * the 5 measurements (sgemm, sgemm at one image's shape, the conv's GEMMs, conv, residual block);
+ * G: groups, nb: images per conv GEMM, q: scratch (reps,). */
+static int write_report(const BenchNnArgs *a, int G, int nb, const double *t, const double *tc, double *q) {
+    const char *out = a->out;
+    int B = a->batch, C = a->channels, S = a->size, NG = a->gemm, reps = a->reps;
+    int blas_threads = openblas_get_num_threads(), omp_threads = omp_get_max_threads();
+    int P = S * S, CKK = C * 9;
+    double load = 0.0;
+    getloadavg(&load, 1);
+    const double *t_sq = tc, *t_sh = tc + reps, *t_cg = tc + 2 * reps, *t_conv = tc + 3 * reps, *t_res = tc + 4 * reps;
+    double f_sq = 2.0 * NG * NG * (double)NG, f_sh = 2.0 * C * (double)P * CKK;
+    double f_conv = 3.0 * 2.0 * B * C * (double)P * CKK; /* forward, dW, dX */
+    /* resblock FLOPs: its two 3x3 convs and the time projection, forward + both backward GEMMs */
+    double f_res = 3.0 * (2.0 * 2.0 * B * C * (double)P * CKK + 2.0 * B * C * 4.0 * C);
+    /* ratios (conv, res block, conv GEMMs to sgemm; conv to its GEMMs): CPU median, wall median, wall best */
+    const int num[4] = {3, 4, 2, 3}, den[4] = {0, 0, 0, 2};
+    const double fl[5] = {f_sq, f_sh, f_conv, f_conv, f_res};
+    double rat[4][3];
+    for (int k = 0; k < 4; ++k) {
+        const int i = num[k], j = den[k];
+        double unused;
+        rat[k][0] = median_ratio(tc + i * reps, fl[i], tc + j * reps, fl[j], reps, q, &unused);
+        rat[k][1] = median_ratio(t + i * reps, fl[i], t + j * reps, fl[j], reps, q, &rat[k][2]);
+    }
+    char md[4096];
+    snprintf(md, sizeof md,
+             "# mf bench-nn\n\n"
+             "OpenBLAS threads %d, OpenMP threads %d; %d interleaved rounds after one warm-up. GFLOP/s and\n"
+             "seconds: the best round's CPU seconds; ratios: the median over rounds of each round's ratio of\n"
+             "CPU seconds (with one thread, not counting the time other processes hold the core; their cache\n"
+             "traffic still counts), of wall seconds, and the ratio of the best\n"
+             "rounds' wall seconds.\n\n"
+             "| measurement | shape | GFLOP/s |\n|---|---|---|\n"
+             "| sgemm (reference) | %d x %d x %d | %.1f |\n"
+             "| sgemm at one image's GEMM shape | M=%d N=%d K=%d | %.1f |\n"
+             "| the conv's three GEMMs alone (%d images per GEMM) | M=%d N=%d K=%d, then NT and TN | %.1f |\n"
+             "| conv2d 3x3 s1 forward+backward | B=%d C=%d->%d %dx%d (%.4f s) | %.1f |\n"
+             "| residual block forward+backward (GEMM FLOPs only) | B=%d C=%d->%d %dx%d Ct=%d G=%d (%.4f s) | %.1f |\n\n"
+             "| ratio | median, CPU s | median, wall s | best rounds, wall s |\n|---|---|---|---|\n"
+             "| **conv2d / sgemm** | **%.2f** | %.2f | %.2f |\n"
+             "| **residual block / sgemm** (includes group norm, SiLU, bias and copies) | **%.2f** | %.2f | %.2f |\n"
+             "| the conv's GEMMs alone / sgemm (the bound for conv2d with these GEMMs) | %.2f | %.2f | %.2f |\n"
+             "| conv2d / its GEMMs alone (im2col, col2im, copies) | %.2f | %.2f | %.2f |\n",
+             blas_threads, omp_threads, reps, NG, NG, NG, f_sq / min_of(t_sq, reps) * 1e-9, C, P, CKK,
+             f_sh / min_of(t_sh, reps) * 1e-9, nb, C, nb * P, CKK, f_conv / min_of(t_cg, reps) * 1e-9, B, C, C, S, S,
+             min_of(t_conv, reps), f_conv / min_of(t_conv, reps) * 1e-9, B, C, C, S, S, 4 * C, G, min_of(t_res, reps),
+             f_res / min_of(t_res, reps) * 1e-9, rat[0][0], rat[0][1], rat[0][2], rat[1][0], rat[1][1], rat[1][2],
+             rat[2][0], rat[2][1], rat[2][2], rat[3][0], rat[3][1], rat[3][2]);
+    printf("%s", md);
+    return out && (mf_mkdirs_for(out) || mf_write_file(out, md, strlen(md))) ? MF_EXIT_FAIL : MF_EXIT_OK;
+}
+
 static int bench_nn_run(const BenchNnArgs *a);
 
 /* Parses the options (string values may live in the --config JSON: p is freed after the run). */
@@ -122,9 +223,12 @@ static int cmd_bench_nn(int argc, char **argv) {
 }
 
 static int bench_nn_run(const BenchNnArgs *a) {
-    const char *out = a->out;
     int B = a->batch, C = a->channels, S = a->size, NG = a->gemm, reps = a->reps;
-    int blas_threads = openblas_get_num_threads(), omp_threads = omp_get_max_threads();
+    int G = a->groups ? a->groups : C % 32 == 0 ? 32 : (C % 8 == 0 ? 8 : 1);
+    if (C % G) {
+        mf_fail(MF_EARG, "bench-nn: --groups %d does not divide --channels %d", G, C);
+        return MF_EXIT_USAGE;
+    }
     int P = S * S, CKK = C * 9;
     GemmCtx gsq = {0}, gsh = {0};
     ConvCtx c = {.B = B, .C = C, .S = S};
@@ -138,13 +242,20 @@ static int bench_nn_run(const BenchNnArgs *a) {
         mf_fail(MF_ENOMEM, "bench-nn: out of memory");
         rc = MF_EXIT_FAIL;
     } else {
-        ResCtx rs = {.d = {B, C, C, S, S, 4 * C, C % 32 == 0 ? 32 : (C % 8 == 0 ? 8 : 1), 1e-5f}};
+        ResCtx rs = {.d = {B, C, C, S, S, 4 * C, G, 1e-5f}};
         MfTensorSpec specs[MF_RESBLOCK_NPARAMS];
         size_t np = mf_specs_numel(specs, mf_resblock_specs(specs, "", &rs.d));
+        /* the grouping of mf_conv2d_* (mf_nn.h): nb = min(B, ceil(1024 / P)) images per GEMM */
+        int nb = P >= 1024 ? 1 : (1024 + P - 1) / P;
+        nb = nb < B ? nb : B;
+        ConvGemmCtx cg = {B, C, P, nb, c.w, alloc_fill((size_t)CKK * nb * P, 1), alloc_fill((size_t)C * nb * P, 0.01f), c.dw,
+                          alloc_fill((size_t)CKK * nb * P, 0)};
         rs.pm = alloc_fill(np, 0), rs.gm = alloc_fill(np, 0), rs.am = alloc_fill(mf_resblock_acts_floats(&rs.d), 0);
         rs.x = alloc_fill(nact, 1), rs.out = alloc_fill(nact, 0), rs.dx = alloc_fill(nact, 0), rs.dout = alloc_fill(nact, 0.01f);
         rs.temb = alloc_fill((size_t)B * 4 * C, 1), rs.dtemb = alloc_fill((size_t)B * 4 * C, 0);
-        if (!rs.pm || !rs.gm || !rs.am || !rs.x || !rs.out || !rs.dx || !rs.dout || !rs.temb || !rs.dtemb) {
+        double *t = malloc(11 * (size_t)reps * sizeof *t); /* wall, CPU (5 functions x reps), scratch */
+        if (!rs.pm || !rs.gm || !rs.am || !rs.x || !rs.out || !rs.dx || !rs.dout || !rs.temb || !rs.dtemb || !cg.col ||
+            !cg.out || !cg.dcol || !t) {
             mf_fail(MF_ENOMEM, "bench-nn: out of memory");
             rc = MF_EXIT_FAIL;
             goto res_done;
@@ -153,37 +264,14 @@ static int bench_nn_run(const BenchNnArgs *a) {
         mf_resblock_bind(&rs.g, &rs.d, rs.gm);
         mf_resblock_acts_bind(&rs.a, &rs.d, rs.am);
         mf_resblock_init(&rs.w, &rs.d, 1);
-        BenchFn fns[4] = {run_gemm, run_gemm, run_conv, run_res};
-        void *ctxs[4] = {&gsq, &gsh, &c, &rs};
-        double best[4];
-        best_times(4, fns, ctxs, reps, best);
-        /* resblock FLOPs: its two 3x3 convs and the time projection, forward + both backward GEMMs */
-        double res_flops = 3.0 * (2.0 * 2.0 * B * C * (double)P * CKK + 2.0 * B * C * 4.0 * C);
-        double g_res = res_flops / best[3] * 1e-9;
-        double g_sq = 2.0 * NG * NG * (double)NG / best[0] * 1e-9;
-        double g_shape = 2.0 * C * (double)P * CKK / best[1] * 1e-9;
-        double t = best[2];
-        double flops = 3.0 * 2.0 * B * C * (double)P * CKK; /* forward, dW, dX */
-        double g_conv = flops / t * 1e-9;
-        double ratio = g_conv / g_sq;
-        char md[4096];
-        snprintf(md, sizeof md,
-                 "# mf bench-nn\n\n"
-                 "OpenBLAS threads %d, OpenMP threads %d; best of %d interleaved rounds after one warm-up.\n\n"
-                 "| measurement | shape | GFLOP/s |\n|---|---|---|\n"
-                 "| sgemm (reference) | %d x %d x %d | %.1f |\n"
-                 "| sgemm at one image's GEMM shape | M=%d N=%d K=%d | %.1f |\n"
-                 "| conv2d 3x3 s1 forward+backward | B=%d C=%d->%d %dx%d (%.4f s) | %.1f |\n"
-                 "| residual block forward+backward (GEMM FLOPs only) | B=%d C=%d->%d %dx%d Ct=%d G=%d (%.4f s) | %.1f |\n\n"
-                 "conv2d / sgemm ratio: **%.2f** (target >= 0.4); conv2d / sgemm at one image's GEMM shape: %.2f\n\n"
-                 "residual block / sgemm ratio: **%.2f** (includes group norm, SiLU, bias and copies)\n",
-                 blas_threads, omp_threads, reps, NG, NG, NG, g_sq, C, P, CKK, g_shape, B, C, C, S, S, t,
-                 g_conv, B, C, C, S, S, 4 * C, rs.d.G, best[3], g_res, ratio, g_conv / g_shape, g_res / g_sq);
-        printf("%s", md);
-        if (out && (mf_mkdirs_for(out) || mf_write_file(out, md, strlen(md)))) rc = MF_EXIT_FAIL;
+        BenchFn fns[5] = {run_gemm, run_gemm, run_conv_gemms, run_conv, run_res};
+        void *ctxs[5] = {&gsq, &gsh, &cg, &c, &rs};
+        double *tc = t + 5 * reps, *q = t + 10 * reps;
+        round_times(5, fns, ctxs, reps, t, tc);
+        rc = write_report(a, G, nb, t, tc, q);
     res_done:
         free(rs.pm), free(rs.gm), free(rs.am), free(rs.x), free(rs.out), free(rs.dx), free(rs.dout);
-        free(rs.temb), free(rs.dtemb);
+        free(rs.temb), free(rs.dtemb), free(cg.col), free(cg.out), free(cg.dcol), free(t);
     }
     gemm_free(&gsq), gemm_free(&gsh);
     free(c.in), free(c.out), free(c.din), free(c.dout), free(c.w), free(c.dw), free(c.bias), free(c.db), free(c.col);

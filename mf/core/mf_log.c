@@ -45,6 +45,12 @@ double mf_now(void) {
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
+double mf_cpu_now(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
 static void progress_draw(MfProgress *p, int final) {
     double now = mf_now();
     if (!final && now - p->t_last_draw < 0.1) return;

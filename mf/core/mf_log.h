@@ -35,5 +35,8 @@ void mf_progress_end(MfProgress *p);
 
 /* Monotonic wall clock in seconds. */
 double mf_now(void);
+/* CPU seconds of all threads of this process (benchmarks: not counting the time other processes
+ * hold the cores). */
+double mf_cpu_now(void);
 
 #endif

@@ -104,6 +104,23 @@ static int visible(const MfEstimator *e, const MfHit *h, MfVec3 wi, float dist, 
     return !mf_rtscene_occluded(e->rt, o, wi, 0.0f, tfar);
 }
 
+/* Samples are processed in batches of at most SHADE_BATCH (see shade). */
+#define SHADE_BATCH 64
+
+/* visible() for n <= SHADE_BATCH env-light directions wi (n,) at once (traced together, the
+ * answers those of visible()): vis (n,). */
+static void visible_n(const MfEstimator *e, const MfHit *h, int n, const MfVec3 *wi, unsigned char *vis, MfRayLog *log) {
+    MfVec3 org[SHADE_BATCH];
+    if (n <= 0) return;
+    int i = 0;
+    do { /* (not a for loop: gcc 12 then warns that org may be uninitialised) */
+        org[i] = mf_est_ray_origin(h, wi[i]);
+        raylog_push(log, org[i], wi[i], 0.0f, INFINITY, 1);
+    } while (++i < n);
+    mf_rtscene_occluded_n(e->rt, n, org, wi, INFINITY, vis);
+    for (i = 0; i < n; ++i) vis[i] = !vis[i];
+}
+
 typedef struct {
     MfMaterial m;
     MfVec3 orm; /* as stored (occlusion, roughness, metallic), before clamping */
@@ -212,10 +229,10 @@ static void contribute(Shading *sh, MfVec3 wi, MfVec3 wi_w, const MfBrdfValue *f
 }
 
 /* Samples are processed in batches: all light-sample directions of a batch first (their CDF
- * searches miss the cache independently, so the CPU overlaps them), then the BRDF and shadow
- * rays, then the radiance lookups of the visible ones. The random numbers, the rays and the
- * order of the sums are those of one-sample-at-a-time, so the result is identical. */
-#define SHADE_BATCH 64
+ * searches miss the cache independently, so the CPU overlaps them), then the BRDF values, then
+ * the batch's shadow rays together (16-wide packets, mf_rtscene_occluded_n), then the radiance
+ * lookups of the visible ones. The random numbers, the rays and the order of the sums are those
+ * of one-sample-at-a-time, so the result is identical. */
 
 typedef struct {
     MfVec3 wi, wi_w; /* shading-frame and world direction */
@@ -252,6 +269,8 @@ static int shade(Shading *sh, MfVec3 ns, MfVec3 ns_s, int sep, MfRng *rng, MfRay
         float inv_N = 1.0f / (float)(n * n);
         MfVec3 dir[SHADE_BATCH], Ls[SHADE_BATCH];
         float pdf[SHADE_BATCH], us1[SHADE_BATCH], us2[SHADE_BATCH];
+        unsigned char vis[SHADE_BATCH];
+        int sel[SHADE_BATCH];
         Accepted acc[SHADE_BATCH];
         /* light samples: acc[].p = MIS weight */
         for (int b0 = 0; b0 < N; b0 += SHADE_BATCH) {
@@ -269,10 +288,16 @@ static int shade(Shading *sh, MfVec3 ns, MfVec3 ns_s, int sep, MfRng *rng, MfRay
                 if (other) mf_brdf_ctx_eval_pdf(bs, sep ? mf_to_local(&fr_s, wi_w) : wi, &pb);
                 if (brdf_zero(&f)) continue;
                 float w = inv_N / (pl + pb);
-                if (!(w > 0.0f) || !isfinite(w) || !visible(e, h, wi_w, INFINITY, log)) continue;
+                if (!(w > 0.0f) || !isfinite(w)) continue;
                 acc[na++] = (Accepted){wi, wi_w, f, w};
             }
+            /* shadow rays of the batch together; keep the visible ones in order */
             for (int a = 0; a < na; ++a) dir[a] = acc[a].wi_w;
+            visible_n(e, h, na, dir, vis, log);
+            int nv = 0;
+            for (int a = 0; a < na; ++a)
+                if (vis[a]) acc[nv] = acc[a], dir[nv++] = dir[a];
+            na = nv;
             mf_env_eval_pdf_n(env, na, dir, Ls, NULL);
             for (int a = 0; a < na; ++a) contribute(sh, acc[a].wi, acc[a].wi_w, &acc[a].f, acc[a].p, Ls[a], 1);
         }
@@ -305,11 +330,18 @@ static int shade(Shading *sh, MfVec3 ns, MfVec3 ns_s, int sep, MfRng *rng, MfRay
                 for (int a = 0; a < na; ++a) pdf[a] = mf_env_pdf(env_s, dir[a]);
                 mf_env_eval_pdf_n(env, na, dir, Ls, NULL);
             }
+            /* MIS weights, then the shadow rays of those with a usable weight together */
+            int nt = 0;
             for (int a = 0; a < na; ++a) {
                 float w = inv_N / (pdf[a] + acc[a].p);
-                if (!(w > 0.0f) || !isfinite(w) || !visible(e, h, acc[a].wi_w, INFINITY, log)) continue;
-                contribute(sh, acc[a].wi, acc[a].wi_w, &acc[a].f, w, Ls[a], 1);
+                if (!(w > 0.0f) || !isfinite(w)) continue;
+                pdf[a] = w;
+                sel[nt] = a;
+                dir[nt++] = acc[a].wi_w;
             }
+            visible_n(e, h, nt, dir, vis, log);
+            for (int t = 0; t < nt; ++t)
+                if (vis[t]) contribute(sh, acc[sel[t]].wi, acc[sel[t]].wi_w, &acc[sel[t]].f, pdf[sel[t]], Ls[sel[t]], 1);
         }
     }
     for (int k = 0; k < e->nlights; ++k) {

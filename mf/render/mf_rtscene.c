@@ -162,3 +162,29 @@ int mf_rtscene_occluded(const MfRtScene *s, MfVec3 org, MfVec3 dir, float tnear,
     rtcOccluded1(s->scene, &ctx, &r);
     return r.tfar < 0.0f;
 }
+
+void mf_rtscene_occluded_n(const MfRtScene *s, int n, const MfVec3 *org, const MfVec3 *dir, float tfar,
+                           unsigned char *occ) {
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+    _Alignas(64) struct RTCRay16 r;
+    _Alignas(64) int valid[16];
+    for (int b = 0; b < n; b += 16) {
+        int m = n - b < 16 ? n - b : 16;
+        if (m == 1) { /* a lone ray: the single-ray kernel */
+            occ[b] = (unsigned char)mf_rtscene_occluded(s, org[b], dir[b], 0.0f, tfar);
+            break;
+        }
+        for (int k = 0; k < 16; ++k) {
+            valid[k] = k < m ? -1 : 0;
+            int i = b + (k < m ? k : 0);
+            r.org_x[k] = org[i].x; r.org_y[k] = org[i].y; r.org_z[k] = org[i].z;
+            r.dir_x[k] = dir[i].x; r.dir_y[k] = dir[i].y; r.dir_z[k] = dir[i].z;
+            r.tnear[k] = 0.0f; r.tfar[k] = tfar;
+            r.time[k] = 0.0f; r.mask[k] = 0xFFFFFFFFu; r.id[k] = 0; r.flags[k] = 0;
+        }
+        rtcOccluded16(valid, s->scene, &ctx, &r);
+        for (int k = 0; k < m; ++k) occ[b + k] = r.tfar[k] < 0.0f;
+    }
+}
