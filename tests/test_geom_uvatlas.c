@@ -38,8 +38,8 @@ static int file_equal(const char *p, const char *q) {
 
 /* Unwraps `in` with 1 and then 2 threads: the OBJs must be byte-identical; no overlaps at
  * 4096^2, no flips, everything inside [0,1]^2. Returns the atlas use at 256^2. */
-static double check_unwrap(const char *name, const MfMesh *in, int *charts) {
-    MfUvAtlasOpts o = mf_uvatlas_defaults();
+static double check_unwrap(const char *name, const MfMesh *in, const MfUvAtlasOpts *opts, MfUvAtlasInfo *info_out) {
+    MfUvAtlasOpts o = opts ? *opts : mf_uvatlas_defaults();
     MfUvAtlasInfo info;
     MfMesh out[2] = {{0}, {0}};
     char path[2][MF_PATH_MAX];
@@ -66,7 +66,7 @@ static double check_unwrap(const char *name, const MfMesh *in, int *charts) {
     CHECK_MSG(c.outside == 0, "%s: %d triangles outside [0,1]^2", name, c.outside);
     CHECK(c.charts == info.charts);
     fprintf(stderr, "  %s: atlas use %.1f%% at 256^2 (%.1f%% at 4096^2)\n", name, 100 * c256.coverage, 100 * c.coverage);
-    *charts = info.charts;
+    *info_out = info;
     mf_mesh_free(&out[0]);
     mf_mesh_free(&out[1]);
     return c256.coverage;
@@ -74,30 +74,40 @@ static double check_unwrap(const char *name, const MfMesh *in, int *charts) {
 
 MF_TEST(geom_uvatlas_torus_cup) {
     MfMesh torus = {0};
-    int charts;
+    MfUvAtlasInfo info;
     /* the generator duplicates its seam vertices; the unwrapper joins equal positions */
     CHECK_OK(mf_shape_torus(&torus, 0.5f, 0.2f, 96, 48));
-    double use = check_unwrap("torus", &torus, &charts);
-    CHECK(charts > 1 && charts < torus.nt / 20);
+    double use = check_unwrap("torus", &torus, NULL, &info);
+    CHECK(info.charts > 1 && info.charts < torus.nt / 20);
     CHECK(use > 0.3);
+    /* whole-torus charts (no normal limit, no size cap): LSCM of the grown disc flips or
+     * overlaps, so the split paths run; the result must still be valid */
+    MfUvAtlasOpts o = mf_uvatlas_defaults();
+    o.max_chart_tris = torus.nt;
+    o.max_angle_deg = 180;
+    check_unwrap("torus, one grown chart, 180 deg", &torus, &o, &info);
+    CHECK(info.grown == 1 && info.split_flip > 0);
+    o.max_angle_deg = 120;
+    check_unwrap("torus, 120 deg", &torus, &o, &info);
+    CHECK(info.split_overlap > 0);
     mf_mesh_free(&torus);
     DsObject cup;
     CHECK_OK(ds_object_generate(&cup, DS_FAM_CUP, 7, 64));
-    use = check_unwrap("cup", &cup.mesh, &charts);
+    use = check_unwrap("cup", &cup.mesh, NULL, &info);
     CHECK(use > 0.3);
     ds_object_free(&cup);
 }
 
 MF_TEST(geom_uvatlas_50k) {
     MfMesh torus = {0};
-    int charts;
+    MfUvAtlasInfo info;
     CHECK_OK(mf_shape_torus(&torus, 0.5f, 0.25f, 250, 100)); /* 50,000 triangles */
     for (int v = 0; v < torus.nv; ++v) { /* a bumpy surface, deterministic */
         float *p = torus.pos + 3 * v;
         float s = 1.0f + 0.04f * sinf(23.0f * p[0]) * sinf(19.0f * p[1]) * cosf(17.0f * p[2]);
         for (int k = 0; k < 3; ++k) p[k] *= s;
     }
-    double use = check_unwrap("bumpy torus", &torus, &charts);
+    double use = check_unwrap("bumpy torus", &torus, NULL, &info);
     CHECK(use > 0.3);
     mf_mesh_free(&torus);
 }

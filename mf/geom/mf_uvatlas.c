@@ -4,6 +4,7 @@
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -754,7 +755,9 @@ int mf_uvatlas(const MfMesh *in, const MfUvAtlasOpts *opts, MfMesh *out, MfUvAtl
     }
     if (!rc) rc = mf_pack_order_by_height(size, nc, order);
     if (!rc) {
-        mf_pack_shelves(size, order, nc, opts->gutter / (float)opts->tex_res, 1.0f / (float)opts->tex_res, opts->stretch, rect);
+        float sc = mf_pack_shelves(size, order, nc, opts->gutter / (float)opts->tex_res, 1.0f / (float)opts->tex_res, opts->stretch, rect);
+        if (getenv("UVDBG")) { double ra = 0, ca = 0, rr = 0; for (int c = 0; c < nc; ++c) { ra += ch[c].w * ch[c].h * sc * sc; rr += rect[c].w * rect[c].h; } for (int t = 0; t < m.nt; ++t) ca += m.area[t] * sc * sc;
+            fprintf(stderr, "DBG scale %g chart area %.3f bbox area %.3f rect area after stretch %.3f\n", sc, ca, ra, rr); }
         rc = build_output(in, &m, chart, ch, rect, opts->stretch, out);
         if (rc) mf_mesh_free(out);
     }
