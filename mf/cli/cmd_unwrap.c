@@ -11,7 +11,7 @@
 
 typedef struct {
     const char *out;
-    int tex_res, stretch;
+    int tex_res, stretch, max_chart_tris;
     float gutter, max_angle;
 } UnwrapArgs;
 
@@ -21,6 +21,7 @@ static const MfOpt k_args[] = {
     MF_OPT_INT(A, tex_res, 256, 1, 65536, "texture side the gutter is counted in"),
     MF_OPT_FLOAT(A, gutter, 2, 0, 1000, "texels between charts and from the border"),
     MF_OPT_FLOAT(A, max_angle, 60, 1, 180, "chart growth: a triangle joins when its normal is within this many degrees of the chart's mean normal"),
+    MF_OPT_INT(A, max_chart_tris, 1000, 1, 2000000000, "chart growth stops at this many triangles"),
     MF_OPT_INT(A, stretch, 1, 0, 1, "1: stretch the packed layout along u and v separately to fill the square"),
 };
 #undef A
@@ -28,7 +29,7 @@ static const MfOptTable k_args_table = MF_OPT_TABLE("Options (--config FILE: a J
 
 static char usage[8192];
 static const char k_usage_head[] =
-    "usage: mf unwrap IN.obj -o OUT.obj [--tex-res 256] [--gutter 2] [--max-angle 60]\n"
+    "usage: mf unwrap IN.obj -o OUT.obj [--tex-res 256] [--gutter 2] [--max-angle 60] [--max-chart-tris 1000]\n"
     "Cuts IN (OBJ or glTF; its UVs, if any, are ignored) into disc charts grown by face normals,\n"
     "flattens each by least-squares conformal maps (charts with flipped or overlapping triangles\n"
     "are split), and packs them into [0,1]^2 with a gutter; writes OUT.obj with UVs (seams split\n"
@@ -43,7 +44,7 @@ __attribute__((constructor)) static void unwrap_usage(void) {
 
 static int unwrap_run(const char *in_path, const UnwrapArgs *a) {
     MfMesh in = {0}, out = {0};
-    MfUvAtlasOpts o = {a->tex_res, a->gutter, a->max_angle, 2000, a->stretch};
+    MfUvAtlasOpts o = {a->tex_res, a->gutter, a->max_angle, a->max_chart_tris, a->stretch};
     MfUvAtlasInfo info;
     MfUvCheck chk;
     int rc = mf_mesh_read(in_path, &in);

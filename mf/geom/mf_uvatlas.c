@@ -3,8 +3,6 @@
 
 #include <math.h>
 #include <stdint.h>
-#include <stdio.h>
-#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -675,6 +673,7 @@ static int solve_all(const Mesh *m, int *chart, int nc, Chart **chp, MfUvAtlasIn
         for (int id = first_new; id < nc; ++id) pend[np++] = id; /* distinct ids, so np <= nc <= cap */
         npend = np;
     }
+    for (int i = 0; ch && i < nc; ++i) ch[i].tris = NULL; /* into list, freed here */
     free(pend), free(ofs), free(list), free(queue);
     *chp = ch;
     if (rc) return mf_fail(rc, "out of memory for the unwrapper");
@@ -755,9 +754,7 @@ int mf_uvatlas(const MfMesh *in, const MfUvAtlasOpts *opts, MfMesh *out, MfUvAtl
     }
     if (!rc) rc = mf_pack_order_by_height(size, nc, order);
     if (!rc) {
-        float sc = mf_pack_shelves(size, order, nc, opts->gutter / (float)opts->tex_res, 1.0f / (float)opts->tex_res, opts->stretch, rect);
-        if (getenv("UVDBG")) { double ra = 0, ca = 0, rr = 0; for (int c = 0; c < nc; ++c) { ra += ch[c].w * ch[c].h * sc * sc; rr += rect[c].w * rect[c].h; } for (int t = 0; t < m.nt; ++t) ca += m.area[t] * sc * sc;
-            fprintf(stderr, "DBG scale %g chart area %.3f bbox area %.3f rect area after stretch %.3f\n", sc, ca, ra, rr); }
+        mf_pack_shelves(size, order, nc, opts->gutter / (float)opts->tex_res, 1.0f / (float)opts->tex_res, opts->stretch, rect);
         rc = build_output(in, &m, chart, ch, rect, opts->stretch, out);
         if (rc) mf_mesh_free(out);
     }
