@@ -219,6 +219,10 @@ static int grow_charts(const Mesh *m, double cos_max, int max_tris, int *chart) 
 
 enum { CHART_OK = 0, CHART_TOPOLOGY, CHART_FLIP, CHART_OVERLAP, CHART_NOMEM };
 
+/* A UV triangle counts as flipped below this area relative to its chart's squared extent: float
+ * UVs in [0,1] (rounding ~6e-8) keep such areas positive for charts wider than a few texels. */
+#define MIN_REL_AREA 1e-7
+
 typedef struct {
     int id;
     const int *tris; /* borrowed; (nt,) triangle ids */
@@ -537,7 +541,7 @@ static void solve_chart(const Mesh *m, const int *chart, Chart *c) {
     if (!(c->uv = malloc((size_t)nx * sizeof *c->uv)) || !(x = malloc((size_t)nx * sizeof *x)) ||
         !(is_free = malloc((size_t)nx)) || !(next = malloc((size_t)c->nvl * sizeof *next)))
         goto done;
-    if (c->nt == 1) { /* the triangle in its own frame (a degenerate one gets a right triangle) */
+    if (c->nt == 1) { /* the triangle in its own frame (a (nearly) degenerate one: a right triangle) */
         int t = c->tris[0];
         double e = 0;
         for (int j = 0; j < 3; ++j) {
@@ -545,6 +549,7 @@ static void solve_chart(const Mesh *m, const int *chart, Chart *c) {
             e = fmax(e, sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) + (p[2] - q[2]) * (p[2] - q[2])));
         }
         if (!(e > 0)) e = 1;
+        int thin = !(m->area[t] > MIN_REL_AREA * e * e);
         double ex[3], ey[3];
         const double *p0 = m->p + 3 * m->rep[m->tri[3 * t]];
         for (int k = 0; k < 3; ++k) ex[k] = m->p[3 * m->rep[m->tri[3 * t + 1]] + k] - p0[k];
@@ -553,8 +558,8 @@ static void solve_chart(const Mesh *m, const int *chart, Chart *c) {
         for (int j = 0; j < 3; ++j) {
             const double *pj = m->p + 3 * m->rep[m->tri[3 * t + j]];
             double d[3] = {pj[0] - p0[0], pj[1] - p0[1], pj[2] - p0[2]};
-            x[2 * lt[j]] = m->area[t] > 0 ? dot3(d, ex) : (j == 1 ? e : 0);
-            x[2 * lt[j] + 1] = m->area[t] > 0 ? dot3(d, ey) : (j == 2 ? e : 0);
+            x[2 * lt[j]] = thin ? (j == 1 ? e : 0) : dot3(d, ex);
+            x[2 * lt[j] + 1] = thin ? (j == 2 ? e : 0) : dot3(d, ey);
         }
         memcpy(c->uv, x, (size_t)nx * sizeof *x);
         c->status = normalise_chart(m, c, lt, c->uv);
@@ -568,9 +573,9 @@ static void solve_chart(const Mesh *m, const int *chart, Chart *c) {
     c->status = CHART_OK;
     double umin = INFINITY, umax = -INFINITY;
     for (int j = 0; j < c->nvl; ++j) umin = fmin(umin, c->uv[2 * j]), umax = fmax(umax, c->uv[2 * j]);
-    for (int i = 0; i < c->nt && c->status == CHART_OK; ++i) { /* relative to the chart's size */
+    for (int i = 0; i < c->nt && c->status == CHART_OK; ++i) { /* relative to the chart's size, so float UVs keep it positive */
         double ar = 0.5 * orient2(c->uv + 2 * lt[3 * i], c->uv + 2 * lt[3 * i + 1], c->uv + 2 * lt[3 * i + 2]);
-        if (!(ar > 1e-12 * (umax - umin) * (umax - umin))) c->status = CHART_FLIP;
+        if (!(ar > MIN_REL_AREA * (umax - umin) * (umax - umin))) c->status = CHART_FLIP;
     }
     if (c->status == CHART_OK) {
         int hit = boundary_crosses(m, chart, c, lt, c->uv);
