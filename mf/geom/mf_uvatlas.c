@@ -16,7 +16,7 @@ MfUvAtlasOpts mf_uvatlas_defaults(void) { return (MfUvAtlasOpts){256, 2.0f, 60.0
 typedef struct {
     int nt, nv;
     const uint32_t *tri;
-    int *rep;     /* (nv,) lowest-index vertex at the same position */
+    int *rep;     /* (nv,) one representative vertex per position */
     int *orep;    /* (nv,) lowest-index vertex at the same position with the same normal */
     int *nb;      /* (nt, 3) triangle across edge (corner e, e+1), or -1 */
     double *fn;   /* (nt, 3) unit face normal (0 for degenerate) */
@@ -458,7 +458,6 @@ static void lscm_start(const Mesh *m, const Chart *c, double *x, unsigned char *
     x[pb] = x[pa] + L * du, x[c->nvl + pb] = x[c->nvl + pa] + L * dv;
     is_free[pa] = is_free[c->nvl + pa] = is_free[pb] = is_free[c->nvl + pb] = 0;
 }
-
 
 static int cmp_uv(const void *pa, const void *pb, void *ctx) {
     const double *uv = ctx;

@@ -1,24 +1,29 @@
 /* mf_uvatlas: our own UV unwrapper (issue 14 item 8): charts, LSCM, packing.
  *
- * 1. Charts grow by region from seeds in triangle order: a neighbour (across an edge used by
- *    exactly two triangles; vertices at equal positions are one vertex) joins when its normal is
- *    within max_angle_deg of the chart's area-weighted mean normal, nearest normals first, and
- *    only when the chart stays a disc (it shares one edge and its third vertex is new, or two
- *    edges). Each chart is then checked: one boundary loop, Euler characteristic 1.
+ * 1. Charts grow by region from seeds in triangle order, nearest first (centroid-path distance):
+ *    a neighbour (across an edge used by exactly two triangles; vertices at equal positions are
+ *    one vertex) joins when its normal is within max_angle_deg of the chart's area-weighted mean
+ *    normal and the chart stays a disc (it shares one edge and its third vertex is new); one
+ *    sharing two edges fills a notch and joins whatever its normal. Each chart is then checked:
+ *    one boundary loop, Euler characteristic 1.
  * 2. Each chart is parameterised by least-squares conformal maps (Levy et al. 2002) with two
- *    pinned vertices far apart, solved by conjugate gradients on the normal equations (CGLS, a
- *    CSR matrix, double precision), started from the projection onto the chart's mean plane.
- * 3. A chart that fails the topology check, has a triangle of UV area <= 0, or whose boundary
- *    crosses itself in UV (with all triangles positive this is the only way a disc overlaps
- *    itself) is split in two (two far-apart seed triangles, breadth-first growth from both) and
- *    solved again; this ends at single triangles at worst (MfUvAtlasInfo.forced_single).
+ *    pinned vertices far apart, solved by Jacobi-preconditioned conjugate gradients on the normal
+ *    equations (CGLS, a CSR matrix, double precision, relative tolerance 1e-4), started from the
+ *    projection onto the chart's mean plane. Growth stops a chart at max_chart_tris, which keeps
+ *    CG fast (its iterations grow with the chart's size).
+ * 3. A chart that fails the topology check, has a triangle of UV area <= 1e-7 of its squared
+ *    extent (so float UVs stay positive), or whose boundary crosses itself in UV (with all
+ *    triangles positive this is the only way a disc overlaps itself) is split in two (two
+ *    far-apart seed triangles, breadth-first growth from both) and solved again; this ends at
+ *    single triangles at worst (MfUvAtlasInfo.forced_single).
  * 4. Each chart is scaled to its 3D area, rotated to its minimum-area bounding rectangle (over
  *    its convex hull's edge directions; wider than tall) and shelf-packed (mf_pack) into [0,1]^2
  *    with `gutter` texels of a tex_res texture between charts.
  *
- * The output has one vertex per (chart, input vertex), so seams split vertices; triangles keep
- * their order, normals and material ids. Deterministic (charts are solved in parallel but
- * independently; splitting is serial). */
+ * The output has one vertex per chart and input vertex (input vertices at the same position with
+ * the same normal count as one), so seams split vertices; triangles keep their order, normals and
+ * material ids. Deterministic (charts are solved in parallel but independently; splitting is
+ * serial). */
 #ifndef MF_UVATLAS_H
 #define MF_UVATLAS_H
 
