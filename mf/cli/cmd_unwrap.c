@@ -11,7 +11,7 @@
 
 typedef struct {
     const char *out;
-    int tex_res, stretch, max_chart_tris;
+    int tex_res, stretch, max_chart_tris, check_res;
     float gutter, max_angle;
 } UnwrapArgs;
 
@@ -22,6 +22,7 @@ static const MfOpt k_args[] = {
     MF_OPT_FLOAT(A, gutter, 2, 0, 1000, "texels between charts and from the border"),
     MF_OPT_FLOAT(A, max_angle, 60, 1, 180, "chart growth: a triangle joins when its normal is within this many degrees of the chart's mean normal"),
     MF_OPT_INT(A, max_chart_tris, 1000, 1, 2000000000, "chart growth stops at this many triangles"),
+    MF_OPT_INT(A, check_res, 0, 0, 16384, "also rasterise the atlas at this resolution and report double-covered texel centres, flips and UVs outside [0,1] (0: off)"),
     MF_OPT_INT(A, stretch, 1, 0, 1, "1: stretch the packed layout along u and v separately to fill the square"),
 };
 #undef A
@@ -52,6 +53,8 @@ static int unwrap_run(const char *in_path, const UnwrapArgs *a) {
     if (rc == MF_OK && (rc = mf_uvatlas(&in, &o, &out, &info)) != MF_OK) mf_fail_prefix(rc, "%s", in_path);
     double dt = mf_now() - t0;
     if (rc == MF_OK && (rc = mf_uv_check(&out, a->tex_res, &chk)) != MF_OK) mf_fail_prefix(rc, "%s", in_path);
+    MfUvCheck hi = {0};
+    if (rc == MF_OK && a->check_res && (rc = mf_uv_check(&out, a->check_res, &hi)) != MF_OK) mf_fail_prefix(rc, "%s", in_path);
     if (rc == MF_OK) rc = mf_obj_write(a->out, &out, NULL);
     if (rc == MF_OK) {
         if (info.forced_single)
@@ -62,6 +65,9 @@ static int unwrap_run(const char *in_path, const UnwrapArgs *a) {
                     "most CG iterations %d, atlas use %.1f%% at %d^2 in %.2f s -> %s",
                     out.nt, info.grown, info.charts, info.split_topology, info.split_flip, info.split_overlap,
                     info.cg_iters_max, 100.0 * chk.coverage, a->tex_res, dt, a->out);
+        if (a->check_res)
+            mf_log_info("unwrap: check at %d^2: %ld texel centres covered twice within a chart, %ld by two charts, "
+                        "%d flipped triangles, %d outside [0,1]^2", a->check_res, hi.overlap_same, hi.overlap_other, hi.flipped, hi.outside);
     }
     mf_mesh_free(&in);
     mf_mesh_free(&out);
