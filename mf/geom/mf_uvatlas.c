@@ -677,10 +677,16 @@ static int solve_all(const Mesh *m, int *chart, int nc, Chart **chp, MfUvAtlasIn
         for (int id = first_new; id < nc; ++id) pend[np++] = id; /* distinct ids, so np <= nc <= cap */
         npend = np;
     }
-    for (int i = 0; ch && i < nc; ++i) ch[i].tris = NULL; /* into list, freed here */
+    for (int i = 0; ch && i < nc; ++i) {
+        ch[i].tris = NULL; /* into list, freed here */
+        if (rc) chart_clear(&ch[i]);
+    }
     free(pend), free(ofs), free(list), free(queue);
+    if (rc) {
+        free(ch);
+        return mf_fail(rc, "out of memory for the unwrapper");
+    }
     *chp = ch;
-    if (rc) return mf_fail(rc, "out of memory for the unwrapper");
     return nc;
 }
 
