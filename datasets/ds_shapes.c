@@ -10,6 +10,7 @@
 #include "core/mf_fs.h"
 #include "core/mf_rng.h"
 #include "geom/mf_bake.h"
+#include "geom/mf_pack.h"
 #include "io/mf_json.h"
 #include "io/mf_obj.h"
 
@@ -547,65 +548,25 @@ static void patch_lengths(Patch *pa) {
     pa->lv = lv;
 }
 
-/* Shelf packing at scale s with spacing pad; returns 1 if everything fits in [0,1]^2. */
-static int shelf_pack(Builder *b, const int *order, float s, float pad, float minsz, int commit) {
-    float x = pad, y = pad, shelf_h = 0.0f;
-    for (int k = 0; k < b->npatch; ++k) {
-        Patch *pa = &b->patch[order[k]];
-        float w = fmaxf(pa->lu * s, minsz), h = fmaxf(pa->lv * s, minsz);
-        if (x + w + pad > 1.0f) { /* new shelf */
-            x = pad;
-            y += shelf_h + pad;
-            shelf_h = 0.0f;
-        }
-        if (x + w + pad > 1.0f || y + h + pad > 1.0f) return 0;
-        if (commit) { pa->x0 = x; pa->y0 = y; pa->w = w; pa->h = h; }
-        x += w + pad;
-        if (h > shelf_h) shelf_h = h;
-    }
-    return 1;
-}
-
 /* Charts get a uniform texel density, but at least minsz on a side (small parts such as clock
- * hands stay a few texels wide). */
-static void pack_atlas(Builder *b, float pad, float minsz) {
+ * hands stay a few texels wide); shelf-packed (mf_pack), then stretched to span the atlas (single
+ * long charts such as a torus would otherwise leave most of it empty). */
+static int pack_atlas(Builder *b, float pad, float minsz) {
     int order[MAX_PATCHES];
-    for (int k = 0; k < b->npatch; ++k) { patch_lengths(&b->patch[k]); order[k] = k; }
-    /* by height descending (insertion sort: stable) */
-    for (int i = 1; i < b->npatch; ++i) {
-        int v = order[i], j = i - 1;
-        while (j >= 0 && b->patch[order[j]].lv < b->patch[v].lv) { order[j + 1] = order[j]; --j; }
-        order[j + 1] = v;
-    }
-    /* at tiny resolutions the minimum sizes and spacing may not fit: shrink them */
-    while (!shelf_pack(b, order, 0.0f, pad, minsz, 0) && minsz > 1e-6f) {
-        minsz *= 0.5f;
-        pad *= 0.5f;
-    }
-    float lo = 0.0f, hi = 1.0f;
-    while (shelf_pack(b, order, hi, pad, minsz, 0)) hi *= 2.0f;
-    for (int it = 0; it < 40; ++it) {
-        float mid = 0.5f * (lo + hi);
-        if (shelf_pack(b, order, mid, pad, minsz, 0)) lo = mid; else hi = mid;
-    }
-    shelf_pack(b, order, lo, pad, minsz, 1);
-    /* stretch the layout along x and y separately so that it spans the atlas (single long charts
-     * such as a torus would otherwise leave most of it empty); gaps only grow */
-    float mx = 0.0f, my = 0.0f;
+    float size[2 * MAX_PATCHES];
+    MfPackRect r[MAX_PATCHES];
     for (int k = 0; k < b->npatch; ++k) {
-        mx = fmaxf(mx, b->patch[k].x0 + b->patch[k].w);
-        my = fmaxf(my, b->patch[k].y0 + b->patch[k].h);
+        patch_lengths(&b->patch[k]);
+        size[2 * k] = b->patch[k].lu, size[2 * k + 1] = b->patch[k].lv;
     }
-    float sx = mx > pad ? (1.0f - 2.0f * pad) / (mx - pad) : 1.0f, sy = my > pad ? (1.0f - 2.0f * pad) / (my - pad) : 1.0f;
-    if (sx < 1.0f) sx = 1.0f;
-    if (sy < 1.0f) sy = 1.0f;
+    int rc = mf_pack_order_by_height(size, b->npatch, order);
+    if (rc) return rc;
+    mf_pack_shelves(size, order, b->npatch, pad, minsz, 1, r);
     for (int k = 0; k < b->npatch; ++k) {
         Patch *pa = &b->patch[k];
-        pa->x0 = pad + (pa->x0 - pad) * sx;
-        pa->w *= sx;
-        pa->y0 = pad + (pa->y0 - pad) * sy;
-        pa->h *= sy;
+        pa->x0 = r[k].x0, pa->y0 = r[k].y0, pa->w = r[k].w, pa->h = r[k].h;
     }
+    return MF_OK;
 }
 
 /* ------------------------------------------------------------------------------------------ */
@@ -841,7 +802,7 @@ int ds_object_generate(DsObject *out, DsFamily fam, uint64_t seed, int tex_res) 
         }
         lc[p] = mf_scale(mf_add(lo, hi), 0.5f);
     }
-    pack_atlas(b, 2.0f * (float)DS_DEFAULT_GUTTER / (float)tex_res, 8.0f / (float)tex_res);
+    if ((rc = pack_atlas(b, 2.0f * (float)DS_DEFAULT_GUTTER / (float)tex_res, 8.0f / (float)tex_res))) goto fail;
     if ((rc = assemble(b, &o.mesh, &vpart))) goto fail;
     if ((rc = welded_normals(&o.mesh, vpart))) goto fail;
     /* normalise as mf_mesh_normalize does, remembering centre c and scale s */

@@ -18,7 +18,7 @@ allowed() { # folder -> folders it may include (besides itself)
     prior)     echo "core io nn" ;;
     fusion)    echo "core io scene render nn inverse prior" ;;
     baselines) echo "core io inverse" ;;
-    datasets)  echo "core io scene render nn geom" ;;   # geom: mf_bake (UV rasteriser, gutter) shared with ds_shapes
+    datasets)  echo "core io scene render nn geom" ;;   # geom: mf_bake (UV rasteriser, gutter) and mf_pack (atlas packing) shared with ds_shapes
     eval)      echo "core io scene render nn datasets" ;;   # nn: checkpoint files (the stability grid scans them)
     cli)       echo "core io scene render nn geom inverse prior fusion baselines datasets eval" ;;
     *)         echo "?" ;;

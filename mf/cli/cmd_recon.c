@@ -53,7 +53,7 @@ static const char k_usage_head[] =
     "                [--config FILE] [--split train] [--mask DIR] [--res N] [--max-views N] [--side S] [--resume] [option VALUE ...]\n"
     "Recovers albedo (kd), ORM and the HDR environment light of the scene in DATASET_DIR (any format\n"
     "mf can load: bvault, NeRF-Synthetic, NeRFactor, Stanford-ORB capture) on a fixed mesh\n"
-    "(default DATASET_DIR/mesh.obj; it must have UVs: a mesh without UVs is refused, unwrap it first).\n"
+    "(default DATASET_DIR/mesh.obj; it must have UVs: a mesh without UVs is refused, unwrap it first with mf unwrap).\n"
     "Writes RESULT_DIR/ albedo.png orm.png (normal.png) env.exr mesh.obj scene.glb log.csv run.json snapshots/\n"
     "checkpoint.mfck. --resume continues from RESULT_DIR/checkpoint.mfck and reaches the same result\n"
     "as an uninterrupted run (same build, options and thread count). Options are applied in order:\n"
@@ -124,7 +124,7 @@ static int load_mesh(const char *path, MfMesh *mesh) {
     if (mf_mesh_read(path, mesh)) return mf_fail_prefix(MF_EIO, "mesh (supply one with --mesh; geometry recovery is not implemented yet)");
     if (mesh->uv) return MF_OK;
     mf_mesh_free(mesh);
-    return mf_fail(MF_EARG, "%s: the mesh has no UVs; mf recon refuses it (unwrap it first, e.g. in Blender)", path);
+    return mf_fail(MF_EARG, "%s: the mesh has no UVs; mf recon refuses it (unwrap it first: mf unwrap %s -o OUT.obj, or e.g. in Blender)", path, path);
 }
 
 /* MaterialFusion's prior term; a missing or mismatched weights file stops before the

@@ -111,7 +111,7 @@ float mf_recon_exposure_of(const MfReconView *views, int nviews, double *mean) {
 }
 
 int mf_recon_new(const MfMesh *mesh, MfReconView *views, int nviews, const MfReconOpts *opts, MfRecon **out) {
-    if (!mesh->uv) return mf_fail(MF_EARG, "the mesh has no UVs: reconstruction needs a UV-mapped mesh (unwrap it first, e.g. in Blender)");
+    if (!mesh->uv) return mf_fail(MF_EARG, "the mesh has no UVs: reconstruction needs a UV-mapped mesh (unwrap it first: mf unwrap IN.obj -o OUT.obj)");
     if (nviews < 1) return mf_fail(MF_EARG, "no training views");
     int rc = mf_opts_check(&mf_recon_opt_table, opts); /* names the option, its value and its range */
     if (rc) return mf_fail_prefix(rc, "reconstruction options");
