@@ -18,7 +18,6 @@
 #include "io/mf_exr.h"
 #include "io/mf_json.h"
 #include "io/mf_obj.h"
-#include "nn/mf_nn_ckpt.h"
 #include "render/mf_integrator.h"
 
 typedef struct {
@@ -161,7 +160,7 @@ static int render_set(Ctx *c, const char *env_rel, const char *env_name, int kin
         int need_ours = !s->povray || kind == 1;
         if (need_ours) {
             MfRenderOpts o = {s->spp_sqrt, s->pixel_samples > 0 ? s->pixel_samples : 4, mf_hash64(c->seed, (uint64_t)(kind * 100000 + i)), MF_LOBE_ALL};
-            if (kind == 2) o.seed = mf_hash64(o.seed, mf_fnv1a64(0xcbf29ce484222325ull, env_name, strlen(env_name)));
+            if (kind == 2) o.seed = mf_hash64(o.seed, mf_fnv1a64(MF_FNV64_INIT, env_name, strlen(env_name)));
             if ((rc = mf_render(&in, &cam, &o, &ro, NULL))) break;
         }
         MfImage pov = {0};
@@ -299,7 +298,7 @@ static int hash_tree(const char *root, const char *rel, cJSON *files, int *nfile
             size_t len = 0;
             if ((rc = mf_read_file(full, &data, &len))) break;
             char hx[24];
-            snprintf(hx, sizeof hx, "%016llx", (unsigned long long)mf_fnv1a64(0xcbf29ce484222325ull, data, len));
+            snprintf(hx, sizeof hx, "%016llx", (unsigned long long)mf_fnv1a64(MF_FNV64_INIT, data, len));
             free(data);
             cJSON_AddStringToObject(files, r2, hx);
             ++*nfiles;

@@ -22,7 +22,7 @@
 #include "io/mf_exr.h"
 #include "io/mf_image.h"
 #include "io/mf_json.h"
-#include "nn/mf_nn_ckpt.h"
+#include "io/mf_ckpt.h"
 
 /* Variants (ev_stab_scene.h). */
 static const EvStabVariant k_variants[] = {

@@ -12,14 +12,14 @@ allowed() { # folder -> folders it may include (besides itself)
     io)        echo "core scene" ;;   # scene: MfMesh is plain data read by io (issue 13 item 4)
     scene)     echo "core io" ;;
     render)    echo "core io scene" ;;
-    nn)        echo "core" ;;
+    nn)        echo "core io" ;;      # io: MfTensorSpec and the checkpoint format (mf_ckpt)
     geom)      echo "core io scene" ;;
-    inverse)   echo "core io scene render nn" ;;
+    inverse)   echo "core io scene render" ;;
     prior)     echo "core io nn" ;;
     fusion)    echo "core io scene render nn inverse prior" ;;
     baselines) echo "core io inverse" ;;
-    datasets)  echo "core io scene render nn" ;;
-    eval)      echo "core io scene render nn datasets" ;;   # nn: checkpoint files (the stability grid scans them)
+    datasets)  echo "core io scene render" ;;
+    eval)      echo "core io scene render datasets" ;;   # datasets: eval reads data sets
     cli)       echo "core io scene render nn geom inverse prior fusion baselines datasets eval" ;;
     *)         echo "?" ;;
   esac

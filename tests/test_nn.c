@@ -16,7 +16,7 @@
 #include "core/mf_fs.h"
 #include "core/mf_rng.h"
 #include "nn/mf_nn.h"
-#include "nn/mf_nn_ckpt.h"
+#include "io/mf_ckpt.h"
 #include "mf_test.h"
 
 #define GC_EPS 1e-2f

@@ -13,7 +13,7 @@
 #include "core/mf_fs.h"
 #include "eval/ev_stability.h"
 #include "mf_test.h"
-#include "nn/mf_nn_ckpt.h"
+#include "io/mf_ckpt.h"
 
 /* The checkpoint scan reads a checkpoint of any table and counts its NaN/Inf values. */
 MF_TEST(stability_checkpoint_scan) {

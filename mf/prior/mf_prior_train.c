@@ -12,7 +12,7 @@
 #include "core/mf_log.h"
 #include "core/mf_rng.h"
 #include "io/mf_image.h"
-#include "nn/mf_nn_ckpt.h"
+#include "io/mf_ckpt.h"
 
 /* ---- data ------------------------------------------------------------------------------------ */
 
