@@ -15,7 +15,7 @@
 #ifndef MF_DENOISER_H
 #define MF_DENOISER_H
 
-#include "prior/mf_prior_kit.h"
+#include "nn/mf_nn_kit.h"
 
 typedef struct {
     int h;              /* latent size (R / 4) */
