@@ -17,7 +17,7 @@ allowed() { # folder -> folders it may include (besides itself)
     inverse)   echo "core io scene render" ;;
     prior)     echo "core io nn" ;;
     fusion)    echo "core io scene render nn inverse prior" ;;
-    baselines) echo "core io inverse" ;;
+    baselines) echo "core io" ;;
     datasets)  echo "core io scene render" ;;
     eval)      echo "core io scene render datasets" ;;   # datasets: eval reads data sets
     cli)       echo "core io scene render nn geom inverse prior fusion baselines datasets eval" ;;
