@@ -14,7 +14,7 @@
  *   learning rate 0.02 (0.005) to reach a comparable point in fewer iterations; light 3x;
  *   the bilateral denoiser of the demodulated light is nvdiffrecmc's (sigma 2, 23x23 window,
  *   mf_denoise.h) but OFF by default (--denoise 1 turns it on): measured in
- *   reports/baseline/denoiser.md, on 3 test-3d scenes it raises mean relit / albedo / ORM PSNR by
+ *   docs/analyses/baseline-denoiser.md, on 3 test-3d scenes it raises mean relit / albedo / ORM PSNR by
  *   about 0.5 / 0.9 / 1.3 dB at about 3x the CPU time, while --spp 3 without it gains
  *   0.5 / 1.2 / 0.9 dB at 1.5x; the benchmarks of reports/bench were run without it, so the
  *   default stays the configuration they measured. Off, the image is the raw 2^2+2^2-sample
