@@ -15,7 +15,7 @@ allowed() { # folder -> folders it may include (besides itself)
     nn)        echo "core io" ;;      # io: MfTensorSpec and the checkpoint format (mf_ckpt)
     geom)      echo "core io scene" ;;
     inverse)   echo "core io scene render" ;;
-    prior)     echo "core io nn" ;;
+    prior)     echo "core io nn datasets" ;;  # datasets: the 2D splits' layout (ds_prior2d)
     fusion)    echo "core io scene render nn inverse prior" ;;
     baselines) echo "core io" ;;
     datasets)  echo "core io scene render" ;;
