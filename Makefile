@@ -366,7 +366,7 @@ bench-external:
 	  done; $(MF) eval $$d --results $(RESULTS)/$$v --dataset $$v -o $(REPORT)/$$v || exit 1; fi; done
 
 # ---- the material prior: training data, training (resumable), 2D table, speed ----
-# train-prior reproduces the committed weights (reports/prior/README.md) and copies them to
+# train-prior reproduces the committed weights (docs/analyses/prior.md) and copies them to
 # PRIOR_WEIGHTS, the default path `mf prior` and the library load.
 PRIOR_DATA       ?= $(DATA)/prior-train
 PRIOR_CKPT       ?= $(DATA)/prior-ckpt

@@ -40,7 +40,7 @@
  *   L_ground = albedo / pi * E_horizontal (per channel).
  * Units with exposure <= 0: photometric, the luminance Y of a texel in kcd/m^2 (so irradiance in
  * klux). Resulting sun share of the irradiance on an upward plane (measured at 256 x 128, checked
- * by tests/test_envgen.c): T = 2: 0.64 / 0.73 / 0.78 / 0.81 at 30 / 45 / 60 / 75 deg elevation,
+ * by tests/test_datasets_envgen.c): T = 2: 0.64 / 0.73 / 0.78 / 0.81 at 30 / 45 / 60 / 75 deg elevation,
  * T = 3: 0.60 / 0.67 / 0.71 / 0.73; 0.43 / 0.39 at 15 deg. The sun dominates, though a little less
  * than in clear-sky measurements (diffuse fraction about 15-25% for a high sun): Preetham's sky
  * is known to be bright (Zotti, Wilkie, Purgathofer 2007). E.g. T = 3, 45 deg: sun 59 klux, sky

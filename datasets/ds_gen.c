@@ -20,7 +20,6 @@
 #include "datasets/ds_shapes.h"
 #include "datasets/ds_split.h"
 #include "io/mf_json.h"
-#include "nn/mf_nn_ckpt.h"
 #include "render/mf_integrator.h"
 
 uint64_t ds_object_seed(DsSeedStream stream, uint64_t seed, uint64_t k) {
@@ -134,7 +133,7 @@ static int file_fnv(const char *path, uint64_t *h) {
     char *data = NULL;
     size_t len = 0;
     int rc = mf_read_file(path, &data, &len);
-    if (!rc) *h = mf_fnv1a64(0xcbf29ce484222325ull, data, len);
+    if (!rc) *h = mf_fnv1a64(MF_FNV64_INIT, data, len);
     free(data);
     return rc;
 }

@@ -18,8 +18,8 @@
 #include "io/mf_exr.h"
 #include "io/mf_json.h"
 #include "io/mf_obj.h"
-#include "nn/mf_nn_ckpt.h"
 #include "render/mf_integrator.h"
+#include "scene/mf_transforms.h"
 
 typedef struct {
     MfMesh mesh;
@@ -44,22 +44,15 @@ static void scene_free(Scene *sc) {
 static int read_cams(const char *sdir, const char *split, double *angle_x, MfMat4 **c2w, int *n) {
     char p[MF_PATH_MAX], f[64];
     snprintf(f, sizeof f, "transforms_%s.json", split);
+    MfTransforms tf;
     int rc = mf_path_join(p, sizeof p, sdir, f);
-    cJSON *j = NULL;
-    if (rc || (rc = mf_json_load(p, &j))) return rc;
-    const cJSON *frames;
-    int nf = 0;
-    if (!(rc = mf_json_number(p, "", j, "camera_angle_x", angle_x)) && !(rc = mf_json_array(p, "", j, "frames", &frames, &nf))) {
-        *c2w = malloc(sizeof(MfMat4) * (size_t)(nf ? nf : 1));
-        if (!*c2w) rc = mf_fail(MF_ENOMEM, "out of memory");
-        for (int i = 0; i < nf && !rc; ++i) {
-            char where[48];
-            snprintf(where, sizeof where, "frames[%d]", i);
-            rc = mf_json_floats(p, where, cJSON_GetArrayItem(frames, i), "transform_matrix", 4, 4, (*c2w)[i].m);
-        }
-        *n = nf;
-    }
-    cJSON_Delete(j);
+    if (rc || (rc = mf_transforms_load(p, &tf))) return rc;
+    *c2w = malloc(sizeof(MfMat4) * (size_t)(tf.n ? tf.n : 1));
+    if (!*c2w) rc = mf_fail(MF_ENOMEM, "out of memory");
+    for (int i = 0; i < tf.n && !rc; ++i)
+        for (int e = 0; e < 16; ++e) (*c2w)[i].m[e] = (float)tf.frames[i].c2w[e];
+    *angle_x = tf.camera_angle_x, *n = tf.n;
+    mf_transforms_free(&tf);
     return rc;
 }
 
@@ -161,7 +154,7 @@ static int render_set(Ctx *c, const char *env_rel, const char *env_name, int kin
         int need_ours = !s->povray || kind == 1;
         if (need_ours) {
             MfRenderOpts o = {s->spp_sqrt, s->pixel_samples > 0 ? s->pixel_samples : 4, mf_hash64(c->seed, (uint64_t)(kind * 100000 + i)), MF_LOBE_ALL};
-            if (kind == 2) o.seed = mf_hash64(o.seed, mf_fnv1a64(0xcbf29ce484222325ull, env_name, strlen(env_name)));
+            if (kind == 2) o.seed = mf_hash64(o.seed, mf_fnv1a64(MF_FNV64_INIT, env_name, strlen(env_name)));
             if ((rc = mf_render(&in, &cam, &o, &ro, NULL))) break;
         }
         MfImage pov = {0};
@@ -299,7 +292,7 @@ static int hash_tree(const char *root, const char *rel, cJSON *files, int *nfile
             size_t len = 0;
             if ((rc = mf_read_file(full, &data, &len))) break;
             char hx[24];
-            snprintf(hx, sizeof hx, "%016llx", (unsigned long long)mf_fnv1a64(0xcbf29ce484222325ull, data, len));
+            snprintf(hx, sizeof hx, "%016llx", (unsigned long long)mf_fnv1a64(MF_FNV64_INIT, data, len));
             free(data);
             cJSON_AddStringToObject(files, r2, hx);
             ++*nfiles;

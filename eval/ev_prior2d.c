@@ -1,7 +1,6 @@
 /* ev_prior2d: the prior's 2D evaluation table (ev_prior2d.h). */
 #include "eval/ev_prior2d.h"
 
-#include <cJSON.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -9,6 +8,7 @@
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "core/mf_log.h"
+#include "datasets/ds_prior2d.h"
 #include "eval/ev_align.h"
 #include "eval/ev_metrics.h"
 #include "eval/ev_report.h"
@@ -28,32 +28,13 @@ void ev_prior2d_free(EvPrior2dSplit *s) {
     memset(s, 0, sizeof *s);
 }
 
-int ev_prior2d_read(const char *dir, const char *kind, int i, MfEncoding enc, MfImage *out) {
-    char rel[64], path[MF_PATH_MAX];
-    snprintf(rel, sizeof rel, "%s/%06d.png", kind, i);
-    mf_path_join(path, sizeof path, dir, rel);
-    int rc = mf_image_read(path, enc, out);
-    if (!rc && out->c != 4) {
-        mf_image_free(out);
-        rc = mf_fail(MF_EFORMAT, "%s: expected an RGBA image", path);
-    }
-    return rc;
-}
-
-/* manifest: count, views_per_object (default 1); n = whole objects only. */
+/* manifest (ds_prior2d.h): count, views_per_object (default 1); n = whole objects only. */
 int ev_prior2d_load(const char *dir, int max_objects, EvPrior2dSplit *s) {
-    char path[MF_PATH_MAX], *txt = NULL;
-    size_t len;
-    mf_path_join(path, sizeof path, dir, "manifest.json");
-    int rc = mf_read_file(path, &txt, &len);
+    DsPrior2dManifest man;
+    int rc = ds_prior2d_manifest(dir, 1, &man);
     if (rc) return rc;
-    cJSON *m = cJSON_Parse(txt);
-    free(txt);
-    const cJSON *cn = cJSON_GetObjectItemCaseSensitive(m, "count"),
-                *cv = cJSON_GetObjectItemCaseSensitive(m, "views_per_object");
-    int count = cJSON_IsNumber(cn) ? cn->valueint : 0, V = cJSON_IsNumber(cv) ? cv->valueint : 1;
-    cJSON_Delete(m);
-    if (count < 1 || V < 1 || count < V) return mf_fail(MF_EFORMAT, "%s: expected \"count\" >= \"views_per_object\" >= 1", path);
+    int count = man.count, V = man.views_per_object == DS_P2_ABSENT ? 1 : man.views_per_object;
+    if (count < 1 || V < 1 || count < V) return mf_fail(MF_EFORMAT, "%s: expected \"count\" >= \"views_per_object\" >= 1", man.path);
     int objects = count / V;
     if (max_objects > 0 && objects > max_objects) objects = max_objects;
     s->n = objects * V, s->V = V;
@@ -61,10 +42,10 @@ int ev_prior2d_load(const char *dir, int max_objects, EvPrior2dSplit *s) {
     s->albedo = calloc((size_t)s->n, sizeof(MfImage)), s->orm = calloc((size_t)s->n, sizeof(MfImage));
     if (!s->rgb_raw || !s->rgb || !s->albedo || !s->orm) return mf_fail(MF_ENOMEM, "eval-prior: out of memory");
     for (int i = 0; i < s->n && !rc; ++i) {
-        if (!(rc = ev_prior2d_read(dir, "rgb", i, MF_ENC_LINEAR, &s->rgb_raw[i])) &&
-            !(rc = ev_prior2d_read(dir, "rgb", i, MF_ENC_SRGB, &s->rgb[i])) &&
-            !(rc = ev_prior2d_read(dir, "albedo", i, MF_ENC_SRGB, &s->albedo[i])))
-            rc = ev_prior2d_read(dir, "orm", i, MF_ENC_LINEAR, &s->orm[i]);
+        if (!(rc = ds_prior2d_read(dir, "rgb", i, MF_ENC_LINEAR, &s->rgb_raw[i])) &&
+            !(rc = ds_prior2d_read(dir, "rgb", i, MF_ENC_SRGB, &s->rgb[i])) &&
+            !(rc = ds_prior2d_read(dir, "albedo", i, MF_ENC_SRGB, &s->albedo[i])))
+            rc = ds_prior2d_read(dir, "orm", i, MF_ENC_LINEAR, &s->orm[i]);
         if (!rc && i == 0) s->R = s->albedo[0].w;
         if (!rc && (s->rgb[i].w != s->R || s->rgb[i].h != s->R || s->albedo[i].h != s->R || s->orm[i].w != s->R ||
                     s->orm[i].h != s->R))

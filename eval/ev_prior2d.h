@@ -1,7 +1,7 @@
 /* ev_prior2d: the prior's 2D evaluation table (MaterialFusion's Table 3, `mf eval-prior`) on a
- * test-2d split (prior-train layout: DIR/{rgb,albedo,orm}/NNNNNN.png, RGBA 8-bit, rgb and albedo
- * sRGB, orm linear, alpha = coverage; DIR/manifest.json "count" and "views_per_object", the
- * views of an object consecutive).
+ * test-2d split (read through datasets/ds_prior2d.h: DIR/{rgb,albedo,orm}/NNNNNN.png, RGBA 8-bit,
+ * rgb and albedo sRGB, orm linear, alpha = coverage; DIR/manifest.json "count" and
+ * "views_per_object", the views of an object consecutive).
  *
  * Methods (fixed order, ev_prior2d_methods): StableMaterial (each view alone), StableMaterialMV
  * (the views of an object jointly), Input image, Retinex (albedo only), Train-mean ORM (ORM
@@ -28,8 +28,6 @@ typedef struct {
     MfImage *rgb_raw, *rgb, *albedo, *orm;  /* owned; (n,) each, RGBA (R, R, 4): raw codes / linear / linear / linear */
 } EvPrior2dSplit;
 
-/* Reads DIR/<kind>/NNNNNN.png (sample i) with the given encoding; refuses a non-RGBA image. */
-int ev_prior2d_read(const char *dir, const char *kind, int i, MfEncoding enc, MfImage *out);
 /* Reads the first max_objects objects (0: all) of a split; every image must be R x R. */
 int ev_prior2d_load(const char *dir, int max_objects, EvPrior2dSplit *s);
 void ev_prior2d_free(EvPrior2dSplit *s);

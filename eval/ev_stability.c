@@ -22,7 +22,7 @@
 #include "io/mf_exr.h"
 #include "io/mf_image.h"
 #include "io/mf_json.h"
-#include "nn/mf_nn_ckpt.h"
+#include "io/mf_ckpt.h"
 
 /* Variants (ev_stab_scene.h). */
 static const EvStabVariant k_variants[] = {
@@ -69,7 +69,7 @@ const EvStabVariant *ev_stab_variant(const char *id) {
 #define B(var, q, maxd) {"recon", "baseline", var, "", NULL, maxd, 0, q}
 #define M(var, q, maxd) {"recon", "materialfusion", var, "", NULL, maxd, 0, q}
 
-/* Recon cells: the variant's scene at the test budget of tests/test_pipeline_tiny.c (64 px
+/* Recon cells: the variant's scene at the test budget of tests/test_cli_pipeline_tiny.c (64 px
  * texels, 32 x 16 env). Refusal cells give an out-of-range value and must name the option. */
 static const EvStabCell k_cells[] = {
     {"reference", "render", "reference", "", NULL, 0, 0, 1},

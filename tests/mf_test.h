@@ -1,6 +1,6 @@
 /* mf_test: a tiny test framework (after Redis's testhelp.h).
  *
- * Each test_<module>.c defines tests with MF_TEST(name) { ... }; they register themselves at
+ * Each test_<folder>_<module>.c defines tests with MF_TEST(name) { ... }; they register themselves at
  * start-up, so adding a file to tests/ is all it takes. Checks count failures and print the
  * file, line and values; a test with any failed check fails. MF_SKIP(reason) ends a test as
  * skipped (e.g. ../shared missing). The runner prints one line per test and, last,

@@ -9,7 +9,7 @@
 #include "inverse/mf_recon.h"
 #include "mf_test.h"
 #include "nn/mf_nn.h"
-#include "nn/mf_nn_ckpt.h"
+#include "io/mf_ckpt.h"
 #include "render/mf_rtscene.h"
 #include "scene/mf_shapes.h"
 

@@ -11,7 +11,6 @@
 #include <string.h>
 #include <sys/wait.h>
 
-#include "baselines/bl_nvdiffrecmc.h"
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "eval/ev_eval_opts.h"
@@ -151,7 +150,7 @@ MF_TEST(opts_defaults_unchanged) {
 MF_TEST(opts_baseline_config_matches_defaults) {
     const char *path = "baselines/nvdiffrecmc.json";
     if (!mf_file_exists(path)) MF_SKIP("baselines/nvdiffrecmc.json not found (run from the repository root)");
-    MfReconOpts d = bl_nvdiffrecmc_opts(), o;
+    MfReconOpts d = mf_recon_opts_default(), o;
     memset(&o, 0, sizeof o);
     mf_opts_defaults(&mf_recon_opt_table, &o);
     o.iters = -1; /* must come from the file */

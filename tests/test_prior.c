@@ -12,7 +12,7 @@
 #include "core/mf_rng.h"
 #include "eval/ev_table.h"
 #include "io/mf_image.h"
-#include "nn/mf_nn_ckpt.h"
+#include "io/mf_ckpt.h"
 #include "prior/mf_prior.h"
 #include "prior/mf_prior_train.h"
 #include "tests/mf_test.h"

@@ -10,6 +10,7 @@
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "core/mf_log.h"
+#include "datasets/ds_prior2d.h"
 #include "eval/ev_prior2d.h"
 #include "prior/mf_prior.h"
 
@@ -55,16 +56,15 @@ __attribute__((constructor)) static void eval_prior_usage(void) {
 static int train_orm_mean(const char *dir, float *rough, float *metal) {
     int n = 0;
     for (;; ++n) {
-        char rel[64], path[MF_PATH_MAX];
-        snprintf(rel, sizeof rel, "orm/%06d.png", n);
-        mf_path_join(path, sizeof path, dir, rel);
+        char path[MF_PATH_MAX];
+        ds_prior2d_path(dir, "orm", n, path, sizeof path);
         if (!mf_file_exists(path)) break;
     }
     if (!n) return mf_fail(MF_EIO, "%s: no orm/000000.png (need the training split for the mean-ORM baseline; --train DIR)", dir);
     double sr = 0, sm = 0, cnt = 0;
     for (int i = 0; i < n; ++i) {
         MfImage im = {0};
-        int rc = ev_prior2d_read(dir, "orm", i, MF_ENC_LINEAR, &im);
+        int rc = ds_prior2d_read(dir, "orm", i, MF_ENC_LINEAR, &im);
         if (rc) return rc;
         const MfImage *one = &im;
         float r, m;

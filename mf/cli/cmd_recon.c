@@ -5,7 +5,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "baselines/bl_nvdiffrecmc.h"
 #include "cli/cli_run_info.h"
 #include "cli/mf_cli.h"
 #include "core/mf_error.h"
@@ -65,7 +64,7 @@ static int cmd_recon_run(int argc, char **argv, const MfOptParse *p, ReconArgs *
 
 static int cmd_recon(int argc, char **argv) {
     ReconArgs a;
-    MfReconOpts o = bl_nvdiffrecmc_opts();
+    MfReconOpts o = mf_recon_opts_default();
     MfSdsOpts so = mf_sds_opts_default();
     mf_opts_defaults(&k_args_table, &a);
     MfOptBind binds[] = {{&k_args_table, &a}, {&mf_recon_opt_table, &o}, {&mf_sds_opt_table, &so}};

@@ -10,7 +10,7 @@
 #include "core/mf_fs.h"
 #include "core/mf_log.h"
 #include "eval/ev_eval.h"
-#include "io/mf_json.h"
+#include "scene/mf_transforms.h"
 #include "render/mf_integrator.h"
 #include "render/mf_rtscene.h"
 
@@ -67,13 +67,8 @@ static int cmd_relight(int argc, char **argv) {
 static int relight_run(const char *result, const RelightArgs *a) {
     const char *envp = a->env, *cams = a->cameras, *out = a->out;
     int spp = a->spp, ps = a->pixel_samples, width = a->width, seed = a->seed, png = a->png;
-    cJSON *root = NULL;
-    const cJSON *frames = NULL;
-    int nf = 0;
-    double ax;
-    if (mf_json_load(cams, &root)) return MF_EXIT_FAIL;
-    int rc = mf_json_number(cams, "", root, "camera_angle_x", &ax);
-    if (!rc) rc = mf_json_array(cams, "", root, "frames", &frames, &nf);
+    MfTransforms tf;
+    int rc = mf_transforms_load(cams, &tf), nf = tf.n;
     EvResult res;
     int have_res = 0;
     MfEnvMap env;
@@ -92,25 +87,11 @@ static int relight_run(const char *result, const RelightArgs *a) {
     Frame *fs = rc ? NULL : calloc(nf > 0 ? (size_t)nf : 1, sizeof *fs);
     if (!rc && !fs) rc = mf_fail(MF_ENOMEM, "%s: out of memory", cams);
     for (int k = 0; k < nf && !rc; ++k) {
-        const cJSON *fr = cJSON_GetArrayItem(frames, k);
-        char where[64];
-        snprintf(where, sizeof where, "frames[%d]", k);
-        double m[16];
-        const char *fp = NULL;
-        if ((rc = mf_json_numbers(cams, where, fr, "transform_matrix", 4, 4, m))) break;
-        char *name = fs[k].name;
-        if (mf_json_string(cams, where, fr, "file_path", &fp) == MF_OK) {
-            const char *b = strrchr(fp, '/');
-            snprintf(name, sizeof fs[k].name, "%s", b ? b + 1 : fp);
-            char *dot = strrchr(name, '.');
-            if (dot) *dot = '\0';
-        } else {
-            mf_error_clear();
-            snprintf(name, sizeof fs[k].name, "r_%03d", k);
-        }
+        if (tf.frames[k].name[0]) snprintf(fs[k].name, sizeof fs[k].name, "%s", tf.frames[k].name);
+        else snprintf(fs[k].name, sizeof fs[k].name, "r_%03d", k);
         char what[MF_PATH_MAX + 64];
-        snprintf(what, sizeof what, "%s: %s", cams, where);
-        rc = mf_camera_init(&fs[k].cam, width, width, ax, m, what);
+        snprintf(what, sizeof what, "%s: frames[%d]", cams, k);
+        rc = mf_camera_init(&fs[k].cam, width, width, tf.camera_angle_x, tf.frames[k].c2w, what);
     }
     int di, dj;
     if (!rc && mf_find_duplicate_name(fs[0].name, sizeof fs[0], nf, &di, &dj))
@@ -135,7 +116,7 @@ static int relight_run(const char *result, const RelightArgs *a) {
     mf_rtscene_free(rt);
     if (have_env) mf_env_free(&env);
     if (have_res) ev_result_free(&res);
-    cJSON_Delete(root);
+    mf_transforms_free(&tf);
     return rc ? MF_EXIT_FAIL : MF_EXIT_OK;
 }
 

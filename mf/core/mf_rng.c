@@ -28,6 +28,15 @@ uint64_t mf_hash64(uint64_t a, uint64_t b) {
     return x;
 }
 
+uint64_t mf_fnv1a64(uint64_t h, const void *data, size_t n) {
+    const unsigned char *p = data;
+    for (size_t i = 0; i < n; ++i) {
+        h ^= p[i];
+        h *= 0x100000001b3ull;
+    }
+    return h;
+}
+
 struct MfSobol { gsl_qrng *q; };
 
 MfSobol *mf_sobol_new(unsigned dim) {

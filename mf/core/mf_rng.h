@@ -7,6 +7,7 @@
 #ifndef MF_RNG_H
 #define MF_RNG_H
 
+#include <stddef.h>
 #include <stdint.h>
 
 typedef struct { uint64_t state, inc; } MfRng;
@@ -52,6 +53,11 @@ float mf_rng_normal(MfRng *r);
 
 /* Mixes several integers into one well-spread 64-bit value (for deriving per-item seeds). */
 uint64_t mf_hash64(uint64_t a, uint64_t b);
+
+/* FNV-1a 64 of n bytes, continuing from h (start with MF_FNV64_INIT): checkpoint checksums,
+ * file digests of the data set manifests. */
+#define MF_FNV64_INIT 0xcbf29ce484222325ull
+uint64_t mf_fnv1a64(uint64_t h, const void *data, size_t n);
 
 /* Sobol low-discrepancy points in [0,1)^dim through GSL (dim <= 40). */
 typedef struct MfSobol MfSobol;

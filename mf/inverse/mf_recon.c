@@ -18,7 +18,7 @@
 #include "io/mf_exr.h"
 #include "io/mf_gltf.h"
 #include "io/mf_obj.h"
-#include "nn/mf_nn_ckpt.h"
+#include "io/mf_ckpt.h"
 #include "render/mf_rtscene.h"
 #include "scene/mf_tangent.h"
 

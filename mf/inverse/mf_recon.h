@@ -18,7 +18,7 @@
  *      In nvdiffrecmc kd's adjoint is drgb F(diffuse) with the PRIMAL's light, correlated with
  *      the image error it multiplies (biased in a non-linear loss); with denoise_decorrelate
  *      (default) that light comes from a third, independent render (seed C) through the same
- *      filter, at the cost of one more forward render (reports/baseline/denoiser.md);
+ *      filter, at the cost of one more forward render (docs/analyses/baseline-denoiser.md);
  *   4. texel smoothness regularisers on kd and ORM (G, B) over the texels the mesh's UVs use
  *      (with a normal map: its smoothness and its perturbation from flat, too);
  *   5. the method hook (MaterialFusion's SDS+ term) may add loss and gradients;

@@ -29,7 +29,7 @@ static const MfOpt k_opts[] = {
     MF_OPT_FLOAT(R, init_metal, 0.25, 0, 1, "initial metallic"),
     MF_OPT_FLOAT(R, init_light, 0.5, 0.01, 1000,
                  "initial env radiance, in the views' units / 2^k near their mean (mf_recon.h; the env is kept >= 0.01 of it)"),
-    /* measured (reports/baseline/denoiser.md): +0.5 dB relit at 3x the CPU; off for cost */
+    /* measured (docs/analyses/baseline-denoiser.md): +0.5 dB relit at 3x the CPU; off for cost */
     MF_OPT_INT(R, denoise, 0, 0, 1, "1: bilateral denoiser of the demodulated diffuse/specular light (nvdiffrecmc)"),
     MF_OPT_FLOAT(R, denoise_sigma, 2, 0.1, 8, "denoiser spatial sigma in pixels (window 2*ceil(2.5 sigma)+1 each side)"),
     MF_OPT_INT(R, denoise_decorrelate, 1, 0, 1, "1: kd's adjoint takes the denoised light of an independent render (0: the primal's)"),

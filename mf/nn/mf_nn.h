@@ -21,23 +21,13 @@
 
 #include <stddef.h>
 
+#include "io/mf_ckpt.h"
+
 /* ---- parameter tables ---------------------------------------------------------------- */
 
-#define MF_NN_NAME_MAX 64
-#define MF_NN_MAXDIM 4
+/* MfTensorSpec (one named tensor: name and shape), mf_tensor_numel, mf_specs_numel and
+ * mf_spec_set come with the checkpoint format, io/mf_ckpt.h. */
 
-/* One named parameter tensor: name (e.g. "down.0.res.conv1.w") and shape. */
-typedef struct {
-    char name[MF_NN_NAME_MAX];
-    int ndim;
-    int shape[MF_NN_MAXDIM];
-} MfTensorSpec;
-
-/* Number of floats of one tensor / of a whole table. */
-size_t mf_tensor_numel(const MfTensorSpec *s);
-size_t mf_specs_numel(const MfTensorSpec *specs, int n);
-/* Fills spec with name (prefix + "." + leaf, or leaf when prefix is "" or NULL) and shape. */
-void mf_spec_set(MfTensorSpec *spec, const char *prefix, const char *leaf, int ndim, const int *shape);
 /* Points slots[i] (n pointers, e.g. the fields of a struct of float*) at consecutive tensors of
  * mem in table order; mem holds mf_specs_numel(specs, n) floats (borrowed). */
 void mf_params_bind(float **slots, const MfTensorSpec *specs, int n, float *mem);

@@ -20,28 +20,6 @@ static void nn_sgemm(enum CBLAS_ORDER o, enum CBLAS_TRANSPOSE ta, enum CBLAS_TRA
 
 /* ---- parameter tables ---------------------------------------------------------------- */
 
-size_t mf_tensor_numel(const MfTensorSpec *s) {
-    size_t n = 1;
-    for (int i = 0; i < s->ndim; ++i) n *= (size_t)s->shape[i];
-    return n;
-}
-
-size_t mf_specs_numel(const MfTensorSpec *specs, int n) {
-    size_t t = 0;
-    for (int i = 0; i < n; ++i) t += mf_tensor_numel(&specs[i]);
-    return t;
-}
-
-void mf_spec_set(MfTensorSpec *spec, const char *prefix, const char *leaf, int ndim, const int *shape) {
-    memset(spec, 0, sizeof *spec);
-    if (prefix && prefix[0])
-        snprintf(spec->name, sizeof spec->name, "%s.%s", prefix, leaf);
-    else
-        snprintf(spec->name, sizeof spec->name, "%s", leaf);
-    spec->ndim = ndim < MF_NN_MAXDIM ? ndim : MF_NN_MAXDIM;
-    for (int i = 0; i < spec->ndim; ++i) spec->shape[i] = shape[i];
-}
-
 void mf_params_bind(float **slots, const MfTensorSpec *specs, int n, float *mem) {
     for (int i = 0; i < n; ++i) {
         slots[i] = mem;

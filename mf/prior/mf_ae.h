@@ -13,7 +13,7 @@
 
 #include <stddef.h>
 
-#include "prior/mf_prior_kit.h"
+#include "nn/mf_nn_kit.h"
 
 typedef struct {
     int res;    /* image size R (multiple of 4) */

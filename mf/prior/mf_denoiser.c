@@ -6,12 +6,31 @@
 
 #include "core/mf_error.h"
 
-static size_t add_res(MfSpecTab *t, MfResBlockDims *d, const char *name, int Cin, int Cout, int H, int Ct, int G) {
-    MfResBlockDims dd = {1, Cin, Cout, H, H, Ct, G, MF_KNORM_EPS};
-    *d = dd;
+static void add_res(MfSpecTab *t, MfDnRes *r, const char *name, int Cin, int Cout, int H, int Ct, int G) {
+    MfResBlockDims d = {1, Cin, Cout, H, H, Ct, G, MF_KNORM_EPS};
+    r->d = d;
     MfTensorSpec specs[MF_RESBLOCK_NPARAMS];
-    int k = mf_resblock_specs(specs, name, d);
-    return mf_spectab_add_many(t, specs, k);
+    int k = mf_resblock_specs(specs, name, &r->d);
+    r->off = mf_spectab_add_many(t, specs, k);
+}
+
+/* r's dimensions at batch B, with its weights (from p) and, if g is not NULL, gradients bound. */
+static MfResBlockDims res_bind(const MfDnRes *r, int B, const float *p, float *g, MfResBlockW *rw, MfResBlockW *rg) {
+    MfResBlockDims d = r->d;
+    d.B = B;
+    mf_resblock_bind(rw, &d, (float *)p + r->off);
+    if (g) mf_resblock_bind(rg, &d, g + r->off);
+    return d;
+}
+
+/* The attention block's dimensions at batch B (V views, joint or not), weights and gradients. */
+static MfAttnBlockDims attn_bind(const MfDnAttn *a, int B, int V, int joint, const float *p, float *g, MfAttnBlockW *aw,
+                                 MfAttnBlockW *ag) {
+    MfAttnBlockDims d = a->d;
+    d.BV = B, d.V = V, d.joint = joint;
+    mf_attnblock_bind(aw, &d, (float *)p + a->off);
+    if (g) mf_attnblock_bind(ag, &d, g + a->off);
+    return d;
 }
 
 int mf_denoiser_new(MfDenoiser **out, const MfDenoiserConfig *cfg) {
@@ -31,16 +50,16 @@ int mf_denoiser_new(MfDenoiser **out, const MfDenoiserConfig *cfg) {
     mf_klinear_add(&dn->t1, t, "dn.time.0", c->tfreq, c->ct);
     mf_klinear_add(&dn->t2, t, "dn.time.1", c->ct, c->ct);
     mf_kconv_add(&dn->cin, t, "dn.conv_in", 3 * c->zc, c->c1, 3, 1);
-    dn->o0 = add_res(t, &dn->r0, "dn.res0", c->c1, c->c1, h, c->ct, G);
+    add_res(t, &dn->res0, "dn.res0", c->c1, c->c1, h, c->ct, G);
     mf_kconv_add(&dn->down, t, "dn.down", c->c1, c->c1, 3, 2);
-    dn->o1 = add_res(t, &dn->r1, "dn.res1", c->c1, c->c2, h / 2, c->ct, G);
+    add_res(t, &dn->res1, "dn.res1", c->c1, c->c2, h / 2, c->ct, G);
     MfAttnBlockDims ad = {1, c->c2, h / 2, h / 2, G, c->heads, 1, 0, MF_KNORM_EPS};
-    dn->ad = ad;
+    dn->attn.d = ad;
     MfTensorSpec as[MF_ATTNBLOCK_NPARAMS];
-    int na = mf_attnblock_specs(as, "dn.attn", &dn->ad);
-    dn->oa = mf_spectab_add_many(t, as, na);
-    dn->o2 = add_res(t, &dn->r2, "dn.res2", c->c2, c->c2, h / 2, c->ct, G);
-    dn->o3 = add_res(t, &dn->r3, "dn.res3", c->c2 + c->c1, c->c1, h, c->ct, G);
+    int na = mf_attnblock_specs(as, "dn.attn", &dn->attn.d);
+    dn->attn.off = mf_spectab_add_many(t, as, na);
+    add_res(t, &dn->res2, "dn.res2", c->c2, c->c2, h / 2, c->ct, G);
+    add_res(t, &dn->res3, "dn.res3", c->c2 + c->c1, c->c1, h, c->ct, G);
     mf_knorm_add(&dn->nout, t, "dn.norm_out", c->c1, G);
     mf_kconv_add(&dn->cout, t, "dn.conv_out", c->c1, 2 * c->zc, 3, 1);
     /* image encoder */
@@ -68,10 +87,10 @@ void mf_denoiser_free(MfDenoiser *dn) {
     free(dn->params), free(dn->grads), free(dn);
 }
 
-static void init_res(float *p, size_t off, const MfResBlockDims *d, unsigned long long seed) {
+static void init_res(float *p, const MfDnRes *r, unsigned long long seed) {
     MfResBlockW w;
-    mf_resblock_bind(&w, d, p + off);
-    mf_resblock_init(&w, d, seed);
+    mf_resblock_bind(&w, &r->d, p + r->off);
+    mf_resblock_init(&w, &r->d, seed);
 }
 
 void mf_denoiser_init_weights(MfDenoiser *dn, unsigned long long seed) {
@@ -80,14 +99,14 @@ void mf_denoiser_init_weights(MfDenoiser *dn, unsigned long long seed) {
     mf_klinear_init(&dn->t1, p, s + 1);
     mf_klinear_init(&dn->t2, p, s + 2);
     mf_kconv_init(&dn->cin, p, s + 3, 0);
-    init_res(p, dn->o0, &dn->r0, s + 4);
+    init_res(p, &dn->res0, s + 4);
     mf_kconv_init(&dn->down, p, s + 5, 0);
-    init_res(p, dn->o1, &dn->r1, s + 6);
+    init_res(p, &dn->res1, s + 6);
     MfAttnBlockW aw;
-    mf_attnblock_bind(&aw, &dn->ad, p + dn->oa);
-    mf_attnblock_init(&aw, &dn->ad, s + 7);
-    init_res(p, dn->o2, &dn->r2, s + 8);
-    init_res(p, dn->o3, &dn->r3, s + 9);
+    mf_attnblock_bind(&aw, &dn->attn.d, p + dn->attn.off);
+    mf_attnblock_init(&aw, &dn->attn.d, s + 7);
+    init_res(p, &dn->res2, s + 8);
+    init_res(p, &dn->res3, s + 9);
     mf_knorm_init(&dn->nout, p);
     mf_kconv_init(&dn->cout, p, s + 10, 1);
     mf_seq_init(&dn->img, p, s + 11);
@@ -115,16 +134,15 @@ static size_t layout(const MfDenoiser *dn, MfDenoiserWork *w, float *base, int B
     w->h6 = mf_arena_take(&ar, Bz * (c->c1 + c->c2) * n16);
     w->h7 = mf_arena_take(&ar, Bz * c->c1 * n16);
     w->v = mf_arena_take(&ar, Bz * 2 * c->zc * n16);
-    MfResBlockDims *rs[4] = {(MfResBlockDims *)&dn->r0, (MfResBlockDims *)&dn->r1, (MfResBlockDims *)&dn->r2,
-                             (MfResBlockDims *)&dn->r3};
+    const MfDnRes *rs[4] = {&dn->res0, &dn->res1, &dn->res2, &dn->res3};
     MfResBlockActs *as[4] = {&w->a0, &w->a1, &w->a2, &w->a3};
     for (int i = 0; i < 4; ++i) {
-        MfResBlockDims d = *rs[i];
+        MfResBlockDims d = rs[i]->d;
         d.B = B;
         float *m = mf_arena_take(&ar, mf_resblock_acts_floats(&d));
         if (m) mf_resblock_acts_bind(as[i], &d, m);
     }
-    MfAttnBlockDims ad = dn->ad;
+    MfAttnBlockDims ad = dn->attn.d;
     ad.BV = B, ad.V = V, ad.joint = joint;
     float *m = mf_arena_take(&ar, mf_attnblock_acts_floats(&ad));
     if (m) mf_attnblock_acts_bind(&w->aa, &ad, m);
@@ -195,17 +213,15 @@ float *mf_denoiser_forward(MfDenoiser *dn, MfDenoiserWork *w, const float *x, co
     MfResBlockW rw;
     MfResBlockDims d;
     mf_kconv_forward(&dn->cin, p, w->h0, w->col, x, B, h, h);
-    d = dn->r0, d.B = B, mf_resblock_bind(&rw, &d, (float *)p + dn->o0);
+    d = res_bind(&dn->res0, B, p, NULL, &rw, NULL);
     mf_resblock_forward(w->h1, &w->a0, w->h0, w->emb, &rw, &d);
     mf_kconv_forward(&dn->down, p, w->h2, w->col, w->h1, B, h, h);
-    d = dn->r1, d.B = B, mf_resblock_bind(&rw, &d, (float *)p + dn->o1);
+    d = res_bind(&dn->res1, B, p, NULL, &rw, NULL);
     mf_resblock_forward(w->h3, &w->a1, w->h2, w->emb, &rw, &d);
-    MfAttnBlockDims ad = dn->ad;
-    ad.BV = B, ad.V = V, ad.joint = joint;
     MfAttnBlockW aw;
-    mf_attnblock_bind(&aw, &ad, (float *)p + dn->oa);
+    MfAttnBlockDims ad = attn_bind(&dn->attn, B, V, joint, p, NULL, &aw, NULL);
     mf_attnblock_forward(w->h4, &w->aa, w->h3, &aw, &ad);
-    d = dn->r2, d.B = B, mf_resblock_bind(&rw, &d, (float *)p + dn->o2);
+    d = res_bind(&dn->res2, B, p, NULL, &rw, NULL);
     mf_resblock_forward(w->h5, &w->a2, w->h4, w->emb, &rw, &d);
     mf_upsample2x_forward(w->h5u, w->h5, B, c->c2, h / 2, h / 2);
     size_t sA = (size_t)c->c2 * n16, sB = (size_t)c->c1 * n16;
@@ -213,7 +229,7 @@ float *mf_denoiser_forward(MfDenoiser *dn, MfDenoiserWork *w, const float *x, co
         memcpy(w->h6 + b * (sA + sB), w->h5u + b * sA, sA * sizeof(float));
         memcpy(w->h6 + b * (sA + sB) + sA, w->h1 + b * sB, sB * sizeof(float));
     }
-    d = dn->r3, d.B = B, mf_resblock_bind(&rw, &d, (float *)p + dn->o3);
+    d = res_bind(&dn->res3, B, p, NULL, &rw, NULL);
     mf_resblock_forward(w->h7, &w->a3, w->h6, w->emb, &rw, &d);
     mf_knorm_forward(&dn->nout, p, &w->an, w->h7, B, n16);
     mf_kconv_forward(&dn->cout, p, w->v, w->col, w->an.a, B, h, h);
@@ -238,7 +254,7 @@ void mf_denoiser_backward(MfDenoiser *dn, MfDenoiserWork *w, const float *dv) {
     /* res3: dh6 -> g16a */
     size_t s6 = (size_t)B * (c->c1 + c->c2) * n16;
     memset(w->g16a, 0, s6 * sizeof(float));
-    d = dn->r3, d.B = B, mf_resblock_bind(&rw, &d, (float *)p + dn->o3), mf_resblock_bind(&rg, &d, g + dn->o3);
+    d = res_bind(&dn->res3, B, p, g, &rw, &rg);
     mf_resblock_backward(w->g16a, w->gemb, &rg, &w->a3, w->g16b, w->h6, w->emb, &rw, &d);
     /* split: dh5u (first c2 channels), dh1 (last c1 channels) -> g16b holds dh1 */
     size_t sA = (size_t)c->c2 * n16, sB = (size_t)c->c1 * n16;
@@ -250,25 +266,22 @@ void mf_denoiser_backward(MfDenoiser *dn, MfDenoiserWork *w, const float *dv) {
         mf_upsample2x_backward(w->g8a + (size_t)b * c->c2 * n8, w->g16a + b * (sA + sB), 1, c->c2, h / 2, h / 2);
     /* res2: dh4 -> g8b */
     memset(w->g8b, 0, s8 * sizeof(float));
-    d = dn->r2, d.B = B, mf_resblock_bind(&rw, &d, (float *)p + dn->o2), mf_resblock_bind(&rg, &d, g + dn->o2);
+    d = res_bind(&dn->res2, B, p, g, &rw, &rg);
     mf_resblock_backward(w->g8b, w->gemb, &rg, &w->a2, w->g8a, w->h4, w->emb, &rw, &d);
     /* attention: dh3 -> g8a */
     memset(w->g8a, 0, s8 * sizeof(float));
-    MfAttnBlockDims ad = dn->ad;
-    ad.BV = B, ad.V = w->V, ad.joint = w->joint;
     MfAttnBlockW aw, ag;
-    mf_attnblock_bind(&aw, &ad, (float *)p + dn->oa);
-    mf_attnblock_bind(&ag, &ad, g + dn->oa);
+    MfAttnBlockDims ad = attn_bind(&dn->attn, B, w->V, w->joint, p, g, &aw, &ag);
     mf_attnblock_backward(w->g8a, &ag, &w->aa, w->g8b, w->h3, &aw, &ad);
     /* res1: dh2 -> g8b (c1 channels) */
     memset(w->g8b, 0, (size_t)B * c->c1 * n8 * sizeof(float));
-    d = dn->r1, d.B = B, mf_resblock_bind(&rw, &d, (float *)p + dn->o1), mf_resblock_bind(&rg, &d, g + dn->o1);
+    d = res_bind(&dn->res1, B, p, g, &rw, &rg);
     mf_resblock_backward(w->g8b, w->gemb, &rg, &w->a1, w->g8a, w->h2, w->emb, &rw, &d);
     /* down: dh1 += */
     mf_kconv_backward(&dn->down, p, g, dh1, w->col, w->g8b, w->h1, B, h, h);
     /* res0: dh0 -> g16a */
     memset(w->g16a, 0, s16 * sizeof(float));
-    d = dn->r0, d.B = B, mf_resblock_bind(&rw, &d, (float *)p + dn->o0), mf_resblock_bind(&rg, &d, g + dn->o0);
+    d = res_bind(&dn->res0, B, p, g, &rw, &rg);
     mf_resblock_backward(w->g16a, w->gemb, &rg, &w->a0, dh1, w->h0, w->emb, &rw, &d);
     /* conv_in (no input gradient) */
     mf_kconv_backward(&dn->cin, p, g, NULL, w->col, w->g16a, w->x, B, h, h);

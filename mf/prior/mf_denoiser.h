@@ -15,7 +15,7 @@
 #ifndef MF_DENOISER_H
 #define MF_DENOISER_H
 
-#include "prior/mf_prior_kit.h"
+#include "nn/mf_nn_kit.h"
 
 typedef struct {
     int h;              /* latent size (R / 4) */
@@ -27,17 +27,33 @@ typedef struct {
     int i1, i2, i3;     /* image encoder channels */
 } MfDenoiserConfig;
 
+/* A residual / attention block of the UNet: its dimensions (.B, .BV, .V, .joint set per call)
+ * and the float offset of its tensors in the parameter (and gradient) buffer. */
+typedef struct {
+    MfResBlockDims d;
+    size_t off;
+} MfDnRes;
+
+typedef struct {
+    MfAttnBlockDims d;
+    size_t off;
+} MfDnAttn;
+
 typedef struct {
     MfDenoiserConfig cfg;
     MfSpecTab tab;
-    MfKLinear t1, t2, iproj;
-    MfSeq img;
-    MfKConv cin, down, cout;
-    MfResBlockDims r0, r1, r2, r3; /* .B set per call */
-    size_t o0, o1, o2, o3;
-    MfAttnBlockDims ad;
-    size_t oa;
-    MfKNorm nout;
+    MfKLinear t1, t2;   /* time MLP: tfreq -> ct -> ct ("dn.time.0/1") */
+    MfKLinear iproj;    /* image embedding: i3 -> ct ("img.proj") */
+    MfSeq img;          /* image encoder (3, R, R) -> (i3, R/8, R/8) ("img.enc") */
+    MfKConv cin;        /* 3 zc -> c1 @h */
+    MfKConv down;       /* c1 -> c1, stride 2: @h -> @h/2 */
+    MfDnRes res0;       /* c1 -> c1 @h */
+    MfDnRes res1;       /* c1 -> c2 @h/2 */
+    MfDnAttn attn;      /* c2 @h/2 */
+    MfDnRes res2;       /* c2 -> c2 @h/2 */
+    MfDnRes res3;       /* c2 + c1 -> c1 @h */
+    MfKNorm nout;       /* GN+SiLU of c1 */
+    MfKConv cout;       /* c1 -> 2 zc @h (zero at init) */
     float *params; // (tab.numel) owned
     float *grads;  // (tab.numel) owned
 } MfDenoiser;
@@ -50,12 +66,25 @@ typedef struct {
     MfSeqWork img;
     float *tf, *t1o, *t1a, *et; // (B, tfreq), (B, Ct) x3
     float *pool, *ei, *emb;     // (B, i3), (B, Ct), (B, Ct)
-    float *h0, *h1, *h2, *h3, *h4, *h5, *h5u, *h6, *h7, *v;
-    MfResBlockActs a0, a1, a2, a3;
+    float *h0;  // (B, c1, h, h)       conv_in(x)
+    float *h1;  // (B, c1, h, h)       res0
+    float *h2;  // (B, c1, h/2, h/2)   down
+    float *h3;  // (B, c2, h/2, h/2)   res1
+    float *h4;  // (B, c2, h/2, h/2)   attn
+    float *h5;  // (B, c2, h/2, h/2)   res2
+    float *h5u; // (B, c2, h, h)       up2(h5)
+    float *h6;  // (B, c2 + c1, h, h)  cat(h5u, h1)
+    float *h7;  // (B, c1, h, h)       res3
+    float *v;   // (B, 2 zc, h, h)     conv_out(GN+SiLU(h7)), the output
+    MfResBlockActs a0, a1, a2, a3; /* res0..res3 caches */
     MfAttnBlockActs aa;
     MfKNormActs an;
-    float *col;
-    float *g16a, *g16b, *g8a, *g8b, *gemb, *gtmp, *gpool, *gfeat;
+    float *col;          // conv scratch: the largest im2col of cin, down, cout
+    float *g16a, *g16b;  // (B, c1 + c2, h, h)  backward ping-pong at h
+    float *g8a, *g8b;    // (B, c2, h/2, h/2)   backward ping-pong at h/2
+    float *gemb, *gtmp;  // (B, Ct)
+    float *gpool;        // (B, i3)
+    float *gfeat;        // (B, i3, R/8, R/8)   gradient of the image encoder's output
 } MfDenoiserWork;
 
 int mf_denoiser_new(MfDenoiser **out, const MfDenoiserConfig *cfg);

@@ -12,7 +12,7 @@
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "core/mf_rng.h"
-#include "nn/mf_nn_ckpt.h"
+#include "io/mf_ckpt.h"
 
 void mf_prior_config_default(MfPriorConfig *c, int res) {
     MfAeConfig ae = {res, 32, 64, 4, 8};

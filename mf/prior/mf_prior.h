@@ -10,7 +10,7 @@
  * embedding and zero image latent). Multi-view (StableMaterialMV, inference only): B = objects * V
  * images with V consecutive views per object; joint = 1 lets the V views attend jointly.
  *
- * Weights file: an MFCK checkpoint (mf_nn_ckpt.h, version 1) holding every tensor ("ae.*", "dn.*",
+ * Weights file: an MFCK checkpoint (io/mf_ckpt.h, version 1) holding every tensor ("ae.*", "dn.*",
  * "img.*") and JSON meta: {"format": "mf-prior", "version": 1, "resolution", "downsample": 4,
  * "latent_channels", "latent_scale", "encodings": {...}, "data_seed", "ae": {...}, "dn": {...}}.
  * Loading refuses missing, truncated, corrupt, wrong-version and wrong-shape files with a message

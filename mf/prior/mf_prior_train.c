@@ -11,8 +11,9 @@
 #include "core/mf_fs.h"
 #include "core/mf_log.h"
 #include "core/mf_rng.h"
+#include "datasets/ds_prior2d.h"
 #include "io/mf_image.h"
-#include "nn/mf_nn_ckpt.h"
+#include "io/mf_ckpt.h"
 
 /* ---- data ------------------------------------------------------------------------------------ */
 
@@ -24,53 +25,29 @@ typedef struct {
     int *sel;          // (m,) sample indices, spread evenly over 0..n-1
 } Data;
 
-static const char *KIND_DIR[3] = {"albedo", "orm", "rgb"};
-
-/* Sample i is complete when its three files exist. */
-static int sample_complete(const char *dir, int i) {
-    for (int k = 0; k < 3; ++k) {
-        char rel[64], path[MF_PATH_MAX];
-        snprintf(rel, sizeof rel, "%s/%06d.png", KIND_DIR[k], i);
-        mf_path_join(path, sizeof path, dir, rel);
-        if (!mf_file_exists(path)) return 0;
-    }
-    return 1;
-}
-
 /* Reads manifest.json when present (count, resolution, seed). A folder still being generated
  * (no manifest yet, or fewer files than the manifest's count) is accepted: the samples
  * 0..n-1 whose three files all exist are used, with a warning; the resolution then comes from
  * the first image. */
 static int data_load(const char *dir, Data *d) {
-    char path[MF_PATH_MAX], *txt = NULL;
-    size_t len;
+    char path[MF_PATH_MAX];
     int rc, want = -1;
     d->R = 0, d->seed = 0;
-    mf_path_join(path, sizeof path, dir, "manifest.json");
-    if (mf_file_exists(path)) {
-        if ((rc = mf_read_file(path, &txt, &len))) return rc;
-        cJSON *m = cJSON_Parse(txt);
-        free(txt);
-        const cJSON *cn = cJSON_GetObjectItemCaseSensitive(m, "count"),
-                    *cr = cJSON_GetObjectItemCaseSensitive(m, "resolution"), *cs = cJSON_GetObjectItemCaseSensitive(m, "seed");
-        if (!cJSON_IsNumber(cn) || !cJSON_IsNumber(cr) || cn->valueint < 1 || cr->valueint < 8) {
-            cJSON_Delete(m);
-            return mf_fail(MF_EFORMAT, "%s: expected \"count\" >= 1 and \"resolution\" >= 8", path);
-        }
-        want = cn->valueint, d->R = cr->valueint, d->seed = cJSON_IsNumber(cs) ? (uint64_t)cs->valuedouble : 0;
-        cJSON_Delete(m);
+    DsPrior2dManifest man;
+    if ((rc = ds_prior2d_manifest(dir, 0, &man))) return rc;
+    if (man.present) {
+        if (man.count < 1 || man.resolution < 8)
+            return mf_fail(MF_EFORMAT, "%s: expected \"count\" >= 1 and \"resolution\" >= 8", man.path);
+        want = man.count, d->R = man.resolution, d->seed = man.seed;
     }
-    int n = 0;
-    while ((want < 0 || n < want) && sample_complete(dir, n)) ++n;
+    int n = ds_prior2d_complete(dir, want);
     if (n == 0) return mf_fail(MF_EIO, "%s: no complete sample (rgb/, albedo/, orm/000000.png)", dir);
     if (want < 0) mf_log_warn("%s: no manifest.json; using the %d complete samples present", dir, n);
     else if (n < want) mf_log_warn("%s: manifest says %d samples, using the first %d complete ones", dir, want, n);
     d->n = n;
     for (int i = 0; i < d->n; ++i)
         for (int k = 0; k < 3; ++k) {
-            char rel[64];
-            snprintf(rel, sizeof rel, "%s/%06d.png", KIND_DIR[k], i);
-            mf_path_join(path, sizeof path, dir, rel);
+            ds_prior2d_path(dir, ds_prior2d_kinds[k], i, path, sizeof path);
             MfImage img = {0};
             if ((rc = mf_image_read(path, MF_ENC_LINEAR, &img))) goto fail;
             if (!d->R && img.w >= 8) d->R = img.w;

@@ -12,6 +12,7 @@
 #include "io/mf_gltf_read.h"
 #include "io/mf_obj.h"
 #include "io/mf_opts.h"
+#include "scene/mf_transforms.h"
 
 int mf_lobes_parse(const char *name) {
     if (!strcmp(name, "all")) return 3;
@@ -198,16 +199,6 @@ static int parse_lights(Ctx *c, const cJSON *root) {
     return MF_OK;
 }
 
-static void base_name(const char *p, char *out, size_t cap) {
-    const char *b = strrchr(p, '/');
-    b = b ? b + 1 : p;
-    snprintf(out, cap, "%s", b);
-    char *dot = strrchr(out, '.');
-    if (dot && dot != out) *dot = 0;
-    for (char *q = out; *q; ++q)
-        if (*q == '\\' || *q == ':' || (unsigned char)*q < 0x20) *q = '_';
-}
-
 static int parse_cameras(Ctx *c, const cJSON *root) {
     const cJSON *cams = cJSON_GetObjectItemCaseSensitive(root, "cameras");
     if (!cams) return mf_fail(MF_EFORMAT, "%s: cameras: missing", c->file);
@@ -226,31 +217,23 @@ static int parse_cameras(Ctx *c, const cJSON *root) {
     } else if (!cJSON_IsObject(cams)) {
         return mf_fail(MF_EFORMAT, "%s: cameras: expected a file name or an object", c->file);
     }
-    double fov;
-    const cJSON *frames;
-    int n;
+    MfTransforms tf;
     char w[128];
-    snprintf(w, sizeof w, "%.*s", prefix[0] ? 7 : 0, "cameras");
-    rc = mf_json_number(file, w, obj, "camera_angle_x", &fov);
-    if (!rc) rc = mf_json_array(file, w, obj, "frames", &frames, &n);
-    if (!rc && n == 0) rc = mf_fail(MF_EFORMAT, "%s: %sframes: empty", file, prefix);
+    rc = mf_transforms_parse(file, prefix, obj, &tf);
+    if (!rc && tf.n == 0) rc = mf_fail(MF_EFORMAT, "%s: %sframes: empty", file, prefix);
     if (!rc) {
-        c->s->views = calloc((size_t)n, sizeof(MfSceneView));
+        c->s->views = calloc((size_t)tf.n, sizeof(MfSceneView));
         if (!c->s->views) rc = mf_fail(MF_ENOMEM, "%s: out of memory", file);
     }
-    int k = 0;
-    for (const cJSON *f = rc ? NULL : frames->child; f && !rc; f = f->next, ++k) {
+    for (int k = 0; k < tf.n && !rc; ++k) {
         snprintf(w, sizeof w, "%sframes[%d]", prefix, k);
         MfSceneView *v = &c->s->views[k];
-        v->camera_angle_x = fov;
-        if (!cJSON_IsObject(f)) { rc = mf_fail(MF_EFORMAT, "%s: %s: expected an object", file, w); break; }
-        if ((rc = mf_json_numbers(file, w, f, "transform_matrix", 4, 4, v->c2w))) break;
-        const char *fp;
-        if ((rc = mf_json_string_opt(file, w, f, "file_path", NULL, &fp))) break;
-        if (fp && fp[0]) base_name(fp, v->name, sizeof v->name);
+        v->camera_angle_x = tf.camera_angle_x;
+        memcpy(v->c2w, tf.frames[k].c2w, sizeof v->c2w);
+        if (tf.frames[k].name[0]) snprintf(v->name, sizeof v->name, "%s", tf.frames[k].name);
         else snprintf(v->name, sizeof v->name, "view_%03d", k);
         MfCamera cam;
-        if ((rc = mf_camera_init(&cam, c->s->width, c->s->height, fov, v->c2w, w))) {
+        if ((rc = mf_camera_init(&cam, c->s->width, c->s->height, v->camera_angle_x, v->c2w, w))) {
             rc = mf_fail_prefix(rc, "%s", file);
             break;
         }
@@ -260,6 +243,7 @@ static int parse_cameras(Ctx *c, const cJSON *root) {
     if (!rc && mf_find_duplicate_name(c->s->views[0].name, sizeof c->s->views[0], c->s->nviews, &di, &dj))
         rc = mf_fail(MF_EFORMAT, "%s: %sframes[%d] and %sframes[%d] both name the output '%s' (their files would overwrite each other: give them distinct file_path base names)",
                      file, prefix, di, prefix, dj, c->s->views[di].name);
+    mf_transforms_free(&tf);
     if (own) cJSON_Delete(own);
     return rc;
 }

@@ -4,7 +4,7 @@
 #include <stdlib.h>
 
 #include "mf_fuzz.h"
-#include "nn/mf_nn_ckpt.h"
+#include "io/mf_ckpt.h"
 
 MF_FUZZ(ckpt) {
     if (!mf_fuzz_dir()[0]) return 0;

@@ -9,7 +9,7 @@
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "mf_fuzz.h"
-#include "nn/mf_nn_ckpt.h"
+#include "io/mf_ckpt.h"
 #include "io/mf_gltf.h"
 #include "prior/mf_prior.h"
 #include "scene/mf_mesh.h"

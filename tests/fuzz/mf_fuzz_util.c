@@ -8,10 +8,12 @@
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "core/mf_log.h"
+#include "core/mf_rng.h"
+#include "io/mf_ckpt.h"
 #include "io/mf_exr.h"
 #include "io/mf_image.h"
 #include "mf_fuzz.h"
-#include "nn/mf_nn_ckpt.h"
+
 
 static char g_dir[256];
 static int g_state; /* 0 not made, 1 ready, -1 failed */

@@ -1,4 +1,6 @@
-/* mf_nn_ckpt: checkpoint files of named float32 tensors (model weights, optimiser moments).
+/* mf_ckpt: checkpoint files of named float32 tensors (model weights, optimiser moments, the
+ * reconstruction's textures). MfTensorSpec, the name and shape of one tensor, is declared here
+ * (plain data; mf/nn's parameter tables are arrays of it).
  *
  * Format (version 1, all integers little-endian):
  *   "MFCK"  u32 version (1)  u32 ntensors  u32 meta_len  meta (meta_len bytes, free text, e.g.
@@ -11,19 +13,29 @@
  * MFCK checkpoint"), version ("unsupported version"), checksum ("checksum mismatch"), tensor
  * count, names and shapes against the model's table ("tensor count", "name mismatch",
  * "shape mismatch"). Only little-endian hosts are supported (x86-64, arm64). */
-#ifndef MF_NN_CKPT_H
-#define MF_NN_CKPT_H
+#ifndef MF_CKPT_H
+#define MF_CKPT_H
 
 #include <stddef.h>
 #include <stdint.h>
 
-#include "nn/mf_nn.h"
-
 #define MF_CKPT_VERSION 1u
 
-/* FNV-1a 64 of n bytes, continuing from h (start with MF_FNV64_INIT). */
-#define MF_FNV64_INIT 0xcbf29ce484222325ull
-uint64_t mf_fnv1a64(uint64_t h, const void *data, size_t n);
+#define MF_NN_NAME_MAX 64
+#define MF_NN_MAXDIM 4
+
+/* One named tensor: name (e.g. "down.0.res.conv1.w") and shape. */
+typedef struct {
+    char name[MF_NN_NAME_MAX];
+    int ndim;
+    int shape[MF_NN_MAXDIM];
+} MfTensorSpec;
+
+/* Number of floats of one tensor / of a whole table. */
+size_t mf_tensor_numel(const MfTensorSpec *s);
+size_t mf_specs_numel(const MfTensorSpec *specs, int n);
+/* Fills spec with name (prefix + "." + leaf, or leaf when prefix is "" or NULL) and shape. */
+void mf_spec_set(MfTensorSpec *spec, const char *prefix, const char *leaf, int ndim, const int *shape);
 
 /* Writes the n tensors of specs with their values data (mf_specs_numel(specs, n) floats, in
  * table order) and meta (may be NULL) to path, atomically. */

@@ -11,9 +11,10 @@
 
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
+#include "datasets/ds_split.h"
 #include "eval/ev_stability.h"
 #include "mf_test.h"
-#include "nn/mf_nn_ckpt.h"
+#include "io/mf_ckpt.h"
 
 /* The checkpoint scan reads a checkpoint of any table and counts its NaN/Inf values. */
 MF_TEST(stability_checkpoint_scan) {
@@ -42,6 +43,7 @@ MF_TEST(stability_checkpoint_scan) {
 MF_TEST(stability_quick_grid) {
     const char *mf = getenv("MF_BIN");
     if (!mf || !mf_file_exists(mf)) MF_SKIP("MF_BIN not set (run through make test)");
+    if (!mf_file_exists(DS_DEFAULT_ENV_DIR "/studio.exr")) MF_SKIP("blender-data probes not installed (" DS_DEFAULT_ENV_DIR ")");
     char work[1024], out[1100];
     snprintf(work, sizeof work, "%s", mf_test_path("stability"));
     snprintf(out, sizeof out, "%s/report", work);

@@ -84,8 +84,8 @@ MF_TEST(image_bad_files) {
     CHECK(b.data == NULL);
     /* NaN refused on write, and on read of an EXR that holds one */
     a.data[5] = NAN;
-    CHECK_ERR(mf_image_write(mf_test_path("nan.exr"), &a, MF_ENC_LINEAR, 32), "NaN");
-    CHECK(!mf_file_exists(mf_test_path("nan.exr")));
+    CHECK_ERR(mf_image_write(mf_test_path("image_nan.exr"), &a, MF_ENC_LINEAR, 32), "NaN");
+    CHECK(!mf_file_exists(mf_test_path("image_nan.exr")));
     char err[256];
     CHECK(mf_oiio_write(mf_test_path("nan_raw.exr"), a.w, a.h, a.c, a.data, 32, err, sizeof err) == 0);
     CHECK_ERR(mf_image_read(mf_test_path("nan_raw.exr"), MF_ENC_LINEAR, &b), "nan_raw.exr: pixel (1, 0) channel 2 is NaN");

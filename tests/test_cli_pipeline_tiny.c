@@ -11,6 +11,7 @@
 
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
+#include "datasets/ds_split.h"
 #include "eval/ev_eval.h"
 #include "eval/ev_report.h"
 #include "eval/ev_table.h"
@@ -31,6 +32,7 @@ static int sh(const char *fmt, ...) {
 MF_TEST(pipeline_tiny_baseline_and_materialfusion) {
     const char *mf = getenv("MF_BIN");
     if (!mf || !mf_file_exists(mf)) MF_SKIP("MF_BIN not set (run through make test)");
+    if (!mf_file_exists(DS_DEFAULT_ENV_DIR "/studio.exr")) MF_SKIP("blender-data probes not installed (" DS_DEFAULT_ENV_DIR ")");
     const char *d = mf_test_path("pipeline_tiny");
     CHECK(sh("%s gen --split tiny -o %s --no-render 2>/dev/null", mf, d) == 0); /* images via the render JSONs below */
     char scene[1024];

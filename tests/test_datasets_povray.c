@@ -58,6 +58,9 @@ MF_TEST(povray_background_matches_blender) {
     char fx[1024];
     snprintf(fx, sizeof fx, "%s/blender-fixtures/env_studio/transforms.json", shared ? shared : "");
     if (!shared || !mf_file_exists(fx)) MF_SKIP("../shared/blender-fixtures not present");
+    if (!mf_file_exists("/usr/share/blender/datafiles/studiolights/world/studio.exr") ||
+        !mf_file_exists("/usr/share/blender/datafiles/studiolights/world/city.exr"))
+        MF_SKIP("blender-data probes not installed");
     const char *probes[] = {"studio", "city"};
     for (int p = 0; p < 2; ++p) {
         char envp[512], tj[1024];

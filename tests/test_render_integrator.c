@@ -1,6 +1,6 @@
 /* Tests of mf/render (Embree scene, integrator): white furnace, analytic Lambertian sphere under
  * a sun, determinism across thread counts, degenerate triangles. The comparisons against Blender
- * Cycles and POV-Ray live in test_render_ref.c; the `mf render` CLI in test_render_cli.c. */
+ * Cycles and POV-Ray live in test_render_ref.c; the `mf render` CLI in test_cli_render.c. */
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>

@@ -1,4 +1,5 @@
-/* mf_prior_kit: small building blocks shared by the prior's networks (autoencoder, denoiser).
+/* mf_nn_kit: layer building blocks over mf_nn for whole networks (used by the prior's
+ * autoencoder and denoiser).
  *
  * - MfSpecTab: a growing table of named parameter tensors (MfTensorSpec); each layer records the
  *   float offset of its first tensor, so after one flat allocation a layer's weights are
@@ -8,8 +9,8 @@
  * - MfKConv (conv2d with bias) and MfKNorm (group norm followed by SiLU) with forward/backward
  *   pairs; backward accumulates (+=) into every gradient, as everywhere in mf/nn.
  * Layout NCHW float32 throughout. */
-#ifndef MF_PRIOR_KIT_H
-#define MF_PRIOR_KIT_H
+#ifndef MF_NN_KIT_H
+#define MF_NN_KIT_H
 
 #include <stddef.h>
 

@@ -1,5 +1,5 @@
-/* mf_prior_kit: see mf_prior_kit.h. */
-#include "prior/mf_prior_kit.h"
+/* mf_nn_kit: see mf_nn_kit.h. */
+#include "nn/mf_nn_kit.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -1,5 +1,5 @@
-/* mf_nn_ckpt: checkpoint writer and checked reader (format in mf_nn_ckpt.h). */
-#include "nn/mf_nn_ckpt.h"
+/* mf_ckpt: checkpoint writer and checked reader (format in mf_ckpt.h). */
+#include "io/mf_ckpt.h"
 
 #include <errno.h>
 #include <stdio.h>
@@ -8,14 +8,28 @@
 
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
+#include "core/mf_rng.h"
 
-uint64_t mf_fnv1a64(uint64_t h, const void *data, size_t n) {
-    const unsigned char *p = data;
-    for (size_t i = 0; i < n; ++i) {
-        h ^= p[i];
-        h *= 0x100000001b3ull;
-    }
-    return h;
+size_t mf_tensor_numel(const MfTensorSpec *s) {
+    size_t n = 1;
+    for (int i = 0; i < s->ndim; ++i) n *= (size_t)s->shape[i];
+    return n;
+}
+
+size_t mf_specs_numel(const MfTensorSpec *specs, int n) {
+    size_t t = 0;
+    for (int i = 0; i < n; ++i) t += mf_tensor_numel(&specs[i]);
+    return t;
+}
+
+void mf_spec_set(MfTensorSpec *spec, const char *prefix, const char *leaf, int ndim, const int *shape) {
+    memset(spec, 0, sizeof *spec);
+    if (prefix && prefix[0])
+        snprintf(spec->name, sizeof spec->name, "%s.%s", prefix, leaf);
+    else
+        snprintf(spec->name, sizeof spec->name, "%s", leaf);
+    spec->ndim = ndim < MF_NN_MAXDIM ? ndim : MF_NN_MAXDIM;
+    for (int i = 0; i < spec->ndim; ++i) spec->shape[i] = shape[i];
 }
 
 /* A FILE writer that hashes what it writes and remembers the first failure. */
