@@ -75,11 +75,14 @@ static int write_raw(const char *path, const MfImage *im) {
     return (fclose(f) == 0 && ok) ? 0 : -1;
 }
 
-static int have_python(void) {
+/* 1 when /usr/bin/python3 exists and imports every module in mods ("a, b"). */
+static int have_python(const char *mods) {
     FILE *f = fopen("/usr/bin/python3", "rb");
     if (!f) return 0;
     fclose(f);
-    return 1;
+    char cmd[256];
+    snprintf(cmd, sizeof cmd, "/usr/bin/python3 -c 'import %s' >/dev/null 2>&1", mods);
+    return system(cmd) == 0;
 }
 
 static int write_text(const char *path, const char *text) {
@@ -175,7 +178,7 @@ static const char SKIMAGE_PY[] =
     "    print('%.12f %.12f' % (s, p))\n";
 
 MF_TEST(eval_psnr_ssim_vs_skimage) {
-    if (!have_python()) MF_SKIP("/usr/bin/python3 not found (python3-skimage needed)");
+    if (!have_python("skimage")) MF_SKIP("/usr/bin/python3 with skimage not found (Debian python3-skimage)");
     enum { N = 7 };
     MfImage a[N], b[N];
     a[0] = img_noise(32, 32, 3, 10), b[0] = img_noise(32, 32, 3, 11);         /* random noise */
@@ -306,7 +309,7 @@ static const char FLIP_PY[] =
     "    print('%.12f' % m.mean())\n";
 
 MF_TEST(eval_flip_vs_numpy_reference) {
-    if (!have_python()) MF_SKIP("/usr/bin/python3 not found (python3-numpy, python3-scipy needed)");
+    if (!have_python("numpy, scipy")) MF_SKIP("/usr/bin/python3 with numpy and scipy not found (Debian python3-numpy, python3-scipy)");
     enum { N = 5 };
     MfImage a[N], b[N];
     a[0] = img_noise(24, 20, 3, 30), b[0] = img_noise(24, 20, 3, 31);               /* smaller than the kernels */
