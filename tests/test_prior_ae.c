@@ -1,0 +1,83 @@
+/* Tests of mf/prior/mf_ae: the autoencoder's shapes and its gradients against central differences. */
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "baselines/bl_prior2d.h"
+#include "core/mf_error.h"
+#include "core/mf_fs.h"
+#include "core/mf_rng.h"
+#include "eval/ev_table.h"
+#include "io/mf_image.h"
+#include "io/mf_ckpt.h"
+#include "prior/mf_prior.h"
+#include "prior/mf_prior_train.h"
+#include "tests/mf_test.h"
+#include "tests/mf_test_prior.h"
+
+/* ---- gradient checks -------------------------------------------------------------------------------- */
+
+typedef struct {
+    MfAe *ae;
+    MfAeWork w;
+    const float *x, *wout;
+    int B;
+} AeGC;
+
+static double ae_loss(AeGC *g) {
+    float *z = mf_ae_encode(g->ae, &g->w, g->x, g->B), *y = mf_ae_decode(g->ae, &g->w, z, g->B);
+    int R = g->ae->cfg.res;
+    return tp_dot(y, g->wout, (size_t)g->B * 3 * R * R);
+}
+
+MF_TEST(prior_ae_shapes_and_gradients) {
+    MfAeConfig cfg = {8, 2, 4, 4, 2};
+    MfAe *ae;
+    CHECK_OK(mf_ae_new(&ae, &cfg));
+    mf_ae_init_weights(ae, 7);
+    int B = 2, R = 8;
+    size_t ni = (size_t)B * 3 * R * R, nz = (size_t)B * 4 * 2 * 2;
+    CHECK(ae->enc.C == 4 && ae->enc.H == 2 && ae->dec.C == 3 && ae->dec.H == 8);
+    float *x = malloc(ni * sizeof(float)), *wo = malloc(ni * sizeof(float)), *dx = calloc(ni, sizeof(float));
+    float *dz = calloc(nz, sizeof(float));
+    tp_fill(x, ni, 1, 1.0f), tp_fill(wo, ni, 2, 1.0f);
+    AeGC g = {.ae = ae, .x = x, .wout = wo, .B = B};
+    ae_loss(&g);
+    memset(ae->grads, 0, ae->tab.numel * sizeof(float));
+    mf_ae_decode_backward(ae, &g.w, wo, dz);
+    mf_ae_encode_backward(ae, &g.w, dz, dx);
+    /* parameters: a spread of indices over every tensor */
+    int bad = 0, checked = 0;
+    double gmax = 0;
+    for (size_t i = 0; i < ae->tab.numel; ++i) gmax = fmax(gmax, fabs(ae->grads[i]));
+    CHECK(gmax > 1e-2); /* the check below is not vacuous */
+    for (size_t i = 0; i < ae->tab.numel; i += 1 + ae->tab.numel / 60) {
+        float keep = ae->params[i];
+        double h = 1e-2 * fmax(1.0, fabs(keep));
+        ae->params[i] = keep + (float)h;
+        double lp = ae_loss(&g);
+        ae->params[i] = keep - (float)h;
+        double lm = ae_loss(&g);
+        ae->params[i] = keep;
+        double num = (lp - lm) / (2 * h), an = ae->grads[i];
+        if (fabs(num - an) > 2e-2 * fmax(1.0, fabs(num))) ++bad;
+        ++checked;
+    }
+    for (size_t i = 0; i < ni; i += 13) {
+        float keep = x[i];
+        x[i] = keep + 1e-2f;
+        double lp = ae_loss(&g);
+        x[i] = keep - 1e-2f;
+        double lm = ae_loss(&g);
+        x[i] = keep;
+        double num = (lp - lm) / 2e-2;
+        if (fabs(num - dx[i]) > 2e-2 * fmax(1.0, fabs(num))) ++bad;
+        ++checked;
+    }
+    CHECK_MSG(bad == 0, "%d of %d AE gradient entries off", bad, checked);
+    mf_ae_work_free(&g.w);
+    free(x), free(wo), free(dx), free(dz);
+    mf_ae_free(ae);
+}

@@ -1,0 +1,74 @@
+/* Tests of mf/prior/mf_denoiser: its gradients against central differences. */
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "baselines/bl_prior2d.h"
+#include "core/mf_error.h"
+#include "core/mf_fs.h"
+#include "core/mf_rng.h"
+#include "eval/ev_table.h"
+#include "io/mf_image.h"
+#include "io/mf_ckpt.h"
+#include "prior/mf_prior.h"
+#include "prior/mf_prior_train.h"
+#include "tests/mf_test.h"
+#include "tests/mf_test_prior.h"
+
+/* ---- gradient checks -------------------------------------------------------------------------------- */
+typedef struct {
+    MfDenoiser *dn;
+    MfDenoiserWork w;
+    const float *x, *t, *rgb, *keep, *wout;
+    int B, V, joint;
+} DnGC;
+
+static double dn_loss(DnGC *g) {
+    float *v = mf_denoiser_forward(g->dn, &g->w, g->x, g->t, g->rgb, g->keep, g->B, g->V, g->joint);
+    const MfDenoiserConfig *c = &g->dn->cfg;
+    return tp_dot(v, g->wout, (size_t)g->B * 2 * c->zc * c->h * c->h);
+}
+
+MF_TEST(prior_denoiser_gradients) {
+    MfPriorConfig pc;
+    mf_prior_config_tiny(&pc);
+    MfDenoiser *dn;
+    CHECK_OK(mf_denoiser_new(&dn, &pc.dn));
+    mf_denoiser_init_weights(dn, 3);
+    mf_kconv_init(&dn->cout, dn->params, 99, 0); /* non-zero output conv so every layer gets gradient */
+    const MfDenoiserConfig *c = &dn->cfg;
+    int B = 4, V = 2;
+    size_t nx = (size_t)B * 3 * c->zc * c->h * c->h, nv = (size_t)B * 2 * c->zc * c->h * c->h,
+           ni = (size_t)B * 3 * c->img_res * c->img_res;
+    float *x = malloc(nx * sizeof(float)), *rgb = malloc(ni * sizeof(float)), *wo = malloc(nv * sizeof(float));
+    float t[4] = {10, 500, 999, 250}, keep[4] = {1, 0, 1, 1};
+    tp_fill(x, nx, 4, 1.0f), tp_fill(rgb, ni, 5, 1.0f), tp_fill(wo, nv, 6, 1.0f);
+    for (int joint = 0; joint < 2; ++joint) {
+        DnGC g = {.dn = dn, .x = x, .t = t, .rgb = rgb, .keep = keep, .wout = wo, .B = B, .V = V, .joint = joint};
+        dn_loss(&g);
+        memset(dn->grads, 0, dn->tab.numel * sizeof(float));
+        mf_denoiser_backward(dn, &g.w, wo);
+        int bad = 0, checked = 0;
+        for (size_t i = 0; i < dn->tab.numel; i += 1 + dn->tab.numel / 150) {
+            float k0 = dn->params[i];
+            double h = 1e-2 * fmax(1.0, fabs(k0));
+            dn->params[i] = k0 + (float)h;
+            double lp = dn_loss(&g);
+            dn->params[i] = k0 - (float)h;
+            double lm = dn_loss(&g);
+            dn->params[i] = k0;
+            double num = (lp - lm) / (2 * h), an = dn->grads[i];
+            if (fabs(num - an) > 2e-2 * fmax(1.0, fabs(num))) {
+                if (bad < 5) fprintf(stderr, "  param %zu: numeric %.6g analytic %.6g\n", i, num, an);
+                ++bad;
+            }
+            ++checked;
+        }
+        CHECK_MSG(bad == 0, "joint %d: %d of %d denoiser gradient entries off", joint, bad, checked);
+        mf_denoiser_work_free(&g.w);
+    }
+    free(x), free(rgb), free(wo);
+    mf_denoiser_free(dn);
+}
