@@ -33,7 +33,7 @@ DsCaptureSpec ds_capture_spec_default(int width) {
     return s;
 }
 
-static int check_spec(const DsCaptureSpec *s) {
+int ds_capture_check(const DsCaptureSpec *s) {
     if (s->w < 2 || s->h < 2 || s->w > 16384 || s->h > 16384) return mf_fail(MF_EARG, "capture image size %dx%d outside [2, 16384]", s->w, s->h);
     if (s->n_frames < 2 || s->n_frames > 100000) return mf_fail(MF_EARG, "capture frames %d outside [2, 100000]", s->n_frames);
     if (!(s->fl_x > 0 && s->fl_x < 1e7) || !(s->fl_y > 0 && s->fl_y < 1e7))
@@ -128,7 +128,7 @@ static int write_frame(const char *dir, int i, const MfRenderOut *ro) {
 }
 
 int ds_write_capture(const DsCaptureSpec *s, const DsObject *o, uint64_t seed, const char *dir) {
-    int rc = check_spec(s);
+    int rc = ds_capture_check(s);
     if (rc) return rc;
     DsCamSampling cs = ds_cam_sampling_default();
     cs.r_min = s->r_min;

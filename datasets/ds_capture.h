@@ -44,9 +44,11 @@ typedef struct {
  * cy = 0.45 h, no distortion, radius 1.5-2.0, spp_sqrt 4, 4 pixel samples. */
 DsCaptureSpec ds_capture_spec_default(int width);
 
-/* Writes and renders the capture of o into dir (see above). Fails with MF_EARG naming the bad field
- * (sizes, frame count, a focal length or principal point that is not finite and positive / inside
- * the image). */
+/* MF_EARG naming the bad field: sizes, frame count, a focal length that is not finite and positive,
+ * a principal point outside the image, distortion outside [-10, 10], no samples. */
+int ds_capture_check(const DsCaptureSpec *s);
+
+/* Writes and renders the capture of o into dir (see above); checks s first (ds_capture_check). */
 int ds_write_capture(const DsCaptureSpec *s, const DsObject *o, uint64_t seed, const char *dir);
 
 #endif

@@ -324,6 +324,7 @@ static int gen_object(const GenArgs *a) {
     cap.r_min = a->r_min, cap.r_max = a->r_max;
     if (a->spp > 0) cap.spp_sqrt = a->spp;
     if (a->pixel_samples > 0) cap.pixel_samples = a->pixel_samples;
+    if (ingp && ds_capture_check(&cap)) return MF_EXIT_USAGE; /* before the object is made */
     DsObject o;
     if (ds_object_generate(&o, (DsFamily)fam, (uint64_t)seed, res)) return MF_EXIT_FAIL;
     int rc = ingp ? ds_write_capture(&cap, &o, (uint64_t)seed, out) : ds_object_write(&o, out);
