@@ -1,6 +1,6 @@
-/* mf gen: writes a procedural object and the camera layout of a generated scene (bvault layout),
- * or a whole data set split (layout, optionally rendered in-process; prior-train / test-2d
- * triplets always rendered). */
+/* mf gen: writes a procedural object and the camera layout of a generated scene (bvault layout) or
+ * the object rendered as an instant-ngp capture (--layout ingp), or a whole data set split (layout,
+ * optionally rendered in-process; prior-train / test-2d triplets always rendered). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
