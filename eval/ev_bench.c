@@ -31,6 +31,14 @@ typedef struct {
     int evaluated, excluded;
 } Bench;
 
+/* A scene folder: test views in transforms_test.json, or one transforms.json for every frame (an
+ * instant-ngp / nerfstudio capture; ds_load's hold-out rule picks its test frames). */
+static int is_scene(const char *dir) {
+    char p[MF_PATH_MAX];
+    return (!mf_path_join(p, sizeof p, dir, "transforms_test.json") && mf_file_exists(p)) ||
+           (!mf_path_join(p, sizeof p, dir, "transforms.json") && mf_file_exists(p));
+}
+
 static int list_dirs(const char *dir, char names[][64], int max, int need_test_json) {
     DIR *d = opendir(dir);
     if (!d) return -1;
@@ -42,8 +50,7 @@ static int list_dirs(const char *dir, char names[][64], int max, int need_test_j
         char p[MF_PATH_MAX];
         if (mf_path_join(p, sizeof p, dir, e->d_name)) continue;
         if (need_test_json) {
-            char tj[MF_PATH_MAX];
-            if (mf_path_join(tj, sizeof tj, p, "transforms_test.json") || !mf_file_exists(tj)) continue;
+            if (!is_scene(p)) continue;
         } else {
             DIR *sub = opendir(p);
             if (!sub) continue;
@@ -125,14 +132,12 @@ static int snapshot_curve(const char *scene_dir, const char *result_dir, const E
     return MF_OK;
 }
 
-/* Scenes (DATA itself, or its sub-folders with transforms_test.json, filtered), methods and the
+/* Scenes (DATA itself, or its sub-folders with transforms_test.json or transforms.json, filtered), methods and the
  * data set name. */
 static int find_runs(Bench *B) {
     const EvBench *b = B->b;
     const char *data = b->data;
-    char tj[MF_PATH_MAX];
-    snprintf(tj, sizeof tj, "%s/transforms_test.json", data);
-    if (mf_file_exists(tj)) {
+    if (is_scene(data)) {
         const char *slash = strrchr(data, '/');
         snprintf(B->scenes[0], 64, "%s", slash && slash[1] ? slash + 1 : data);
         snprintf(B->scene_root, sizeof B->scene_root, "%.*s", slash ? (int)(slash - data) : 1, slash ? data : ".");
@@ -152,7 +157,7 @@ static int find_runs(Bench *B) {
         }
         B->nsc = k;
     }
-    if (B->nsc <= 0) return mf_fail(MF_EIO, "%s: no scene with transforms_test.json", data);
+    if (B->nsc <= 0) return mf_fail(MF_EIO, "%s: no scene with transforms_test.json or transforms.json", data);
     int nm = 0;
     if (b->methods) {
         char buf[1024];

@@ -187,9 +187,13 @@ static int score_novel_views(const DsViews *dv, const EvResult *res, const MfRtS
         mf_render_out_free(&out);
         mf_image_free(&pred);
     }
-    if (!rc)
+    if (!rc && acc->n)
         mf_log_info("%s: no relit or material ground truth: scored %d held-out test views under the training light "
-                    "(the result rendered with its env.exr; metrics nv_*)", scene, acc->n);
+                    "(the result rendered with its env.exr): nv_psnr %.2f dB, nv_ssim %.4f, nv_flip %.4f", scene, acc->n,
+                    acc->v[0] / acc->n, acc->v[1] / acc->n, acc->v[3] / acc->n);
+    else if (!rc)
+        mf_log_info("%s: no relit or material ground truth: none of %d held-out test views could be scored under the training light",
+                    scene, dv->n);
     return rc;
 }
 

@@ -1,6 +1,7 @@
-/* mf gen: writes a procedural object and the camera layout of a generated scene (bvault layout),
- * or a whole data set split (layout, optionally rendered in-process; prior-train / test-2d
- * triplets always rendered). */
+/* mf gen: writes a procedural object and the camera layout of a generated scene (bvault layout) or
+ * the object rendered as an instant-ngp capture (--layout ingp), or a whole data set split (layout,
+ * optionally rendered in-process; prior-train / test-2d triplets always rendered). */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -11,6 +12,7 @@
 #include "core/mf_fs.h"
 #include "core/mf_log.h"
 #include "datasets/ds_cameras.h"
+#include "datasets/ds_capture.h"
 #include "datasets/ds_envgen.h"
 #include "datasets/ds_gen.h"
 #include "datasets/ds_shapes.h"
@@ -23,6 +25,18 @@
     "    DIR/gt/kd.png, gt/orm.png    baked base colour (sRGB) and ORM (linear, R = 1)\n" \
     "    DIR/transforms_train.json, transforms_test.json   cameras (camera_angle_x 0.6911,\n" \
     "        azimuth 0-360, elevation -15-90 deg, radius 1.5-2, looking at the origin)\n" \
+    "\n" \
+    "       mf gen -o DIR --layout ingp [--family NAME] [--seed N] [--tex-res N] [--views 24] [--width 64]\n" \
+    "              [--intrinsics FL_X,FL_Y,CX,CY] [--distortion K1,K2,P1,P2] [--spp 4] [--pixel-samples 4]\n" \
+    "  Writes the object as an instant-ngp / nerfstudio capture, rendered (datasets/ds_capture.h):\n" \
+    "    DIR/transforms.json   every frame (test = frames 0, 8, 16, ...); root: camera_angle_x 0.6911 (NOT the\n" \
+    "        lens: what a reader ignoring fl_x would use), fl_x fl_y cx cy w h (the lens; default fl_x 0.9x\n" \
+    "        the 0.6911 lens, fl_y = 1.1 fl_x, cx = 0.55 w, cy = 0.45 h), k1 k2 p1 p2, aabb_scale; odd frames\n" \
+    "        carry their own fl_x fl_y (x1.25) and cx cy (mirrored about the centre)\n" \
+    "    DIR/images/r_NNN.png  RGB (no alpha), sRGB, black background; DIR/masks/r_NNN.png coverage (mask_path)\n" \
+    "    DIR/mesh.obj          the mesh with UVs (mf recon's given mesh); no textures, light or relit views\n" \
+    "  Images are width x 3/4 width, lit by a procedural indoor light. --distortion writes the coefficients\n" \
+    "  only: the images stay undistorted (pinhole), so such a capture is one that readers must refuse.\n" \
     "\n" \
     "       mf gen --split tiny|small|full|test-3d|test-3d-diffuse|test-3d-ambig -o DIR [--no-render] [--seed N] [--env-dir DIR]\n" \
     "  Writes a whole split: DIR/NNN_<family>/ scenes as above plus gt/env.exr (training light),\n" \
@@ -115,6 +129,7 @@ static int gen_envs(const char *dir, int count, int seed, const char *kind, int 
 
 typedef struct {
     const char *out, *family, *split, *env_dir, *compare_povray, *envs, *kind, *train_lights, *renderer, *content, *asset;
+    const char *layout, *intrinsics, *distortion;
     int diffuse, widen;
     int seed, tex_res, train, test, width, count, res, views, spp, pixel_samples, threads, scenes, pov_radiosity, env_width;
     int no_render, render;
@@ -133,7 +148,14 @@ static const MfOpt k_args[] = {
     MF_OPT_INT(A, test, 0, 1, 100000, "number of test cameras (one object; a split: overrides its own)",
                .unset = "200 (one object), the split's own"),
     MF_OPT_INT(A, width, 0, 8, 4096, "split: image size, overriding the split's own (e.g. a cheap POV-Ray split: "
-               "--split test-3d-diffuse --train 24 --width 64, into its own DIR)", .unset = "the split's own"),
+               "--split test-3d-diffuse --train 24 --width 64, into its own DIR); --layout ingp: image width (height 3/4 of it)",
+               .unset = "the split's own; 64 (ingp)"),
+    MF_OPT_STR(A, layout, "bvault", "one object: bvault (mesh, textures and cameras, no images) or ingp (an instant-ngp / "
+               "nerfstudio capture: transforms.json with intrinsics, RGB frames, masks, mesh.obj; rendered)", .choices = "bvault|ingp"),
+    MF_OPT_STR(A, intrinsics, NULL, "--layout ingp: the global lens in pixels (odd frames: focal lengths x1.25, principal point "
+               "mirrored)", .unset = "fl_x 0.9x the 0.6911 lens, fl_y 1.1 fl_x, cx 0.55 w, cy 0.45 h", .meta = "FL_X,FL_Y,CX,CY"),
+    MF_OPT_STR(A, distortion, NULL, "--layout ingp: OpenCV lens distortion written into transforms.json (not applied to the "
+               "images; readers must refuse it)", .unset = "0,0,0,0", .meta = "K1,K2,P1,P2"),
     MF_OPT_FLOAT(A, r_min, 1.5, 0.1, 100, "camera distance, lower end (2.2 / 2.8 cropped no view of 1500 checked)"),
     MF_OPT_FLOAT(A, r_max, 2.0, 0.1, 100, "camera distance, upper end"),
     MF_OPT_STR(A, split, NULL, "write a whole split: tiny small full test-3d test-3d-diffuse test-3d-ambig prior-train test-2d", .meta = "NAME"),
@@ -143,18 +165,18 @@ static const MfOpt k_args[] = {
     MF_OPT_BOOL(A, render, 0, "split: render the images (the default; kept for scripts)"),
     MF_OPT_STR(A, env_dir, NULL, "folder of *.exr light probes", .unset = "Blender's studio lights", .meta = "DIR"),
     MF_OPT_INT(A, scenes, 0, 0, 100000, "split: only the first N scenes (0: all)"),
-    MF_OPT_INT(A, spp, 0, 1, MF_OPT_SPP_MAX, "n: n^2 env-light + n^2 BSDF samples per pixel sample", .unset = "the split's own"),
+    MF_OPT_INT(A, spp, 0, 1, MF_OPT_SPP_MAX, "n: n^2 env-light + n^2 BSDF samples per pixel sample", .unset = "the split's own; 4 (ingp)"),
     MF_OPT_STR(A, compare_povray, NULL, "split: render the relit test views with both renderers, append a table row to FILE.md",
                .meta = "FILE.md"),
-    MF_OPT_INT(A, views, 0, 1, 100000, "--compare-povray: first N test views; prior-train/test-2d: views per object",
-               .unset = "all; 12 (prior-train), 4 (test-2d)"),
+    MF_OPT_INT(A, views, 0, 1, 100000, "--compare-povray: first N test views; prior-train/test-2d: views per object; "
+               "--layout ingp: frames (>= 2)", .unset = "all; 12 (prior-train), 4 (test-2d), 24 (ingp)"),
     MF_OPT_INT(A, res, 0, 1, 4096, "--compare-povray: render size; prior-train/test-2d: image size", .unset = "the split's; 64"),
     MF_OPT_INT(A, pov_radiosity, 0, 1, 100000, "--compare-povray, and --renderer povray: POV-Ray radiosity count", .unset = "200"),
     MF_OPT_INT(A, count, 0, 1, 10000000, "prior-train/test-2d: samples; --envs: maps per kind",
                .unset = "time budget (prior-train), 32 (test-2d), 8 (--envs)"),
     MF_OPT_FLOAT(A, time_budget, 0, 0, 1e7, "prior-train/test-2d: stop after this many seconds (0: no limit; prior-train without --count: 1800)",
                  .meta = "SECONDS"),
-    MF_OPT_INT(A, pixel_samples, 0, 1, MF_OPT_PIXEL_SAMPLES_MAX, "prior-train/test-2d: primary rays per pixel", .unset = "4"),
+    MF_OPT_INT(A, pixel_samples, 0, 1, MF_OPT_PIXEL_SAMPLES_MAX, "prior-train/test-2d, --layout ingp: primary rays per pixel", .unset = "4"),
     MF_OPT_INT(A, threads, 0, 0, 4096, "prior-train/test-2d: worker threads (0: OpenMP's default)"),
     MF_OPT_STR(A, train_lights, NULL, "prior-train/test-2d: where the env-lit half of the views takes its maps", .choices = "blender|procedural|both",
                .unset = "blender"),
@@ -267,17 +289,46 @@ static int gen_split(const GenArgs *a) {
     return MF_EXIT_OK;
 }
 
-/* One object and its training and test cameras. */
+/* "a,b,c,d": exactly n finite numbers into out, else MF_EARG naming the option. */
+static int parse_numbers(const char *opt, const char *text, double *out, int n) {
+    const char *p = text;
+    for (int k = 0; k < n; ++k) {
+        char *end;
+        double v = strtod(p, &end);
+        if (end == p || !isfinite(v) || (*end != (k + 1 < n ? ',' : '\0')))
+            return mf_fail(MF_EARG, "%s '%s': expected %d comma-separated finite numbers", opt, text, n);
+        out[k] = v;
+        p = end + 1;
+    }
+    return MF_OK;
+}
+
+/* One object: its training and test cameras (bvault), or a rendered capture (--layout ingp). */
 static int gen_object(const GenArgs *a) {
     const char *out = a->out, *fam_name = a->family;
     int seed = a->seed, res = a->tex_res > 0 ? a->tex_res : DS_DEFAULT_TEX_RES;
     int ntrain = a->train > 0 ? a->train : 100, ntest = a->test > 0 ? a->test : 200;
     int fam = fam_name ? ds_family_from_name(fam_name) : (int)((unsigned)seed % DS_FAM_COUNT);
     if (fam < 0) { mf_fail(MF_EARG, "--family: unknown family '%s'", fam_name); return MF_EXIT_USAGE; }
+    int ingp = !strcmp(a->layout, "ingp");
+    DsCaptureSpec cap = ds_capture_spec_default(a->width > 0 ? a->width : 64);
+    if (ingp && a->views > 0) cap.n_frames = a->views;
+    if (ingp && (a->train > 0 || a->test > 0)) { mf_fail(MF_EARG, "--train/--test: --layout ingp writes --views N frames (test: 0, 8, 16, ...)"); return MF_EXIT_USAGE; }
+    if (ingp && a->views == 1) { mf_fail(MF_EARG, "--views 1: a capture needs >= 2 frames (frame 0 is held out for test)"); return MF_EXIT_USAGE; }
+    double lens[4];
+    if (ingp && a->intrinsics) {
+        if (parse_numbers("--intrinsics", a->intrinsics, lens, 4)) return MF_EXIT_USAGE;
+        cap.fl_x = lens[0], cap.fl_y = lens[1], cap.cx = lens[2], cap.cy = lens[3];
+    }
+    if (ingp && a->distortion && parse_numbers("--distortion", a->distortion, cap.distortion, 4)) return MF_EXIT_USAGE;
+    cap.r_min = a->r_min, cap.r_max = a->r_max;
+    if (a->spp > 0) cap.spp_sqrt = a->spp;
+    if (a->pixel_samples > 0) cap.pixel_samples = a->pixel_samples;
+    if (ingp && ds_capture_check(&cap)) return MF_EXIT_USAGE; /* before the object is made */
     DsObject o;
     if (ds_object_generate(&o, (DsFamily)fam, (uint64_t)seed, res)) return MF_EXIT_FAIL;
-    int rc = ds_object_write(&o, out);
-    if (!rc) {
+    int rc = ingp ? ds_write_capture(&cap, &o, (uint64_t)seed, out) : ds_object_write(&o, out);
+    if (!rc && !ingp) {
         DsCamSampling s = ds_cam_sampling_default();
         s.r_min = a->r_min;
         s.r_max = a->r_max;
@@ -303,6 +354,12 @@ static int gen_run(const GenArgs *a) {
     int prior_split = split && (!strcmp(split, "prior-train") || !strcmp(split, "test-2d"));
     if (train_lights && !prior_split) {
         mf_fail(MF_EARG, "--train-lights applies to --split prior-train or test-2d");
+        return MF_EXIT_USAGE;
+    }
+    int ingp = !strcmp(a->layout, "ingp");
+    if (ingp && split) { mf_fail(MF_EARG, "--layout ingp writes one object's capture; it does not apply to --split"); return MF_EXIT_USAGE; }
+    if (!ingp && (a->intrinsics || a->distortion)) {
+        mf_fail(MF_EARG, "--%s applies to --layout ingp", a->intrinsics ? "intrinsics" : "distortion");
         return MF_EXIT_USAGE;
     }
     if (a->asset && (!split || prior_split)) {
