@@ -73,6 +73,13 @@ MF_TEST(recon_geometry_vhull_tiny) {
     CHECK_MSG(rc == 2 && strstr(err, "DMTet") && strstr(err, "not implemented"), "--geometry dmtet: exit %d, '%s'", rc, err);
     snprintf(p, sizeof p, "%s/dmtet", other);
     CHECK(!mf_file_exists(p));
+    snprintf(args, sizeof args, "recon %s -o %s/dmtet --geometry vhull --mesh %s/mesh.obj", bare, other, scene);
+    rc = mf_test_run_mf(args, NULL, err, sizeof err);
+    CHECK_MSG(rc == 2 && strstr(err, "--mesh"), "--geometry vhull --mesh: exit %d, '%s'", rc, err);
+    snprintf(args, sizeof args, "recon %s -o %s/dmtet --geometry vhull --side +x", bare, other);
+    rc = mf_test_run_mf(args, NULL, err, sizeof err);
+    CHECK_MSG(rc == 2 && strstr(err, "--side"), "--geometry vhull --side: exit %d, '%s'", rc, err);
+    CHECK(!mf_file_exists(p));
     /* given without a mesh: the error points at --geometry vhull */
     snprintf(args, sizeof args, "recon %s -o %s/given --geometry given --iters 0", bare, other);
     rc = mf_test_run_mf(args, NULL, err, sizeof err);

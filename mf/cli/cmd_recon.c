@@ -123,14 +123,24 @@ static int move_views(DsViews *dv, MfReconView **views, int *n) {
     return rc;
 }
 
+/* --geometry against the other options, before anything is loaded: dmtet is refused, vhull
+ * takes no --mesh; --side needs a given mesh (its filter uses the mesh's box, and the hull would
+ * be carved by every loaded view). Called again with the resolved source (src). */
+static int geom_args_ok(const ReconArgs *a, const MfReconGeomOpts *go, const char *src) {
+    const char *g = src ? src : go->geometry;
+    if (!src && mf_recon_geom_resolve(go, 1, &src)) return MF_EARG;
+    if (g && !strcmp(g, "vhull") && a->mesh) return mf_fail(MF_EARG, "--mesh %s is for --geometry given, not vhull", a->mesh);
+    if (g && !strcmp(g, "vhull") && strcmp(a->side, "all"))
+        return mf_fail(MF_EARG, "--side %s needs a given mesh (--geometry vhull: the hull would be carved by every view)", a->side);
+    return MF_OK;
+}
+
 /* The mesh (mf_recon_geom.h): the given one, or the hull of the loaded views' masks. */
 static int load_mesh(const char *out, const ReconArgs *a, const MfReconGeomOpts *go, const MfReconOpts *o, const DsViews *dv,
                      const char *mesh_path, MfMesh *mesh, MfReconGeomInfo *gi) {
     const char *src = NULL;
     int rc = mf_recon_geom_resolve(go, a->mesh || mf_file_exists(mesh_path), &src);
-    if (!rc && strcmp(src, "given") && a->mesh) rc = mf_fail(MF_EARG, "--mesh %s is for --geometry given, not %s", a->mesh, src);
-    if (!rc && strcmp(src, "given") && strcmp(a->side, "all"))
-        rc = mf_fail(MF_EARG, "--side %s needs a given mesh (its filter uses the mesh's box; the hull would be carved by every view)", a->side);
+    if (!rc) rc = geom_args_ok(a, go, src);
     MfCamera *cams = rc ? NULL : malloc((size_t)dv->n * sizeof *cams);
     MfImage *masks = rc ? NULL : malloc((size_t)dv->n * sizeof *masks);
     if (!rc && (!cams || !masks)) rc = mf_fail(MF_ENOMEM, "out of memory");
@@ -251,8 +261,7 @@ static int cmd_recon_run(int argc, char **argv, const MfOptParse *p, ReconArgs *
         return MF_EXIT_USAGE;
     }
     so.seed = mf_hash64(o.seed, 0x5d5);
-    const char *src;
-    if (mf_recon_geom_resolve(go, 1, &src)) return MF_EXIT_USAGE; /* dmtet: refused before loading anything */
+    if (geom_args_ok(a, go, NULL)) return MF_EXIT_USAGE; /* before loading anything */
     double t0 = mf_now();
     DsViews dv;
     MfReconView *views = NULL;
@@ -264,7 +273,7 @@ static int cmd_recon_run(int argc, char **argv, const MfOptParse *p, ReconArgs *
         (rc = move_views(&dv, &views, &nviews))) {
         ds_views_free(&dv);
         mf_mesh_free(&mesh);
-        return rc == MF_EARG ? MF_EXIT_USAGE : MF_EXIT_FAIL;
+        return MF_EXIT_FAIL;
     }
     MfSds *sds = NULL;
     MfRecon *r = NULL;
