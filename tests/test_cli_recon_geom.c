@@ -137,8 +137,10 @@ MF_TEST(recon_geometry_vhull_tiny) {
     if (getenv("MF_TEST_VERBOSE"))
         printf("    tiny hull: Chamfer x1e3 %.2f, mask IoU %.3f, view normal %.1f deg, relit PSNR %.2f\n", ch.mean, iou.mean, nd.mean, rl.mean);
     CHECK(ch.n == 1 && iou.n == 1 && nd.n == 1 && rl.n == 1);
-    /* Measured on this scene (8 views at 32 px, 64^3 grid): see the README's --geometry notes. A
-     * given mesh scores 0 / 1; the thresholds only catch a hull that is not the object's. */
+    /* Measured on this scene (8 training views at 32 px, 64^3 grid, 5000 triangles, 20
+     * iterations): Chamfer x1e3 115, mask IoU 0.654, view normals 44.5 deg, relit PSNR 13.4 dB
+     * (8 views carve a coarse hull that touches the grid; a given mesh scores 0.1 / 1). The
+     * thresholds only catch a mesh that is not this object's hull. */
     CHECK_MSG(isfinite(ch.mean) && ch.mean > 0 && ch.mean < 250, "Chamfer x1e3 %g", ch.mean);
     CHECK_MSG(iou.mean > 0.5 && iou.mean < 1, "mask IoU %g", iou.mean);
     CHECK_MSG(isfinite(rl.mean) && rl.mean > 8, "relit PSNR %g", rl.mean);
