@@ -14,7 +14,7 @@ allowed() { # folder -> folders it may include (besides itself)
     render)    echo "core io scene" ;;
     nn)        echo "core io" ;;      # io: MfTensorSpec and the checkpoint format (mf_ckpt)
     geom)      echo "core io scene" ;;
-    inverse)   echo "core io scene render" ;;
+    inverse)   echo "core io scene render geom" ;;   # geom: mf recon --geometry vhull (mf_recon_geom)
     prior)     echo "core io nn datasets" ;;  # datasets: the 2D splits' layout (ds_prior2d)
     fusion)    echo "core io scene render nn inverse prior" ;;
     baselines) echo "core io" ;;

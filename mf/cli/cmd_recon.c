@@ -1,6 +1,6 @@
 /* mf recon: recovers albedo/ORM textures and the environment light of a data set's scene on a
- * given mesh (the inverse pipeline of mf/inverse; methods: the nvdiffrecmc-style baseline,
- * MaterialFusion once its prior term exists). */
+ * given mesh or its visual hull (the inverse pipeline of mf/inverse, mesh from mf_recon_geom.h;
+ * methods: the nvdiffrecmc-style baseline, MaterialFusion). */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -18,8 +18,8 @@
 #include "inverse/mf_recon_opts.h"
 #include "io/mf_gltf_read.h"
 
-/* The command's own options (the reconstruction's and the prior term's are in their tables:
- * mf/inverse/mf_recon_opts.c, mf/fusion/mf_sds_opts.c). */
+/* The command's own options (the reconstruction's, the geometry's and the prior term's are in
+ * their tables: mf/inverse/mf_recon_opts.c, mf/fusion/mf_sds_opts.c). */
 typedef struct {
     const char *out, *method, *mesh, *split, *prior_weights, *mask, *side;
     int res, max_views, resume;
@@ -48,11 +48,14 @@ static const MfOptTable k_args_table = MF_OPT_TABLE("Command options", k_args);
 
 static char usage[16384];
 static const char k_usage_head[] =
-    "usage: mf recon DATASET_DIR -o RESULT_DIR [--method nvdiffrecmc|materialfusion] [--mesh OBJ]\n"
+    "usage: mf recon DATASET_DIR -o RESULT_DIR [--method nvdiffrecmc|materialfusion] [--mesh OBJ] [--geometry given|vhull]\n"
     "                [--config FILE] [--split train] [--mask DIR] [--res N] [--max-views N] [--side S] [--resume] [option VALUE ...]\n"
     "Recovers albedo (kd), ORM and the HDR environment light of the scene in DATASET_DIR (any format\n"
-    "mf can load: bvault, NeRF-Synthetic, NeRFactor, Stanford-ORB capture) on a fixed mesh\n"
-    "(default DATASET_DIR/mesh.obj; it must have UVs: a mesh without UVs is refused, unwrap it first with mf unwrap).\n"
+    "mf can load: bvault, NeRF-Synthetic, NeRFactor, Stanford-ORB capture) on a fixed mesh:\n"
+    "--geometry given (the default when there is one): DATASET_DIR/mesh.obj or --mesh; it must have UVs (a mesh\n"
+    "without UVs is refused, unwrap it first with mf unwrap); --geometry vhull (the default without a mesh): the visual\n"
+    "hull of the training views' masks (as mf hull), unwrapped (as mf unwrap), written to RESULT_DIR/geometry/vhull.obj;\n"
+    "--geometry dmtet is refused (DMTet optimisation is not implemented).\n"
     "Writes RESULT_DIR/ albedo.png orm.png (normal.png) env.exr mesh.obj scene.glb log.csv run.json snapshots/\n"
     "checkpoint.mfck. --resume continues from RESULT_DIR/checkpoint.mfck and reaches the same result\n"
     "as an uninterrupted run (same build, options and thread count). Options are applied in order:\n"
@@ -60,20 +63,21 @@ static const char k_usage_head[] =
     "e.g. {\"lambda_rgb\": 0.5, \"tex_res\": 128}), then the flags. A value outside its range is refused\n"
     "before anything is written. run.json records every option's value.\n";
 
-static int cmd_recon_run(int argc, char **argv, const MfOptParse *p, ReconArgs *a, MfReconOpts *po, MfSdsOpts *pso);
+static int cmd_recon_run(int argc, char **argv, const MfOptParse *p, ReconArgs *a, MfReconOpts *po, MfSdsOpts *pso, MfReconGeomOpts *go);
 
 static int cmd_recon(int argc, char **argv) {
     ReconArgs a;
     MfReconOpts o = mf_recon_opts_default();
     MfSdsOpts so = mf_sds_opts_default();
+    MfReconGeomOpts go = mf_recon_geom_opts_default();
     mf_opts_defaults(&k_args_table, &a);
-    MfOptBind binds[] = {{&k_args_table, &a}, {&mf_recon_opt_table, &o}, {&mf_sds_opt_table, &so}};
+    MfOptBind binds[] = {{&k_args_table, &a}, {&mf_recon_geom_opt_table, &go}, {&mf_recon_opt_table, &o}, {&mf_sds_opt_table, &so}};
     MfOptParse p;
-    if (mf_opts_parse(binds, 3, argc, argv, 1, &p)) {
+    if (mf_opts_parse(binds, 4, argc, argv, 1, &p)) {
         mf_opts_parse_free(&p);
         return MF_EXIT_USAGE;
     }
-    int rc = p.print_config ? mf_cli_print_config(binds, 3) : cmd_recon_run(argc, argv, &p, &a, &o, &so);
+    int rc = p.print_config ? mf_cli_print_config(binds, 4) : cmd_recon_run(argc, argv, &p, &a, &o, &so, &go);
     mf_opts_parse_free(&p);
     return rc;
 }
@@ -119,11 +123,31 @@ static int move_views(DsViews *dv, MfReconView **views, int *n) {
     return rc;
 }
 
-static int load_mesh(const char *path, MfMesh *mesh) {
-    if (mf_mesh_read(path, mesh)) return mf_fail_prefix(MF_EIO, "mesh (supply one with --mesh; geometry recovery is not implemented yet)");
-    if (mesh->uv) return MF_OK;
-    mf_mesh_free(mesh);
-    return mf_fail(MF_EARG, "%s: the mesh has no UVs; mf recon refuses it (unwrap it first: mf unwrap %s -o OUT.obj, or e.g. in Blender)", path, path);
+/* --geometry against the other options, before anything is loaded: dmtet is refused, vhull
+ * takes no --mesh; --side needs a given mesh (its filter uses the mesh's box, and the hull would
+ * be carved by every loaded view). Called again with the resolved source (src). */
+static int geom_args_ok(const ReconArgs *a, const MfReconGeomOpts *go, const char *src) {
+    const char *g = src ? src : go->geometry;
+    if (!src && mf_recon_geom_resolve(go, 1, &src)) return MF_EARG;
+    if (g && !strcmp(g, "vhull") && a->mesh) return mf_fail(MF_EARG, "--mesh %s is for --geometry given, not vhull", a->mesh);
+    if (g && !strcmp(g, "vhull") && strcmp(a->side, "all"))
+        return mf_fail(MF_EARG, "--side %s needs a given mesh (--geometry vhull: the hull would be carved by every view)", a->side);
+    return MF_OK;
+}
+
+/* The mesh (mf_recon_geom.h): the given one, or the hull of the loaded views' masks. */
+static int load_mesh(const char *out, const ReconArgs *a, const MfReconGeomOpts *go, const MfReconOpts *o, const DsViews *dv,
+                     const char *mesh_path, MfMesh *mesh, MfReconGeomInfo *gi) {
+    const char *src = NULL;
+    int rc = mf_recon_geom_resolve(go, a->mesh || mf_file_exists(mesh_path), &src);
+    if (!rc) rc = geom_args_ok(a, go, src);
+    MfCamera *cams = rc ? NULL : malloc((size_t)dv->n * sizeof *cams);
+    MfImage *masks = rc ? NULL : malloc((size_t)dv->n * sizeof *masks);
+    if (!rc && (!cams || !masks)) rc = mf_fail(MF_ENOMEM, "out of memory");
+    for (int v = 0; !rc && v < dv->n; ++v) cams[v] = dv->views[v].cam, masks[v] = dv->views[v].rgba;
+    if (!rc) rc = mf_recon_geom_mesh(go, src, mesh_path, cams, masks, dv->n, o->tex_res, out, a->resume, mesh, gi);
+    free(cams), free(masks);
+    return rc;
 }
 
 /* MaterialFusion's prior term; a missing or mismatched weights file stops before the
@@ -188,11 +212,15 @@ static void budgets_to_json(const MfRecon *r, cJSON *opts) {
 /* run.json, also when the guard stopped the run (rc != 0): what happened, and why. Every option
  * as resolved, render timings, the prior's seconds, recoveries. Returns rc or run.json's error. */
 static int write_run(int rc, int argc, char **argv, const char *out, const ReconArgs *a, const MfReconOpts *o,
-                     const MfSdsOpts *so, MfRecon *r, MfSds *sds, double wall) {
+                     const MfSdsOpts *so, MfRecon *r, MfSds *sds, const MfReconGeomOpts *go, const MfReconGeomInfo *gi, double wall) {
     char stopped[1024];
     snprintf(stopped, sizeof stopped, "%s", rc ? mf_error() : "");
     cJSON *opts = cJSON_CreateObject();
     mf_opts_to_json(&k_args_table, a, opts);
+    MfReconGeomOpts g = *go;
+    g.geometry = gi->source; /* as resolved */
+    mf_opts_to_json(&mf_recon_geom_opt_table, &g, opts);
+    mf_recon_geom_to_json(gi, opts);
     mf_opts_to_json(&mf_recon_opt_table, mf_recon_opts(r), opts); /* as resolved (tex_auto) */
     budgets_to_json(r, opts);
     if (sds) mf_opts_to_json(&mf_sds_opt_table, so, opts);
@@ -219,7 +247,7 @@ static int write_run(int rc, int argc, char **argv, const char *out, const Recon
     return wrc;
 }
 
-static int cmd_recon_run(int argc, char **argv, const MfOptParse *p, ReconArgs *a, MfReconOpts *po, MfSdsOpts *pso) {
+static int cmd_recon_run(int argc, char **argv, const MfOptParse *p, ReconArgs *a, MfReconOpts *po, MfSdsOpts *pso, MfReconGeomOpts *go) {
     MfReconOpts o = *po;
     MfSdsOpts so = *pso;
     const char *data = p->npos ? p->pos[0] : NULL, *out = a->out;
@@ -233,13 +261,16 @@ static int cmd_recon_run(int argc, char **argv, const MfOptParse *p, ReconArgs *
         return MF_EXIT_USAGE;
     }
     so.seed = mf_hash64(o.seed, 0x5d5);
+    if (geom_args_ok(a, go, NULL)) return MF_EXIT_USAGE; /* before loading anything */
     double t0 = mf_now();
     DsViews dv;
     MfReconView *views = NULL;
     MfMesh mesh = {0};
+    MfReconGeomInfo gi;
     int nviews = 0, rc = load_views(data, a, &dv, mesh_path);
     if (rc) return rc == MF_EARG ? MF_EXIT_USAGE : MF_EXIT_FAIL; /* MF_EARG: --res does not divide the images */
-    if ((rc = load_mesh(mesh_path, &mesh)) || (rc = keep_side(&dv, &mesh, a)) || (rc = move_views(&dv, &views, &nviews))) {
+    if ((rc = load_mesh(out, a, go, &o, &dv, mesh_path, &mesh, &gi)) || (rc = keep_side(&dv, &mesh, a)) ||
+        (rc = move_views(&dv, &views, &nviews))) {
         ds_views_free(&dv);
         mf_mesh_free(&mesh);
         return MF_EXIT_FAIL;
@@ -257,8 +288,8 @@ static int cmd_recon_run(int argc, char **argv, const MfOptParse *p, ReconArgs *
     if (!exit_code && !rc) {
         MfReconHook hook = {mf_sds_hook, sds};
         rc = mf_recon_run(r, is_mf ? &hook : NULL, out);
-        a->mesh = mesh_path, a->prior_weights = weights; /* as resolved */
-        rc = write_run(rc, argc, argv, out, a, &o, &so, r, sds, mf_now() - t0);
+        a->mesh = gi.mesh_path, a->prior_weights = weights; /* as resolved */
+        rc = write_run(rc, argc, argv, out, a, &o, &so, r, sds, go, &gi, mf_now() - t0);
     }
     mf_recon_free(r);
     mf_sds_free(sds);
@@ -267,8 +298,8 @@ static int cmd_recon_run(int argc, char **argv, const MfOptParse *p, ReconArgs *
 }
 
 __attribute__((constructor)) static void recon_usage(void) {
-    const MfOptTable *t[] = {&k_args_table, &mf_sds_opt_table, &mf_recon_opt_table};
-    mf_opts_usage_text(usage, sizeof usage, k_usage_head, t, 3, NULL);
+    const MfOptTable *t[] = {&k_args_table, &mf_recon_geom_opt_table, &mf_sds_opt_table, &mf_recon_opt_table};
+    mf_opts_usage_text(usage, sizeof usage, k_usage_head, t, 4, NULL);
 }
 
-MF_COMMAND(recon, "recon", "recover materials and light of a scene on a given mesh", usage, cmd_recon)
+MF_COMMAND(recon, "recon", "recover materials and light of a scene on a given mesh or its visual hull", usage, cmd_recon)

@@ -18,6 +18,13 @@
  * size differs from its camera, or when n < 1. Parallel over grid slices; deterministic. */
 int mf_vhull(const MfTetGrid *g, const MfCamera *cams, const MfImage *masks, int n, float *field);
 
+/* The defaults of `mf hull` and of `mf recon --geometry vhull` (written once, here). */
+#define MF_HULL_DEFAULT_RES 128
+#define MF_HULL_DEFAULT_EXTENT 1.2
+#define MF_HULL_DEFAULT_SMOOTH 10
+#define MF_HULL_DEFAULT_TARGET_TRIS 40000
+#define MF_HULL_DEFAULT_MIN_COMPONENT 0.01
+
 typedef struct {
     int res;            /* grid cubes per axis (128: the setting for 128 px views) */
     float extent;       /* side of the grid cube centred at the origin, world units */

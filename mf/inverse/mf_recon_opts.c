@@ -62,3 +62,24 @@ MfReconOpts mf_recon_opts_default(void) {
     mf_opts_defaults(&mf_recon_opt_table, &o);
     return o;
 }
+
+#define G MfReconGeomOpts
+static const MfOpt k_geom_opts[] = {
+    MF_OPT_STR(G, geometry, NULL, "where the mesh comes from: the data set's (or --mesh), the visual hull of the training views' masks "
+               "unwrapped (written to RESULT_DIR/geometry/vhull.obj), or DMTet (not implemented: refused)",
+               .choices = "given|vhull|dmtet", .unset = "given when DATASET_DIR has a mesh (or --mesh), else vhull"),
+    MF_OPT_INT(G, hull_res, MF_HULL_DEFAULT_RES, 4, 512, "vhull: grid cubes per axis (mf hull --res)"),
+    MF_OPT_FLOAT(G, hull_extent, MF_HULL_DEFAULT_EXTENT, 1e-6, 1e6, "vhull: side of the grid cube centred at the origin (enlarged 1.5x once when the hull touches it)"),
+    MF_OPT_INT(G, hull_smooth, MF_HULL_DEFAULT_SMOOTH, 0, 10000, "vhull: Taubin smoothing iterations"),
+    MF_OPT_INT(G, hull_target_tris, MF_HULL_DEFAULT_TARGET_TRIS, 0, 100000000, "vhull: decimate to at most this many triangles (0: keep all)"),
+    MF_OPT_FLOAT(G, hull_min_component, MF_HULL_DEFAULT_MIN_COMPONENT, 0, 1, "vhull: drop components with fewer than this fraction of the largest's triangles"),
+};
+#undef G
+const MfOptTable mf_recon_geom_opt_table = MF_OPT_TABLE("Geometry options", k_geom_opts);
+
+MfReconGeomOpts mf_recon_geom_opts_default(void) {
+    MfReconGeomOpts o;
+    memset(&o, 0, sizeof o);
+    mf_opts_defaults(&mf_recon_geom_opt_table, &o);
+    return o;
+}

@@ -27,8 +27,15 @@
 #define MF_RECON_OPTS_H
 
 #include "inverse/mf_recon.h"
+#include "inverse/mf_recon_geom.h"
 #include "io/mf_opts.h"
 
 extern const MfOptTable mf_recon_opt_table;
+
+/* Where the mesh comes from (mf_recon_geom.h): --geometry given|vhull|dmtet and the hull's
+ * settings, whose defaults are `mf hull`'s (MF_HULL_DEFAULT_*). A table of its own: the
+ * geometry is made before the loop, and MfReconOpts stays the loop's (its checkpoint and
+ * baselines/nvdiffrecmc.json hold the loop's options). */
+extern const MfOptTable mf_recon_geom_opt_table;
 
 #endif

@@ -1,0 +1,65 @@
+/* mf_recon_geom: where `mf recon`'s mesh comes from (issue 14 item 10, its hull part).
+ *
+ *   given  the data set's mesh (or --mesh): read as before; it must have UVs. The default when
+ *          such a mesh exists, so runs on a given mesh are unchanged (same bytes).
+ *   vhull  the visual hull of the training views' masks, built by mf_vhull_mesh with the same
+ *          defaults as `mf hull` (MF_HULL_DEFAULT_*: 128^3 grid, Taubin smoothing, decimation to
+ *          40k triangles), unwrapped by mf_uvatlas as `mf unwrap` does (its defaults; the gutter
+ *          counted in the run's tex_res), written to <out>/geometry/vhull.obj and read back from
+ *          there, so a run and a resumed run optimise the same bytes. The default when the data
+ *          set has no mesh (a log line says so). With resume, a readable geometry/vhull.obj with
+ *          UVs is reused (the hull and the unwrap are deterministic; an unreadable one is rebuilt
+ *          with a warning).
+ *   dmtet  refused: DMTet optimisation (issue 14 pass 1) is not implemented.
+ * The options are a declarative table (mf_recon_geom_opt_table, mf_recon_opts.c). */
+#ifndef MF_RECON_GEOM_H
+#define MF_RECON_GEOM_H
+
+#include <cJSON.h>
+
+#include "core/mf_fs.h"
+#include "geom/mf_uvatlas.h"
+#include "geom/mf_vhull.h"
+#include "io/mf_image.h"
+#include "scene/mf_camera.h"
+#include "scene/mf_mesh.h"
+
+typedef struct {
+    const char *geometry;     /* "given" | "vhull" | "dmtet"; NULL: given when a mesh exists, else vhull */
+    int hull_res;             /* MfHullOpts, prefixed (mf recon's --res is the training width) */
+    float hull_extent;
+    int hull_smooth;
+    int hull_target_tris;
+    float hull_min_component;
+} MfReconGeomOpts;
+
+/* The defaults, from the option table. */
+MfReconGeomOpts mf_recon_geom_opts_default(void);
+
+/* What was built (vhull) or read (given). */
+typedef struct {
+    const char *source;          /* "given" | "vhull": the resolved choice (static string) */
+    char mesh_path[MF_PATH_MAX]; /* the mesh optimised on */
+    int reused;                  /* vhull with resume: geometry/vhull.obj was reused */
+    double hull_s, unwrap_s;     /* wall seconds (0 when reused or given) */
+    MfHullInfo hull;             /* vhull, built: the hull's report */
+    int hull_tris;               /* vhull: triangles of the unwrapped hull */
+    MfUvAtlasInfo atlas;         /* vhull, built: the unwrap's report */
+} MfReconGeomInfo;
+
+/* Resolves o->geometry into *source ("given" or "vhull"): NULL means given when mesh_exists,
+ * else vhull (logged). dmtet is refused (MF_EARG, saying it is not implemented). */
+int mf_recon_geom_resolve(const MfReconGeomOpts *o, int mesh_exists, const char **source);
+
+/* The mesh to optimise on, into *mesh (with UVs), per *source (mf_recon_geom_resolve):
+ * given reads given_path; vhull builds from cams (n,) and masks (n,) (last channel = mask, sizes
+ * matching the cameras) and writes out_dir/geometry/vhull.obj (reused with resume). tex_res: the
+ * run's texture side (the unwrap's gutter is counted in its texels). */
+int mf_recon_geom_mesh(const MfReconGeomOpts *o, const char *source, const char *given_path, const MfCamera *cams,
+                       const MfImage *masks, int n, int tex_res, const char *out_dir, int resume, MfMesh *mesh,
+                       MfReconGeomInfo *info);
+
+/* run.json: geometry source, mesh path, hull_s, unwrap_s, reuse and the hull/unwrap reports. */
+void mf_recon_geom_to_json(const MfReconGeomInfo *info, cJSON *obj);
+
+#endif
