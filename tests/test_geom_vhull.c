@@ -1,0 +1,113 @@
+/* mf_vhull (issue 14, T5): the visual hull of a sphere and a box, cut views. */
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/mf_error.h"
+#include "core/mf_rng.h"
+#include "eval/ev_geom.h"
+#include "geom/mf_meshproc.h"
+#include "geom/mf_tetgrid.h"
+#include "geom/mf_vhull.h"
+#include "mf_test.h"
+#include "mf_test_geom.h"
+
+/* ---- T5: visual hull ------------------------------------------------------------------- */
+
+enum { HW = 96 };
+
+/* Signed distance to the test shape (negative inside): 0 sphere r 0.35, 1 box half-size
+ * (0.3, 0.2, 0.25). */
+static float shape_sd(int shape, MfVec3 p) {
+    if (shape == 0) return mf_len(p) - 0.35f;
+    MfVec3 q = mf_v3(fabsf(p.x) - 0.3f, fabsf(p.y) - 0.2f, fabsf(p.z) - 0.25f);
+    MfVec3 qp = mf_v3(fmaxf(q.x, 0), fmaxf(q.y, 0), fmaxf(q.z, 0));
+    return mf_len(qp) + fminf(mf_maxc(q), 0);
+}
+
+/* Mask of the shape in cam: 4x4 supersampled coverage by sphere tracing. */
+static void render_mask(int shape, const MfCamera *cam, MfImage *m) {
+    mf_image_alloc(m, cam->w, cam->h, 1);
+    for (int y = 0; y < cam->h; ++y)
+        for (int x = 0; x < cam->w; ++x) {
+            int hit = 0;
+            for (int s = 0; s < 16; ++s) {
+                MfVec3 o, d;
+                mf_camera_ray(cam, (float)x + ((float)(s & 3) + 0.5f) / 4, (float)y + ((float)(s >> 2) + 0.5f) / 4, &o, &d);
+                float t = 0;
+                for (int it = 0; it < 200 && t < 10; ++it) {
+                    float sd = shape_sd(shape, mf_madd(o, d, t));
+                    if (sd < 1e-5f) { ++hit; break; }
+                    t += sd;
+                }
+            }
+            m->data[(size_t)y * cam->w + x] = (float)hit / 16;
+        }
+}
+
+
+MF_TEST(geom_vhull_sphere_box_cut) {
+    enum { NV = 64 };
+    MfCamera cams[NV + 1];
+    MfImage masks[NV + 1];
+    for (int shape = 0; shape < 2; ++shape) {
+        for (int v = 0; v < NV; ++v) { /* Fibonacci sphere of directions at distance 2.5 */
+            float z = 1 - (2 * (float)v + 1) / NV, r = sqrtf(1 - z * z), phi = (float)v * 2.39996323f;
+            look_cam(&cams[v], HW, mf_scale(mf_v3(r * cosf(phi), r * sinf(phi), z), 2.5f), mf_v3s(0));
+            render_mask(shape, &cams[v], &masks[v]);
+        }
+        /* a cut view: close up, seeing only the shape's +x part */
+        look_cam(&cams[NV], HW, mf_v3(0.35f, -1.2f, 0.1f), mf_v3(0.35f, 0, 0));
+        render_mask(shape, &cams[NV], &masks[NV]);
+        MfTetGrid g = mf_tetgrid_make(48, mf_v3s(0), 1.0f);
+        size_t nv = mf_tetgrid_nverts(&g);
+        float *f = malloc(nv * sizeof *f), *fc = malloc(nv * sizeof *fc);
+        CHECK_OK(mf_vhull(&g, cams, masks, NV, f));
+        MfTetMesh m = {0};
+        CHECK_OK(mf_tetgrid_extract(&g, f, NULL, &m));
+        double worst = 0;
+        for (int o = 0; o < m.mesh.nv; ++o)
+            worst = fmax(worst, fabs(shape_sd(shape, mf_v3(m.mesh.pos[3 * o], m.mesh.pos[3 * o + 1], m.mesh.pos[3 * o + 2]))));
+        CHECK_MSG(worst <= g.cell, "shape %d: hull vertex %g from the surface, a voxel is %g", shape, worst, g.cell);
+        int missed = 0; /* nothing inside the shape carved */
+        for (size_t v = 0; v < nv; ++v) missed += shape_sd(shape, mf_tetgrid_base(&g, v)) < -g.cell && !(f[v] > 0);
+        CHECK_MSG(missed == 0, "shape %d: %d inner vertices carved", shape, missed);
+        /* the cut view alone carves nothing inside the shape */
+        CHECK_OK(mf_vhull(&g, &cams[NV], &masks[NV], 1, fc));
+        int carved = 0, seen_out = 0;
+        for (size_t v = 0; v < nv; ++v) {
+            MfVec3 p = mf_tetgrid_base(&g, v);
+            float px, py;
+            int in_frame = mf_camera_project(&cams[NV], p, &px, &py) && px >= 0 && py >= 0 && px <= HW && py <= HW;
+            carved += shape_sd(shape, p) < -g.cell && !(fc[v] > 0);
+            seen_out += !in_frame && shape_sd(shape, p) < 0;
+        }
+        CHECK_MSG(seen_out > 1000, "shape %d: the cut view sees the whole shape (%d inner vertices out of frame)", shape, seen_out);
+        CHECK_MSG(carved == 0, "shape %d: the cut view carves %d inner vertices", shape, carved);
+        if (shape == 0) { /* the whole pipeline: a closed, smoothed, decimated hull */
+            MfHullOpts ho = {48, 1.0f, 10, 2000, 0.01f};
+            MfMesh hm = {0};
+            MfHullInfo hi;
+            MfManifoldInfo mi;
+            CHECK_OK(mf_vhull_mesh(cams, masks, NV, &ho, &hm, &hi));
+            CHECK_OK(mf_mesh_manifold_check(&hm, &mi));
+            CHECK_MSG(hm.nt <= 2000 && mf_manifold_ok(&mi) && mi.euler == 2 && hi.masked_views == NV && !hi.touches_border,
+                      "hull mesh: %d triangles, manifold %d, euler %ld", hm.nt, mf_manifold_ok(&mi), mi.euler);
+            mf_mesh_free(&hm);
+            /* views without masks (alpha all 1) are refused */
+            for (int v = 0; v < NV; ++v)
+                for (int p = 0; p < HW * HW; ++p) masks[v].data[p] = 1;
+            CHECK_ERR(mf_vhull_mesh(cams, masks, NV, &ho, &hm, &hi), "need at least 3");
+        }
+        mf_tetmesh_free(&m);
+        free(f), free(fc);
+        for (int v = 0; v <= NV; ++v) mf_image_free(&masks[v]);
+    }
+    /* a mask of the wrong size is refused, naming the view */
+    MfImage bad = {0};
+    mf_image_alloc(&bad, 8, 8, 1);
+    MfTetGrid g = mf_tetgrid_make(4, mf_v3s(0), 1.0f);
+    float f[125];
+    CHECK_ERR(mf_vhull(&g, cams, &bad, 1, f), "view 0");
+    mf_image_free(&bad);
+}
