@@ -9,7 +9,7 @@
 #include "core/mf_error.h"
 #include "core/mf_log.h"
 
-static const char *const k_intr_keys[MF_TF_NINTR] = {"fl_x", "fl_y", "cx", "cy", "w", "h"};
+static const char *const k_intr_keys[6] = {"fl_x", "fl_y", "cx", "cy", "w", "h"};
 static const char *const k_dist_keys[] = {"k1", "k2", "k3", "k4", "p1", "p2"};
 
 static void base_name(const char *p, char *out, size_t cap) {
@@ -24,13 +24,13 @@ static void base_name(const char *p, char *out, size_t cap) {
 
 /* Reads the intrinsics of obj over fl (kept where obj lacks a key) and refuses lens distortion
  * and camera models other than a pinhole, naming the file and the key. */
-static int read_intrinsics(const char *file, const char *where, const cJSON *obj, double fl[MF_TF_NINTR]) {
+static int read_intrinsics(const char *file, const char *where, const cJSON *obj, double fl[6]) {
     char w[160];
     snprintf(w, sizeof w, "%s%s", where, where[0] ? "." : "");
-    for (int k = 0; k < MF_TF_NINTR; ++k) {
+    for (int k = 0; k < 6; ++k) {
         int rc = mf_json_number_opt(file, where, obj, k_intr_keys[k], fl[k], &fl[k]);
         if (rc) return rc;
-        double lo = k == MF_TF_CX || k == MF_TF_CY ? -1e7 : 0.0, hi = k >= MF_TF_W ? 65536.0 : 1e7;
+        double lo = k == 2 || k == 3 ? -1e7 : 0.0, hi = k >= 4 ? 65536.0 : 1e7;
         if (!isnan(fl[k]) && !(fl[k] > lo && fl[k] <= hi))
             return mf_fail(MF_EFORMAT, "%s: %s%s = %g: expected a number in (%g, %g]", file, w, k_intr_keys[k], fl[k], lo, hi);
     }
@@ -69,7 +69,7 @@ static int parse_frame(const char *file, const char *w, const cJSON *f, int cap,
                 (rc = read_intrinsics(file, w, f, fr->intr)) || (rc = mf_json_string_opt(file, w, f, "mask_path", NULL, &mp)) ||
                 (rc = mf_json_string_opt(file, w, f, "scene_name", NULL, &sn))))
         return rc;
-    if (isnan(fr->camera_angle_x) && isnan(fr->intr[MF_TF_FL_X]))
+    if (isnan(fr->camera_angle_x) && isnan(fr->intr[0]))
         return mf_fail(MF_EFORMAT, "%s: %s: camera_angle_x: missing (and no fl_x)", file, w);
     if (fp && fp[0]) base_name(fp, fr->name, sizeof fr->name);
     if ((rc = dup_opt(file, fp, &fr->file_path)) || (rc = dup_opt(file, mp, &fr->mask_path))) return rc;
@@ -84,7 +84,7 @@ int mf_transforms_parse(const char *file, const char *prefix, const cJSON *obj, 
     size_t pl = strlen(prefix);
     snprintf(w, sizeof w, "%.*s", (int)(pl && prefix[pl - 1] == '.' ? pl - 1 : pl), prefix); /* "cameras." -> "cameras" */
     t->camera_angle_x = NAN;
-    for (int k = 0; k < MF_TF_NINTR; ++k) t->intr[k] = NAN;
+    for (int k = 0; k < 6; ++k) t->intr[k] = NAN;
     int rc = cap ? mf_json_number_opt(file, w, obj, "camera_angle_x", NAN, &t->camera_angle_x)
                  : mf_json_number(file, w, obj, "camera_angle_x", &t->camera_angle_x);
     if (!rc && cap) rc = read_intrinsics(file, w, obj, t->intr);
