@@ -36,15 +36,6 @@ static int joinf(char *out, const char *fmt, ...) {
     return MF_OK;
 }
 
-/* Base name without extension ("./train/r_0.png" -> "r_0"). */
-static void stem_of(const char *path, char *out, size_t cap) {
-    const char *s = strrchr(path, '/');
-    s = s ? s + 1 : path;
-    snprintf(out, cap, "%s", s);
-    char *dot = strrchr(out, '.');
-    if (dot && dot != out) *dot = '\0';
-}
-
 static void view_images_free(DsView *view) {
     mf_image_free(&view->rgba);
     mf_image_free(&view->albedo);
@@ -351,7 +342,7 @@ static int load_transforms(const char *dir, const char *split, TfKind kind, cons
         job->ax = fr->camera_angle_x;
         MfCamera probe;
         if ((rc = mf_camera_init(&probe, 1, 1, isnan(job->ax) ? 1.0 : job->ax, job->c2w, job->what))) goto fail;
-        stem_of(fp, view->name, sizeof view->name);
+        snprintf(view->name, sizeof view->name, "%.*s", DS_NAME_MAX - 1, fr->name); /* "./train/r_0.png" -> "r_0" */
         snprintf(job->base_dir, sizeof job->base_dir, "%s", dir);
         if (kind == TF_ORB && sn) {
             snprintf(view->scene_name, sizeof view->scene_name, "%s", sn);
