@@ -1,22 +1,18 @@
-/* mf_transforms: the one reader of NeRF-synthetic style camera files (a split's
- * transforms_<split>.json, the "cameras" of a scene JSON, `mf relight --cameras`, the
- * transforms.json of bvault, Stanford-ORB and instant-ngp / nerfstudio captures):
+/* mf_transforms: the one reader of NeRF-synthetic style camera files, for the scene loader
+ * (mf_scene), `mf relight --cameras`, the split renderer (ds_render_split) and, with MF_TF_CAPTURE,
+ * the data set loaders (ds_load: NeRF-Synthetic, bvault, Stanford-ORB, instant-ngp / nerfstudio):
  *   {"camera_angle_x": radians, "frames": [{"file_path": "...", "transform_matrix": 4x4 rows}, ...]}
- * Used by the scene loader (mf_scene), `mf relight`, the split renderer (ds_render_split) and,
- * with MF_TF_CAPTURE, the data set loaders (datasets/ds_load: split selection, paths, masks and
- * images only). Messages name the file and the JSON path ("frames[3].fl_x = -3: expected a number
- * in (0, 1e+07]"). Poses are not checked here: mf_camera_init refuses a bad field of view or a
- * non-rigid matrix. */
+ * Messages name the file and the JSON path ("frames[3].fl_x = -3: expected a number in (0, 1e+07]").
+ * Poses are not checked here: mf_camera_init refuses a bad field of view or a non-rigid matrix. */
 #ifndef MF_TRANSFORMS_H
 #define MF_TRANSFORMS_H
 
 #include "io/mf_json.h"
 
-/* Flags. 0: camera_angle_x is required at the root, file_path is optional, nothing else is read.
- * MF_TF_CAPTURE: file_path is required; camera_angle_x (root or frame) may be left out where
- * fl_x is given; fl_x, fl_y, cx, cy, w, h are read at the root and per frame; lens distortion
- * (non-zero k1..k4, p1, p2) and non-pinhole camera_model are refused by name; mask_path and
- * scene_name are read; aabb_scale is ignored with a log line. */
+/* Flags. 0: camera_angle_x required at the root, file_path optional, nothing else read.
+ * MF_TF_CAPTURE: file_path required; camera_angle_x (root or frame) optional where fl_x is given;
+ * fl_x fl_y cx cy w h, mask_path, scene_name read; non-zero k1..k4 p1 p2 and non-pinhole
+ * camera_model refused by name; aabb_scale ignored with a log line. */
 enum { MF_TF_CAPTURE = 1 };
 
 typedef struct {
