@@ -13,6 +13,7 @@
 #include "io/mf_exr.h"
 #include "core/mf_log.h"
 #include "io/mf_json.h"
+#include "scene/mf_transforms.h"
 
 static const char *k_fmt_names[] = {"unknown", "nerf-synthetic", "nerfactor", "stanford-orb", "bvault"};
 
@@ -33,15 +34,6 @@ static int joinf(char *out, const char *fmt, ...) {
     va_end(ap);
     if (n < 0 || n >= MF_PATH_MAX) return mf_fail(MF_EARG, "path too long");
     return MF_OK;
-}
-
-/* Base name without extension ("./train/r_0.png" -> "r_0"). */
-static void stem_of(const char *path, char *out, size_t cap) {
-    const char *s = strrchr(path, '/');
-    s = s ? s + 1 : path;
-    snprintf(out, cap, "%s", s);
-    char *dot = strrchr(out, '.');
-    if (dot && dot != out) *dot = '\0';
 }
 
 static void view_images_free(DsView *view) {
@@ -203,39 +195,6 @@ typedef struct {
     char msg[MF_PATH_MAX + 256];
 } FrameJob;
 
-/* Intrinsics keys (instant-ngp / nerfstudio), at the JSON's root or per frame. */
-static const char *const k_intr_keys[6] = {"fl_x", "fl_y", "cx", "cy", "w", "h"};
-static const char *const k_dist_keys[] = {"k1", "k2", "k3", "k4", "p1", "p2"};
-
-/* Reads intrinsics of obj over fl (NAN = not given, kept when obj lacks a key) and refuses lens
- * distortion and camera models other than a pinhole, naming the file and the key. */
-static int read_intrinsics(const char *jpath, const char *where, const cJSON *obj, double fl[6]) {
-    char w[96];
-    snprintf(w, sizeof w, "%s%s", where, where[0] ? "." : "");
-    for (int k = 0; k < 6; ++k) {
-        int rc = mf_json_number_opt(jpath, where, obj, k_intr_keys[k], fl[k], &fl[k]);
-        if (rc) return rc;
-        double lo = k == 2 || k == 3 ? -1e7 : 0.0, hi = k >= 4 ? 65536.0 : 1e7;
-        if (!isnan(fl[k]) && !(fl[k] > lo && fl[k] <= hi))
-            return mf_fail(MF_EFORMAT, "%s: %s%s = %g: expected a number in (%g, %g]", jpath, w, k_intr_keys[k], fl[k], lo, hi);
-    }
-    for (size_t k = 0; k < sizeof k_dist_keys / sizeof k_dist_keys[0]; ++k) {
-        double d;
-        int rc = mf_json_number_opt(jpath, where, obj, k_dist_keys[k], 0.0, &d);
-        if (rc) return rc;
-        if (d != 0.0)
-            return mf_fail(MF_EFORMAT, "%s: %s%s = %g: lens distortion is not supported; undistort the images first "
-                           "(e.g. COLMAP's image_undistorter) and set k1..k4, p1, p2 to 0", jpath, w, k_dist_keys[k], d);
-    }
-    const char *model = NULL;
-    int rc = mf_json_string_opt(jpath, where, obj, "camera_model", NULL, &model);
-    if (rc) return rc;
-    if (model && strcmp(model, "OPENCV") && strcmp(model, "PINHOLE") && strcmp(model, "SIMPLE_PINHOLE"))
-        return mf_fail(MF_EFORMAT, "%s: %scamera_model '%s' is not supported (pinhole cameras only: PINHOLE, OPENCV "
-                       "with zero distortion)", jpath, w, model);
-    return MF_OK;
-}
-
 /* The view's camera at its final size: camera_angle_x (square pixels, centred principal point)
  * or, when the frame gives fl_x, its intrinsics scaled from the JSON's w x h (default: the
  * stored image size) to the final size, so downsampled or resized images keep their camera. */
@@ -350,20 +309,13 @@ static int load_transforms(const char *dir, const char *split, TfKind kind, cons
         snprintf(jpath, sizeof jpath, "%s", one);
         single = 1;
     }
-    cJSON *root = NULL;
-    if ((rc = mf_json_load(jpath, &root))) return rc;
+    MfTransforms tf;
+    if ((rc = mf_transforms_load(jpath, MF_TF_CAPTURE, &tf))) return rc;
     DsViews v = {0};
     DsView *views = NULL;
     FrameJob *jobs = NULL;
     int *sel = NULL;
-    int nf = 0, nall = 0;
-    const cJSON *frames;
-    double angle = 0.0, fl_root[6] = {NAN, NAN, NAN, NAN, NAN, NAN};
-    if ((rc = mf_json_number_opt(jpath, "", root, "camera_angle_x", NAN, &angle))) goto fail;
-    if ((rc = read_intrinsics(jpath, "", root, fl_root))) goto fail;
-    if ((rc = mf_json_array(jpath, "", root, "frames", &frames, &nall))) goto fail;
-    if (cJSON_GetObjectItemCaseSensitive(root, "aabb_scale"))
-        mf_log_info("%s: aabb_scale ignored (mf works on a given mesh; no bounding volume is used)", jpath);
+    int nf = 0, nall = tf.n;
     sel = malloc(((size_t)nall + 1) * sizeof *sel);
     if (!sel) { rc = mf_fail(MF_ENOMEM, "out of memory"); goto fail; }
     for (int i = 0; i < nall; ++i) /* single file: every DS_HOLDOUT_EVERY-th frame is test/val */
@@ -380,34 +332,22 @@ static int load_transforms(const char *dir, const char *split, TfKind kind, cons
     if (!views || !jobs) { rc = mf_fail(MF_ENOMEM, "out of memory"); goto fail; }
     /* 1. frames and cameras */
     for (int i = 0; i < nf; ++i) {
-        const cJSON *fr = cJSON_GetArrayItem(frames, sel[i]);
+        const MfTransformFrame *fr = &tf.frames[sel[i]];
         FrameJob *job = &jobs[i];
         DsView *view = &views[i];
-        char where[64];
-        snprintf(where, sizeof where, "frames[%d]", sel[i]);
-        snprintf(job->what, sizeof job->what, "%s: %s", jpath, where);
-        const char *fp, *mp = NULL;
-        job->ax = angle;
-        memcpy(job->fl, fl_root, sizeof job->fl);
-        if ((rc = mf_json_string(jpath, where, fr, "file_path", &fp))) goto fail;
-        if ((rc = mf_json_numbers(jpath, where, fr, "transform_matrix", 4, 4, job->c2w))) goto fail;
-        if ((rc = mf_json_number_opt(jpath, where, fr, "camera_angle_x", angle, &job->ax))) goto fail;
-        if ((rc = read_intrinsics(jpath, where, fr, job->fl))) goto fail;
-        if ((rc = mf_json_string_opt(jpath, where, fr, "mask_path", NULL, &mp))) goto fail;
-        if (isnan(job->ax) && isnan(job->fl[0])) {
-            rc = mf_fail(MF_EFORMAT, "%s: camera_angle_x: missing (and no fl_x)", job->what);
-            goto fail;
-        }
+        snprintf(job->what, sizeof job->what, "%s: frames[%d]", jpath, sel[i]);
+        const char *fp = fr->file_path, *sn = fr->scene_name;
+        memcpy(job->c2w, fr->c2w, sizeof job->c2w);
+        memcpy(job->fl, fr->intr, sizeof job->fl);
+        job->ax = fr->camera_angle_x;
         MfCamera probe;
         if ((rc = mf_camera_init(&probe, 1, 1, isnan(job->ax) ? 1.0 : job->ax, job->c2w, job->what))) goto fail;
-        stem_of(fp, view->name, sizeof view->name);
+        snprintf(view->name, sizeof view->name, "%.*s", DS_NAME_MAX - 1, fr->name); /* "./train/r_0.png" -> "r_0" */
         snprintf(job->base_dir, sizeof job->base_dir, "%s", dir);
-        if (kind == TF_ORB) {
-            const char *sn = NULL;
-            if ((rc = mf_json_string_opt(jpath, where, fr, "scene_name", NULL, &sn))) goto fail;
-            if (sn) snprintf(view->scene_name, sizeof view->scene_name, "%s", sn);
+        if (kind == TF_ORB && sn) {
+            snprintf(view->scene_name, sizeof view->scene_name, "%s", sn);
             /* novel frames: the image lives in the other capture's folder */
-            if (sn && strcmp(sn, orb_capture) && (rc = joinf(job->base_dir, "%s/../%s", dir, sn))) goto fail;
+            if (strcmp(sn, orb_capture) && (rc = joinf(job->base_dir, "%s/../%s", dir, sn))) goto fail;
         }
         while (fp[0] == '.' && fp[1] == '/') fp += 2; /* "./train/r_0" */
         if ((rc = join(view->image_path, job->base_dir, fp))) goto fail;
@@ -421,7 +361,7 @@ static int load_transforms(const char *dir, const char *split, TfKind kind, cons
         /* a mask: --mask DIR (<DIR>/<name>.png) wins over the frame's own mask_path */
         if (o->mask_dir && o->mask_dir[0] == '/') rc = joinf(job->mask_path, "%s/%s.png", o->mask_dir, view->name);
         else if (o->mask_dir && o->mask_dir[0]) rc = joinf(job->mask_path, "%s/%s/%s.png", dir, o->mask_dir, view->name);
-        else if (mp) rc = join(job->mask_path, dir, mp);
+        else if (fr->mask_path) rc = join(job->mask_path, dir, fr->mask_path);
         if (rc) goto fail;
     }
     /* per-view outputs (renders, scores) are named by the frame's base name */
@@ -432,8 +372,7 @@ static int load_transforms(const char *dir, const char *split, TfKind kind, cons
                      views[dj].image_path);
         goto fail;
     }
-    cJSON_Delete(root);
-    root = NULL;
+    mf_transforms_free(&tf);
     /* 2. images, in parallel */
 #pragma omp parallel for schedule(dynamic, 1)
     for (int i = 0; i < nf; ++i) {
@@ -456,7 +395,7 @@ static int load_transforms(const char *dir, const char *split, TfKind kind, cons
     *out = v;
     return MF_OK;
 fail:
-    cJSON_Delete(root);
+    mf_transforms_free(&tf);
     free(jobs);
     free(sel);
     free_views(views, nf);

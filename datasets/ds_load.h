@@ -47,10 +47,11 @@
  * "x/gt/albedo/r_1.png: GT albedo is 8x8, the view image x/test/r_1.png is 16x16",
  * NaN in an EXR (named by the image reader). On failure *out is untouched.
  *
- * Loading: the JSON/metadata are parsed and every camera checked first (serial), then images are
- * decoded in parallel (OpenMP over views); failures and size mismatches are reported for the
- * first offending view in file order, so results and messages do not depend on the thread
- * count. DsLoadOptions.downsample box-filters by an integer factor (colour weighted by alpha)
+ * Loading: the JSON (parsed by scene/mf_transforms.h with MF_TF_CAPTURE, every frame of the
+ * file, those of other splits too) or the metadata are read and every camera checked first
+ * (serial), then images are decoded in parallel (OpenMP over views); failures and size
+ * mismatches are reported for the first offending view in file order, so results and messages
+ * do not depend on the thread count. DsLoadOptions.downsample box-filters by an integer factor (colour weighted by alpha)
  * and scales the cameras with the image (same camera_angle_x). */
 #ifndef DS_LOAD_H
 #define DS_LOAD_H

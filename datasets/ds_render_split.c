@@ -46,7 +46,7 @@ static int read_cams(const char *sdir, const char *split, double *angle_x, MfMat
     snprintf(f, sizeof f, "transforms_%s.json", split);
     MfTransforms tf;
     int rc = mf_path_join(p, sizeof p, sdir, f);
-    if (rc || (rc = mf_transforms_load(p, &tf))) return rc;
+    if (rc || (rc = mf_transforms_load(p, 0, &tf))) return rc;
     *c2w = malloc(sizeof(MfMat4) * (size_t)(tf.n ? tf.n : 1));
     if (!*c2w) rc = mf_fail(MF_ENOMEM, "out of memory");
     for (int i = 0; i < tf.n && !rc; ++i)

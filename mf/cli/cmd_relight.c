@@ -68,7 +68,7 @@ static int relight_run(const char *result, const RelightArgs *a) {
     const char *envp = a->env, *cams = a->cameras, *out = a->out;
     int spp = a->spp, ps = a->pixel_samples, width = a->width, seed = a->seed, png = a->png;
     MfTransforms tf;
-    int rc = mf_transforms_load(cams, &tf), nf = tf.n;
+    int rc = mf_transforms_load(cams, 0, &tf), nf = tf.n;
     EvResult res;
     int have_res = 0;
     MfEnvMap env;

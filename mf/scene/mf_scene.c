@@ -219,7 +219,7 @@ static int parse_cameras(Ctx *c, const cJSON *root) {
     }
     MfTransforms tf;
     char w[128];
-    rc = mf_transforms_parse(file, prefix, obj, &tf);
+    rc = mf_transforms_parse(file, prefix, obj, 0, &tf);
     if (!rc && tf.n == 0) rc = mf_fail(MF_EFORMAT, "%s: %sframes: empty", file, prefix);
     if (!rc) {
         c->s->views = calloc((size_t)tf.n, sizeof(MfSceneView));
