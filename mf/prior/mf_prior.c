@@ -298,7 +298,7 @@ void mf_prior_encode_backward(MfPrior *p, const float *dz, float *dimg) {
     float *g = scratch(p, n);
     if (!g) return;
     for (size_t i = 0; i < n; ++i) g[i] = dz[i] * p->latent_scale;
-    mf_ae_encode_backward(p->ae, &p->aew, g, dimg);
+    mf_ae_encode_backward_input(p->ae, &p->aew, g, dimg);
 }
 
 static int decode_with(MfPrior *p, MfAeWork *w, const float *z, int B, float *img) {
