@@ -1,6 +1,7 @@
-/* run.json's time_split (mf/cli/cmd_recon.c): the wall seconds of a recon run by disjoint stage,
- * the prior term's stages among them for MaterialFusion. Each stage is >= 0, they sum to at most
- * the run's wall time and account for most of it, and only MaterialFusion has prior stages. */
+/* run.json's time_split and cpu_split (mf/cli/cmd_recon.c): the wall and CPU seconds of a recon
+ * run by disjoint stage, the prior term's stages among them for MaterialFusion. Each stage is >= 0,
+ * they sum to at most the run's wall (CPU) time and account for most of it, and only
+ * MaterialFusion has prior stages. */
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -22,21 +23,24 @@ static int sh(const char *fmt, ...) {
     return system(cmd) == 0 ? 0 : 1;
 }
 
-/* Checks dir/run.json's split; *prior receives the sum of its prior_* stages. */
-static void check_split(const char *dir, int want_prior, double *prior) {
+/* Checks dir/run.json's split `key` against the total `total` (options.`total` or wall_seconds);
+ * *prior receives the sum of its prior_* stages. */
+static void check_split(const char *dir, const char *key, const char *total, int want_prior, double *prior) {
     char p[1200];
     snprintf(p, sizeof p, "%s/run.json", dir);
     cJSON *root = NULL;
     CHECK_OK(mf_json_load(p, &root));
     if (!root) return;
-    double wall = cJSON_GetNumberValue(cJSON_GetObjectItem(root, "wall_seconds"));
-    cJSON *ts = cJSON_GetObjectItem(cJSON_GetObjectItem(root, "options"), "time_split");
-    CHECK_MSG(cJSON_IsObject(ts), "%s: no options.time_split", p);
+    cJSON *opts = cJSON_GetObjectItem(root, "options");
+    double wall = cJSON_GetNumberValue(cJSON_GetObjectItem(strcmp(total, "wall_seconds") ? opts : root, total));
+    CHECK_MSG(wall > 0.0, "%s: %s is %g", p, total, wall);
+    cJSON *ts = cJSON_GetObjectItem(opts, key);
+    CHECK_MSG(cJSON_IsObject(ts), "%s: no options.%s", p, key);
     double sum = 0.0;
     int n = 0, nprior = 0;
     *prior = 0.0;
     for (cJSON *e = ts ? ts->child : NULL; e; e = e->next, ++n) {
-        CHECK_MSG(cJSON_IsNumber(e) && e->valuedouble >= 0.0, "%s: time_split.%s = %g", p, e->string, e->valuedouble);
+        CHECK_MSG(cJSON_IsNumber(e) && e->valuedouble >= 0.0, "%s: %s.%s = %g", p, key, e->string, e->valuedouble);
         sum += e->valuedouble;
         if (!strncmp(e->string, "prior_", 6)) nprior++, *prior += e->valuedouble;
     }
@@ -44,8 +48,8 @@ static void check_split(const char *dir, int want_prior, double *prior) {
     CHECK_MSG(want_prior ? nprior >= 9 : nprior == 0, "%s: %d prior stages", p, nprior);
     /* disjoint stages: their sum cannot exceed the wall time (1 ms of rounding); and they cover
      * the run but its bookkeeping (here: well over half of it) */
-    CHECK_MSG(sum <= wall + 1e-3, "%s: the stages sum to %.4f s, above the wall time %.4f s", p, sum, wall);
-    CHECK_MSG(sum >= 0.5 * wall, "%s: the stages sum to %.4f s of a wall time of %.4f s", p, sum, wall);
+    CHECK_MSG(sum <= wall + 1e-3, "%s: the %s stages sum to %.4f s, above %s %.4f s", p, key, sum, total, wall);
+    CHECK_MSG(sum >= 0.5 * wall, "%s: the %s stages sum to %.4f s of %s %.4f s", p, key, sum, total, wall);
     cJSON_Delete(root);
 }
 
@@ -59,11 +63,13 @@ MF_TEST(cli_recon_time_split) {
     CHECK(sh("%s recon %s/000_cup -o %s/bl %s 2>/dev/null", mf, d, d, budget) == 0);
     CHECK(sh("%s recon %s/000_cup -o %s/mf --method materialfusion %s 2>%s/mf.log", mf, d, d, budget, d) == 0);
     char dir[1100];
-    double pb = 0.0, pm = 0.0;
+    double pb = 0.0, pm = 0.0, pc = 0.0;
     snprintf(dir, sizeof dir, "%s/bl", d);
-    check_split(dir, 0, &pb);
+    check_split(dir, "time_split", "wall_seconds", 0, &pb);
+    check_split(dir, "cpu_split", "cpu_seconds", 0, &pb);
     snprintf(dir, sizeof dir, "%s/mf", d);
-    check_split(dir, 1, &pm);
-    CHECK_MSG(pm > 0.0, "MaterialFusion's prior stages sum to %g s", pm);
+    check_split(dir, "time_split", "wall_seconds", 1, &pm);
+    check_split(dir, "cpu_split", "cpu_seconds", 1, &pc);
+    CHECK_MSG(pm > 0.0 && pc > 0.0, "MaterialFusion's prior stages sum to %g s wall, %g s CPU", pm, pc);
     CHECK(sh("grep -q 'recon: time split of .* prior term' %s/mf.log", d) == 0); /* the log's summary line */
 }

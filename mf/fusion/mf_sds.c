@@ -49,13 +49,6 @@ void mf_sds_times(const MfSds *s, MfSdsTimes *t) {
     else memset(t, 0, sizeof *t);
 }
 
-/* Adds the wall seconds since *ts to *acc and restarts the stage clock. */
-static void lap(double *acc, double *ts) {
-    double tn = mf_now();
-    *acc += tn - *ts;
-    *ts = tn;
-}
-
 void mf_sds_free(MfSds *s) {
     if (!s) return;
     mf_prior_free(s->prior);
@@ -127,11 +120,11 @@ static int maps_compute(MfSds *s, MfRecon *r, const MfSdsTargets *t, Maps *m) {
     m->ain = malloc(nm * sizeof(float)), m->oin = malloc(nm * sizeof(float));
     m->aa = malloc(nm * sizeof(float)), m->ao = malloc(nm * sizeof(float)), m->z = malloc(nz * sizeof(float));
     int rc = (!m->ain || !m->oin || !m->aa || !m->ao || !m->z) ? mf_fail(MF_ENOMEM, "SDS: out of memory") : MF_OK;
-    double ts = mf_now();
+    MfStageClock ts = mf_stage_clock();
     if (!rc) rc = render_maps(s, r, t, m->ain, m->oin, m->aa, m->ao);
-    lap(&s->times.aov, &ts);
+    mf_stage_lap(&s->times.aov, &ts);
     if (!rc) rc = mf_prior_encode_materials(s->prior, m->ain, m->oin, t->n, m->z);
-    lap(&s->times.encode, &ts);
+    mf_stage_lap(&s->times.encode, &ts);
     if (rc) maps_free(m);
     return rc;
 }
@@ -146,7 +139,7 @@ static int targets(MfSds *s, MfRecon *r, const int *views, int n, int it, MfSdsT
     T.n = n;
     Maps cur = {0};
     float *rgba = NULL;
-    double ts = mf_now();
+    MfStageClock ts = mf_stage_clock();
     T.zhat = malloc(nz * sizeof(float));
     T.dhat = malloc(2 * nm * sizeof(float));
     T.cond = malloc(nm * sizeof(float));
@@ -184,17 +177,17 @@ static int targets(MfSds *s, MfRecon *r, const int *views, int n, int it, MfSdsT
         rc = mf_camera_init(&T.cam[k], R, R, ax, m, "SDS camera");
         T.aov_seed[k] = view_seed(s, it, views[k], 1);
     }
-    lap(&s->times.cond, &ts);
+    mf_stage_lap(&s->times.cond, &ts);
     if (rc || (rc = maps_compute(s, r, &T, &cur))) goto done;
-    ts = mf_now();
+    ts = mf_stage_clock();
     MfRng rng;
     mf_rng_seed(&rng, view_seed(s, it, -1, 2), 0);
     T.t = s->o.t_min + (int)mf_rng_below(&rng, (uint32_t)(s->o.t_max - s->o.t_min + 1));
     rc = mf_prior_sds_denoise(s->prior, cur.z, T.cond, n, 1, 0, T.t, s->o.guidance, view_seed(s, it, -1, 3), T.zhat);
-    lap(&s->times.denoise, &ts);
+    mf_stage_lap(&s->times.denoise, &ts);
     if (rc) goto done;
     rc = mf_prior_decode_materials(s->prior, T.zhat, n, T.dhat, T.dhat + nm);
-    lap(&s->times.decode, &ts);
+    mf_stage_lap(&s->times.decode, &ts);
 done:
     free(rgba);
     if (rc || !keep) maps_free(&cur);
@@ -215,7 +208,7 @@ static int loss_of(MfSds *s, MfRecon *r, const MfSdsTargets *t, Maps *m, float s
     size_t rr = (size_t)R * R, hh = (size_t)h * h, nm = (size_t)n * 3 * rr, nz = (size_t)n * 2 * zc * hh;
     const float *ain = m->ain, *oin = m->oin, *z = m->z;
     float *aa = m->aa, *ao = m->ao;
-    double ts = mf_now();
+    MfStageClock ts = mf_stage_clock();
     float *dz = calloc(nz, sizeof(float)), *al = malloc((size_t)n * hh * sizeof(float));
     float *dain = calloc(nm, sizeof(float)), *doin = calloc(nm, sizeof(float));
     int rc = MF_OK;
@@ -252,10 +245,10 @@ static int loss_of(MfSds *s, MfRecon *r, const MfSdsTargets *t, Maps *m, float s
         rc = mf_fail(MF_ENAN, "SDS: non-finite prior loss");
         goto done;
     }
-    lap(&s->times.loss, &ts);
+    mf_stage_lap(&s->times.loss, &ts);
     if (!g) goto done;
     rc = mf_prior_encode_materials_backward(s->prior, dz, dain, doin);
-    lap(&s->times.enc_bwd, &ts);
+    mf_stage_lap(&s->times.enc_bwd, &ts);
     if (rc) goto done;
     /* maps -> AOVs: albedo_in = (2 sRGB(kd) - 1) mask, orm_in = (2 orm - 1) mask; AOVs (R, R, 3) */
     MfImage kd = mf_recon_kd_image(r), orm = mf_recon_orm_image(r);
@@ -271,7 +264,7 @@ static int loss_of(MfSds *s, MfRecon *r, const MfSdsTargets *t, Maps *m, float s
         MfDiffOpts o = {.spp_sqrt = 1, .pixel_samples = s->o.aov_samples, .seed = t->aov_seed[k]};
         rc = mf_diff_aov_backward(&ds, &t->cam[k], &o, a, m, g);
     }
-    lap(&s->times.aov_bwd, &ts);
+    mf_stage_lap(&s->times.aov_bwd, &ts);
 done:
     free(dz), free(al), free(dain), free(doin);
     return rc;
@@ -399,10 +392,10 @@ int mf_sds_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double 
         if (rc) return mf_fail_prefix(rc, "iteration %d: prior term", it);
         if (s->coverage_n * 3 != orm->n) return mf_fail(MF_EARG, "SDS coverage: the kd and ORM textures differ in size");
     }
-    double ts = mf_now();
+    MfStageClock ts = mf_stage_clock();
     apply_held(kd->g, s->held_kd, kd->n, (float)gamma, s->o.weight, s->coverage);
     apply_held(orm->g, s->held_orm, orm->n, (float)gamma, s->o.weight, s->coverage);
-    lap(&s->times.apply, &ts);
+    mf_stage_lap(&s->times.apply, &ts);
     *loss = gamma * s->held_loss;
     return MF_OK;
 }

@@ -77,17 +77,17 @@ void mf_sds_free(MfSds *s);
 /* Wall seconds this process spent in the prior's work (the refreshes: AOV render, encode, guided
  * DDIM, decode, encoder backward), for the cost report. */
 double mf_sds_seconds(const MfSds *s);
-/* The same work by stage, wall seconds over the run (the cost report's split of the hook). */
+/* The same work by stage, wall and CPU seconds over the run (the cost report's split of the hook). */
 typedef struct {
-    double cond;     /* the views' condition images, masks and cameras at the prior's resolution */
-    double aov;      /* the material AOV render and the maps prepared from it */
-    double encode;   /* Enc(maps) */
-    double denoise;  /* noising and the guided DDIM steps (with the condition image's encode) */
-    double decode;   /* D(zhat) */
-    double loss;     /* the loss and its gradient w.r.t. the latents and maps */
-    double enc_bwd;  /* the gradient back through the encoder */
-    double aov_bwd;  /* the gradient back through the AOV render into the texels */
-    double apply;    /* every iteration: the held gradient (weighted) added to the texels' */
+    MfStageTime cond;     /* the views' condition images, masks and cameras at the prior's resolution */
+    MfStageTime aov;      /* the material AOV render and the maps prepared from it */
+    MfStageTime encode;   /* Enc(maps) */
+    MfStageTime denoise;  /* noising and the guided DDIM steps (with the condition image's encode) */
+    MfStageTime decode;   /* D(zhat) */
+    MfStageTime loss;     /* the loss and its gradient w.r.t. the latents and maps */
+    MfStageTime enc_bwd;  /* the gradient back through the encoder */
+    MfStageTime aov_bwd;  /* the gradient back through the AOV render into the texels */
+    MfStageTime apply;    /* every iteration: the held gradient (weighted) added to the texels' */
 } MfSdsTimes;
 void mf_sds_times(const MfSds *s, MfSdsTimes *t);
 /* Coverage weights (texels,) of r's training views (see "coverage" above): *out owned by the
