@@ -1,7 +1,7 @@
 /* run.json's time_split and cpu_split (mf/cli/cmd_recon.c): the wall and CPU seconds of a recon
  * run by disjoint stage, the prior term's stages among them for MaterialFusion. Each stage is >= 0,
  * they sum to at most the run's wall (CPU) time and account for most of it, and only
- * MaterialFusion has prior stages. */
+ * MaterialFusion has prior stages. The prior's OpenBLAS thread count does not change the result. */
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -72,4 +72,9 @@ MF_TEST(cli_recon_time_split) {
     check_split(dir, "cpu_split", "cpu_seconds", 1, &pc);
     CHECK_MSG(pm > 0.0 && pc > 0.0, "MaterialFusion's prior stages sum to %g s wall, %g s CPU", pm, pc);
     CHECK(sh("grep -q 'recon: time split of .* prior term' %s/mf.log", d) == 0); /* the log's summary line */
+    /* the prior's OpenBLAS thread count (--prior-threads, default 1) does not change a bit of the result */
+    CHECK(sh("%s recon %s/000_cup -o %s/mf2 --method materialfusion %s --prior-threads 2 2>/dev/null", mf, d, d, budget) == 0);
+    CHECK(sh("grep -q '\"prior_threads\":[[:space:]]*2' %s/mf2/run.json", d) == 0);
+    CHECK_MSG(sh("cd %s && cmp -s mf/albedo.png mf2/albedo.png && cmp -s mf/orm.png mf2/orm.png && cmp -s mf/env.exr mf2/env.exr", d) == 0,
+              "MaterialFusion's result differs between 1 and 2 OpenBLAS threads");
 }

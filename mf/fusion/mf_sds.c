@@ -10,6 +10,7 @@
 #include "inverse/mf_budget.h"
 #include "render/mf_diffrender.h"
 #include "io/mf_image.h"
+#include "nn/mf_nn.h"
 
 struct MfSds {
     MfPrior *prior; /* owned */
@@ -38,6 +39,7 @@ int mf_sds_new(MfPrior *prior, const MfSdsOpts *o, MfSds **out) {
     if (!s) return mf_fail(MF_ENOMEM, "out of memory");
     s->prior = prior;
     s->o = *o;
+    if (o->prior_threads > 0) mf_nn_set_threads(o->prior_threads);
     s->held_it = -1;
     *out = s;
     return MF_OK;

@@ -61,6 +61,7 @@ typedef struct {
                             every iteration in between (measured default: mf_sds_opts.c). */
     int rgb01;           /* 1: L_rgb on [0, 1] maps (official code); 0: on the prior's [-1, 1] maps (4x) */
     int weight;          /* MF_SDS_WEIGHT_NONE, _CONFLICT or _COVERAGE (trust, see above) */
+    int prior_threads;   /* OpenBLAS threads set by mf_sds_new (0: left as they are) */
 } MfSdsOpts;
 
 enum { MF_SDS_WEIGHT_NONE = 0, MF_SDS_WEIGHT_CONFLICT = 1, MF_SDS_WEIGHT_COVERAGE = 2 }; /* choices "none|conflict|coverage" */

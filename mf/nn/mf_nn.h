@@ -289,4 +289,10 @@ float mf_grad_clip_norm(float *grads, size_t n, float max_norm);
 unsigned long long mf_nn_gemm_flops(void);
 void mf_nn_gemm_flops_reset(void);
 
+/* Threads of OpenBLAS's matrix products from now on, process-wide (n >= 1; the start value is
+ * OPENBLAS_NUM_THREADS, else OMP_NUM_THREADS, else all cores). OpenBLAS splits a product's rows
+ * and columns among its threads, not the sums: the results do not depend on it. */
+void mf_nn_set_threads(int n);
+int mf_nn_threads(void);
+
 #endif
