@@ -388,11 +388,12 @@ bench-prior: $(BUILD)/mf
 # The prior term's cost (issue 12 item 7; tools/sds_cost.sh): the baseline and MaterialFusion back
 # to back on test-3d/000_cup (made in $(SDS_COST_DATA) when missing), $(SDS_COST_ITERS) iterations,
 # 1 thread, 2 repetitions; MaterialFusion's wall and CPU time by stage -> reports/perf/sds-cost.md.
-# SDS_COST_VARIANTS="label=path/to/other/mf[:extra flags] ..." adds MaterialFusion runs to compare.
+# SDS_COST_VARIANTS="label=path/to/other/mf[:extra flags] ..." adds MaterialFusion runs to compare
+# (SDS_COST_NOTE: a sentence for the report saying what they are).
 SDS_COST_DATA  ?= $(DATA)/sds-cost
 SDS_COST_ITERS ?= 100
 bench-sds-cost: $(BUILD)/mf
-	ITERS=$(SDS_COST_ITERS) REPEATS=2 THREADS=1 sh tools/sds_cost.sh $(MF) $(SDS_COST_DATA) $(RESULTS)/sds-cost \
+	ITERS=$(SDS_COST_ITERS) REPEATS=2 THREADS=1 NOTE="$(SDS_COST_NOTE)" sh tools/sds_cost.sh $(MF) $(SDS_COST_DATA) $(RESULTS)/sds-cost \
 	  reports/perf/sds-cost.md $(SDS_COST_VARIANTS)
 
 # ---- the 2D prior's generalisation matrix, renderer axis (issue 12, Deliver item 1) ----

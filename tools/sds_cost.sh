@@ -10,12 +10,13 @@
 # LABEL=MF_BIN runs MaterialFusion with another binary (and optional extra flags, e.g. an older
 # build, or `:--prior-threads 0`) right after MF's run, so each repetition compares runs made under
 # the same machine load. Environment: ITERS (default 100), REPEATS (2), THREADS (OMP_NUM_THREADS,
-# default 1), CONFIG (baselines/nvdiffrecmc.json).
+# default 1), CONFIG (baselines/nvdiffrecmc.json), NOTE (a paragraph for the report: what the
+# variants are).
 set -eu
 [ $# -ge 4 ] || { echo "usage: $0 MF DATA WORK OUT [LABEL=MF_BIN[:MF_ARGS] ...]" >&2; exit 2; }
 MF=$1 DATA=$2 WORK=$3 OUT=$4
 shift 4
-ITERS=${ITERS:-100} REPEATS=${REPEATS:-2} THREADS=${THREADS:-1} CONFIG=${CONFIG:-baselines/nvdiffrecmc.json}
+ITERS=${ITERS:-100} REPEATS=${REPEATS:-2} THREADS=${THREADS:-1} CONFIG=${CONFIG:-baselines/nvdiffrecmc.json} NOTE=${NOTE:-}
 command -v jq >/dev/null || { echo "$0: jq not found (apt-get install jq)" >&2; exit 1; }
 [ -x "$MF" ] || { echo "$0: $MF: not an executable mf binary" >&2; exit 1; }
 if [ ! -f "$DATA/000_cup/transforms_train.json" ]; then
@@ -55,6 +56,10 @@ tmp=$OUT.tmp
     echo "MaterialFusion (and the variants below) ran back to back. Revision $(j 1/materialfusion .git_revision)."
     echo "Load average at the end: $(cut -d' ' -f1-3 /proc/loadavg) on $(nproc) cores."
     echo
+    if [ -n "$NOTE" ]; then
+        echo "$NOTE"
+        echo
+    fi
     echo "## MaterialFusion / baseline, per repetition"
     echo
     echo "| repetition | run | wall s | CPU s | wall / baseline | CPU / baseline | prior term share of wall |"
@@ -129,7 +134,7 @@ tmp=$OUT.tmp
     echo "Commands:"
     echo
     for d in "$WORK/1"/*/; do
-        echo "    $(jq -r '.argv | join(" ")' "$d/run.json")"
+        echo "    $(jq -r '.argv | join(" ")' "$d/run.json")  # $(basename "$d"), OMP_NUM_THREADS=$THREADS"
     done
 } > "$tmp"
 mv "$tmp" "$OUT"
