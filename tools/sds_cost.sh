@@ -11,20 +11,19 @@
 # build, or `:--prior-threads 0`) right after MF's run, so each repetition compares runs made under
 # the same machine load. Environment: ITERS (default 100), REPEATS (2), THREADS (OMP_NUM_THREADS,
 # default 1), CONFIG (baselines/nvdiffrecmc.json), NOTE (a paragraph for the report: what the
-# variants are).
+# variants are), REPORT_ONLY=1 (no runs: the report again from WORK's run.json files).
 set -eu
 [ $# -ge 4 ] || { echo "usage: $0 MF DATA WORK OUT [LABEL=MF_BIN[:MF_ARGS] ...]" >&2; exit 2; }
 MF=$1 DATA=$2 WORK=$3 OUT=$4
 shift 4
-ITERS=${ITERS:-100} REPEATS=${REPEATS:-2} THREADS=${THREADS:-1} CONFIG=${CONFIG:-baselines/nvdiffrecmc.json} NOTE=${NOTE:-}
+ITERS=${ITERS:-100} REPEATS=${REPEATS:-2} THREADS=${THREADS:-1} CONFIG=${CONFIG:-baselines/nvdiffrecmc.json} NOTE=${NOTE:-} REPORT_ONLY=${REPORT_ONLY:-0}
 command -v jq >/dev/null || { echo "$0: jq not found (apt-get install jq)" >&2; exit 1; }
 [ -x "$MF" ] || { echo "$0: $MF: not an executable mf binary" >&2; exit 1; }
-if [ ! -f "$DATA/000_cup/transforms_train.json" ]; then
+if [ "$REPORT_ONLY" != 1 ] && [ ! -f "$DATA/000_cup/transforms_train.json" ]; then
     "$MF" gen --split test-3d --scenes 1 --test 4 -o "$DATA"
 fi
 SCENE=$DATA/000_cup
-rm -rf "$WORK"
-mkdir -p "$WORK"
+[ "$REPORT_ONLY" = 1 ] || { rm -rf "$WORK"; mkdir -p "$WORK"; }
 run() { # label binary method rep [args...]
     l=$1 b=$2 m=$3 r=$4
     shift 4
@@ -32,6 +31,7 @@ run() { # label binary method rep [args...]
         > "$WORK/$r-$l.log" 2>&1 || { echo "$0: $b recon ($l, repetition $r) failed: $WORK/$r-$l.log" >&2; exit 1; }
 }
 r=1
+[ "$REPORT_ONLY" = 1 ] && r=$((REPEATS + 1))
 while [ "$r" -le "$REPEATS" ]; do
     run baseline "$MF" nvdiffrecmc "$r"
     run materialfusion "$MF" materialfusion "$r"
@@ -44,6 +44,7 @@ while [ "$r" -le "$REPEATS" ]; do
     done
     r=$((r + 1))
 done
+[ "$REPORT_ONLY" = 1 ] || echo "$(cut -d' ' -f1-3 /proc/loadavg) on $(nproc) cores" > "$WORK/loadavg"
 
 # ---- the report ----
 j() { jq -r "$2" "$WORK/$1/run.json"; }
@@ -54,7 +55,7 @@ tmp=$OUT.tmp
     echo "Written by \`tools/sds_cost.sh\` (\`make bench-sds-cost\`): test-3d/000_cup, $ITERS iterations of"
     echo "\`--config $CONFIG\`, OMP_NUM_THREADS=$THREADS, $REPEATS repetitions; in each, the baseline and"
     echo "MaterialFusion (and the variants below) ran back to back. Revision $(j 1/materialfusion .git_revision)."
-    echo "Load average at the end: $(cut -d' ' -f1-3 /proc/loadavg) on $(nproc) cores."
+    echo "Load average at the end of the runs: $(cat "$WORK/loadavg" 2>/dev/null || echo unknown)."
     echo
     if [ -n "$NOTE" ]; then
         echo "$NOTE"
