@@ -56,7 +56,7 @@ LIB_OBJ  := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
 CLI_OBJ  := $(CLI_C:%.c=$(BUILD)/obj/%.o)
 TEST_OBJ := $(TEST_C:%.c=$(BUILD)/obj/%.o)
 
-.PHONY: FORCE all deps deps-node deps-fuzz bench-asset fuzz fuzz-lib fuzz-seeds test check-deps asan bench-geom bench-hull bench-render bench-nn bench-nn-onednn bench-baseline bench-prior bench-quick bench bench-split bench-runs bench-external recon-runs train-prior train-prior-wide eval-prior bench-domain bench-matrix bench-stability test-slurm clean
+.PHONY: FORCE all deps deps-node deps-fuzz bench-asset fuzz fuzz-lib fuzz-seeds test check-deps asan bench-geom bench-hull bench-render bench-nn bench-nn-onednn bench-baseline bench-prior bench-sds-cost bench-quick bench bench-split bench-runs bench-external recon-runs train-prior train-prior-wide eval-prior bench-domain bench-matrix bench-stability test-slurm clean
 all: $(BUILD)/mf $(BUILD)/mf_tests
 
 deps:
@@ -401,6 +401,17 @@ eval-prior: $(BUILD)/mf $(DATA)/test-2d/manifest.json $(PRIOR_DATA)/manifest.jso
 	$(MF) eval-prior $(DATA)/test-2d --train $(PRIOR_DATA) -o reports/prior
 bench-prior: $(BUILD)/mf
 	$(MF) bench-prior -o reports/perf/prior.md
+
+# The prior term's cost (issue 12 item 7; tools/sds_cost.sh): the baseline and MaterialFusion back
+# to back on test-3d/000_cup (made in $(SDS_COST_DATA) when missing), $(SDS_COST_ITERS) iterations,
+# 1 thread, 2 repetitions; MaterialFusion's wall and CPU time by stage -> reports/perf/sds-cost.md.
+# SDS_COST_VARIANTS="label=path/to/other/mf[:extra flags] ..." adds MaterialFusion runs to compare
+# (SDS_COST_NOTE: a sentence for the report saying what they are).
+SDS_COST_DATA  ?= $(DATA)/sds-cost
+SDS_COST_ITERS ?= 100
+bench-sds-cost: $(BUILD)/mf
+	ITERS=$(SDS_COST_ITERS) REPEATS=2 THREADS=1 NOTE="$(SDS_COST_NOTE)" sh tools/sds_cost.sh $(MF) $(SDS_COST_DATA) $(RESULTS)/sds-cost \
+	  reports/perf/sds-cost.md $(SDS_COST_VARIANTS)
 
 # ---- the 2D prior's generalisation matrix, renderer axis (issue 12, Deliver item 1) ----
 # test-2d (our renderer, the standard objects), test-2d-diffuse (ours, the same objects made diffuse:

@@ -81,3 +81,37 @@ MF_TEST(prior_ae_shapes_and_gradients) {
     free(x), free(wo), free(dx), free(dz);
     mf_ae_free(ae);
 }
+
+/* The frozen encoder's backward (mf_ae_encode_backward_input, what SDS uses) gives the same input
+ * gradient bit for bit as the full backward and leaves the weight gradients alone: at 8 px (the
+ * convolutions' batched path) and at 32 px (per-item GEMMs at full resolution, 1x1 skip convs). */
+MF_TEST(prior_ae_encode_backward_input_only) {
+    MfAeConfig cfgs[2] = {{8, 2, 4, 4, 2}, {32, 4, 8, 4, 2}};
+    for (int c = 0; c < 2; ++c) {
+        MfAe *ae;
+        CHECK_OK(mf_ae_new(&ae, &cfgs[c]));
+        mf_ae_init_weights(ae, 11);
+        int B = 3, R = cfgs[c].res, h = R / 4;
+        size_t ni = (size_t)B * 3 * R * R, nz = (size_t)B * 4 * h * h;
+        float *x = malloc(ni * sizeof(float)), *dz = malloc(nz * sizeof(float));
+        float *da = calloc(ni, sizeof(float)), *db = calloc(ni, sizeof(float));
+        tp_fill(x, ni, 3, 1.0f), tp_fill(dz, nz, 4, 1.0f);
+        MfAeWork w = {0};
+        CHECK(mf_ae_encode(ae, &w, x, B) != NULL);
+        memset(ae->grads, 0, ae->tab.numel * sizeof(float));
+        mf_ae_encode_backward(ae, &w, dz, da);
+        double gsum = 0.0;
+        for (size_t i = 0; i < ae->tab.numel; ++i) gsum += fabs(ae->grads[i]);
+        CHECK(gsum > 0.0);
+        memset(ae->grads, 0, ae->tab.numel * sizeof(float));
+        mf_ae_encode_backward_input(ae, &w, dz, db);
+        size_t diff = 0, nonzero = 0, gtouched = 0;
+        for (size_t i = 0; i < ni; ++i) diff += memcmp(&da[i], &db[i], sizeof(float)) != 0, nonzero += da[i] != 0.0f;
+        for (size_t i = 0; i < ae->tab.numel; ++i) gtouched += ae->grads[i] != 0.0f;
+        CHECK_MSG(diff == 0 && nonzero > ni / 2, "res %d: %zu of %zu input gradients differ (%zu non-zero)", R, diff, ni, nonzero);
+        CHECK_MSG(gtouched == 0, "res %d: the input-only backward wrote %zu weight gradients", R, gtouched);
+        mf_ae_work_free(&w);
+        free(x), free(dz), free(da), free(db);
+        mf_ae_free(ae);
+    }
+}

@@ -209,10 +209,57 @@ static void budgets_to_json(const MfRecon *r, cJSON *opts) {
     if (mf_recon_opts(r)->tex_auto) cJSON_AddNumberToObject(opts, "tex_auto_median_side", mf_recon_texel_side(r));
 }
 
+/* run.json's time_split (wall seconds) and cpu_split (CPU seconds of the process, all threads: the
+ * cost without the time other processes held the cores) by disjoint stage (setup: from the start
+ * to the loop; the loop's stages, mf_recon_times; the prior term's, mf_sds_times, in place of the
+ * hook's total; output: the result files). Their sums are at most wall_seconds and cpu_seconds
+ * (the rest: run.json itself, the progress bar, the loop's bookkeeping). One info line in the log
+ * gives the wall split. */
+static void split_to_json(const MfRecon *r, const MfSds *sds, MfStageTime setup, MfStageTime total, int cpu, cJSON *opts) {
+    MfReconTimes rt;
+    mf_recon_times(r, &rt);
+    MfSdsTimes st;
+    mf_sds_times(sds, &st);
+#define PICK(x) (cpu ? (x).cpu : (x).wall)
+    double sds_sum = PICK(st.cond) + PICK(st.aov) + PICK(st.encode) + PICK(st.denoise) + PICK(st.decode) + PICK(st.loss) +
+                     PICK(st.enc_bwd) + PICK(st.aov_bwd) + PICK(st.apply);
+    double hook_rest = PICK(rt.hook) - sds_sum; /* view picking, buffers: the hook outside the named stages */
+    struct { const char *name; double v; } k[] = {
+        {"setup_s", PICK(setup)}, {"image_s", PICK(rt.views)}, {"reg_s", PICK(rt.reg)}, {"step_s", PICK(rt.step)},
+        {"io_s", PICK(rt.io)}, {"checks_s", PICK(rt.checks)}, {"output_s", PICK(rt.output)},
+        {"prior_cond_s", PICK(st.cond)}, {"prior_aov_s", PICK(st.aov)}, {"prior_encode_s", PICK(st.encode)},
+        {"prior_denoise_s", PICK(st.denoise)}, {"prior_decode_s", PICK(st.decode)}, {"prior_loss_s", PICK(st.loss)},
+        {"prior_encoder_backward_s", PICK(st.enc_bwd)}, {"prior_aov_backward_s", PICK(st.aov_bwd)},
+        {"prior_apply_s", PICK(st.apply)}, {"prior_rest_s", hook_rest > 0.0 ? hook_rest : 0.0},
+    };
+    double all = PICK(total), hook = PICK(rt.hook);
+#undef PICK
+    cJSON *o = cJSON_AddObjectToObject(opts, cpu ? "cpu_split" : "time_split");
+    if (cpu) cJSON_AddNumberToObject(opts, "cpu_seconds", all);
+    char line[1024];
+    int len = snprintf(line, sizeof line, "recon: time split of %.1f s wall:", all);
+    double sum = 0.0;
+    for (size_t i = 0; i < sizeof k / sizeof k[0]; ++i) {
+        if (!sds && !strncmp(k[i].name, "prior_", 6)) continue;
+        cJSON_AddNumberToObject(o, k[i].name, k[i].v);
+        sum += k[i].v;
+        if (len < (int)sizeof line)
+            len += snprintf(line + len, sizeof line - (size_t)len, " %.*s %.1f", (int)strlen(k[i].name) - 2, k[i].name, k[i].v);
+    }
+    if (len < (int)sizeof line)
+        snprintf(line + len, sizeof line - (size_t)len, " (rest %.1f; prior term %.1f s = %.0f%%)", all - sum,
+                 sds ? hook : 0.0, all > 0.0 && sds ? 100.0 * hook / all : 0.0);
+    if (!cpu) mf_log_info("%s", line);
+}
+
 /* run.json, also when the guard stopped the run (rc != 0): what happened, and why. Every option
  * as resolved, render timings, the prior's seconds, recoveries. Returns rc or run.json's error. */
 static int write_run(int rc, int argc, char **argv, const char *out, const ReconArgs *a, const MfReconOpts *o,
-                     const MfSdsOpts *so, MfRecon *r, MfSds *sds, const MfReconGeomOpts *go, const MfReconGeomInfo *gi, double wall) {
+                     const MfSdsOpts *so, MfRecon *r, MfSds *sds, const MfReconGeomOpts *go, const MfReconGeomInfo *gi,
+                     MfStageTime setup, MfStageClock start) {
+    MfStageTime total = {0};
+    mf_stage_lap(&total, &start);
+    double wall = total.wall;
     char stopped[1024];
     snprintf(stopped, sizeof stopped, "%s", rc ? mf_error() : "");
     cJSON *opts = cJSON_CreateObject();
@@ -230,6 +277,8 @@ static int write_run(int rc, int argc, char **argv, const char *out, const Recon
     cJSON_AddNumberToObject(opts, "adjoint_render_s", ta);
     cJSON_AddNumberToObject(opts, "adjoint_over_forward", tf > 0 ? ta / tf : 0.0);
     if (sds) cJSON_AddNumberToObject(opts, "prior_s", mf_sds_seconds(sds)); /* wall s of the prior's work */
+    split_to_json(r, sds, setup, total, 0, opts);
+    split_to_json(r, sds, setup, total, 1, opts);
     int nrec;
     const MfReconRecovery *rec = mf_recon_recoveries(r, &nrec);
     cJSON *ra = cJSON_AddArrayToObject(opts, "recoveries");
@@ -262,7 +311,7 @@ static int cmd_recon_run(int argc, char **argv, const MfOptParse *p, ReconArgs *
     }
     so.seed = mf_hash64(o.seed, 0x5d5);
     if (geom_args_ok(a, go, NULL)) return MF_EXIT_USAGE; /* before loading anything */
-    double t0 = mf_now();
+    MfStageClock start = mf_stage_clock();
     DsViews dv;
     MfReconView *views = NULL;
     MfMesh mesh = {0};
@@ -287,9 +336,12 @@ static int cmd_recon_run(int argc, char **argv, const MfOptParse *p, ReconArgs *
                     mf_recon_view(r, 0)->cam.h, o.iters, o.batch, mf_recon_opts(r)->tex_res, o.env_w, o.env_h);
     if (!exit_code && !rc) {
         MfReconHook hook = {mf_sds_hook, sds};
+        MfStageTime setup = {0};
+        MfStageClock sc = start;
+        mf_stage_lap(&setup, &sc);
         rc = mf_recon_run(r, is_mf ? &hook : NULL, out);
         a->mesh = gi.mesh_path, a->prior_weights = weights; /* as resolved */
-        rc = write_run(rc, argc, argv, out, a, &o, &so, r, sds, go, &gi, mf_now() - t0);
+        rc = write_run(rc, argc, argv, out, a, &o, &so, r, sds, go, &gi, setup, start);
     }
     mf_recon_free(r);
     mf_sds_free(sds);

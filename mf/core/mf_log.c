@@ -51,6 +51,17 @@ double mf_cpu_now(void) {
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
+MfStageClock mf_stage_clock(void) {
+    MfStageClock c = {mf_now(), mf_cpu_now()};
+    return c;
+}
+
+void mf_stage_lap(MfStageTime *acc, MfStageClock *c) {
+    MfStageClock n = mf_stage_clock();
+    if (acc) acc->wall += n.wall - c->wall, acc->cpu += n.cpu - c->cpu;
+    *c = n;
+}
+
 static void progress_draw(MfProgress *p, int final) {
     double now = mf_now();
     if (!final && now - p->t_last_draw < 0.1) return;

@@ -38,5 +38,16 @@ double mf_now(void);
 /* CPU seconds of all threads of this process (benchmarks: not counting the time other processes
  * hold the cores). */
 double mf_cpu_now(void);
+/* A stage's accumulated cost: wall seconds and CPU seconds of the process (all its threads). */
+typedef struct {
+    double wall, cpu;
+} MfStageTime;
+/* A running stage clock: the stamps of the last lap. */
+typedef struct {
+    double wall, cpu;
+} MfStageClock;
+MfStageClock mf_stage_clock(void);
+/* Adds the time since *c's last lap to *acc (may be NULL: the time is dropped) and restarts *c. */
+void mf_stage_lap(MfStageTime *acc, MfStageClock *c);
 
 #endif

@@ -10,6 +10,7 @@
 #include "inverse/mf_budget.h"
 #include "render/mf_diffrender.h"
 #include "io/mf_image.h"
+#include "nn/mf_nn.h"
 
 struct MfSds {
     MfPrior *prior; /* owned */
@@ -24,6 +25,7 @@ struct MfSds {
     int held_it;     /* iteration of the last refresh, -1: none */
     double held_loss;
     double seconds;  /* wall time of the refreshes */
+    MfSdsTimes times; /* the same and the applies, by stage */
 };
 
 int mf_sds_new(MfPrior *prior, const MfSdsOpts *o, MfSds **out) {
@@ -37,12 +39,17 @@ int mf_sds_new(MfPrior *prior, const MfSdsOpts *o, MfSds **out) {
     if (!s) return mf_fail(MF_ENOMEM, "out of memory");
     s->prior = prior;
     s->o = *o;
+    if (o->prior_threads > 0) mf_nn_set_threads(o->prior_threads);
     s->held_it = -1;
     *out = s;
     return MF_OK;
 }
 
 double mf_sds_seconds(const MfSds *s) { return s ? s->seconds : 0.0; }
+void mf_sds_times(const MfSds *s, MfSdsTimes *t) {
+    if (s) *t = s->times;
+    else memset(t, 0, sizeof *t);
+}
 
 void mf_sds_free(MfSds *s) {
     if (!s) return;
@@ -115,8 +122,11 @@ static int maps_compute(MfSds *s, MfRecon *r, const MfSdsTargets *t, Maps *m) {
     m->ain = malloc(nm * sizeof(float)), m->oin = malloc(nm * sizeof(float));
     m->aa = malloc(nm * sizeof(float)), m->ao = malloc(nm * sizeof(float)), m->z = malloc(nz * sizeof(float));
     int rc = (!m->ain || !m->oin || !m->aa || !m->ao || !m->z) ? mf_fail(MF_ENOMEM, "SDS: out of memory") : MF_OK;
+    MfStageClock ts = mf_stage_clock();
     if (!rc) rc = render_maps(s, r, t, m->ain, m->oin, m->aa, m->ao);
+    mf_stage_lap(&s->times.aov, &ts);
     if (!rc) rc = mf_prior_encode_materials(s->prior, m->ain, m->oin, t->n, m->z);
+    mf_stage_lap(&s->times.encode, &ts);
     if (rc) maps_free(m);
     return rc;
 }
@@ -131,6 +141,7 @@ static int targets(MfSds *s, MfRecon *r, const int *views, int n, int it, MfSdsT
     T.n = n;
     Maps cur = {0};
     float *rgba = NULL;
+    MfStageClock ts = mf_stage_clock();
     T.zhat = malloc(nz * sizeof(float));
     T.dhat = malloc(2 * nm * sizeof(float));
     T.cond = malloc(nm * sizeof(float));
@@ -168,13 +179,17 @@ static int targets(MfSds *s, MfRecon *r, const int *views, int n, int it, MfSdsT
         rc = mf_camera_init(&T.cam[k], R, R, ax, m, "SDS camera");
         T.aov_seed[k] = view_seed(s, it, views[k], 1);
     }
+    mf_stage_lap(&s->times.cond, &ts);
     if (rc || (rc = maps_compute(s, r, &T, &cur))) goto done;
+    ts = mf_stage_clock();
     MfRng rng;
     mf_rng_seed(&rng, view_seed(s, it, -1, 2), 0);
     T.t = s->o.t_min + (int)mf_rng_below(&rng, (uint32_t)(s->o.t_max - s->o.t_min + 1));
-    if ((rc = mf_prior_sds_denoise(s->prior, cur.z, T.cond, n, 1, 0, T.t, s->o.guidance, view_seed(s, it, -1, 3), T.zhat)))
-        goto done;
+    rc = mf_prior_sds_denoise(s->prior, cur.z, T.cond, n, 1, 0, T.t, s->o.guidance, view_seed(s, it, -1, 3), T.zhat);
+    mf_stage_lap(&s->times.denoise, &ts);
+    if (rc) goto done;
     rc = mf_prior_decode_materials(s->prior, T.zhat, n, T.dhat, T.dhat + nm);
+    mf_stage_lap(&s->times.decode, &ts);
 done:
     free(rgba);
     if (rc || !keep) maps_free(&cur);
@@ -195,6 +210,7 @@ static int loss_of(MfSds *s, MfRecon *r, const MfSdsTargets *t, Maps *m, float s
     size_t rr = (size_t)R * R, hh = (size_t)h * h, nm = (size_t)n * 3 * rr, nz = (size_t)n * 2 * zc * hh;
     const float *ain = m->ain, *oin = m->oin, *z = m->z;
     float *aa = m->aa, *ao = m->ao;
+    MfStageClock ts = mf_stage_clock();
     float *dz = calloc(nz, sizeof(float)), *al = malloc((size_t)n * hh * sizeof(float));
     float *dain = calloc(nm, sizeof(float)), *doin = calloc(nm, sizeof(float));
     int rc = MF_OK;
@@ -231,8 +247,11 @@ static int loss_of(MfSds *s, MfRecon *r, const MfSdsTargets *t, Maps *m, float s
         rc = mf_fail(MF_ENAN, "SDS: non-finite prior loss");
         goto done;
     }
+    mf_stage_lap(&s->times.loss, &ts);
     if (!g) goto done;
-    if ((rc = mf_prior_encode_materials_backward(s->prior, dz, dain, doin))) goto done;
+    rc = mf_prior_encode_materials_backward(s->prior, dz, dain, doin);
+    mf_stage_lap(&s->times.enc_bwd, &ts);
+    if (rc) goto done;
     /* maps -> AOVs: albedo_in = (2 sRGB(kd) - 1) mask, orm_in = (2 orm - 1) mask; AOVs (R, R, 3) */
     MfImage kd = mf_recon_kd_image(r), orm = mf_recon_orm_image(r);
     MfDiffScene ds = {.rt = mf_recon_rtscene(r), .kd = &kd, .orm = &orm, .env = mf_recon_env(r)};
@@ -247,6 +266,7 @@ static int loss_of(MfSds *s, MfRecon *r, const MfSdsTargets *t, Maps *m, float s
         MfDiffOpts o = {.spp_sqrt = 1, .pixel_samples = s->o.aov_samples, .seed = t->aov_seed[k]};
         rc = mf_diff_aov_backward(&ds, &t->cam[k], &o, a, m, g);
     }
+    mf_stage_lap(&s->times.aov_bwd, &ts);
 done:
     free(dz), free(al), free(dain), free(doin);
     return rc;
@@ -374,8 +394,10 @@ int mf_sds_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double 
         if (rc) return mf_fail_prefix(rc, "iteration %d: prior term", it);
         if (s->coverage_n * 3 != orm->n) return mf_fail(MF_EARG, "SDS coverage: the kd and ORM textures differ in size");
     }
+    MfStageClock ts = mf_stage_clock();
     apply_held(kd->g, s->held_kd, kd->n, (float)gamma, s->o.weight, s->coverage);
     apply_held(orm->g, s->held_orm, orm->n, (float)gamma, s->o.weight, s->coverage);
+    mf_stage_lap(&s->times.apply, &ts);
     *loss = gamma * s->held_loss;
     return MF_OK;
 }

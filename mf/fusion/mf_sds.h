@@ -61,6 +61,7 @@ typedef struct {
                             every iteration in between (measured default: mf_sds_opts.c). */
     int rgb01;           /* 1: L_rgb on [0, 1] maps (official code); 0: on the prior's [-1, 1] maps (4x) */
     int weight;          /* MF_SDS_WEIGHT_NONE, _CONFLICT or _COVERAGE (trust, see above) */
+    int prior_threads;   /* OpenBLAS threads set by mf_sds_new (0: left as they are) */
 } MfSdsOpts;
 
 enum { MF_SDS_WEIGHT_NONE = 0, MF_SDS_WEIGHT_CONFLICT = 1, MF_SDS_WEIGHT_COVERAGE = 2 }; /* choices "none|conflict|coverage" */
@@ -77,6 +78,19 @@ void mf_sds_free(MfSds *s);
 /* Wall seconds this process spent in the prior's work (the refreshes: AOV render, encode, guided
  * DDIM, decode, encoder backward), for the cost report. */
 double mf_sds_seconds(const MfSds *s);
+/* The same work by stage, wall and CPU seconds over the run (the cost report's split of the hook). */
+typedef struct {
+    MfStageTime cond;     /* the views' condition images, masks and cameras at the prior's resolution */
+    MfStageTime aov;      /* the material AOV render and the maps prepared from it */
+    MfStageTime encode;   /* Enc(maps) */
+    MfStageTime denoise;  /* noising and the guided DDIM steps (with the condition image's encode) */
+    MfStageTime decode;   /* D(zhat) */
+    MfStageTime loss;     /* the loss and its gradient w.r.t. the latents and maps */
+    MfStageTime enc_bwd;  /* the gradient back through the encoder */
+    MfStageTime aov_bwd;  /* the gradient back through the AOV render into the texels */
+    MfStageTime apply;    /* every iteration: the held gradient (weighted) added to the texels' */
+} MfSdsTimes;
+void mf_sds_times(const MfSds *s, MfSdsTimes *t);
 /* Coverage weights (texels,) of r's training views (see "coverage" above): *out owned by the
  * caller, *ntex = texels of the kd texture. */
 int mf_sds_coverage(MfRecon *r, float **out, size_t *ntex);

@@ -21,6 +21,11 @@ static const MfOpt k_opts[] = {
     MF_OPT_INT(S, aov_samples, 4, 1, MF_OPT_PIXEL_SAMPLES_MAX, "primary rays per pixel of the material AOV render"),
     MF_OPT_NAMED(S, "sds_rgb01", rgb01, MF_OPT_INT, 1, 0, 1,
                  "1: L_rgb on [0,1] maps as the official code; 0: on the prior's [-1,1] maps (4x, the first wave)"),
+    /* Default 1: with the renderer's OpenMP threads beside them, OpenBLAS's threads wait for cores
+     * (test-3d/000_cup, 40 iterations, OMP_NUM_THREADS=2 on the 2 shared cores: the prior term took
+     * 53.6 s with 2 OpenBLAS threads, 31.0 s with 1, the same bits; reports/perf/sds-cost.md). */
+    MF_OPT_INT(S, prior_threads, 1, 0, 1024,
+               "OpenBLAS threads of the prior's matrix products (0: OpenBLAS's own count; results do not depend on it)"),
     MF_OPT_NAMED(S, "sds_weight", weight, MF_OPT_ENUM, MF_SDS_WEIGHT_NONE, 0, 0,
                  "trust in the prior: none; conflict (per texel, drop the part opposing the images' gradient); "
                  "coverage (per texel, times 4 / (4 + training views that see it))",

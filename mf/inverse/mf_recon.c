@@ -37,6 +37,7 @@ struct MfRecon {
     int it;                     /* iterations done */
     double wall_offset;         /* wall seconds of earlier (resumed) runs */
     double t_forward, t_adjoint; /* seconds in the primal and adjoint renders (this process) */
+    MfReconTimes times;         /* this process's mf_recon_run by stage */
     MfBilateral dn;             /* owned; the denoiser's buffers, reused view after view */
     MfParamSnapshot good;       /* owned; the last good state (lowest loss so far) */
     MfDivGuard guard;           /* the loss watch (running minimum, streak) */
@@ -234,6 +235,7 @@ void mf_recon_timing(const MfRecon *r, double *forward_s, double *adjoint_s) {
     *forward_s = r->t_forward;
     *adjoint_s = r->t_adjoint;
 }
+void mf_recon_times(const MfRecon *r, MfReconTimes *t) { *t = r->times; }
 
 static MfImage block_image(const MfParamBlock *b, int w, int h) {
     MfImage im = {w, h, 3, b->p};
@@ -728,11 +730,13 @@ int mf_recon_run(MfRecon *r, const MfReconHook *hook, const char *out_dir) {
         }
         int batch[64], n = 0;
         for (int k = 0; k < nb && n < 64; ++k) batch[n++] = perm[(slot * nb + k) % nt];
+        MfStageClock ck = mf_stage_clock(); /* each stage adds its wall and CPU seconds to r->times */
         for (int b = 0; b < r->nblocks; ++b) mf_param_zero_grad(&r->blocks[b]);
         if ((rc = sync_env(r))) break;
         IterStats st = {0};
         for (int k = 0; k < n && !rc; ++k)
             rc = view_step(r, batch[k], mf_hash64(mf_hash64(r->o.seed, (uint64_t)it), (uint64_t)batch[k]), 1.0f / n, &st);
+        mf_stage_lap(&r->times.views, &ck);
         if (rc) break;
         MfParamBlock *kd = &r->blocks[MF_BLOCK_KD], *orm = &r->blocks[MF_BLOCK_ORM];
         int T = r->o.tex_res;
@@ -755,7 +759,12 @@ int mf_recon_run(MfRecon *r, const MfReconHook *hook, const char *out_dir) {
                 mf_reg_nmap_flat_bwd(nb->p, T, T, r->uv_mask, r->o.w_nrm_perturb, nb->g);
             }
         }
-        if (hook && hook->fn && (rc = hook->fn(hook->ctx, r, it, batch, n, &st.sds))) break;
+        mf_stage_lap(&r->times.reg, &ck);
+        if (hook && hook->fn) {
+            rc = hook->fn(hook->ctx, r, it, batch, n, &st.sds);
+            mf_stage_lap(&r->times.hook, &ck);
+            if (rc) break;
+        }
         /* the guard: the loss of the current state, then the step's gradients, values, moments */
         double loss = st.image + st.reg + st.sds;
         char why[192] = "", bad[96];
@@ -775,10 +784,12 @@ int mf_recon_run(MfRecon *r, const MfReconHook *hook, const char *out_dir) {
         }
         if (rc || (why[0] && (rc = recover(r, it, why, ckpt)))) break;
         r->it = it + 1;
-        double wall = r->wall_offset + mf_now() - t0;
+        mf_stage_lap(&r->times.step, &ck);
+        double wall = r->wall_offset + ck.wall - t0;
         fprintf(log, "%d,%.3f,%.6g,%.6g,%.6g,%.6g,%.4f\n", r->it, wall, st.image + st.reg + st.sds, st.image, st.reg,
                 st.sds, st.psnr);
         fflush(log);
+        mf_stage_lap(&r->times.io, &ck);
         if (r->o.metal_auto && r->metal_state < 0 && r->it >= r->o.metal_warmup && (rc = metal_test(r))) break;
         if (r->es && r->it % r->o.es_every == 0) {
             double hp;
@@ -790,6 +801,7 @@ int mf_recon_run(MfRecon *r, const MfReconHook *hook, const char *out_dir) {
                             "(%d evaluations without an improvement above %g dB)", r->it, hp, r->es->best,
                             r->es->best_iter, r->o.es_patience, r->o.es_min_delta);
         }
+        mf_stage_lap(&r->times.checks, &ck);
         if (r->o.snapshot_every > 0 && r->it % r->o.snapshot_every == 0) {
             char d[MF_PATH_MAX], name[32];
             snprintf(name, sizeof name, "snapshots/iter_%05d", r->it);
@@ -798,6 +810,7 @@ int mf_recon_run(MfRecon *r, const MfReconHook *hook, const char *out_dir) {
         if ((r->o.checkpoint_every > 0 && r->it % r->o.checkpoint_every == 0) || r->it == r->o.iters ||
             (r->es && r->es->stop_iter))
             if ((rc = save_checkpoint(r, ckpt, wall))) break;
+        mf_stage_lap(&r->times.io, &ck);
         mf_progress_add(&prog, 1);
     }
     mf_progress_end(&prog);
@@ -805,5 +818,8 @@ int mf_recon_run(MfRecon *r, const MfReconHook *hook, const char *out_dir) {
     fclose(log);
     if (hlog) fclose(hlog);
     if (rc) return rc;
-    return mf_recon_write_result(r, out_dir);
+    MfStageClock ck = mf_stage_clock();
+    rc = mf_recon_write_result(r, out_dir);
+    mf_stage_lap(&r->times.output, &ck);
+    return rc;
 }

@@ -61,6 +61,7 @@
 
 #include <stdint.h>
 
+#include "core/mf_log.h"
 #include "inverse/mf_optim.h"
 #include "io/mf_image.h"
 #include "render/mf_integrator.h"
@@ -192,6 +193,17 @@ MfImage mf_recon_normal_image(const MfRecon *r); /* data NULL without normal_map
 const MfEnvMap *mf_recon_env(const MfRecon *r);
 /* Seconds spent in the primal (forward) and adjoint renders by this process. */
 void mf_recon_timing(const MfRecon *r, double *forward_s, double *adjoint_s);
+/* Wall and CPU seconds of this process's mf_recon_run, by stage (disjoint; the cost report's split). */
+typedef struct {
+    MfStageTime views;  /* the image term of the batch's views: env sync, render, loss, adjoint */
+    MfStageTime reg;    /* the texture regularisers */
+    MfStageTime hook;   /* the method hook (MaterialFusion: the prior term, mf_sds_times splits it) */
+    MfStageTime step;   /* the divergence guard, the last-good snapshot, Adam */
+    MfStageTime io;     /* log rows, snapshots, checkpoints */
+    MfStageTime checks; /* metal_auto's test, early_stop's held-out renders */
+    MfStageTime output; /* the result files at the end */
+} MfReconTimes;
+void mf_recon_times(const MfRecon *r, MfReconTimes *t);
 /* Peak resident set size of this process in bytes (from getrusage). */
 long mf_peak_rss_bytes(void);
 

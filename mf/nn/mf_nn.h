@@ -51,8 +51,8 @@ size_t mf_conv2d_col_floats(int B, int Cin, int H, int W, int Cout, int K, int s
  * is one direct GEMM, no copies). */
 void mf_conv2d_forward(float *out, float *col, const float *in, const float *w, const float *bias,
                        int B, int Cin, int H, int W, int Cout, int K, int stride);
-/* din (B, Cin, H, W) += ..., dw (Cout, Cin, K, K) += ..., dbias (Cout) += ...; din and dbias may
- * be NULL. dout (B, Cout, Ho, Wo); col: same scratch as forward (im2col is recomputed). */
+/* din (B, Cin, H, W) += ..., dw (Cout, Cin, K, K) += ..., dbias (Cout) += ...; din, dw and dbias
+ * may be NULL (dw NULL: the input gradient only, no im2col of the input). dout (B, Cout, Ho, Wo); col: same scratch as forward (im2col is recomputed). */
 void mf_conv2d_backward(float *din, float *dw, float *dbias, float *col, const float *dout,
                         const float *in, const float *w, int B, int Cin, int H, int W, int Cout, int K,
                         int stride);
@@ -70,7 +70,8 @@ void mf_upsample2x_backward(float *din, const float *dout, int B, int C, int H, 
  * C/G channels x HW pixels (population variance, + eps). Caches mean, rstd (B, G). C % G == 0. */
 void mf_groupnorm_forward(float *out, float *mean, float *rstd, const float *in, const float *gamma,
                           const float *beta, int B, int C, int HW, int G, float eps);
-/* din (B, C, HW) += ..., dgamma (C) += ..., dbeta (C) += ... */
+/* din (B, C, HW) += ..., dgamma (C) += ..., dbeta (C) += ... (dgamma and dbeta NULL together: not
+ * computed) */
 void mf_groupnorm_backward(float *din, float *dgamma, float *dbeta, const float *dout,
                            const float *in, const float *mean, const float *rstd,
                            const float *gamma, int B, int C, int HW, int G);
@@ -195,7 +196,8 @@ typedef struct {
  * tensors skipped; returns how many (<= MF_RESBLOCK_NPARAMS). */
 int mf_resblock_specs(MfTensorSpec *specs, const char *prefix, const MfResBlockDims *d);
 /* Binds w's present fields to consecutive tensors of mem (mf_specs_numel of the specs); absent
- * fields are set to NULL. Call once for the parameters and once for the gradients. */
+ * fields are set to NULL. Call once for the parameters and once for the gradients (mem NULL: every
+ * field NULL, for a backward that computes no parameter gradient). */
 void mf_resblock_bind(MfResBlockW *w, const MfResBlockDims *d, float *mem);
 size_t mf_resblock_acts_floats(const MfResBlockDims *d);
 void mf_resblock_acts_bind(MfResBlockActs *a, const MfResBlockDims *d, float *mem);
@@ -204,7 +206,8 @@ void mf_resblock_init(MfResBlockW *w, const MfResBlockDims *d, unsigned long lon
 /* out (B, Cout, H, W); temb (B, Ct) or NULL when Ct == 0. */
 void mf_resblock_forward(float *out, MfResBlockActs *a, const float *x, const float *temb,
                          const MfResBlockW *w, const MfResBlockDims *d);
-/* dx (B, Cin, H, W) +=, dtemb (B, Ct) += (may be NULL), g (gradients) +=. */
+/* dx (B, Cin, H, W) +=, dtemb (B, Ct) += (may be NULL), g (gradients) +=; g's fields may be NULL
+ * (bound to NULL: the input gradient only) where the block has no time embedding. */
 void mf_resblock_backward(float *dx, float *dtemb, MfResBlockW *g, MfResBlockActs *a,
                           const float *dout, const float *x, const float *temb, const MfResBlockW *w,
                           const MfResBlockDims *d);
@@ -285,5 +288,11 @@ float mf_grad_clip_norm(float *grads, size_t n, float max_norm);
  * process-wide counter for benchmarks (not thread-safe; the layers are called from one thread). */
 unsigned long long mf_nn_gemm_flops(void);
 void mf_nn_gemm_flops_reset(void);
+
+/* Threads of OpenBLAS's matrix products from now on, process-wide (n >= 1; the start value is
+ * OPENBLAS_NUM_THREADS, else OMP_NUM_THREADS, else all cores). OpenBLAS splits a product's rows
+ * and columns among its threads, not the sums: the results do not depend on it. */
+void mf_nn_set_threads(int n);
+int mf_nn_threads(void);
 
 #endif

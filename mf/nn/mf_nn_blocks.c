@@ -38,8 +38,8 @@ void mf_resblock_bind(MfResBlockW *w, const MfResBlockDims *d, float *mem) {
     float **all[MF_RESBLOCK_NPARAMS] = {&w->gn1_w, &w->gn1_b, &w->conv1_w, &w->conv1_b,
                                         &w->temb_w, &w->temb_b, &w->gn2_w, &w->gn2_b,
                                         &w->conv2_w, &w->conv2_b, &w->skip_w, &w->skip_b};
-    float *slots[MF_RESBLOCK_NPARAMS];
-    mf_params_bind(slots, specs, n, mem);
+    float *slots[MF_RESBLOCK_NPARAMS] = {0};
+    if (mem) mf_params_bind(slots, specs, n, mem);
     int k = 0;
     for (int i = 0; i < MF_RESBLOCK_NPARAMS; ++i) {
         int present = !((i == 4 || i == 5) && d->Ct <= 0) && !((i == 10 || i == 11) && d->Cin == d->Cout);

@@ -82,7 +82,7 @@ void mf_kconv_forward(const MfKConv *c, const float *params, float *out, float *
 void mf_kconv_backward(const MfKConv *c, const float *params, float *grads, float *din, float *col,
                        const float *dout, const float *in, int B, int H, int W) {
     size_t nw = (size_t)c->Cout * c->Cin * c->K * c->K;
-    mf_conv2d_backward(din, grads + c->off, grads + c->off + nw, col, dout, in, params + c->off, B, c->Cin, H, W,
+    mf_conv2d_backward(din, grads ? grads + c->off : NULL, grads ? grads + c->off + nw : NULL, col, dout, in, params + c->off, B, c->Cin, H, W,
                        c->Cout, c->K, c->stride);
 }
 
@@ -120,7 +120,7 @@ void mf_knorm_backward(const MfKNorm *n, const float *params, float *grads, MfKN
     size_t sz = (size_t)B * n->C * HW;
     memset(a->g, 0, sz * sizeof(float));
     mf_silu_backward(a->g, dout, a->h, sz);
-    mf_groupnorm_backward(din, grads + n->off, grads + n->off + n->C, a->g, in, a->mean, a->rstd,
+    mf_groupnorm_backward(din, grads ? grads + n->off : NULL, grads ? grads + n->off + n->C : NULL, a->g, in, a->mean, a->rstd,
                           params + n->off, B, n->C, HW, n->G);
 }
 
@@ -309,7 +309,7 @@ void mf_seq_backward(const MfSeq *s, const float *params, float *grads, MfSeqWor
             d.B = B;
             MfResBlockW rw, rg;
             mf_resblock_bind(&rw, &d, (float *)params + o->roff);
-            mf_resblock_bind(&rg, &d, grads + o->roff);
+            mf_resblock_bind(&rg, &d, grads ? grads + o->roff : NULL);
             mf_resblock_backward(dst, NULL, &rg, &w->res[i], g, x, NULL, &rw, &d);
             break;
         }

@@ -134,7 +134,8 @@ void mf_seq_init(const MfSeq *s, float *params, unsigned long long seed);
 /* Forward for batch B; returns the output (B, s->C, s->H, s->W) inside w (valid until the next
  * forward). in must stay valid until the backward. Returns NULL when out of memory. */
 float *mf_seq_forward(const MfSeq *s, const float *params, MfSeqWork *w, const float *in, int B);
-/* Backward of the last forward: grads +=, din (B, C0, H0, W0) += (din may be NULL). */
+/* Backward of the last forward: grads +=, din (B, C0, H0, W0) += (din may be NULL; grads NULL: the
+ * input gradient only, for a frozen network; not with time-embedded blocks). */
 void mf_seq_backward(const MfSeq *s, const float *params, float *grads, MfSeqWork *w, const float *dout,
                      float *din);
 void mf_seq_work_free(MfSeqWork *w);

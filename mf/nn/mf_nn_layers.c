@@ -11,6 +11,8 @@
 /* Every matrix product of this module goes through here, so benchmarks can count FLOPs. */
 static unsigned long long g_gemm_flops;
 unsigned long long mf_nn_gemm_flops(void) { return g_gemm_flops; }
+void mf_nn_set_threads(int n) { openblas_set_num_threads(n > 0 ? n : 1); }
+int mf_nn_threads(void) { return openblas_get_num_threads(); }
 void mf_nn_gemm_flops_reset(void) { g_gemm_flops = 0; }
 static void nn_sgemm(enum CBLAS_ORDER o, enum CBLAS_TRANSPOSE ta, enum CBLAS_TRANSPOSE tb, int M, int N, int K,
                      float alpha, const float *A, int lda, const float *B, int ldb, float beta, float *C, int ldc) {
@@ -180,13 +182,14 @@ void mf_conv2d_backward(float *din, float *dw, float *dbias, float *col, const f
         int direct = (K == 1 && stride == 1);
         for (int b = 0; b < B; ++b) {
             const float *in_b = in + b * in_sz, *dout_b = dout + b * out_sz, *colp = in_b;
-            if (!direct) {
+            if (dw && !direct) {
                 im2col(col, (size_t)P, in_b, Cin, H, W, K, stride, Ho, Wo);
                 colp = col;
             }
             /* dw (Cout, CKK) += dout_b (Cout, P) . col^T (P, CKK) */
-            nn_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, Cout, CKK, P, 1.0f, dout_b, P, colp, P,
-                        1.0f, dw, CKK);
+            if (dw)
+                nn_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, Cout, CKK, P, 1.0f, dout_b, P, colp, P,
+                         1.0f, dw, CKK);
             bias_grad_rows(dbias, dout_b, Cout, P);
             if (!din) continue;
             float *din_b = din + b * in_sz;
@@ -208,13 +211,14 @@ void mf_conv2d_backward(float *din, float *dw, float *dbias, float *col, const f
         int n = B - b0 < nb ? B - b0 : nb, NP = n * P;
         for (int i = 0; i < n; ++i) {
             const float *dout_b = dout + (b0 + i) * out_sz;
-            im2col(col + (size_t)i * P, (size_t)NP, in + (b0 + i) * in_sz, Cin, H, W, K, stride, Ho, Wo);
+            if (dw) im2col(col + (size_t)i * P, (size_t)NP, in + (b0 + i) * in_sz, Cin, H, W, K, stride, Ho, Wo);
             for (int o = 0; o < Cout; ++o)
                 memcpy(tmp + (size_t)o * NP + (size_t)i * P, dout_b + (size_t)o * P, sizeof(float) * (size_t)P);
             bias_grad_rows(dbias, dout_b, Cout, P);
         }
-        nn_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, Cout, CKK, NP, 1.0f, tmp, NP, col, NP, 1.0f, dw,
-                    CKK);
+        if (dw)
+            nn_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, Cout, CKK, NP, 1.0f, tmp, NP, col, NP, 1.0f, dw,
+                     CKK);
         if (!din) continue;
         nn_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, CKK, NP, Cout, 1.0f, w, CKK, tmp, NP, 0.0f, col,
                     NP);
@@ -306,8 +310,7 @@ void mf_groupnorm_backward(float *din, float *dgamma, float *dbeta, const float 
                     dgs += (double)dy[i] * xh;
                     dbs += dy[i];
                 }
-                dgamma[c] += (float)dgs;
-                dbeta[c] += (float)dbs;
+                if (dgamma) dgamma[c] += (float)dgs, dbeta[c] += (float)dbs;
                 s1 += dbs * gamma[c];
                 s2 += dgs * gamma[c];
             }

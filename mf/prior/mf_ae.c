@@ -59,6 +59,10 @@ void mf_ae_encode_backward(MfAe *ae, MfAeWork *w, const float *dz, float *dimg) 
     mf_seq_backward(&ae->enc, ae->params, ae->grads, &w->enc, dz, dimg);
 }
 
+void mf_ae_encode_backward_input(const MfAe *ae, MfAeWork *w, const float *dz, float *dimg) {
+    mf_seq_backward(&ae->enc, ae->params, NULL, &w->enc, dz, dimg);
+}
+
 float *mf_ae_decode(MfAe *ae, MfAeWork *w, const float *z, int B) {
     return mf_seq_forward(&ae->dec, ae->params, &w->dec, z, B);
 }

@@ -41,6 +41,8 @@ void mf_ae_init_weights(MfAe *ae, unsigned long long seed);
 float *mf_ae_encode(MfAe *ae, MfAeWork *w, const float *img, int B);
 /* Backward of the last encode on w: ae->grads +=, dimg (B, 3, R, R) += (may be NULL). */
 void mf_ae_encode_backward(MfAe *ae, MfAeWork *w, const float *dz, float *dimg);
+/* The same for a frozen encoder: dimg += only (no weight gradient is computed: about half the work). */
+void mf_ae_encode_backward_input(const MfAe *ae, MfAeWork *w, const float *dz, float *dimg);
 /* img (B, 3, R, R), pointer into w; NULL = OOM. */
 float *mf_ae_decode(MfAe *ae, MfAeWork *w, const float *z, int B);
 void mf_ae_decode_backward(MfAe *ae, MfAeWork *w, const float *dimg, float *dz);

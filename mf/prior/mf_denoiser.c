@@ -166,7 +166,14 @@ static size_t layout(const MfDenoiser *dn, MfDenoiserWork *w, float *base, int B
 
 float *mf_denoiser_forward(MfDenoiser *dn, MfDenoiserWork *w, const float *x, const float *t,
                            const float *rgb, const float *keep, int B, int V, int joint) {
+    return mf_denoiser_forward_ex(dn, w, x, t, rgb, keep, B, V, joint, 0);
+}
+
+float *mf_denoiser_forward_ex(MfDenoiser *dn, MfDenoiserWork *w, const float *x, const float *t, const float *rgb,
+                              const float *keep, int B, int V, int joint, int same_rgb) {
     const MfDenoiserConfig *c = &dn->cfg;
+    /* the image embedding can be reused only from a forward with the same layout */
+    int reuse = same_rgb && w->ei_ok && w->mem && w->B == B && w->V == V && w->joint == joint;
     if (V < 1 || B % V) {
         mf_fail(MF_EARG, "denoiser: batch %d is not a multiple of the view count %d", B, V);
         return NULL;
@@ -180,7 +187,8 @@ float *mf_denoiser_forward(MfDenoiser *dn, MfDenoiserWork *w, const float *x, co
         }
         w->mem = m, w->cap = need;
     }
-    layout(dn, w, w->mem, B, V, joint);
+    layout(dn, w, w->mem, B, V, joint); /* the same layout as the previous forward's when reuse */
+    w->ei_ok = 0;
     w->B = B, w->V = V, w->joint = joint, w->x = x, w->rgb = rgb, w->keep = keep;
     const float *p = dn->params;
     int h = c->h, n16 = h * h, n8 = n16 / 4, Ct = c->ct;
@@ -189,21 +197,24 @@ float *mf_denoiser_forward(MfDenoiser *dn, MfDenoiserWork *w, const float *x, co
     mf_klinear_forward(&dn->t1, p, w->t1o, w->tf, B);
     mf_silu_forward(w->t1a, w->t1o, (size_t)B * Ct);
     mf_klinear_forward(&dn->t2, p, w->et, w->t1a, B);
-    const float *feat = mf_seq_forward(&dn->img, p, &w->img, rgb, B);
-    if (!feat) {
-        mf_fail(MF_ENOMEM, "denoiser: out of memory (image encoder)");
-        return NULL;
-    }
-    const MfSeq *s = &dn->img;
-    int fhw = s->H * s->W;
-    for (int b = 0; b < B; ++b)
-        for (int k = 0; k < s->C; ++k) {
-            const float *row = feat + ((size_t)b * s->C + k) * fhw;
-            double acc = 0.0;
-            for (int i = 0; i < fhw; ++i) acc += row[i];
-            w->pool[(size_t)b * s->C + k] = (float)(acc / fhw);
+    if (!reuse) {
+        const float *feat = mf_seq_forward(&dn->img, p, &w->img, rgb, B);
+        if (!feat) {
+            mf_fail(MF_ENOMEM, "denoiser: out of memory (image encoder)");
+            return NULL;
         }
-    mf_klinear_forward(&dn->iproj, p, w->ei, w->pool, B);
+        const MfSeq *s = &dn->img;
+        int fhw = s->H * s->W;
+        for (int b = 0; b < B; ++b)
+            for (int k = 0; k < s->C; ++k) {
+                const float *row = feat + ((size_t)b * s->C + k) * fhw;
+                double acc = 0.0;
+                for (int i = 0; i < fhw; ++i) acc += row[i];
+                w->pool[(size_t)b * s->C + k] = (float)(acc / fhw);
+            }
+        mf_klinear_forward(&dn->iproj, p, w->ei, w->pool, B);
+    }
+    w->ei_ok = 1;
     for (int b = 0; b < B; ++b)
         for (int k = 0; k < Ct; ++k) {
             size_t i = (size_t)b * Ct + k;

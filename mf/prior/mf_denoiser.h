@@ -63,6 +63,7 @@ typedef struct {
     size_t cap;
     int B, V, joint;
     const float *x, *rgb, *keep; /* borrowed inputs of the last forward */
+    int ei_ok;                   /* 1: ei holds the image embedding of the last forward's rgb */
     MfSeqWork img;
     float *tf, *t1o, *t1a, *et; // (B, tfreq), (B, Ct) x3
     float *pool, *ei, *emb;     // (B, i3), (B, Ct), (B, Ct)
@@ -93,6 +94,11 @@ void mf_denoiser_init_weights(MfDenoiser *dn, unsigned long long seed);
 /* v (B, 2zc, h, h) inside w; NULL on OOM (error set). t (B) timesteps as floats. */
 float *mf_denoiser_forward(MfDenoiser *dn, MfDenoiserWork *w, const float *x, const float *t,
                            const float *rgb, const float *keep, int B, int V, int joint);
+/* The same where rgb holds the same images as the previous forward on w (same B, V, joint): with
+ * same_rgb the image encoder is not run again and its embedding ei is reused (the same bits; the
+ * DDIM steps of one sample). A backward after it is that of the previous image-encoder pass. */
+float *mf_denoiser_forward_ex(MfDenoiser *dn, MfDenoiserWork *w, const float *x, const float *t, const float *rgb,
+                              const float *keep, int B, int V, int joint, int same_rgb);
 /* Backward of the last forward: dn->grads += (UNet and image encoder). */
 void mf_denoiser_backward(MfDenoiser *dn, MfDenoiserWork *w, const float *dv);
 void mf_denoiser_work_free(MfDenoiserWork *w);

@@ -298,7 +298,7 @@ void mf_prior_encode_backward(MfPrior *p, const float *dz, float *dimg) {
     float *g = scratch(p, n);
     if (!g) return;
     for (size_t i = 0; i < n; ++i) g[i] = dz[i] * p->latent_scale;
-    mf_ae_encode_backward(p->ae, &p->aew, g, dimg);
+    mf_ae_encode_backward_input(p->ae, &p->aew, g, dimg);
 }
 
 static int decode_with(MfPrior *p, MfAeWork *w, const float *z, int B, float *img) {
@@ -373,8 +373,10 @@ int mf_prior_decode_materials(MfPrior *p, const float *zmat, int B, float *albed
 
 /* ---- guided denoising -------------------------------------------------------------------------- */
 
-int mf_prior_guided_v(MfPrior *p, const float *zimg, const float *rgb, const float *xt, int t, int B, int V,
-                      int joint, float guidance, float *v) {
+/* mf_prior_guided_v; same_rgb: rgb (and B, V, joint) are those of the previous call (the denoiser
+ * reuses its image embedding). */
+static int guided_v(MfPrior *p, const float *zimg, const float *rgb, const float *xt, int t, int B, int V, int joint,
+                    float guidance, int same_rgb, float *v) {
     int zc = p->cfg.ae.zc, h = p->cfg.dn.h, R = p->cfg.ae.res;
     size_t hw = (size_t)h * h, nz = zc * hw, nx = 3 * nz, nv = 2 * nz, ni = (size_t)3 * R * R;
     int B2 = 2 * B;
@@ -390,10 +392,15 @@ int mf_prior_guided_v(MfPrior *p, const float *zimg, const float *rgb, const flo
         memcpy(rgb2 + (size_t)b * ni, rgb + (size_t)src * ni, ni * sizeof(float));
         tt[b] = (float)t, keep[b] = cond ? 1.0f : 0.0f;
     }
-    float *out = mf_denoiser_forward(p->dn, &p->dnw, x, tt, rgb2, keep, B2, V, joint);
+    float *out = mf_denoiser_forward_ex(p->dn, &p->dnw, x, tt, rgb2, keep, B2, V, joint, same_rgb);
     if (out) mf_diffusion_cfg(v, out + (size_t)B * nv, out, guidance, (size_t)B * nv);
     free(x);
     return out ? MF_OK : -1;
+}
+
+int mf_prior_guided_v(MfPrior *p, const float *zimg, const float *rgb, const float *xt, int t, int B, int V,
+                      int joint, float guidance, float *v) {
+    return guided_v(p, zimg, rgb, xt, t, B, V, joint, guidance, 0, v);
 }
 
 typedef struct {
@@ -401,11 +408,12 @@ typedef struct {
     const float *zimg, *rgb;
     int B, V, joint;
     float guidance;
+    int calls; /* steps so far: after the first, the condition images' embedding is reused */
 } GuideCtx;
 
 static int guide_fn(void *ctx, float *v, const float *xt, int t) {
     GuideCtx *g = ctx;
-    return mf_prior_guided_v(g->p, g->zimg, g->rgb, xt, t, g->B, g->V, g->joint, g->guidance, v);
+    return guided_v(g->p, g->zimg, g->rgb, xt, t, g->B, g->V, g->joint, g->guidance, g->calls++ > 0, v);
 }
 
 static int run_ddim(MfPrior *p, const float *rgb, int B, int V, int joint, float guidance, const int *steps,
@@ -421,7 +429,7 @@ static int run_ddim(MfPrior *p, const float *rgb, int B, int V, int joint, float
             for (size_t i = 0; i < (size_t)B * nz; ++i) zimg[i] = zz[i] * p->latent_scale;
     }
     if (!rc) {
-        GuideCtx g = {p, zimg, rgb, B, V, joint, guidance};
+        GuideCtx g = {p, zimg, rgb, B, V, joint, guidance, 0};
         rc = mf_diffusion_ddim(&p->diff, x, v, (size_t)B * 2 * nz, steps, nsteps, guide_fn, &g);
     }
     free(zimg), free(v);

@@ -91,8 +91,8 @@ int mf_prior_read_meta(const char *path, char **meta);
 /* z (B, zc, h, h) = latent_scale * Enc(img (B, 3, R, R)). Keeps what the backward needs; img must
  * stay valid until mf_prior_encode_backward. */
 int mf_prior_encode(MfPrior *p, const float *img, int B, float *z);
-/* dimg (B, 3, R, R) += d/dimg of <dz, z> for the last mf_prior_encode (the encoder's own weight
- * gradients go to a scratch buffer and are ignored). */
+/* dimg (B, 3, R, R) += d/dimg of <dz, z> for the last mf_prior_encode (the encoder is frozen: its
+ * weight gradients are not computed). */
 void mf_prior_encode_backward(MfPrior *p, const float *dz, float *dimg);
 /* img (B, 3, R, R) = Dec(z / latent_scale), z (B, zc, h, h) scaled. */
 int mf_prior_decode(MfPrior *p, const float *z, int B, float *img);
