@@ -10,7 +10,7 @@
 
 DEB_PACKAGES := build-essential pkg-config libembree-dev libopenimageio-dev libopenexr-dev \
   libgsl-dev libcjson-dev libopenblas-dev povray blender-data python3-skimage python3-numpy \
-  gnuplot-nox libmeshoptimizer-dev slurm-wlm munge
+  gnuplot-nox libmeshoptimizer-dev slurm-wlm munge jq
 
 # NATIVE=1: -march=native (this CPU's AVX2 / AVX-512 in our own loops) in its own folder. Such a
 # build runs only on CPUs with the same instructions, so it is never the default and never
