@@ -1,0 +1,60 @@
+/* mf_geom_fit: the mask term of DMTet geometry optimisation (issue 14, pass 1 core).
+ *
+ * The unknowns are an SDF (nv,) on an mf_tetgrid grid and optionally its deformation (nv, 3).
+ * One evaluation: marching tets (mf_tetgrid_extract) -> Embree scene of the mesh -> per view a
+ * pixel-centre coverage pass, antialiased (render/mf_antialias.h, the operation that
+ * MfDiffOpts.antialias applies to the renderer's alpha) -> mask loss
+ *   L_mask = mean over the views' pixels of (antialiased coverage - target mask)^2
+ * -> dL/dalpha -> mf_aa_backward -> dL/dpos of the mesh vertices -> mf_tetgrid_backward ->
+ * dL/dsdf, dL/ddeform. Only silhouette edges (outer and inner occlusion edges) receive gradient;
+ * shading and materials take no part (coverage needs no normals).
+ * Regulariser (nvdiffrec's sdf_reg_loss): over the tet edges (v, v + e), e in {0,1}^3 \ {0},
+ * whose ends differ in sign,
+ *   L_reg = mean of BCE(sigmoid(s_a), [s_b > 0]) + BCE(sigmoid(s_b), [s_a > 0]),
+ * which penalises sign changes (floaters, noise) and keeps the values near the surface small.
+ * Deterministic for a given thread count: the per-view passes are serial, the Embree queries
+ * of each pass are parallel but write disjoint pixels. */
+#ifndef MF_GEOM_FIT_H
+#define MF_GEOM_FIT_H
+
+#include "geom/mf_tetgrid.h"
+#include "io/mf_image.h"
+#include "scene/mf_camera.h"
+
+/* Mask loss and its gradient for views views[0..nviews) of cams/masks (masks: images whose last
+ * channel is the target alpha, of the camera's size). dsdf (nv,) and, when deform and ddeform
+ * are non-NULL, ddeform (nv, 3) are ACCUMULATED (+=); *loss = L_mask; *nt (if not NULL) = the
+ * extracted mesh's triangles. Fails with MF_EARG ("... no zero crossing (empty grid)") when the
+ * SDF has no surface, MF_ENAN on a non-finite value, MF_EARG on a mask of the wrong size;
+ * dsdf/ddeform untouched on failure. */
+int mf_geom_mask_grad(const MfTetGrid *g, const float *sdf, const float *deform, const MfCamera *cams,
+                      const MfImage *masks, const int *views, int nviews, float *dsdf, float *ddeform, double *loss,
+                      int *nt);
+
+/* Sign-change regulariser: returns weight * L_reg and adds weight * dL_reg/dsdf to dsdf (nv,)
+ * (if not NULL). 0 when no edge changes sign. */
+double mf_geom_sdf_reg(const MfTetGrid *g, const float *sdf, float weight, float *dsdf);
+
+typedef struct {
+    int iters;          /* Adam steps (>= 1) */
+    float lr_sdf;       /* Adam learning rate of the SDF (world units per step, roughly) */
+    float lr_deform;    /* of the deformation (tanh space); 0: the deformation is not optimised */
+    float sdf_reg;      /* weight of the sign-change regulariser (0: off) */
+    int views_per_step; /* views per step, taken in turn (0: all) */
+} MfGeomFitOpts;
+
+/* Per-step record. */
+typedef struct {
+    double mask; /* L_mask of the step's views, before the step */
+    double reg;  /* weighted L_reg, before the step */
+    int nt;      /* triangles of the extracted mesh */
+} MfGeomFitStep;
+
+/* Runs opt->iters Adam steps on sdf (nv,) and, when deform is non-NULL and lr_deform > 0, deform
+ * (nv, 3), both updated in place. log: (opt->iters,) or NULL; *done (if not NULL) = steps taken.
+ * On failure (an empty extraction, a non-finite gradient) sdf and deform keep the values of the
+ * last completed step, *done says how many, and the message names the step. */
+int mf_geom_fit(const MfTetGrid *g, float *sdf, float *deform, const MfCamera *cams, const MfImage *masks, int n,
+                const MfGeomFitOpts *opt, MfGeomFitStep *log, int *done);
+
+#endif
