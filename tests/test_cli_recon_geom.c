@@ -2,7 +2,8 @@
  * split: a NeRF-Synthetic-layout copy of one scene without its mesh (transforms, train/ and test/
  * PNGs) is reconstructed on its visual hull — the default without a mesh, and --geometry vhull —
  * and mf eval scores the hull's geometry against the original scene's GT mesh; --resume reuses
- * geometry/vhull.obj and reaches the uninterrupted run's bytes; --geometry dmtet is refused. */
+ * geometry/vhull.obj and reaches the uninterrupted run's bytes. --geometry dmtet (DMTet's mask term
+ * from the hull) on the same copy: recon_geometry_dmtet_tiny. */
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -67,14 +68,10 @@ MF_TEST(recon_geometry_vhull_tiny) {
     CHECK(sh("mkdir -p %s && cp -r %s/transforms_train.json %s/transforms_test.json %s/train %s/test %s/", bare, scene, scene, scene,
              scene, bare) == 0);
 
-    /* dmtet: refused before anything is written */
-    snprintf(args, sizeof args, "recon %s -o %s/dmtet --geometry dmtet", bare, other);
-    int rc = mf_test_run_mf(args, NULL, err, sizeof err);
-    CHECK_MSG(rc == 2 && strstr(err, "DMTet") && strstr(err, "not implemented"), "--geometry dmtet: exit %d, '%s'", rc, err);
+    /* refused combinations: nothing written */
     snprintf(p, sizeof p, "%s/dmtet", other);
-    CHECK(!mf_file_exists(p));
     snprintf(args, sizeof args, "recon %s -o %s/dmtet --geometry vhull --mesh %s/mesh.obj", bare, other, scene);
-    rc = mf_test_run_mf(args, NULL, err, sizeof err);
+    int rc = mf_test_run_mf(args, NULL, err, sizeof err);
     CHECK_MSG(rc == 2 && strstr(err, "--mesh"), "--geometry vhull --mesh: exit %d, '%s'", rc, err);
     snprintf(args, sizeof args, "recon %s -o %s/dmtet --geometry vhull --side +x", bare, other);
     rc = mf_test_run_mf(args, NULL, err, sizeof err);
@@ -145,4 +142,86 @@ MF_TEST(recon_geometry_vhull_tiny) {
     CHECK_MSG(iou.mean > 0.5 && iou.mean < 1, "mask IoU %g", iou.mean);
     CHECK_MSG(isfinite(rl.mean) && rl.mean > 8, "relit PSNR %g", rl.mean);
     ev_table_free(&t);
+}
+
+/* run.json's geometry_result; geom_log.csv's first and last mask loss and its row count. */
+static int read_geom_log(const char *path, double *first, double *last) {
+    FILE *f = fopen(path, "r");
+    if (!f) return -1;
+    char line[256];
+    int rows = 0;
+    double l = NAN;
+    if (!fgets(line, sizeof line, f) || strncmp(line, "step,mask_loss", 14)) rows = -1;
+    while (rows >= 0 && fgets(line, sizeof line, f)) {
+        int s = 0;
+        if (sscanf(line, "%d,%lf", &s, &l) != 2 || s != rows) { rows = -1; break; }
+        if (rows++ == 0) *first = l;
+        *last = l;
+    }
+    fclose(f);
+    return rows;
+}
+
+/* --geometry dmtet on the same mesh-less copy: bad values refused naming the option; a short
+ * fit runs end to end (dmtet.obj with UVs is the mesh optimised on, geom_log.csv's mask loss
+ * falls, run.json has the timing); --resume reuses dmtet.obj. */
+MF_TEST(recon_geometry_dmtet_tiny) {
+    const char *mf = getenv("MF_BIN");
+    if (!mf || !mf_file_exists(mf)) MF_SKIP("MF_BIN not set (run through make test)");
+    if (!mf_file_exists(DS_DEFAULT_ENV_DIR "/studio.exr")) MF_SKIP("blender-data probes not installed (" DS_DEFAULT_ENV_DIR ")");
+    char d[1024], scene[1100], bare[1100], run[1100], p[1300], q[1300], err[8192], args[4096];
+    snprintf(d, sizeof d, "%s", mf_test_path("recon_dmtet"));
+    snprintf(scene, sizeof scene, "%s/000_cup", d);
+    snprintf(bare, sizeof bare, "%s/bare", d);
+    snprintf(run, sizeof run, "%s/run", d);
+    CHECK(sh("%s gen --split tiny --scenes 1 -o %s 2>/dev/null", mf, d) == 0);
+    CHECK(sh("mkdir -p %s && cp -r %s/transforms_train.json %s/transforms_test.json %s/train %s/test %s/", bare, scene, scene, scene,
+             scene, bare) == 0);
+
+    const char *bad[] = {"--dmtet-res 3", "--geom-iters -1"}, *name[] = {"dmtet-res", "geom-iters"};
+    for (int k = 0; k < 2; ++k) {
+        snprintf(args, sizeof args, "recon %s -o %s --geometry dmtet %s", bare, run, bad[k]);
+        int rc = mf_test_run_mf(args, NULL, err, sizeof err);
+        CHECK_MSG(rc == 2 && strstr(err, name[k]), "%s: exit %d, '%s'", bad[k], rc, err);
+        CHECK(!mf_file_exists(run));
+    }
+    snprintf(args, sizeof args, "recon %s -o %s --geometry dmtet --mesh %s/mesh.obj", bare, run, scene);
+    int rc = mf_test_run_mf(args, NULL, err, sizeof err);
+    CHECK_MSG(rc == 2 && strstr(err, "--mesh"), "--geometry dmtet --mesh: exit %d, '%s'", rc, err);
+
+#define DMTET "--geometry dmtet --dmtet-res 32 --geom-iters 30 --geom-views 0 " SMALL
+    snprintf(args, sizeof args, "recon %s -o %s --iters 4 " DMTET, bare, run);
+    rc = mf_test_run_mf(args, NULL, err, sizeof err);
+    CHECK_MSG(rc == 0 && strstr(err, "mask term only"), "--geometry dmtet: exit %d, '%s'", rc, err);
+    MfMesh m = {0}, used = {0};
+    snprintf(p, sizeof p, "%s/geometry/dmtet.obj", run);
+    snprintf(q, sizeof q, "%s/mesh.obj", run);
+    CHECK_OK(mf_obj_read(p, &m));
+    CHECK_OK(mf_obj_read(q, &used));
+    CHECK_MSG(m.uv && m.nt > 100 && m.nt <= 5000 && used.nt == m.nt && used.nv == m.nv, "dmtet %d tris (uv %d), result mesh %d", m.nt,
+              m.uv != NULL, used.nt);
+    mf_mesh_free(&m), mf_mesh_free(&used);
+    double first = NAN, last = NAN;
+    snprintf(q, sizeof q, "%s/geom_log.csv", run);
+    int rows = read_geom_log(q, &first, &last);
+    if (getenv("MF_TEST_VERBOSE")) printf("    tiny dmtet: %d steps, mask loss %.5f -> %.5f\n", rows, first, last);
+    CHECK_MSG(rows == 30 && first > 0 && last < first, "geom_log.csv: %d rows, mask loss %g -> %g", rows, first, last);
+    char src[32] = "";
+    double geom_s = geom_result(run, "geom_s", src, sizeof src), step_ms = geom_result(run, "step_ms", NULL, 0);
+    CHECK_MSG(!strcmp(src, "dmtet") && geom_s > 0 && step_ms > 0 && geom_result(run, "steps", NULL, 0) == 30 &&
+                  geom_result(run, "unwrap_s", NULL, 0) > 0 && geom_result(run, "dmtet_res", NULL, 0) != 0,
+              "run.json: source '%s', geom_s %g, step_ms %g", src, geom_s, step_ms);
+
+    /* --resume reuses geometry/dmtet.obj (same bytes, nothing built) */
+    char *before = NULL, *after = NULL;
+    size_t nb = 0, na = 0;
+    CHECK_OK(mf_read_file(p, &before, &nb));
+    snprintf(args, sizeof args, "recon %s -o %s --iters 8 --resume " DMTET, bare, run);
+    rc = mf_test_run_mf(args, NULL, err, sizeof err);
+    CHECK_MSG(rc == 0 && strstr(err, "reusing") && strstr(err, "dmtet.obj"), "resume: exit %d, '%s'", rc, err);
+    CHECK_OK(mf_read_file(p, &after, &na));
+    CHECK(nb == na && before && after && !memcmp(before, after, nb));
+    free(before), free(after);
+    CHECK(geom_result(run, "hull_s", NULL, 0) == 0 && isnan(geom_result(run, "geom_s", NULL, 0)));
+#undef DMTET
 }

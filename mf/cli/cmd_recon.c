@@ -48,14 +48,16 @@ static const MfOptTable k_args_table = MF_OPT_TABLE("Command options", k_args);
 
 static char usage[16384];
 static const char k_usage_head[] =
-    "usage: mf recon DATASET_DIR -o RESULT_DIR [--method nvdiffrecmc|materialfusion] [--mesh OBJ] [--geometry given|vhull]\n"
+    "usage: mf recon DATASET_DIR -o RESULT_DIR [--method nvdiffrecmc|materialfusion] [--mesh OBJ] [--geometry given|vhull|dmtet]\n"
     "                [--config FILE] [--split train] [--mask DIR] [--res N] [--max-views N] [--side S] [--resume] [option VALUE ...]\n"
     "Recovers albedo (kd), ORM and the HDR environment light of the scene in DATASET_DIR (any format\n"
     "mf can load: bvault, NeRF-Synthetic, NeRFactor, Stanford-ORB capture) on a fixed mesh:\n"
     "--geometry given (the default when there is one): DATASET_DIR/mesh.obj or --mesh; it must have UVs (a mesh\n"
     "without UVs is refused, unwrap it first with mf unwrap); --geometry vhull (the default without a mesh): the visual\n"
     "hull of the training views' masks (as mf hull), unwrapped (as mf unwrap), written to RESULT_DIR/geometry/vhull.obj;\n"
-    "--geometry dmtet is refused (DMTet optimisation is not implemented).\n"
+    "--geometry dmtet: DMTet's mask term (silhouettes only, no colour loss) fits an SDF on a --dmtet-res grid, started\n"
+    "from that hull, for --geom-iters steps, cleaned and unwrapped like the hull -> RESULT_DIR/geometry/dmtet.obj,\n"
+    "per-step loss in RESULT_DIR/geom_log.csv. vhull.obj/dmtet.obj are reused by --resume.\n"
     "Writes RESULT_DIR/ albedo.png orm.png (normal.png) env.exr mesh.obj scene.glb log.csv run.json snapshots/\n"
     "checkpoint.mfck. --resume continues from RESULT_DIR/checkpoint.mfck and reaches the same result\n"
     "as an uninterrupted run (same build, options and thread count). Options are applied in order:\n"
@@ -123,15 +125,15 @@ static int move_views(DsViews *dv, MfReconView **views, int *n) {
     return rc;
 }
 
-/* --geometry against the other options, before anything is loaded: dmtet is refused, vhull
- * takes no --mesh; --side needs a given mesh (its filter uses the mesh's box, and the hull would
+/* --geometry against the other options, before anything is loaded: vhull and dmtet take no --mesh; --side needs a given mesh (its filter uses the mesh's box, and the hull would
  * be carved by every loaded view). Called again with the resolved source (src). */
 static int geom_args_ok(const ReconArgs *a, const MfReconGeomOpts *go, const char *src) {
     const char *g = src ? src : go->geometry;
     if (!src && mf_recon_geom_resolve(go, 1, &src)) return MF_EARG;
-    if (g && !strcmp(g, "vhull") && a->mesh) return mf_fail(MF_EARG, "--mesh %s is for --geometry given, not vhull", a->mesh);
-    if (g && !strcmp(g, "vhull") && strcmp(a->side, "all"))
-        return mf_fail(MF_EARG, "--side %s needs a given mesh (--geometry vhull: the hull would be carved by every view)", a->side);
+    int built = g && (!strcmp(g, "vhull") || !strcmp(g, "dmtet"));
+    if (built && a->mesh) return mf_fail(MF_EARG, "--mesh %s is for --geometry given, not %s", a->mesh, g);
+    if (built && strcmp(a->side, "all"))
+        return mf_fail(MF_EARG, "--side %s needs a given mesh (--geometry %s: the hull would be carved by every view)", a->side, g);
     return MF_OK;
 }
 

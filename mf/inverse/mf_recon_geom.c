@@ -1,26 +1,26 @@
 #include "inverse/mf_recon_geom.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <stdio.h>
 #include <string.h>
 
 #include "core/mf_error.h"
 #include "core/mf_log.h"
+#include "geom/mf_meshproc.h"
+#include "inverse/mf_geom_fit.h"
 #include "io/mf_gltf_read.h"
 #include "io/mf_obj.h"
 
 int mf_recon_geom_resolve(const MfReconGeomOpts *o, int mesh_exists, const char **source) {
     const char *g = o->geometry;
-    if (g && !strcmp(g, "dmtet"))
-        return mf_fail(MF_EARG, "--geometry dmtet: DMTet optimisation (issue 14, pass 1) is not implemented; "
-                                "use --geometry vhull (the visual hull of the masks) or a given mesh");
-    if (g && strcmp(g, "given") && strcmp(g, "vhull"))
+    if (g && strcmp(g, "given") && strcmp(g, "vhull") && strcmp(g, "dmtet"))
         return mf_fail(MF_EARG, "--geometry '%s': expected given, vhull or dmtet", g);
     if (!g) {
         g = mesh_exists ? "given" : "vhull";
         if (!mesh_exists) mf_log_info("geometry: the data set has no mesh and --geometry is not given: using vhull (the visual hull of the masks)");
     }
-    *source = !strcmp(g, "given") ? "given" : "vhull";
+    *source = !strcmp(g, "given") ? "given" : !strcmp(g, "vhull") ? "vhull" : "dmtet";
     return MF_OK;
 }
 
@@ -37,43 +37,121 @@ static int read_given(const char *path, MfMesh *mesh) {
 static int reuse_hull(const char *path, MfMesh *mesh) {
     if (!mf_file_exists(path)) return 0;
     if (mf_mesh_read(path, mesh)) {
-        mf_log_warn("%s: cannot be reused (%s); building the hull again", path, mf_error());
+        mf_log_warn("%s: cannot be reused (%s); building it again", path, mf_error());
         return 0;
     }
     int ok = mesh->uv && mesh->nt > 0;
     for (int i = 0; ok && i < 3 * mesh->nv; ++i) ok = isfinite(mesh->pos[i]);
     for (int i = 0; ok && i < 2 * mesh->nv; ++i) ok = isfinite(mesh->uv[i]);
     if (!ok) {
-        mf_log_warn("%s: cannot be reused (no UVs, no triangles or a non-finite value); building the hull again", path);
+        mf_log_warn("%s: cannot be reused (no UVs, no triangles or a non-finite value); building it again", path);
         mf_mesh_free(mesh);
     }
     return ok;
 }
 
-/* Hull (mf_vhull_mesh, as mf hull), smooth normals, unwrap (mf_uvatlas, as mf unwrap), written
- * atomically to path. */
-static int build_hull(const MfReconGeomOpts *o, const MfCamera *cams, const MfImage *masks, int n, int tex_res,
-                      const char *path, MfReconGeomInfo *info) {
-    MfHullOpts ho = {o->hull_res, o->hull_extent, o->hull_smooth, o->hull_target_tris, o->hull_min_component};
+/* Smooth normals, unwrap (mf_uvatlas, as mf unwrap), written atomically to path; m is freed. */
+static int unwrap_write(MfMesh *m, int tex_res, const char *path, MfReconGeomInfo *info) {
     MfUvAtlasOpts uo = mf_uvatlas_defaults();
     uo.tex_res = tex_res;
-    MfMesh hull = {0}, out = {0};
-    double t0 = mf_now();
-    int rc = mf_vhull_mesh(cams, masks, n, &ho, &hull, &info->hull);
+    MfMesh out = {0};
     /* smooth vertex normals: the unwrap copies them across its seams, so shading stays continuous */
-    if (rc == MF_OK) rc = mf_mesh_compute_normals(&hull);
+    int rc = mf_mesh_compute_normals(m);
     double t1 = mf_now();
-    if (rc == MF_OK) rc = mf_uvatlas(&hull, &uo, &out, &info->atlas);
-    info->hull_s = t1 - t0, info->unwrap_s = mf_now() - t1;
+    if (rc == MF_OK) rc = mf_uvatlas(m, &uo, &out, &info->atlas);
+    info->unwrap_s = mf_now() - t1;
     if (rc == MF_OK && info->atlas.forced_single)
         mf_log_warn("geometry: unwrap: %d triangles became charts of their own", info->atlas.forced_single);
     if (rc == MF_OK && (rc = mf_mkdirs_for(path)) == MF_OK) rc = mf_obj_write(path, &out, NULL);
-    if (rc == MF_OK)
-        mf_log_info("geometry: visual hull of %d masked views, %d -> %d triangles in %.2f s; unwrapped into %d charts in %.2f s -> %s",
-                    info->hull.masked_views, info->hull.extracted_tris, out.nt, info->hull_s, info->atlas.charts, info->unwrap_s, path);
-    mf_mesh_free(&hull);
+    if (rc == MF_OK) mf_log_info("geometry: %d triangles unwrapped into %d charts in %.2f s -> %s", out.nt, info->atlas.charts, info->unwrap_s, path);
+    mf_mesh_free(m);
     mf_mesh_free(&out);
+    return rc;
+}
+
+/* Hull (mf_vhull_mesh, as mf hull), unwrapped and written to path. */
+static int build_hull(const MfReconGeomOpts *o, const MfCamera *cams, const MfImage *masks, int n, int tex_res,
+                      const char *path, MfReconGeomInfo *info) {
+    MfHullOpts ho = {o->hull_res, o->hull_extent, o->hull_smooth, o->hull_target_tris, o->hull_min_component};
+    MfMesh hull = {0};
+    double t0 = mf_now();
+    int rc = mf_vhull_mesh(cams, masks, n, &ho, &hull, &info->hull);
+    info->hull_s = mf_now() - t0;
+    if (rc == MF_OK)
+        mf_log_info("geometry: visual hull of %d masked views, %d -> %d triangles in %.2f s", info->hull.masked_views,
+                    info->hull.extracted_tris, hull.nt, info->hull_s);
+    if (rc == MF_OK) rc = unwrap_write(&hull, tex_res, path, info);
+    mf_mesh_free(&hull);
     return rc == MF_OK ? MF_OK : mf_fail_prefix(rc, "--geometry vhull");
+}
+
+/* geom_log.csv: one row per step (mask loss and weighted regulariser before the step). */
+static int write_geom_log(const char *out_dir, const MfGeomFitStep *log, int steps) {
+    char path[MF_PATH_MAX];
+    int rc = mf_path_join(path, sizeof path, out_dir, "geom_log.csv");
+    if (!rc) rc = mf_mkdirs_for(path);
+    size_t cap = 64 + (size_t)steps * 80, len = 0;
+    char *buf = rc ? NULL : malloc(cap);
+    if (!rc && !buf) rc = mf_fail(MF_ENOMEM, "out of memory");
+    if (rc) return rc;
+    len += (size_t)snprintf(buf, cap, "step,mask_loss,sdf_reg,triangles\n");
+    for (int i = 0; i < steps; ++i)
+        len += (size_t)snprintf(buf + len, cap - len, "%d,%.9g,%.9g,%d\n", i, log[i].mask, log[i].reg, log[i].nt);
+    rc = mf_write_file(path, buf, len);
+    free(buf);
+    return rc;
+}
+
+/* The fitted SDF extracted and cleaned as mf_vhull_mesh cleans the hull (the hull_* options). */
+static int extract_clean(const MfTetGrid *g, const float *sdf, const MfReconGeomOpts *o, MfMesh *m, int *dropped) {
+    MfTetMesh tm = {0};
+    int rc = mf_tetgrid_extract(g, sdf, NULL, &tm);
+    if (rc) return rc;
+    *m = tm.mesh;
+    tm.mesh = (MfMesh){0};
+    mf_tetmesh_free(&tm);
+    rc = mf_mesh_weld(m, 1e-4f * g->cell);
+    if (rc == MF_OK) rc = mf_mesh_drop_degenerate(m, 0);
+    if (rc == MF_OK) rc = mf_mesh_drop_small_components(m, o->hull_min_component, dropped);
+    if (rc == MF_OK && o->hull_smooth > 0) rc = mf_mesh_taubin(m, o->hull_smooth, 0.5f, -0.53f);
+    if (rc == MF_OK && o->hull_target_tris > 0) rc = mf_mesh_decimate(m, o->hull_target_tris, 0.01f);
+    if (rc == MF_OK && m->nt == 0) rc = mf_fail(MF_EARG, "nothing left after clean-up");
+    return rc;
+}
+
+/* DMTet's mask term: soft hull (in cell units) -> geom_iters Adam steps -> clean mesh -> unwrap. */
+static int build_dmtet(const MfReconGeomOpts *o, const MfCamera *cams, const MfImage *masks, int n, int tex_res,
+                       const char *out_dir, const char *path, MfReconGeomInfo *info) {
+    MfTetGrid g = mf_tetgrid_make(o->dmtet_res, mf_v3s(0), o->hull_extent);
+    size_t nv = mf_tetgrid_nverts(&g);
+    float *sdf = malloc(nv * sizeof *sdf);
+    MfGeomFitStep *log = o->geom_iters > 0 ? calloc((size_t)o->geom_iters, sizeof *log) : NULL;
+    int rc = sdf && (log || o->geom_iters == 0) ? MF_OK : mf_fail(MF_ENOMEM, "out of memory for a %d^3 grid", o->dmtet_res);
+    double t0 = mf_now();
+    if (!rc) rc = mf_vhull(&g, cams, masks, n, sdf);
+    /* mask - 0.5 in [-0.5, 0.5]: as a distance, in cells, so geom_lr is in cells per step */
+    for (size_t v = 0; !rc && v < nv; ++v) sdf[v] *= g.cell;
+    info->hull_s = mf_now() - t0;
+    MfGeomFitOpts fo = {o->geom_iters, o->geom_lr * g.cell, 0, o->geom_sdf_reg, o->geom_views};
+    if (!rc && o->geom_iters > 0) {
+        t0 = mf_now();
+        rc = mf_geom_fit(&g, sdf, NULL, cams, masks, n, &fo, log, &info->steps);
+        info->geom_s = mf_now() - t0;
+        info->step_ms = info->steps ? 1e3 * info->geom_s / info->steps : 0;
+        if (info->steps) info->loss_first = log[0].mask, info->loss_last = log[info->steps - 1].mask;
+        int wrc = info->steps ? write_geom_log(out_dir, log, info->steps) : MF_OK;
+        if (!rc) rc = wrc;
+    }
+    if (!rc)
+        mf_log_info("geometry: DMTet, mask term only (no colour loss): %d^3 grid, %d steps of %d views in %.2f s (%.1f ms/step), "
+                    "mask loss %.5f -> %.5f", o->dmtet_res, info->steps, o->geom_views ? o->geom_views : n, info->geom_s,
+                    info->step_ms, info->loss_first, info->loss_last);
+    MfMesh m = {0};
+    if (!rc) rc = extract_clean(&g, sdf, o, &m, &info->dropped_components);
+    free(sdf), free(log);
+    if (!rc) rc = unwrap_write(&m, tex_res, path, info);
+    mf_mesh_free(&m);
+    return rc == MF_OK ? MF_OK : mf_fail_prefix(rc, "--geometry dmtet");
 }
 
 int mf_recon_geom_mesh(const MfReconGeomOpts *o, const char *source, const char *given_path, const MfCamera *cams,
@@ -85,7 +163,8 @@ int mf_recon_geom_mesh(const MfReconGeomOpts *o, const char *source, const char 
         snprintf(info->mesh_path, sizeof info->mesh_path, "%s", given_path);
         return read_given(given_path, mesh);
     }
-    int rc = mf_path_join(info->mesh_path, sizeof info->mesh_path, out_dir, "geometry/vhull.obj");
+    int dmtet = !strcmp(source, "dmtet");
+    int rc = mf_path_join(info->mesh_path, sizeof info->mesh_path, out_dir, dmtet ? "geometry/dmtet.obj" : "geometry/vhull.obj");
     if (rc) return rc;
     if (resume && reuse_hull(info->mesh_path, mesh)) {
         info->reused = 1;
@@ -93,7 +172,9 @@ int mf_recon_geom_mesh(const MfReconGeomOpts *o, const char *source, const char 
         mf_log_info("geometry: reusing %s (%d triangles)", info->mesh_path, mesh->nt);
         return MF_OK;
     }
-    if ((rc = build_hull(o, cams, masks, n, tex_res, info->mesh_path, info))) return rc;
+    rc = dmtet ? build_dmtet(o, cams, masks, n, tex_res, out_dir, info->mesh_path, info)
+               : build_hull(o, cams, masks, n, tex_res, info->mesh_path, info);
+    if (rc) return rc;
     /* read back what was written: a resumed run reuses the file, so both optimise the same bytes */
     if ((rc = mf_mesh_read(info->mesh_path, mesh))) return rc;
     info->hull_tris = mesh->nt;
@@ -104,12 +185,22 @@ void mf_recon_geom_to_json(const MfReconGeomInfo *info, cJSON *obj) {
     cJSON *g = cJSON_AddObjectToObject(obj, "geometry_result");
     cJSON_AddStringToObject(g, "source", info->source ? info->source : "");
     cJSON_AddStringToObject(g, "mesh", info->mesh_path);
-    if (!info->source || strcmp(info->source, "vhull")) return;
+    if (!info->source || !strcmp(info->source, "given")) return;
     cJSON_AddBoolToObject(g, "reused", info->reused);
     cJSON_AddNumberToObject(g, "hull_s", info->hull_s);     /* wall s: masks -> hull mesh (+ normals) */
     cJSON_AddNumberToObject(g, "unwrap_s", info->unwrap_s); /* wall s: the UV atlas */
     cJSON_AddNumberToObject(g, "triangles", info->hull_tris);
     if (info->reused) return;
+    if (!strcmp(info->source, "dmtet")) {
+        cJSON_AddNumberToObject(g, "geom_s", info->geom_s);   /* wall s: the mask-term steps */
+        cJSON_AddNumberToObject(g, "step_ms", info->step_ms); /* wall ms per step */
+        cJSON_AddNumberToObject(g, "steps", info->steps);
+        cJSON_AddNumberToObject(g, "mask_loss_first", info->loss_first);
+        cJSON_AddNumberToObject(g, "mask_loss_last", info->loss_last);
+        cJSON_AddNumberToObject(g, "dropped_components", info->dropped_components);
+        cJSON_AddNumberToObject(g, "charts", info->atlas.charts);
+        return;
+    }
     cJSON_AddNumberToObject(g, "masked_views", info->hull.masked_views);
     cJSON_AddNumberToObject(g, "grid_extent", info->hull.extent);
     cJSON_AddNumberToObject(g, "extracted_triangles", info->hull.extracted_tris);

@@ -10,7 +10,14 @@
  *          set has no mesh (a log line says so). With resume, a readable geometry/vhull.obj with
  *          UVs is reused (the hull and the unwrap are deterministic; an unreadable one is rebuilt
  *          with a warning).
- *   dmtet  refused: DMTet optimisation (issue 14 pass 1) is not implemented.
+ *   dmtet  DMTet's mask term (mf_geom_fit, issue 14 pass 1 without its colour loss): an SDF on a
+ *          dmtet_res^3 tet grid (side hull_extent) initialised from the soft visual hull
+ *          (mf_vhull, scaled to cell units), geom_iters Adam steps on the training views' masks
+ *          (geom_views per step, in turn), then extraction and the hull's clean-up (weld, small
+ *          components dropped, Taubin, decimation: the hull_* options), unwrapped as vhull ->
+ *          <out>/geometry/dmtet.obj; the per-step loss -> <out>/geom_log.csv. Reused with resume
+ *          like vhull.obj. Only silhouettes drive it: no colour term, so concavities the masks
+ *          do not see stay as the hull left them.
  * The options are a declarative table (mf_recon_geom_opt_table, mf_recon_opts.c). */
 #ifndef MF_RECON_GEOM_H
 #define MF_RECON_GEOM_H
@@ -31,6 +38,11 @@ typedef struct {
     int hull_smooth;
     int hull_target_tris;
     float hull_min_component;
+    int dmtet_res;            /* dmtet: grid cubes per axis */
+    int geom_iters;           /* dmtet: Adam steps of the mask term */
+    int geom_views;           /* dmtet: views per step (0: all) */
+    float geom_lr;            /* dmtet: SDF learning rate, in grid cells per step */
+    float geom_sdf_reg;       /* dmtet: weight of the sign-change regulariser */
 } MfReconGeomOpts;
 
 /* The defaults, from the option table. */
@@ -38,17 +50,22 @@ MfReconGeomOpts mf_recon_geom_opts_default(void);
 
 /* What was built (vhull) or read (given). */
 typedef struct {
-    const char *source;          /* "given" | "vhull": the resolved choice (static string) */
+    const char *source;          /* "given" | "vhull" | "dmtet": the resolved choice (static string) */
     char mesh_path[MF_PATH_MAX]; /* the mesh optimised on */
-    int reused;                  /* vhull with resume: geometry/vhull.obj was reused */
+    int reused;                  /* vhull/dmtet with resume: geometry/<source>.obj was reused */
     double hull_s, unwrap_s;     /* wall seconds (0 when reused or given) */
     MfHullInfo hull;             /* vhull, built: the hull's report */
     int hull_tris;               /* vhull: triangles of the unwrapped hull */
     MfUvAtlasInfo atlas;         /* vhull, built: the unwrap's report */
+    double geom_s;               /* dmtet, built: wall s of the mask-term steps */
+    double step_ms;              /* dmtet, built: mean wall ms per step */
+    int steps;                   /* dmtet, built: steps taken */
+    double loss_first, loss_last;/* dmtet, built: mask loss of the first and last step */
+    int dropped_components;      /* dmtet, built: components dropped by the clean-up */
 } MfReconGeomInfo;
 
-/* Resolves o->geometry into *source ("given" or "vhull"): NULL means given when mesh_exists,
- * else vhull (logged). dmtet is refused (MF_EARG, saying it is not implemented). */
+/* Resolves o->geometry into *source ("given", "vhull" or "dmtet"): NULL means given when
+ * mesh_exists, else vhull (logged). */
 int mf_recon_geom_resolve(const MfReconGeomOpts *o, int mesh_exists, const char **source);
 
 /* The mesh to optimise on, into *mesh (with UVs), per *source (mf_recon_geom_resolve):
@@ -59,7 +76,8 @@ int mf_recon_geom_mesh(const MfReconGeomOpts *o, const char *source, const char 
                        const MfImage *masks, int n, int tex_res, const char *out_dir, int resume, MfMesh *mesh,
                        MfReconGeomInfo *info);
 
-/* run.json: geometry source, mesh path, hull_s, unwrap_s, reuse and the hull/unwrap reports. */
+/* run.json: geometry source, mesh path, hull_s, unwrap_s, reuse, the hull/unwrap reports and
+ * (dmtet) geom_s, step_ms, steps, first/last mask loss. */
 void mf_recon_geom_to_json(const MfReconGeomInfo *info, cJSON *obj);
 
 #endif

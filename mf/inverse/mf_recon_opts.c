@@ -66,13 +66,19 @@ MfReconOpts mf_recon_opts_default(void) {
 #define G MfReconGeomOpts
 static const MfOpt k_geom_opts[] = {
     MF_OPT_STR(G, geometry, NULL, "where the mesh comes from: the data set's (or --mesh), the visual hull of the training views' masks "
-               "unwrapped (written to RESULT_DIR/geometry/vhull.obj), or DMTet (not implemented: refused)",
+               "unwrapped (written to RESULT_DIR/geometry/vhull.obj), or DMTet's mask term from that hull (RESULT_DIR/geometry/dmtet.obj, per-step loss in RESULT_DIR/geom_log.csv)",
                .choices = "given|vhull|dmtet", .unset = "given when DATASET_DIR has a mesh (or --mesh), else vhull"),
     MF_OPT_INT(G, hull_res, MF_HULL_DEFAULT_RES, 4, 512, "vhull: grid cubes per axis (mf hull --res)"),
     MF_OPT_FLOAT(G, hull_extent, MF_HULL_DEFAULT_EXTENT, 1e-6, 1e6, "vhull: side of the grid cube centred at the origin (enlarged 1.5x once when the hull touches it)"),
     MF_OPT_INT(G, hull_smooth, MF_HULL_DEFAULT_SMOOTH, 0, 10000, "vhull: Taubin smoothing iterations"),
     MF_OPT_INT(G, hull_target_tris, MF_HULL_DEFAULT_TARGET_TRIS, 0, 100000000, "vhull: decimate to at most this many triangles (0: keep all)"),
     MF_OPT_FLOAT(G, hull_min_component, MF_HULL_DEFAULT_MIN_COMPONENT, 0, 1, "vhull: drop components with fewer than this fraction of the largest's triangles"),
+    /* the hull_* smoothing, decimation and component options also clean the DMTet mesh; hull_extent is its grid's side */
+    MF_OPT_INT(G, dmtet_res, 64, 4, 512, "dmtet: tet grid cubes per axis (side --hull-extent; the SDF starts as the soft visual hull on it)"),
+    MF_OPT_INT(G, geom_iters, 200, 0, 1000000, "dmtet: Adam steps of the mask term (silhouettes only, no colour loss; 0: the hull's SDF extracted as is)"),
+    MF_OPT_INT(G, geom_views, 4, 0, 100000, "dmtet: training views per step, taken in turn (0: all)"),
+    MF_OPT_FLOAT(G, geom_lr, 0.05, 1e-6, 100, "dmtet: SDF learning rate, in grid cells per step"),
+    MF_OPT_FLOAT(G, geom_sdf_reg, 0, 0, 1000, "dmtet: weight of the sign-change regulariser (nvdiffrec's sdf_reg_loss)"),
 };
 #undef G
 const MfOptTable mf_recon_geom_opt_table = MF_OPT_TABLE("Geometry options", k_geom_opts);
