@@ -329,8 +329,10 @@ bench-hull: $(DATA)/test-3d/.rendered | $(BUILD)/mf
 # (nvdiffrecmc-vhull: mf recon --geometry vhull), both with $(RECON_CONFIG); mf eval scores both
 # (geometry.md against the GT mesh, relight.md, materials.md, paired.md: hull minus given) and
 # eval/bench_geom_report.sh writes REPORT/README.md (default reports/bench/geometry-recon) with
-# the hull and unwrap seconds from run.json. DMTet (pass 1) is not implemented.
+# the hull and unwrap seconds from run.json. DMTet's mask term (--geometry dmtet) has method
+# flags for bench-split (BENCH_METHODS=nvdiffrecmc-dmtet) but no report here yet.
 FLAGS_nvdiffrecmc-vhull := --method nvdiffrecmc --geometry vhull
+FLAGS_nvdiffrecmc-dmtet := --method nvdiffrecmc --geometry dmtet
 bench-geom: REPORT ?= reports/bench/geometry-recon
 bench-geom: $(DATA)/test-3d/.rendered | $(BUILD)/mf
 	$(MAKE) --no-print-directory bench-split BENCH_SPLIT=test-3d BENCH_METHODS="nvdiffrecmc nvdiffrecmc-vhull" REPORT=$(REPORT)

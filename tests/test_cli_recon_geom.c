@@ -209,7 +209,7 @@ MF_TEST(recon_geometry_dmtet_tiny) {
     char src[32] = "";
     double geom_s = geom_result(run, "geom_s", src, sizeof src), step_ms = geom_result(run, "step_ms", NULL, 0);
     CHECK_MSG(!strcmp(src, "dmtet") && geom_s > 0 && step_ms > 0 && geom_result(run, "steps", NULL, 0) == 30 &&
-                  geom_result(run, "unwrap_s", NULL, 0) > 0 && geom_result(run, "dmtet_res", NULL, 0) != 0,
+                  geom_result(run, "unwrap_s", NULL, 0) > 0,
               "run.json: source '%s', geom_s %g, step_ms %g", src, geom_s, step_ms);
 
     /* --resume reuses geometry/dmtet.obj (same bytes, nothing built) */
