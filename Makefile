@@ -56,7 +56,7 @@ LIB_OBJ  := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
 CLI_OBJ  := $(CLI_C:%.c=$(BUILD)/obj/%.o)
 TEST_OBJ := $(TEST_C:%.c=$(BUILD)/obj/%.o)
 
-.PHONY: FORCE all deps deps-node deps-fuzz bench-asset fuzz fuzz-lib fuzz-seeds test check-deps asan bench-geom bench-hull bench-render bench-nn bench-nn-onednn bench-baseline bench-prior bench-sds-cost bench-quick bench bench-split bench-runs bench-external recon-runs train-prior train-prior-wide eval-prior bench-domain bench-matrix bench-stability test-slurm clean
+.PHONY: FORCE all deps deps-node deps-fuzz bench-asset fuzz fuzz-lib fuzz-seeds test check-deps asan bench-geom bench-hull bench-render bench-nn bench-nn-onednn bench-baseline bench-prior bench-sds-cost bench-quick bench bench-split bench-split-now bench-runs bench-external recon-runs train-prior train-prior-wide eval-prior bench-domain bench-matrix bench-stability test-slurm clean
 all: $(BUILD)/mf $(BUILD)/mf_tests
 
 deps:
@@ -359,7 +359,11 @@ bench-quick: $(BUILD)/mf
 	  RECON_CONFIG=baselines/quick.json RECON_EXTRA="--res 64" REPORT=reports/quick
 	$(call sched-job,eval-prior) $(MAKE) --no-print-directory eval-prior
 
+# The runs and eval go through a sub-make: this make's $(wildcard) cache predates the split's
+# generation, so SCENES would be empty the first time a split is made.
 bench-split: $(DATA)/$(BENCH_SPLIT)/.rendered
+	$(MAKE) --no-print-directory bench-split-now
+bench-split-now:
 ifeq ($(SCHED),slurm)
 	sh tools/slurm-bench.sh submit --name $(notdir $(REPORT)) --mf $(MF) --data $(DATA)/$(BENCH_SPLIT) --results $(RESULTS)/$(BENCH_SPLIT) \
 	  --report $(REPORT) --scenes "$(SCENES)" $(foreach m,$(BENCH_METHODS),--method "$(m)=$(FLAGS_$(m))") \
