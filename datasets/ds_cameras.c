@@ -36,6 +36,20 @@ int ds_sample_cameras(const DsCamSampling *s, int n, uint64_t seed, uint64_t str
     return MF_OK;
 }
 
+cJSON *ds_transform_matrix_json(const MfMat4 *m) {
+    cJSON *rows = cJSON_CreateArray();
+    for (int r = 0; rows && r < 4; ++r) {
+        cJSON *row = cJSON_CreateArray();
+        for (int c = 0; row && c < 4; ++c) {
+            char num[32];
+            snprintf(num, sizeof num, "%.9g", (double)m->m[r * 4 + c]);
+            cJSON_AddItemToArray(row, cJSON_CreateRaw(num));
+        }
+        cJSON_AddItemToArray(rows, row);
+    }
+    return rows;
+}
+
 int ds_write_transforms(const char *dir, const char *split, double camera_angle_x, const MfMat4 *c2w, int n) {
     char path[MF_PATH_MAX], name[96];
     snprintf(name, sizeof name, "transforms_%s.json", split);
@@ -47,20 +61,11 @@ int ds_write_transforms(const char *dir, const char *split, double camera_angle_
     cJSON_AddItemToObject(root, "camera_angle_x", cJSON_CreateNumber(camera_angle_x));
     cJSON_AddItemToObject(root, "frames", frames);
     for (int i = 0; i < n; ++i) {
-        cJSON *fr = cJSON_CreateObject(), *m = cJSON_CreateArray();
+        cJSON *fr = cJSON_CreateObject();
         char fp[128];
         snprintf(fp, sizeof fp, "./%s/r_%03d", split, i);
         cJSON_AddItemToObject(fr, "file_path", cJSON_CreateString(fp));
-        for (int r = 0; r < 4; ++r) {
-            cJSON *row = cJSON_CreateArray();
-            for (int c = 0; c < 4; ++c) {
-                char num[32];
-                snprintf(num, sizeof num, "%.9g", (double)c2w[i].m[r * 4 + c]);
-                cJSON_AddItemToArray(row, cJSON_CreateRaw(num));
-            }
-            cJSON_AddItemToArray(m, row);
-        }
-        cJSON_AddItemToObject(fr, "transform_matrix", m);
+        cJSON_AddItemToObject(fr, "transform_matrix", ds_transform_matrix_json(&c2w[i]));
         cJSON_AddItemToArray(frames, fr);
     }
     rc = mf_json_save(path, root);

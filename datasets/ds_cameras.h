@@ -35,5 +35,7 @@ int ds_sample_cameras(const DsCamSampling *s, int n, uint64_t seed, uint64_t str
 
 /* Writes dir/transforms_<split>.json for n frames named "./<split>/r_NNN" (NNN = 3+ digits). */
 int ds_write_transforms(const char *dir, const char *split, double camera_angle_x, const MfMat4 *c2w, int n);
+/* m as a transforms file's "transform_matrix": 4 rows of 4 numbers printed %.9g; NULL when out of memory. */
+struct cJSON *ds_transform_matrix_json(const MfMat4 *m);
 
 #endif

@@ -78,22 +78,13 @@ static int write_json(const DsCaptureSpec *s, const MfMat4 *c2w, const char *dir
     add_num(root, "aabb_scale", 1);
     cJSON_AddItemToObject(root, "frames", frames);
     for (int i = 0; i < s->n_frames; ++i) {
-        cJSON *fr = cJSON_CreateObject(), *m = cJSON_CreateArray();
+        cJSON *fr = cJSON_CreateObject();
         char p[64];
         snprintf(p, sizeof p, "images/r_%03d.png", i);
         cJSON_AddStringToObject(fr, "file_path", p);
         snprintf(p, sizeof p, "masks/r_%03d.png", i);
         cJSON_AddStringToObject(fr, "mask_path", p);
-        for (int r = 0; r < 4; ++r) {
-            cJSON *row = cJSON_CreateArray();
-            for (int c = 0; c < 4; ++c) {
-                char num[32];
-                snprintf(num, sizeof num, "%.9g", (double)c2w[i].m[r * 4 + c]);
-                cJSON_AddItemToArray(row, cJSON_CreateRaw(num));
-            }
-            cJSON_AddItemToArray(m, row);
-        }
-        cJSON_AddItemToObject(fr, "transform_matrix", m);
+        cJSON_AddItemToObject(fr, "transform_matrix", ds_transform_matrix_json(&c2w[i]));
         if (i % 2) {
             frame_lens(s, i, fl);
             for (int k = 0; k < 4; ++k) add_num(fr, lk[k], fl[k]);

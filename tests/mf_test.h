@@ -26,6 +26,8 @@ const char *mf_test_path(const char *name);
 /* Runs `$MF_BIN args` with stdout to stdout_path (NULL: /dev/null) and stderr captured into err
  * (cap bytes); returns the exit code, -1 when killed by a signal (e.g. an abort in a library). */
 int mf_test_run_mf(const char *args, const char *stdout_path, char *err, size_t cap);
+/* Runs the printf-formatted shell command; 0 when it exits 0, else 1. */
+int mf_test_sh(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 
 #define MF_TEST(name)                                                                  \
     static void test_##name(void);                                                     \

@@ -55,6 +55,15 @@ const char *mf_test_path(const char *name) {
     return b;
 }
 
+int mf_test_sh(const char *fmt, ...) {
+    char cmd[8192];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(cmd, sizeof cmd, fmt, ap);
+    va_end(ap);
+    return system(cmd) == 0 ? 0 : 1;
+}
+
 int mf_test_run_mf(const char *args, const char *stdout_path, char *err, size_t cap) {
     char cmd[8192], errf[1024];
     snprintf(errf, sizeof errf, "%s", mf_test_path("mf_stderr.txt"));

@@ -18,37 +18,26 @@
 #include "io/mf_image.h"
 #include "mf_test.h"
 
-static int sh(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
-static int sh(const char *fmt, ...) {
-    char cmd[8192];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(cmd, sizeof cmd, fmt, ap);
-    va_end(ap);
-    int st = system(cmd);
-    return st == 0 ? 0 : 1;
-}
-
 MF_TEST(pipeline_tiny_baseline_and_materialfusion) {
     const char *mf = getenv("MF_BIN");
     if (!mf || !mf_file_exists(mf)) MF_SKIP("MF_BIN not set (run through make test)");
     if (!mf_file_exists(DS_DEFAULT_ENV_DIR "/studio.exr")) MF_SKIP("blender-data probes not installed (" DS_DEFAULT_ENV_DIR ")");
     const char *d = mf_test_path("pipeline_tiny");
-    CHECK(sh("%s gen --split tiny -o %s --no-render 2>/dev/null", mf, d) == 0); /* images via the render JSONs below */
+    CHECK(mf_test_sh("%s gen --split tiny -o %s --no-render 2>/dev/null", mf, d) == 0); /* images via the render JSONs below */
     char scene[1024];
     snprintf(scene, sizeof scene, "%s/000_cup", d);
     CHECK_MSG(mf_file_exists(scene), "%s missing", scene);
     /* render train, test and relit views from the scene's render JSONs */
-    CHECK(sh("cd %s && for j in render_*.json; do n=${j#render_}; n=${n%%.json}; case $n in relight_*) o=relight/${n#relight_};; "
+    CHECK(mf_test_sh("cd %s && for j in render_*.json; do n=${j#render_}; n=${n%%.json}; case $n in relight_*) o=relight/${n#relight_};; "
              "*) o=$n;; esac; %s render $j -o $o --png 2>/dev/null || exit 1; done", scene, mf) == 0);
     char res[1024], rep[1024], csv[1100];
     snprintf(res, sizeof res, "%s/results", d);
     snprintf(rep, sizeof rep, "%s/report", d);
-    CHECK(sh("%s recon %s -o %s/nvdiffrecmc/000_cup --iters 200 --tex-res 64 --env-w 32 --env-h 16 2>/dev/null", mf, scene, res) == 0);
+    CHECK(mf_test_sh("%s recon %s -o %s/nvdiffrecmc/000_cup --iters 200 --tex-res 64 --env-w 32 --env-h 16 2>/dev/null", mf, scene, res) == 0);
     /* MaterialFusion with the committed prior weights, same budget */
-    CHECK(sh("%s recon %s -o %s/materialfusion/000_cup --method materialfusion --iters 200 --tex-res 64 --env-w 32 --env-h 16 2>/dev/null",
+    CHECK(mf_test_sh("%s recon %s -o %s/materialfusion/000_cup --method materialfusion --iters 200 --tex-res 64 --env-w 32 --env-h 16 2>/dev/null",
              mf, scene, res) == 0);
-    CHECK(sh("%s eval %s --results %s -o %s --dataset tiny --trivial --no-curves 2>/dev/null", mf, scene, res, rep) == 0);
+    CHECK(mf_test_sh("%s eval %s --results %s -o %s --dataset tiny --trivial --no-curves 2>/dev/null", mf, scene, res, rep) == 0);
     /* the report shows no machine path (everything here lies under the absolute test folder), its
      * grid has labels in the image (bands left of and above the 5 x 128 px cells), and the
      * speed-vs-error plot over every scene is there when gnuplot is */
@@ -84,7 +73,7 @@ MF_TEST(pipeline_tiny_baseline_and_materialfusion) {
     }
     ev_result_free(&ra), ev_result_free(&rb);
     /* provenance: every scored run with its exact command */
-    CHECK(sh("grep -q '| materialfusion | 000_cup | .*--method materialfusion' %s/runs.md", rep) == 0);
+    CHECK(mf_test_sh("grep -q '| materialfusion | 000_cup | .*--method materialfusion' %s/runs.md", rep) == 0);
     snprintf(csv, sizeof csv, "%s/scenes.csv", rep);
     EvTable t;
     ev_table_init(&t);
@@ -107,6 +96,6 @@ MF_TEST(pipeline_tiny_baseline_and_materialfusion) {
     CHECK_MSG(nv.mean > grey.mean + 2.0 && nv.mean > flat.mean + 2.0, "baseline does not beat the trivial guesses by 2 dB");
     ev_table_free(&t);
     /* --res trains on box-downsampled views (regression: the factor was once lost) */
-    CHECK(sh("%s recon %s -o %s/res16 --res 16 --iters 1 --tex-res 16 2>&1 | grep -q '8 views 16x16'", mf, scene, res) == 0);
-    CHECK(sh("%s recon %s -o %s/res5 --res 5 --iters 1 2>/dev/null", mf, scene, res) != 0);
+    CHECK(mf_test_sh("%s recon %s -o %s/res16 --res 16 --iters 1 --tex-res 16 2>&1 | grep -q '8 views 16x16'", mf, scene, res) == 0);
+    CHECK(mf_test_sh("%s recon %s -o %s/res5 --res 5 --iters 1 2>/dev/null", mf, scene, res) != 0);
 }

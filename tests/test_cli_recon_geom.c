@@ -18,16 +18,6 @@
 #include "io/mf_obj.h"
 #include "mf_test.h"
 
-static int sh(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
-static int sh(const char *fmt, ...) {
-    char cmd[8192];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(cmd, sizeof cmd, fmt, ap);
-    va_end(ap);
-    return system(cmd) == 0 ? 0 : 1;
-}
-
 static int same_file(const char *a, const char *b) {
     char *x = NULL, *y = NULL;
     size_t nx = 0, ny = 0;
@@ -63,9 +53,9 @@ MF_TEST(recon_geometry_vhull_tiny) {
     snprintf(res, sizeof res, "%s/results", d);
     snprintf(other, sizeof other, "%s/other", d);
     snprintf(rep, sizeof rep, "%s/report", d);
-    CHECK(sh("%s gen --split tiny --scenes 1 -o %s 2>/dev/null", mf, d) == 0);
+    CHECK(mf_test_sh("%s gen --split tiny --scenes 1 -o %s 2>/dev/null", mf, d) == 0);
     /* the NeRF-Synthetic layout of the same views, without mesh.obj (or any ground truth) */
-    CHECK(sh("mkdir -p %s && cp -r %s/transforms_train.json %s/transforms_test.json %s/train %s/test %s/", bare, scene, scene, scene,
+    CHECK(mf_test_sh("mkdir -p %s && cp -r %s/transforms_train.json %s/transforms_test.json %s/train %s/test %s/", bare, scene, scene, scene,
              scene, bare) == 0);
 
     /* refused combinations: nothing written */
@@ -124,7 +114,7 @@ MF_TEST(recon_geometry_vhull_tiny) {
     }
 
     /* mf eval scores the hull run against the original scene's GT mesh and relit views */
-    CHECK(sh("%s eval %s --results %s -o %s --dataset tiny --no-curves 2>/dev/null", mf, scene, res, rep) == 0);
+    CHECK(mf_test_sh("%s eval %s --results %s -o %s --dataset tiny --no-curves 2>/dev/null", mf, scene, res, rep) == 0);
     snprintf(p, sizeof p, "%s/scenes.csv", rep);
     EvTable t;
     ev_table_init(&t);
@@ -174,8 +164,8 @@ MF_TEST(recon_geometry_dmtet_tiny) {
     snprintf(scene, sizeof scene, "%s/000_cup", d);
     snprintf(bare, sizeof bare, "%s/bare", d);
     snprintf(run, sizeof run, "%s/run", d);
-    CHECK(sh("%s gen --split tiny --scenes 1 -o %s 2>/dev/null", mf, d) == 0);
-    CHECK(sh("mkdir -p %s && cp -r %s/transforms_train.json %s/transforms_test.json %s/train %s/test %s/", bare, scene, scene, scene,
+    CHECK(mf_test_sh("%s gen --split tiny --scenes 1 -o %s 2>/dev/null", mf, d) == 0);
+    CHECK(mf_test_sh("mkdir -p %s && cp -r %s/transforms_train.json %s/transforms_test.json %s/train %s/test %s/", bare, scene, scene, scene,
              scene, bare) == 0);
 
     const char *bad[] = {"--dmtet-res 3", "--geom-iters -1"}, *name[] = {"dmtet-res", "geom-iters"};

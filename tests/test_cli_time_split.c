@@ -13,16 +13,6 @@
 #include "io/mf_json.h"
 #include "mf_test.h"
 
-static int sh(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
-static int sh(const char *fmt, ...) {
-    char cmd[4096];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(cmd, sizeof cmd, fmt, ap);
-    va_end(ap);
-    return system(cmd) == 0 ? 0 : 1;
-}
-
 /* Checks dir/run.json's split `key` against the total `total` (options.`total` or wall_seconds);
  * *prior receives the sum of its prior_* stages. */
 static void check_split(const char *dir, const char *key, const char *total, int want_prior, double *prior) {
@@ -58,10 +48,10 @@ MF_TEST(cli_recon_time_split) {
     if (!mf || !mf_file_exists(mf)) MF_SKIP("MF_BIN not set (run through make test)");
     if (!mf_file_exists(DS_DEFAULT_ENV_DIR "/studio.exr")) MF_SKIP("blender-data probes not installed (" DS_DEFAULT_ENV_DIR ")");
     const char *d = mf_test_path("time_split");
-    CHECK(sh("%s gen --split tiny --scenes 1 -o %s 2>/dev/null", mf, d) == 0);
+    CHECK(mf_test_sh("%s gen --split tiny --scenes 1 -o %s 2>/dev/null", mf, d) == 0);
     const char *budget = "--iters 4 --tex-res 16 --env-w 16 --env-h 8 --snapshot-every 2 --checkpoint-every 2";
-    CHECK(sh("%s recon %s/000_cup -o %s/bl %s 2>/dev/null", mf, d, d, budget) == 0);
-    CHECK(sh("%s recon %s/000_cup -o %s/mf --method materialfusion %s 2>%s/mf.log", mf, d, d, budget, d) == 0);
+    CHECK(mf_test_sh("%s recon %s/000_cup -o %s/bl %s 2>/dev/null", mf, d, d, budget) == 0);
+    CHECK(mf_test_sh("%s recon %s/000_cup -o %s/mf --method materialfusion %s 2>%s/mf.log", mf, d, d, budget, d) == 0);
     char dir[1100];
     double pb = 0.0, pm = 0.0, pc = 0.0;
     snprintf(dir, sizeof dir, "%s/bl", d);
@@ -71,10 +61,10 @@ MF_TEST(cli_recon_time_split) {
     check_split(dir, "time_split", "wall_seconds", 1, &pm);
     check_split(dir, "cpu_split", "cpu_seconds", 1, &pc);
     CHECK_MSG(pm > 0.0 && pc > 0.0, "MaterialFusion's prior stages sum to %g s wall, %g s CPU", pm, pc);
-    CHECK(sh("grep -q 'recon: time split of .* prior term' %s/mf.log", d) == 0); /* the log's summary line */
+    CHECK(mf_test_sh("grep -q 'recon: time split of .* prior term' %s/mf.log", d) == 0); /* the log's summary line */
     /* the prior's OpenBLAS thread count (--prior-threads, default 1) does not change a bit of the result */
-    CHECK(sh("%s recon %s/000_cup -o %s/mf2 --method materialfusion %s --prior-threads 2 2>/dev/null", mf, d, d, budget) == 0);
-    CHECK(sh("grep -q '\"prior_threads\":[[:space:]]*2' %s/mf2/run.json", d) == 0);
-    CHECK_MSG(sh("cd %s && cmp -s mf/albedo.png mf2/albedo.png && cmp -s mf/orm.png mf2/orm.png && cmp -s mf/env.exr mf2/env.exr", d) == 0,
+    CHECK(mf_test_sh("%s recon %s/000_cup -o %s/mf2 --method materialfusion %s --prior-threads 2 2>/dev/null", mf, d, d, budget) == 0);
+    CHECK(mf_test_sh("grep -q '\"prior_threads\":[[:space:]]*2' %s/mf2/run.json", d) == 0);
+    CHECK_MSG(mf_test_sh("cd %s && cmp -s mf/albedo.png mf2/albedo.png && cmp -s mf/orm.png mf2/orm.png && cmp -s mf/env.exr mf2/env.exr", d) == 0,
               "MaterialFusion's result differs between 1 and 2 OpenBLAS threads");
 }
