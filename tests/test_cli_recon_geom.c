@@ -178,6 +178,10 @@ MF_TEST(recon_geometry_dmtet_tiny) {
     snprintf(args, sizeof args, "recon %s -o %s --geometry dmtet --mesh %s/mesh.obj", bare, run, scene);
     int rc = mf_test_run_mf(args, NULL, err, sizeof err);
     CHECK_MSG(rc == 2 && strstr(err, "--mesh"), "--geometry dmtet --mesh: exit %d, '%s'", rc, err);
+    /* two views cannot place silhouettes: refused as the hull refuses them */
+    snprintf(args, sizeof args, "recon %s -o %s_2views --geometry dmtet --max-views 2", bare, run);
+    rc = mf_test_run_mf(args, NULL, err, sizeof err);
+    CHECK_MSG(rc == 1 && strstr(err, "--geometry dmtet") && strstr(err, "need at least 3"), "dmtet on 2 views: exit %d, '%s'", rc, err);
 
 #define DMTET "--geometry dmtet --dmtet-res 32 --geom-iters 30 --geom-views 0 " SMALL
     snprintf(args, sizeof args, "recon %s -o %s --iters 4 " DMTET, bare, run);

@@ -57,8 +57,8 @@ static int touches_border(const MfTetGrid *g, const float *f) {
     return 0;
 }
 
-int mf_vhull_mesh(const MfCamera *cams, const MfImage *masks, int n, const MfHullOpts *opt, MfMesh *out, MfHullInfo *info) {
-    MfHullInfo r = {0};
+int mf_vhull_check_masks(const MfImage *masks, int n, int *masked) {
+    int k = 0;
     for (int v = 0; v < n; ++v) {
         const MfImage *m = &masks[v];
         int lo = 0, hi = 0;
@@ -66,10 +66,16 @@ int mf_vhull_mesh(const MfCamera *cams, const MfImage *masks, int n, const MfHul
             float a = m->data[p * m->c + m->c - 1];
             lo |= a < 0.5f, hi |= a >= 0.5f;
         }
-        r.masked_views += lo && hi;
+        k += lo && hi;
     }
-    if (r.masked_views < 3)
-        return mf_fail(MF_EARG, "visual hull: %d of %d views have a mask (alpha both below and above 0.5); need at least 3", r.masked_views, n);
+    if (masked) *masked = k;
+    return k < 3 ? mf_fail(MF_EARG, "%d of %d views have a mask (alpha both below and above 0.5); need at least 3", k, n) : MF_OK;
+}
+
+int mf_vhull_mesh(const MfCamera *cams, const MfImage *masks, int n, const MfHullOpts *opt, MfMesh *out, MfHullInfo *info) {
+    MfHullInfo r = {0};
+    int rc0 = mf_vhull_check_masks(masks, n, &r.masked_views);
+    if (rc0) return mf_fail_prefix(rc0, "visual hull");
     if (opt->res < 1 || !(opt->extent > 0)) return mf_fail(MF_EARG, "visual hull: bad grid (res %d, extent %g)", opt->res, opt->extent);
     MfTetGrid g = mf_tetgrid_make(opt->res, mf_v3s(0), opt->extent);
     float *f = malloc(mf_tetgrid_nverts(&g) * sizeof *f);

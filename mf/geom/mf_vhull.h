@@ -17,6 +17,9 @@
  * field: (mf_tetgrid_nverts(g),) output. Fails with MF_EARG naming the first view whose mask
  * size differs from its camera, or when n < 1. Parallel over grid slices; deterministic. */
 int mf_vhull(const MfTetGrid *g, const MfCamera *cams, const MfImage *masks, int n, float *field);
+/* Counts the views whose mask has alpha both below and above 0.5 into *masked (may be NULL);
+ * MF_EARG naming the count when fewer than 3: too few to carve a hull or fit silhouettes. */
+int mf_vhull_check_masks(const MfImage *masks, int n, int *masked);
 
 /* The defaults of `mf hull` and of `mf recon --geometry vhull` (written once, here). */
 #define MF_HULL_DEFAULT_RES 128

@@ -128,6 +128,7 @@ static int build_dmtet(const MfReconGeomOpts *o, const MfCamera *cams, const MfI
     MfGeomFitStep *log = o->geom_iters > 0 ? calloc((size_t)o->geom_iters, sizeof *log) : NULL;
     int rc = sdf && (log || o->geom_iters == 0) ? MF_OK : mf_fail(MF_ENOMEM, "out of memory for a %d^3 grid", o->dmtet_res);
     double t0 = mf_now();
+    if (!rc) rc = mf_vhull_check_masks(masks, n, NULL);
     if (!rc) rc = mf_vhull(&g, cams, masks, n, sdf);
     /* mask - 0.5 in [-0.5, 0.5]: as a distance, in cells, so geom_lr is in cells per step */
     for (size_t v = 0; !rc && v < nv; ++v) sdf[v] *= g.cell;
