@@ -88,22 +88,34 @@ int mf_vhull_mesh(const MfCamera *cams, const MfImage *masks, int n, const MfHul
         if (r.touches_border) mf_log_warn("visual hull: the hull touches the border of the grid (side %g): it is cut there", 1.5f * opt->extent);
     }
     r.extent = g.cell * (float)g.res;
-    MfTetMesh tm = {0};
-    if (rc == MF_OK) rc = mf_tetgrid_extract(&g, f, NULL, &tm);
+    MfMesh m = {0};
+    if (rc == MF_OK) rc = mf_vhull_extract_clean(&g, f, opt, &m, &r.extracted_tris, &r.dropped_components);
     free(f);
     if (rc != MF_OK) return mf_fail_prefix(rc, "visual hull");
+    *out = m;
+    if (info) *info = r;
+    return MF_OK;
+}
+
+int mf_vhull_extract_clean(const MfTetGrid *g, const float *field, const MfHullOpts *opt, MfMesh *out, int *extracted_tris,
+                           int *dropped) {
+    MfTetMesh tm = {0};
+    int rc = mf_tetgrid_extract(g, field, NULL, &tm);
+    if (rc != MF_OK) return rc;
     MfMesh m = tm.mesh;
     tm.mesh = (MfMesh){0};
     mf_tetmesh_free(&tm);
-    r.extracted_tris = m.nt;
-    rc = mf_mesh_weld(&m, 1e-4f * g.cell);
+    if (extracted_tris) *extracted_tris = m.nt;
+    rc = mf_mesh_weld(&m, 1e-4f * g->cell);
     if (rc == MF_OK) rc = mf_mesh_drop_degenerate(&m, 0);
-    if (rc == MF_OK) rc = mf_mesh_drop_small_components(&m, opt->min_component, &r.dropped_components);
+    if (rc == MF_OK) rc = mf_mesh_drop_small_components(&m, opt->min_component, dropped);
     if (rc == MF_OK && opt->smooth_iters > 0) rc = mf_mesh_taubin(&m, opt->smooth_iters, 0.5f, -0.53f);
     if (rc == MF_OK && opt->target_tris > 0) rc = mf_mesh_decimate(&m, opt->target_tris, 0.01f);
-    if (rc == MF_OK && m.nt == 0) rc = mf_fail(MF_EARG, "visual hull: nothing left after clean-up");
-    if (rc != MF_OK) { mf_mesh_free(&m); return rc; }
+    if (rc == MF_OK && m.nt == 0) rc = mf_fail(MF_EARG, "nothing left after clean-up");
+    if (rc != MF_OK) {
+        mf_mesh_free(&m);
+        return rc;
+    }
     *out = m;
-    if (info) *info = r;
     return MF_OK;
 }

@@ -49,5 +49,11 @@ typedef struct {
  * extracts by marching tets (an empty hull is an error, never an empty mesh), welds, drops
  * degenerate triangles and small components, smooths, decimates (mf_meshproc). */
 int mf_vhull_mesh(const MfCamera *cams, const MfImage *masks, int n, const MfHullOpts *opt, MfMesh *out, MfHullInfo *info);
+/* The clean-up half of mf_vhull_mesh, for any field on g (the hull's, or a fitted SDF): extracts
+ * by marching tets (no deformation), welds, drops degenerate triangles and components under
+ * opt->min_component, smooths and decimates as opt says; nothing left is an error. The triangle
+ * count before clean-up and the dropped components go to *extracted_tris / *dropped (may be NULL). */
+int mf_vhull_extract_clean(const MfTetGrid *g, const float *field, const MfHullOpts *opt, MfMesh *out, int *extracted_tris,
+                           int *dropped);
 
 #endif

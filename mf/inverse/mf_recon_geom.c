@@ -7,7 +7,6 @@
 
 #include "core/mf_error.h"
 #include "core/mf_log.h"
-#include "geom/mf_meshproc.h"
 #include "inverse/mf_geom_fit.h"
 #include "io/mf_gltf_read.h"
 #include "io/mf_obj.h"
@@ -69,10 +68,15 @@ static int unwrap_write(MfMesh *m, int tex_res, const char *path, MfReconGeomInf
     return rc;
 }
 
+/* The hull_* options: the hull's grid and clean-up (the DMTet mesh's clean-up too). */
+static MfHullOpts hull_opts(const MfReconGeomOpts *o) {
+    return (MfHullOpts){o->hull_res, o->hull_extent, o->hull_smooth, o->hull_target_tris, o->hull_min_component};
+}
+
 /* Hull (mf_vhull_mesh, as mf hull), unwrapped and written to path. */
 static int build_hull(const MfReconGeomOpts *o, const MfCamera *cams, const MfImage *masks, int n, int tex_res,
                       const char *path, MfReconGeomInfo *info) {
-    MfHullOpts ho = {o->hull_res, o->hull_extent, o->hull_smooth, o->hull_target_tris, o->hull_min_component};
+    MfHullOpts ho = hull_opts(o);
     MfMesh hull = {0};
     double t0 = mf_now();
     int rc = mf_vhull_mesh(cams, masks, n, &ho, &hull, &info->hull);
@@ -99,23 +103,6 @@ static int write_geom_log(const char *out_dir, const MfGeomFitStep *log, int ste
         len += (size_t)snprintf(buf + len, cap - len, "%d,%.9g,%.9g,%d\n", i, log[i].mask, log[i].reg, log[i].nt);
     rc = mf_write_file(path, buf, len);
     free(buf);
-    return rc;
-}
-
-/* The fitted SDF extracted and cleaned as mf_vhull_mesh cleans the hull (the hull_* options). */
-static int extract_clean(const MfTetGrid *g, const float *sdf, const MfReconGeomOpts *o, MfMesh *m, int *dropped) {
-    MfTetMesh tm = {0};
-    int rc = mf_tetgrid_extract(g, sdf, NULL, &tm);
-    if (rc) return rc;
-    *m = tm.mesh;
-    tm.mesh = (MfMesh){0};
-    mf_tetmesh_free(&tm);
-    rc = mf_mesh_weld(m, 1e-4f * g->cell);
-    if (rc == MF_OK) rc = mf_mesh_drop_degenerate(m, 0);
-    if (rc == MF_OK) rc = mf_mesh_drop_small_components(m, o->hull_min_component, dropped);
-    if (rc == MF_OK && o->hull_smooth > 0) rc = mf_mesh_taubin(m, o->hull_smooth, 0.5f, -0.53f);
-    if (rc == MF_OK && o->hull_target_tris > 0) rc = mf_mesh_decimate(m, o->hull_target_tris, 0.01f);
-    if (rc == MF_OK && m->nt == 0) rc = mf_fail(MF_EARG, "nothing left after clean-up");
     return rc;
 }
 
@@ -148,7 +135,8 @@ static int build_dmtet(const MfReconGeomOpts *o, const MfCamera *cams, const MfI
                     "mask loss %.5f -> %.5f", o->dmtet_res, info->steps, o->geom_views ? o->geom_views : n, info->geom_s,
                     info->step_ms, info->loss_first, info->loss_last);
     MfMesh m = {0};
-    if (!rc) rc = extract_clean(&g, sdf, o, &m, &info->dropped_components);
+    MfHullOpts ho = hull_opts(o);
+    if (!rc) rc = mf_vhull_extract_clean(&g, sdf, &ho, &m, NULL, &info->dropped_components);
     free(sdf), free(log);
     if (!rc) rc = unwrap_write(&m, tex_res, path, info);
     mf_mesh_free(&m);
