@@ -293,6 +293,5 @@ void mf_nn_gemm_flops_reset(void);
  * OPENBLAS_NUM_THREADS, else OMP_NUM_THREADS, else all cores). OpenBLAS splits a product's rows
  * and columns among its threads, not the sums: the results do not depend on it. */
 void mf_nn_set_threads(int n);
-int mf_nn_threads(void);
 
 #endif

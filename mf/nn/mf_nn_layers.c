@@ -12,7 +12,6 @@
 static unsigned long long g_gemm_flops;
 unsigned long long mf_nn_gemm_flops(void) { return g_gemm_flops; }
 void mf_nn_set_threads(int n) { openblas_set_num_threads(n > 0 ? n : 1); }
-int mf_nn_threads(void) { return openblas_get_num_threads(); }
 void mf_nn_gemm_flops_reset(void) { g_gemm_flops = 0; }
 static void nn_sgemm(enum CBLAS_ORDER o, enum CBLAS_TRANSPOSE ta, enum CBLAS_TRANSPOSE tb, int M, int N, int K,
                      float alpha, const float *A, int lda, const float *B, int ldb, float beta, float *C, int ldc) {
