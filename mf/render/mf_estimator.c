@@ -70,7 +70,7 @@ static inline float bump(float p, float off) {
  * bound, MF_RAY_OFFSET_SAFETY times, then round each moved component one ulp further, so the
  * rounding of p + offset cannot bring the origin back. Everything is relative to the
  * coordinates' magnitudes: scaling a scene scales the offsets. (Measured: a quarter of the
- * bound already gives no self-hits in tests/test_render_rays.c; zero gives about half.) */
+ * bound already gives no self-hits in tests/test_render_estimator.c; zero gives about half.) */
 MfVec3 mf_est_ray_origin(const MfHit *h, MfVec3 d) {
     MfVec3 n = h->ng;
     float dist = (fabsf(n.x) * h->perr.x + fabsf(n.y) * h->perr.y + fabsf(n.z) * h->perr.z) * MF_RAY_OFFSET_SAFETY;
