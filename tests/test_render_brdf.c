@@ -1,11 +1,13 @@
 /* Tests of mf/render/mf_brdf: building blocks, reciprocity, energy (white furnace, specular
- * albedo <= 1), pdf normalisation, chi-square of the sampler against the pdf, hard cases. */
+ * albedo <= 1), pdf normalisation, chi-square of the sampler against the pdf, hard cases, the
+ * BRDF context (fast path) bitwise against the plain functions. */
 #include <stdlib.h>
 #include <string.h>
 
 #include "core/mf_rng.h"
 #include "mf_chi2.h"
 #include "mf_test.h"
+#include "mf_test_kit.h"
 #include "render/mf_brdf.h"
 
 static MfVec3 dir_from(float cos_t, float phi) {
@@ -422,4 +424,60 @@ MF_TEST(brdf_eval_backward) {
     MfMaterial m = mat3(0.5f, 0.5f, 0.5f, 0.01f, 1.5f), g = {mf_v3s(1.0f), 1.0f, 1.0f};
     mf_brdf_eval_backward(&m, dir_from(0.7f, 0), dir_from(0.6f, 3.0f), MF_LOBE_ALL, mf_v3s(1), mf_v3s(1), &g);
     CHECK(g.roughness == 1.0f && g.metallic == 1.0f);
+}
+
+/* Fast path: the BRDF context (mf_brdf_prepare, mf_brdf_ctx_eval_pdf, mf_brdf_ctx_sample) must
+ * return exactly (bitwise) what mf_brdf_eval / _pdf / _sample return. */
+
+static int same_value(MfBrdfValue a, MfBrdfValue b) {
+    return same3(a.diffuse, b.diffuse) && same3(a.specular, b.specular) && memcmp(&a.diffuse_demod, &b.diffuse_demod, sizeof(float)) == 0;
+}
+
+static MfVec3 random_dir(MfRng *rng, int upper) {
+    float z = upper ? mf_rng_float(rng) : 2.0f * mf_rng_float(rng) - 1.0f, phi = 2.0f * MF_PI * mf_rng_float(rng);
+    float r = sqrtf(fmaxf(0.0f, 1.0f - z * z));
+    return mf_v3(r * cosf(phi), r * sinf(phi), z);
+}
+
+MF_TEST(fastpath_brdf_ctx_matches_plain) {
+    MfRng rng;
+    mf_rng_seed(&rng, 17, 3);
+    int bad_eval = 0, bad_pdf = 0, bad_sample = 0, n_ok = 0;
+    for (int m = 0; m < 400; ++m) {
+        MfMaterial mat = {mf_v3(mf_rng_float(&rng), mf_rng_float(&rng), mf_rng_float(&rng)), mf_rng_float(&rng),
+                          mf_rng_float(&rng)};
+        if (m % 7 == 0) mat.roughness = 0.0f;               /* roughness floor */
+        if (m % 11 == 0) mat.kd = mf_v3s(0.0f);             /* black: always specular */
+        if (m % 13 == 0) mat.metallic = m % 2 ? 1.0f : 1.3f; /* out of range is clamped */
+        if (m % 17 == 0) mat.roughness = -0.5f;
+        int lobes = 1 + m % 3;
+        MfVec3 wo = random_dir(&rng, m % 9 != 0); /* some below the horizon */
+        if (m % 23 == 0) wo = mf_norm(mf_v3(1.0f, 0.0f, 1e-4f)); /* grazing */
+        MfBrdfCtx c;
+        mf_brdf_prepare(&c, &mat, wo, lobes);
+        for (int k = 0; k < 50; ++k) {
+            MfVec3 wi = random_dir(&rng, k % 5 != 0);
+            if (k == 0) wi = mf_v3(-wo.x, -wo.y, wo.z); /* mirror direction: h = n */
+            float p;
+            MfBrdfValue v = mf_brdf_ctx_eval_pdf(&c, wi, &p);
+            if (!same_value(v, mf_brdf_eval(&mat, wo, wi, lobes))) ++bad_eval;
+            float pp = mf_brdf_pdf(&mat, wo, wi, lobes);
+            if (memcmp(&p, &pp, sizeof p) != 0) ++bad_pdf;
+            float u0 = mf_rng_float(&rng), u1 = mf_rng_float(&rng), u2 = mf_rng_float(&rng);
+            MfVec3 w1, w2;
+            float p1, p2;
+            MfBrdfValue f;
+            int r1 = mf_brdf_sample(&mat, wo, u0, u1, u2, lobes, &w1, &p1);
+            int r2 = mf_brdf_ctx_sample(&c, u0, u1, u2, &w2, &p2, &f);
+            if (r1 != r2) ++bad_sample;
+            else if (r1) {
+                ++n_ok;
+                if (!same3(w1, w2) || p1 != p2 || !same_value(f, mf_brdf_eval(&mat, wo, w2, lobes))) ++bad_sample;
+            }
+        }
+    }
+    CHECK_MSG(bad_eval == 0, "%d BRDF values differ", bad_eval);
+    CHECK_MSG(bad_pdf == 0, "%d BRDF pdfs differ", bad_pdf);
+    CHECK_MSG(bad_sample == 0, "%d BRDF samples differ", bad_sample);
+    CHECK(n_ok > 5000);
 }

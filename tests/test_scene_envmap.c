@@ -1,7 +1,9 @@
 /* Tests of mf/scene/mf_envmap: Blender mapping (also against Cycles renders in ../shared),
  * bilinear lookup and its adjoint, importance sampling (chi-square against mf_env_pdf,
- * normalisation, poles), rotation, loading and bad input; and of mf/scene/mf_light. */
+ * normalisation, poles), rotation, loading and bad input, the sampling and lookup fast paths
+ * bitwise against the plain code; and of mf/scene/mf_light. */
 #include <cJSON.h>
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -10,6 +12,7 @@
 #include "io/mf_image.h"
 #include "mf_chi2.h"
 #include "mf_test.h"
+#include "mf_test_kit.h"
 #include "scene/mf_camera.h"
 #include "scene/mf_envmap.h"
 #include "scene/mf_light.h"
@@ -467,4 +470,160 @@ MF_TEST(light_incident) {
     CHECK_NEAR(E.y, 100.0 / (4 * M_PI * 9.0), 1e-6);
     mf_light_incident(&pt, mf_v3(0, 0, 2), &wi, &dist, &E);
     CHECK(mf_isfinite3(E) && mf_isfinite3(wi));
+}
+
+/* Fast paths: they must return exactly (bitwise) what the plain functions return.
+ * mf_env_sample_dir / _n (guide tables, per-row tables, staged prefetches) against a copy of the
+ * original one-sample code (full binary searches, trig per call); mf_env_eval_pdf / _n against
+ * mf_env_eval + mf_env_pdf. */
+
+/* ---- reference: the original mf_env_sample (before the fast paths) ---- */
+
+static int ref_cdf_find(const float *cdf, int n, float u) {
+    int lo = 0, hi = n;
+    while (hi - lo > 1) {
+        int mid = (lo + hi) >> 1;
+        if (cdf[mid] <= u) lo = mid;
+        else hi = mid;
+    }
+    return lo;
+}
+
+static double ref_row_dz(int y, int H) { return 2.0 * sin(M_PI * (2.0 * y + 1.0) / (2.0 * H)) * sin(M_PI / (2.0 * H)); }
+
+static float ref_texel_pdf(const MfEnvMap *env, int x, int y) {
+    int W = env->img.w, H = env->img.h;
+    const float *cc = env->cond_cdf + (size_t)y * (W + 1);
+    double p = ((double)env->marg_cdf[y + 1] - env->marg_cdf[y]) * ((double)cc[x + 1] - cc[x]);
+    return (float)(p * W / (2.0 * M_PI * ref_row_dz(y, H)));
+}
+
+static void ref_sample(const MfEnvMap *env, float u1, float u2, MfVec3 *dir, float *pdf) {
+    int W = env->img.w, H = env->img.h;
+    u1 = mf_clampf(u1, 0.0f, 0x1.fffffep-1f);
+    u2 = mf_clampf(u2, 0.0f, 0x1.fffffep-1f);
+    int y = ref_cdf_find(env->marg_cdf, H, u1);
+    const float *cc = env->cond_cdf + (size_t)y * (W + 1);
+    int x = ref_cdf_find(cc, W, u2);
+    double ty = ((double)u1 - env->marg_cdf[y]) / ((double)env->marg_cdf[y + 1] - env->marg_cdf[y]);
+    double tx = ((double)u2 - cc[x]) / ((double)cc[x + 1] - cc[x]);
+    ty = ty < 0.0 ? 0.0 : (ty > 1.0 ? 1.0 : ty);
+    tx = tx < 0.0 ? 0.0 : (tx > 1.0 ? 1.0 : tx);
+    double ztop = cos(M_PI * y / H);
+    double z = ztop - ty * ref_row_dz(y, H);
+    if (z > 1.0) z = 1.0;
+    if (z < -1.0) z = -1.0;
+    double u = (x + tx) / W;
+    double phi = M_PI - 2.0 * M_PI * u;
+    double r = sqrt(fmax(0.0, 1.0 - z * z));
+    *dir = mf_v3((float)(r * cos(phi)), (float)(r * sin(phi)), (float)z);
+    *pdf = ref_texel_pdf(env, x, y);
+}
+
+/* Extreme dynamic range (a 1e9 sun over black and 1e-3 texels) so that many float CDF entries
+ * repeat (zero-width intervals) and the guide intervals are degenerate. */
+static void harsh_env(MfEnvMap *env, int w, int h, uint64_t seed) {
+    MfImage img = {0};
+    CHECK_OK(mf_image_alloc(&img, w, h, 3));
+    MfRng rng;
+    mf_rng_seed(&rng, seed, 5);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            float *p = mf_image_px(&img, x, y);
+            float v = mf_rng_float(&rng) < 0.3f ? 0.0f : powf(10.0f, -3.0f + 5.0f * mf_rng_float(&rng));
+            p[0] = v;
+            p[1] = 0.5f * v;
+            p[2] = 0.25f * v;
+        }
+    float *sun = mf_image_px(&img, w / 5, h / 3);
+    sun[0] = sun[1] = sun[2] = 1e9f;
+    CHECK_OK(mf_env_init(env, &img));
+}
+
+/* u values that hit table boundaries exactly: 0, 1 - ulp, k / 2^m, and the CDF entries. */
+static float probe_u(const MfEnvMap *env, MfRng *rng, int i, int row) {
+    int W = env->img.w;
+    switch (i % 5) {
+    case 0: return mf_rng_float(rng);
+    case 1: return (float)(i % 97) / 96.0f * 0x1.fffffep-1f;
+    case 2: return ldexpf((float)(i % 64), -6);
+    case 3: return env->marg_cdf[i % (env->img.h + 1)];
+    default: return env->cond_cdf[(size_t)row * (W + 1) + (size_t)(i % (W + 1))];
+    }
+}
+
+MF_TEST(fastpath_env_sampling_matches_reference) {
+    const int sizes[][2] = {{1, 1}, {7, 3}, {64, 32}, {333, 129}, {1024, 512}};
+    for (int s = 0; s < 5; ++s) {
+        MfEnvMap env;
+        harsh_env(&env, sizes[s][0], sizes[s][1], 40 + s);
+        MfRng rng;
+        mf_rng_seed(&rng, 9, (uint64_t)s);
+        enum { N = 3000 };
+        static float u1[N], u2[N], pdf[N];
+        static MfVec3 dir[N];
+        int bad = 0, bad_n = 0;
+        for (int i = 0; i < N; ++i) {
+            int row = (int)mf_rng_below(&rng, (uint32_t)env.img.h);
+            u1[i] = probe_u(&env, &rng, i, row);
+            u2[i] = probe_u(&env, &rng, i / 5 + 3 * i, row);
+            MfVec3 dr, d1;
+            float pr, p1;
+            ref_sample(&env, u1[i], u2[i], &dr, &pr);
+            mf_env_sample_dir(&env, u1[i], u2[i], &d1, &p1);
+            if (!same3(dr, d1) || pr != p1) ++bad;
+            MfVec3 L = mf_env_sample(&env, u1[i], u2[i], &d1, &p1), Lr = mf_env_eval(&env, dr);
+            if (!same3(dr, d1) || pr != p1 || !same3(L, Lr)) ++bad;
+        }
+        mf_env_sample_dir_n(&env, N, u1, u2, dir, pdf);
+        for (int i = 0; i < N; ++i) {
+            MfVec3 dr;
+            float pr;
+            ref_sample(&env, u1[i], u2[i], &dr, &pr);
+            if (!same3(dr, dir[i]) || pr != pdf[i]) ++bad_n;
+        }
+        CHECK_MSG(bad == 0, "%dx%d: %d single samples differ from the reference", sizes[s][0], sizes[s][1], bad);
+        CHECK_MSG(bad_n == 0, "%dx%d: %d batched samples differ from the reference", sizes[s][0], sizes[s][1], bad_n);
+        /* the tables follow mf_env_update after the texels change */
+        mf_image_px(&env.img, 0, env.img.h - 1)[0] = 5e9f;
+        CHECK_OK(mf_env_update(&env));
+        bad = 0;
+        for (int i = 0; i < N; ++i) {
+            MfVec3 dr, d1;
+            float pr, p1;
+            ref_sample(&env, u1[i], u2[i], &dr, &pr);
+            mf_env_sample_dir(&env, u1[i], u2[i], &d1, &p1);
+            if (!same3(dr, d1) || pr != p1) ++bad;
+        }
+        CHECK_MSG(bad == 0, "%dx%d after update: %d samples differ", sizes[s][0], sizes[s][1], bad);
+        mf_env_free(&env);
+    }
+}
+
+MF_TEST(fastpath_env_eval_pdf_matches_plain) {
+    MfEnvMap env;
+    harsh_env(&env, 96, 48, 7);
+    MfRng rng;
+    mf_rng_seed(&rng, 2, 2);
+    enum { N = 5000 };
+    static MfVec3 d[N], L[N], L2[N];
+    static float pdf[N];
+    for (int i = 0; i < N; ++i) {
+        float z = 2.0f * mf_rng_float(&rng) - 1.0f, phi = 2.0f * MF_PI * mf_rng_float(&rng);
+        if (i % 50 == 0) z = (i % 100 == 0) ? 1.0f : -1.0f; /* poles */
+        float r = sqrtf(fmaxf(0.0f, 1.0f - z * z));
+        d[i] = mf_v3(r * cosf(phi), r * sinf(phi), z);
+    }
+    mf_env_eval_pdf_n(&env, N, d, L, pdf);
+    mf_env_eval_pdf_n(&env, N, d, L2, NULL);
+    int bad = 0;
+    for (int i = 0; i < N; ++i) {
+        float p1;
+        MfVec3 l1 = mf_env_eval_pdf(&env, d[i], &p1), le = mf_env_eval(&env, d[i]);
+        float pe = mf_env_pdf(&env, d[i]);
+        if (!same3(le, l1) || !same3(le, L[i]) || !same3(le, L2[i]) || pe != p1 || pe != pdf[i]) ++bad;
+    }
+    CHECK_MSG(bad == 0, "%d of %d lookups differ", bad, N);
+    mf_env_eval_pdf_n(&env, 0, d, L, pdf); /* empty batch is fine */
+    mf_env_free(&env);
 }
