@@ -1,6 +1,8 @@
 /* Tests of `mf render` through the binary ($MF_BIN): a small scene renders to multi-layer EXR and
  * PNG; bad inputs (missing file, garbage JSON, non-rigid camera, OBJ index out of range) exit
- * non-zero with a message naming the file and leave no output files. */
+ * non-zero with a message naming the file and leave no output files. Hostile inputs (issue 15):
+ * cameras and vertices at huge coordinates (mf_camera_init, mf_obj_read, then `mf render`), frames
+ * whose outputs share a name (mf_scene_load, then `mf render` and `mf relight`). */
 #include <dirent.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -11,18 +13,14 @@
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "io/mf_exr.h"
+#include "io/mf_obj.h"
+#include "scene/mf_camera.h"
+#include "scene/mf_scene.h"
 #include "mf_test.h"
+#include "mf_test_kit.h"
 
-static void put(const char *path, const char *text) {
-    FILE *f = fopen(path, "w");
-    if (f) {
-        fputs(text, f);
-        fclose(f);
-    }
-}
-
-/* Number of entries (other than . and ..) in dir; 0 if it does not exist. */
-static int count_files(const char *dir) {
+/* Number of entries (other than . and ..) in dir, not recursive; 0 if it does not exist. */
+static int count_entries(const char *dir) {
     DIR *d = opendir(dir);
     if (!d) return 0;
     int n = 0;
@@ -64,7 +62,7 @@ MF_TEST(render_cli_ok) {
     snprintf(args, sizeof args, "render %s -o %s --png --width 20 --height 10", scene, out);
     int rc = mf_test_run_mf(args, NULL, buf, sizeof buf);
     CHECK_MSG(rc == 0, "mf render failed (%d): %s", rc, buf);
-    CHECK(count_files(out) == 2);
+    CHECK(count_entries(out) == 2);
     snprintf(scene, sizeof scene, "%s/r_0.exr", out);
     MfImage img = {0};
     CHECK_OK(mf_exr_read_layer(scene, "", "RGBA", &img));
@@ -118,7 +116,7 @@ static void expect_failure(const char *scene, const char *outdir, const char *ne
     int rc = mf_test_run_mf(args, NULL, err, sizeof err);
     CHECK_MSG(rc == 1, "%s: exit code %d, expected 1", scene, rc);
     CHECK_MSG(strstr(err, needle) != NULL, "message '%s' lacks '%s'", err, needle);
-    CHECK_MSG(count_files(outdir) == 0, "%s: output files left in %s", scene, outdir);
+    CHECK_MSG(count_entries(outdir) == 0, "%s: output files left in %s", scene, outdir);
 }
 
 MF_TEST(render_cli_bad_inputs) {
@@ -186,4 +184,104 @@ MF_TEST(render_cli_bad_inputs) {
     put(p, buf);
     expect_failure(p, out, "env.strength: 9e+17 times the brightest texel");
     expect_failure(p, out, "at most 1e+16 for this map");
+}
+
+/* ---- hostile input (issue 15): each case once crashed, overflowed a buffer or reported a
+ * misleading error; it must now end in an error that names the file and what is wrong, a
+ * non-zero exit for the CLI, and no output file ---- */
+
+/* (a) Camera positions and vertices whose squares overflow float (or beyond Embree's ray-origin
+ * limit) once aborted inside Embree; now they are refused by name before anything renders. */
+MF_TEST(hostile_huge_coordinates) {
+    double c2w[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 2.5, 0, 0, 0, 1};
+    MfCamera cam;
+    CHECK_OK(mf_camera_init(&cam, 8, 8, 0.6911, c2w, "cams.json: frames[0]"));
+    c2w[11] = 1e18;
+    CHECK_OK(mf_camera_init(&cam, 8, 8, 0.6911, c2w, "cams.json: frames[0]"));
+    c2w[11] = 1e39;
+    CHECK_ERR(mf_camera_init(&cam, 8, 8, 0.6911, c2w, "cams.json: frames[0]"), "cams.json: frames[0]: transform_matrix: camera position z");
+    c2w[11] = 2.5;
+    c2w[3] = -2e19;
+    CHECK_ERR(mf_camera_init(&cam, 8, 8, 0.6911, c2w, "cams.json: frames[0]"), "camera position x = -2e+19 is out of range");
+
+    char dir[512], p[1024];
+    snprintf(dir, sizeof dir, "%s", mf_test_path("hostile_coords"));
+    CHECK_OK(mf_mkdirs(dir));
+    snprintf(p, sizeof p, "%s/big.obj", dir);
+    put(p, "v 0 0 0\nv 1 0 0\nv 0 3e38 0\nf 1 2 3\n");
+    MfMesh m = {0};
+    CHECK_ERR(mf_obj_read(p, &m), "big.obj:3: vertex y = 3e+38 is out of range");
+    mf_mesh_free(&m);
+
+    if (!getenv("MF_BIN")) MF_SKIP("MF_BIN not set");
+    char err[4096], args[4096], out[1024];
+    snprintf(out, sizeof out, "%s/out", dir);
+    const char *scene = write_render_scene(dir, "farcam", k_quad, "1e39");
+    snprintf(args, sizeof args, "render %s -o %s", scene, out);
+    int rc = mf_test_run_mf(args, NULL, err, sizeof err);
+    CHECK_MSG(rc == 1, "mf render with a camera at 1e39: exit %d (expected 1): %s", rc, err);
+    CHECK_MSG(strstr(err, "farcam_cams.json: frames[0]: transform_matrix: camera position z"), "message: %s", err);
+    CHECK(count_files(out) == 0);
+    scene = write_render_scene(dir, "farvert", "v 0 0 0\nv 1 0 0\nv 0 1 1e30\nf 1 2 3\n", "2.5");
+    snprintf(args, sizeof args, "render %s -o %s", scene, out);
+    rc = mf_test_run_mf(args, NULL, err, sizeof err);
+    CHECK_MSG(rc == 1, "mf render with a vertex at 1e30: exit %d (expected 1): %s", rc, err);
+    CHECK_MSG(strstr(err, "farvert.obj:3: vertex z = 1e+30 is out of range"), "message: %s", err);
+    CHECK(count_files(out) == 0);
+}
+
+/* Item 3: two frames whose file_path share a base name wrote the same output file, the second
+ * silently replacing the first; now `mf render` and `mf relight` refuse them before writing. */
+MF_TEST(hostile_duplicate_output_names) {
+    char dir[512], out[1024], args[4096], err[4096];
+    snprintf(dir, sizeof dir, "%s", mf_test_path("hostile_dup"));
+    CHECK_OK(mf_mkdirs(dir));
+    const char *cams =
+        "{\"camera_angle_x\": 0.6911, \"frames\": ["
+        "{\"file_path\": \"./a/r_0\", \"transform_matrix\": [[1,0,0,0],[0,1,0,0],[0,0,1,2.5],[0,0,0,1]]},"
+        "{\"file_path\": \"./b/r_1\", \"transform_matrix\": [[1,0,0,0],[0,1,0,0],[0,0,1,3],[0,0,0,1]]},"
+        "{\"file_path\": \"./b/r_0.png\", \"transform_matrix\": [[1,0,0,0],[0,1,0,0],[0,0,1,3.5],[0,0,0,1]]}]}";
+    put(pj2(dir, "dup_cams.json"), cams);
+    put(pj2(dir, "quad.obj"), k_quad);
+    char buf[2048];
+    snprintf(buf, sizeof buf, k_scene_fmt, "quad.obj", "dup_cams.json");
+    put(pj2(dir, "dup.json"), buf);
+    MfScene sc = {0};
+    CHECK_ERR(mf_scene_load(pj2(dir, "dup.json"), &sc), "dup_cams.json: frames[0] and frames[2] both name the output 'r_0'");
+    mf_scene_free(&sc);
+    const char *names[3] = {"x", "y", "z"};
+    char nm[3][8] = {"x", "y", "x"};
+    int i = -1, j = -1;
+    CHECK(!mf_find_duplicate_name(names[0], 0, 1, &i, &j));
+    CHECK(mf_find_duplicate_name(nm[0], sizeof nm[0], 3, &i, &j) && i == 0 && j == 2);
+    CHECK(!mf_find_duplicate_name(nm[0], sizeof nm[0], 2, &i, &j));
+
+    if (!getenv("MF_BIN")) MF_SKIP("MF_BIN not set");
+    snprintf(out, sizeof out, "%s/out", dir);
+    snprintf(args, sizeof args, "render %s -o %s --png", pj2(dir, "dup.json"), out);
+    int rc = mf_test_run_mf(args, NULL, err, sizeof err);
+    CHECK_MSG(rc == 1, "mf render with duplicate names: exit %d: %s", rc, err);
+    CHECK_MSG(strstr(err, "frames[0] and frames[2] both name the output 'r_0'"), "message: %s", err);
+    CHECK(count_files(out) == 0);
+    /* mf relight: a result folder and an env map */
+    char res[1024];
+    snprintf(res, sizeof res, "%s/result", dir);
+    CHECK_OK(mf_mkdirs(res));
+    put(pj2(res, "mesh.obj"), k_quad);
+    write_flat(pj2(res, "albedo.png"), 4, 4, 3, 0.5f, MF_ENC_SRGB);
+    write_flat(pj2(res, "orm.png"), 4, 4, 3, 0.5f, MF_ENC_LINEAR);
+    write_flat(pj2(dir, "sky.exr"), 8, 4, 3, 1.0f, MF_ENC_LINEAR);
+    snprintf(args, sizeof args, "relight %s --env %s --cameras %s -o %s --width 8 --spp 1 --pixel-samples 1", res,
+             pj2(dir, "sky.exr"), pj2(dir, "dup_cams.json"), out);
+    rc = mf_test_run_mf(args, NULL, err, sizeof err);
+    CHECK_MSG(rc == 1, "mf relight with duplicate names: exit %d: %s", rc, err);
+    CHECK_MSG(strstr(err, "dup_cams.json: frames[0] and frames[2] both name the output 'r_0'"), "message: %s", err);
+    CHECK(count_files(out) == 0);
+    /* distinct names: both commands write every view */
+    put(pj2(dir, "dup_cams.json"), "{\"camera_angle_x\": 0.6911, \"frames\": ["
+        "{\"file_path\": \"./a/r_0\", \"transform_matrix\": [[1,0,0,0],[0,1,0,0],[0,0,1,2.5],[0,0,0,1]]},"
+        "{\"file_path\": \"./b/r_1\", \"transform_matrix\": [[1,0,0,0],[0,1,0,0],[0,0,1,3],[0,0,0,1]]}]}");
+    rc = mf_test_run_mf(args, NULL, err, sizeof err);
+    CHECK_MSG(rc == 0, "mf relight: exit %d: %s", rc, err);
+    CHECK(count_files(out) == 2);
 }

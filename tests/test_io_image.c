@@ -1,10 +1,16 @@
-/* Tests of mf/io/mf_image: sRGB curve, PNG/EXR/HDR round trips, bad files. */
+/* Tests of mf/io/mf_image: sRGB curve, PNG/EXR/HDR round trips, bad files. Hostile inputs (issue
+ * 15): an EXR or PNG header asking for more pixels than the file can hold is refused before
+ * allocating (also by mf_exr_read); the same image written twice gives the same EXR bytes. */
+#include <stdint.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
+#include "io/mf_exr.h"
 #include "io/mf_image.h"
 #include "io/mf_image_oiio.h"
 #include "mf_test.h"
@@ -90,4 +96,110 @@ MF_TEST(image_bad_files) {
     CHECK(mf_oiio_write(mf_test_path("nan_raw.exr"), a.w, a.h, a.c, a.data, 32, err, sizeof err) == 0);
     CHECK_ERR(mf_image_read(mf_test_path("nan_raw.exr"), MF_ENC_LINEAR, &b), "nan_raw.exr: pixel (1, 0) channel 2 is NaN");
     mf_image_free(&a);
+}
+
+/* ---- hostile input (issue 15): each case once crashed, overflowed a buffer or reported a
+ * misleading error; it must now end in an error that names the file and what is wrong, a
+ * non-zero exit for the CLI, and no output file ---- */
+
+/* CRC-32 as PNG chunks use it (ISO 3309, reflected 0xEDB88320). */
+static uint32_t crc32_png(const unsigned char *p, size_t n) {
+    uint32_t c = 0xFFFFFFFFu;
+    for (size_t i = 0; i < n; ++i) {
+        c ^= p[i];
+        for (int k = 0; k < 8; ++k) c = (c >> 1) ^ (0xEDB88320u & (0u - (c & 1u)));
+    }
+    return c ^ 0xFFFFFFFFu;
+}
+
+/* Reads path, finds the EXR header attribute `name` of type box2i and sets its max corner. */
+static int patch_exr_box(char *buf, size_t len, const char *name, int32_t xmax, int32_t ymax) {
+    char key[64];
+    size_t kl = (size_t)snprintf(key, sizeof key, "%s", name) + 1; /* with the NUL */
+    char *a = memmem(buf, len, key, kl);
+    if (!a || (size_t)(a - buf) + kl + 6 + 4 + 16 > len || memcmp(a + kl, "box2i", 6)) return 0;
+    char *v = a + kl + 6 + 4; /* name\0 type\0 size(4) value: xmin ymin xmax ymax */
+    memcpy(v + 8, &xmax, 4);
+    memcpy(v + 12, &ymax, 4);
+    return 1;
+}
+
+/* Item 2: an EXR of a few KB whose data window asks for gigabytes was allocated before anything
+ * was checked; now the header's size is checked against the file's length first. */
+MF_TEST(hostile_exr_header_size) {
+    const char *good = mf_test_path("hostile_small.exr"), *bad = mf_test_path("hostile_huge_window.exr");
+    MfImage im = {0};
+    CHECK_OK(mf_image_alloc(&im, 16, 16, 2));
+    CHECK_OK(mf_image_write(good, &im, MF_ENC_LINEAR, 32));
+    mf_image_free(&im);
+    char *d = NULL;
+    size_t len = 0;
+    CHECK_OK(mf_read_file(good, &d, &len));
+    if (!d) return;
+    CHECK(len < 16384);
+    /* 30000 x 30000 x 2 channels of float: 7.2 GB */
+    CHECK(patch_exr_box(d, len, "dataWindow", 29999, 29999));
+    CHECK(patch_exr_box(d, len, "displayWindow", 29999, 29999));
+    CHECK_OK(mf_write_file(bad, d, len));
+    free(d);
+    /* OpenImageIO's EXR reader itself stops at the missing chunk table; ours must not allocate first */
+    CHECK_ERR(mf_image_read(bad, MF_ENC_LINEAR, &im), "hostile_huge_window.exr");
+    CHECK(im.data == NULL);
+    MfExrImage ex = {0};
+    CHECK_ERR(mf_exr_read(bad, &ex), "hostile_huge_window.exr: header asks for 30000x30000 x 2 channels (7200000000 bytes");
+    CHECK(ex.data == NULL);
+    /* a PNG whose IHDR (CRC fixed) says 30000 x 30000 RGBA: the OpenImageIO path allocated 14.4 GB
+     * of floats from the header before decoding a row */
+    const char *png = mf_test_path("hostile_small.png"), *bpng = mf_test_path("hostile_huge_ihdr.png");
+    CHECK_OK(mf_image_alloc(&im, 16, 16, 4));
+    CHECK_OK(mf_image_write(png, &im, MF_ENC_SRGB, 8));
+    mf_image_free(&im);
+    CHECK_OK(mf_read_file(png, &d, &len));
+    if (d && len > 33 && !memcmp(d + 12, "IHDR", 4)) {
+        unsigned char *u = (unsigned char *)d;
+        u[16] = 0, u[17] = 0, u[18] = 0x75, u[19] = 0x30; /* width 30000, big-endian */
+        u[20] = 0, u[21] = 0, u[22] = 0x75, u[23] = 0x30;
+        uint32_t crc = crc32_png(u + 12, 17);
+        u[29] = (unsigned char)(crc >> 24), u[30] = (unsigned char)(crc >> 16), u[31] = (unsigned char)(crc >> 8), u[32] = (unsigned char)crc;
+        CHECK_OK(mf_write_file(bpng, d, len));
+        CHECK_ERR(mf_image_read(bpng, MF_ENC_SRGB, &im), "hostile_huge_ihdr.png: header asks for 30000x30000 x 4 channels");
+        CHECK(im.data == NULL);
+    } else {
+        CHECK_MSG(0, "%s: not a PNG with IHDR first", png);
+    }
+    free(d);
+    /* the limit itself: floor for small files, proportional above */
+    CHECK(mf_image_decode_limit(100) == MF_IMAGE_DECODE_FLOOR);
+    CHECK(mf_image_decode_limit(1ull << 20) == (1ull << 20) * MF_IMAGE_DECODE_RATIO);
+    CHECK_OK(mf_image_check_decode("x.png", 4096, 4096, 4, 300000)); /* 256 MiB from 300 KB: ratio 895 */
+    CHECK_ERR(mf_image_check_decode("x.png", 4096, 4096, 4, 3000), "x.png: header asks for 4096x4096 x 4 channels");
+}
+
+/* Item 3: env.exr (and every EXR written through mf_image_write) carried the time of writing in
+ * its header (OpenImageIO's capDate), so identical runs differed byte-wise. */
+MF_TEST(hostile_exr_bytes_reproducible) {
+    const char *a = mf_test_path("hostile_repro_a.exr"), *b = mf_test_path("hostile_repro_b.exr");
+    MfImage im = {0};
+    CHECK_OK(mf_image_alloc(&im, 8, 4, 3));
+    for (int i = 0; i < 8 * 4 * 3; ++i) im.data[i] = 0.25f * (float)i;
+    CHECK_OK(mf_image_write(a, &im, MF_ENC_LINEAR, 32));
+    /* a second later: a time stamp would differ */
+    struct timespec ts = {1, 100000000};
+    nanosleep(&ts, NULL);
+    CHECK_OK(mf_image_write(b, &im, MF_ENC_LINEAR, 32));
+    mf_image_free(&im);
+    char *da = NULL, *db = NULL;
+    size_t la = 0, lb = 0;
+    CHECK_OK(mf_read_file(a, &da, &la));
+    CHECK_OK(mf_read_file(b, &db, &lb));
+    if (da && db) {
+        CHECK_MSG(la == lb && !memcmp(da, db, la), "the same image written twice gave different bytes (%zu vs %zu)", la, lb);
+        char today[32];
+        time_t now = time(NULL);
+        strftime(today, sizeof today, "%Y:%m:%d", gmtime(&now));
+        CHECK_MSG(!memmem(da, la, today, strlen(today)), "the EXR header holds today's date %s", today);
+        strftime(today, sizeof today, "%Y:%m:%d", localtime(&now));
+        CHECK_MSG(!memmem(da, la, today, strlen(today)), "the EXR header holds today's date %s", today);
+    }
+    free(da), free(db);
 }

@@ -1,5 +1,6 @@
 /* Tests of mf/prior/mf_prior: refusal of bad weights, guidance, per-view mean predictions, the
- * encoder's backward, image preparation and the material latents. */
+ * encoder's backward, image preparation and the material latents; hostile weight files (issue
+ * 15): configuration numbers in the meta range-checked by name before the model is built. */
 
 #include <math.h>
 #include <stdio.h>
@@ -228,4 +229,87 @@ MF_TEST(prior_material_latents_and_backward) {
     CHECK(e < 1e-5);
     free(alb), free(orm), free(zm), free(wz), free(da), free(dor), free(z1buf), free(ra), free(ro), free(d1);
     mf_prior_free(p);
+}
+
+/* ---- hostile input (issue 15): each case once crashed, overflowed a buffer or reported a
+ * misleading error; it must now end in an error that names the file and what is wrong, a
+ * non-zero exit for the CLI, and no output file ---- */
+
+/* Replaces the first occurrence of `from` after `after` in buf (same length) in place. */
+static int patch(char *buf, size_t len, const char *after, const char *from, const char *to) {
+    char *a = memmem(buf, len, after, strlen(after));
+    if (!a) return 0;
+    char *f = memmem(a, len - (size_t)(a - buf), from, strlen(from));
+    if (!f || strlen(from) != strlen(to)) return 0;
+    memcpy(f, to, strlen(to));
+    return 1;
+}
+
+/* An MFCK file with no tensors and the given meta text (header only). */
+static void write_meta_only(const char *path, const char *meta, uint32_t mlen_claimed) {
+    FILE *f = fopen(path, "wb");
+    if (!f) return;
+    uint32_t hdr[3] = {1u, 0u, mlen_claimed};
+    fwrite("MFCK", 1, 4, f);
+    fwrite(hdr, 4, 3, f);
+    fwrite(meta, 1, strlen(meta), f);
+    fclose(f);
+}
+
+/* (d) Prior weights whose meta says groups or heads = 0 divided by zero while the model was
+ * built, before the checksum was checked; a meta length from the header was allocated before it
+ * was compared with the file. Now every configuration number is range-checked first, by name. */
+MF_TEST(hostile_prior_meta) {
+    MfPriorConfig cfg;
+    mf_prior_config_tiny(&cfg);
+    MfPrior *p = NULL, *q = NULL;
+    CHECK_OK(mf_prior_new(&p, &cfg));
+    if (!p) return;
+    const char *good = mf_test_path("hostile_prior_good.mfck");
+    const char *bad = mf_test_path("hostile_prior_bad.mfck");
+    CHECK_OK(mf_prior_save(p, good, NULL));
+    mf_prior_free(p);
+    CHECK_OK(mf_prior_load(good, &q));
+    mf_prior_free(q);
+    q = NULL;
+    char *d = NULL;
+    size_t len = 0;
+    CHECK_OK(mf_read_file(good, &d, &len));
+    if (!d) return;
+    /* groups = 0 in the denoiser (the checksum no longer matches either: the meta is checked first) */
+    CHECK(patch(d, len, "\"dn\":", "\"groups\":2", "\"groups\":0"));
+    CHECK_OK(mf_write_file(bad, d, len));
+    CHECK_ERR(mf_prior_load(bad, &q), "hostile_prior_bad.mfck: meta: dn.groups = 0 is out of range");
+    CHECK(patch(d, len, "\"dn\":", "\"groups\":0", "\"groups\":2"));
+    /* heads = 0 */
+    CHECK(patch(d, len, "\"dn\":", "\"heads\":2", "\"heads\":0"));
+    CHECK_OK(mf_write_file(bad, d, len));
+    CHECK_ERR(mf_prior_load(bad, &q), "hostile_prior_bad.mfck: meta: dn.heads = 0 is out of range");
+    CHECK(patch(d, len, "\"dn\":", "\"heads\":0", "\"heads\":2"));
+    /* autoencoder groups = 0 */
+    CHECK(patch(d, len, "\"ae\":", "\"groups\":2", "\"groups\":0"));
+    CHECK_OK(mf_write_file(bad, d, len));
+    CHECK_ERR(mf_prior_load(bad, &q), "meta: ae.groups = 0 is out of range");
+    CHECK(patch(d, len, "\"ae\":", "\"groups\":0", "\"groups\":2"));
+    /* a meta length far beyond the file: refused before allocating */
+    uint32_t huge = 0xF0000000u;
+    memcpy(d + 12, &huge, 4);
+    CHECK_OK(mf_write_file(bad, d, len));
+    CHECK_ERR(mf_prior_load(bad, &q), "meta length 4026531840 exceeds the file");
+    free(d);
+    /* channel counts beyond any model, and a valid meta whose weights are not in the file */
+    const char *m1 = "{\"format\":\"mf-prior\",\"version\":1,\"resolution\":16,\"downsample\":4,\"latent_channels\":4,"
+                     "\"latent_scale\":1,\"ae\":{\"c1\":4,\"c2\":8,\"groups\":2},\"dn\":{\"c1\":8,\"c2\":1e12,\"ct\":16,"
+                     "\"tfreq\":8,\"heads\":2,\"groups\":2,\"i1\":4,\"i2\":4,\"i3\":8}}";
+    write_meta_only(bad, m1, (uint32_t)strlen(m1));
+    CHECK_ERR(mf_prior_load(bad, &q), "meta: dn.c2 = 1e+12 is out of range");
+    const char *m2 = "{\"format\":\"mf-prior\",\"version\":1,\"resolution\":16,\"downsample\":4,\"latent_channels\":4,"
+                     "\"latent_scale\":1,\"ae\":{\"c1\":4,\"c2\":8,\"groups\":2},\"dn\":{\"c1\":8,\"c2\":8,\"ct\":16,"
+                     "\"tfreq\":8,\"heads\":2,\"groups\":2,\"i1\":4,\"i2\":4,\"i3\":8}}";
+    write_meta_only(bad, m2, (uint32_t)strlen(m2));
+    CHECK_ERR(mf_prior_load(bad, &q), "hostile_prior_bad.mfck: truncated: the meta's configuration has");
+    CHECK(q == NULL);
+    /* the library's own guard, for configurations built in code */
+    cfg.dn.heads = 0;
+    CHECK_ERR(mf_prior_new(&p, &cfg), "heads 0");
 }

@@ -1,7 +1,8 @@
 /* Tests of mf/scene/mf_envmap: Blender mapping (also against Cycles renders in ../shared),
  * bilinear lookup and its adjoint, importance sampling (chi-square against mf_env_pdf,
- * normalisation, poles), rotation, loading and bad input, the sampling and lookup fast paths
- * bitwise against the plain code; and of mf/scene/mf_light. */
+ * normalisation, poles), rotation (also by huge and non-finite angles, issue 15), loading and
+ * bad input, the sampling and lookup fast paths bitwise against the plain code; and of
+ * mf/scene/mf_light. */
 #include <cJSON.h>
 #include <math.h>
 #include <stdlib.h>
@@ -16,6 +17,7 @@
 #include "scene/mf_camera.h"
 #include "scene/mf_envmap.h"
 #include "scene/mf_light.h"
+#include "scene/mf_scene.h"
 
 /* A random HDR map: log-uniform radiance over 4 decades (0.01 .. 100, mean 11), a black band, a
  * black square, and one sun-like texel of 2e4 (most of the sampling mass on a 32 x 16 map). */
@@ -626,4 +628,80 @@ MF_TEST(fastpath_env_eval_pdf_matches_plain) {
     CHECK_MSG(bad == 0, "%d of %d lookups differ", bad, N);
     mf_env_eval_pdf_n(&env, 0, d, L, pdf); /* empty batch is fine */
     mf_env_free(&env);
+}
+
+/* ---- hostile input (issue 15): each case once crashed, overflowed a buffer or reported a
+ * misleading error; it must now end in an error that names the file and what is wrong, a
+ * non-zero exit for the CLI, and no output file ---- */
+
+/* An env map whose texel values are distinct per column (value = 1 + column + 100 row). */
+static void column_env(MfImage *img, int w, int h) {
+    mf_image_alloc(img, w, h, 3);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            for (int k = 0; k < 3; ++k) mf_image_px(img, x, y)[k] = (float)(1 + x + 100 * y + 1000 * k);
+}
+
+/* Loads dir/<name>.json, a scene whose env is env.exr rotated by rot_deg (given as JSON text). */
+static int load_rotated_env_scene(const char *dir, const char *name, const char *rot_deg, MfScene *s) {
+    char p[1024], buf[2048];
+    write_render_scene(dir, name, k_quad, "2.5");
+    snprintf(buf, sizeof buf,
+             "{\"mesh\": \"%s.obj\", \"env\": {\"file\": \"env.exr\", \"rotation_z_deg\": %s},"
+             " \"cameras\": \"%s_cams.json\", \"width\": 8, \"height\": 8}\n", name, rot_deg, name);
+    snprintf(p, sizeof p, "%s/%s.json", dir, name);
+    put(p, buf);
+    return mf_scene_load(p, s);
+}
+
+/* (b) An env rotation_z_deg of 2e40 became an infinite float angle and the column shift an
+ * out-of-range int: a heap overflow in mf_env_rotate_z. The angle is now reduced modulo 360 in
+ * double, so 2e40 degrees rotates exactly as fmod(2e40, 360) does. */
+MF_TEST(hostile_env_rotation) {
+    enum { W = 16, H = 4 };
+    char dir[512], p[1024];
+    snprintf(dir, sizeof dir, "%s", mf_test_path("hostile_env"));
+    CHECK_OK(mf_mkdirs(dir));
+    MfImage img = {0};
+    column_env(&img, W, H);
+    snprintf(p, sizeof p, "%s/env.exr", dir);
+    CHECK_OK(mf_image_write(p, &img, MF_ENC_LINEAR, 32));
+    mf_image_free(&img);
+
+    char reduced[64];
+    snprintf(reduced, sizeof reduced, "%.17g", fmod(2e40, 360.0));
+    MfScene a = {0}, b = {0};
+    CHECK_OK(load_rotated_env_scene(dir, "huge", "2e40", &a));
+    CHECK_OK(load_rotated_env_scene(dir, "reduced", reduced, &b));
+    if (a.has_env && b.has_env) {
+        CHECK(a.env.img.w == W && b.env.img.w == W);
+        size_t n = (size_t)W * H * 3, same = 0;
+        for (size_t i = 0; i < n; ++i) same += a.env.img.data[i] == b.env.img.data[i];
+        CHECK_MSG(same == n, "rotation by 2e40 deg differs from rotation by %s deg in %zu of %zu values", reduced, n - same, n);
+        /* and the rotation really moved the columns (fmod(2e40, 360) is not a multiple of 360) */
+        CHECK(fabs(fmod(2e40, 360.0)) > 1.0);
+        CHECK(a.env.img.data[0] != 1.0f);
+    }
+    mf_scene_free(&a);
+    mf_scene_free(&b);
+    /* a rotation_z_deg that does not fit a double is refused by name (JSON 1e999 reads as inf) */
+    MfScene c = {0};
+    CHECK_ERR(load_rotated_env_scene(dir, "inf", "1e999", &c), "inf.json: env");
+    mf_scene_free(&c);
+
+    /* the library call itself: a huge finite angle in radians, and a non-finite one */
+    MfEnvMap e1, e2;
+    column_env(&img, W, H);
+    CHECK_OK(mf_env_init(&e1, &img));
+    column_env(&img, W, H);
+    CHECK_OK(mf_env_init(&e2, &img));
+    CHECK_OK(mf_env_rotate_z(&e1, 1e30f));
+    CHECK_OK(mf_env_rotate_z(&e2, (float)fmod((double)1e30f, 2.0 * M_PI)));
+    double maxd = 0.0;
+    for (size_t i = 0; i < (size_t)W * H * 3; ++i) maxd = fmax(maxd, fabs(e1.img.data[i] - e2.img.data[i]));
+    CHECK_MSG(maxd < 1e-2, "rotation by 1e30 rad differs from its reduction by %g", maxd);
+    CHECK_ERR(mf_env_rotate_z(&e1, INFINITY), "not finite");
+    CHECK_ERR(mf_env_rotate_z(&e1, NAN), "not finite");
+    mf_env_free(&e1);
+    mf_env_free(&e2);
 }

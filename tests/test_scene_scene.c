@@ -1,5 +1,6 @@
 /* Tests of mf/scene/mf_scene (scene JSON): a full scene with textures, materials by OBJ name,
- * env, lights and inline cameras loads with the documented meaning; errors name file and path. */
+ * env, lights and inline cameras loads with the documented meaning; errors name file and path;
+ * light and env strengths and light positions that overflow float are refused by field (issue 15). */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -9,8 +10,9 @@
 #include "io/mf_image.h"
 #include "scene/mf_scene.h"
 #include "mf_test.h"
+#include "mf_test_kit.h"
 
-static void put(const char *dir, const char *name, const char *text) {
+static void put_in(const char *dir, const char *name, const char *text) {
     char p[1200];
     snprintf(p, sizeof p, "%s/%s", dir, name);
     FILE *f = fopen(p, "w");
@@ -28,7 +30,7 @@ MF_TEST(render_scene_load) {
     char dir[1024], p[1200];
     snprintf(dir, sizeof dir, "%s", mf_test_path("scene_load"));
     CHECK_OK(mf_mkdirs(dir));
-    put(dir, "quad.obj", k_obj);
+    put_in(dir, "quad.obj", k_obj);
     /* 2x2 sRGB kd texture: 0.5 sRGB -> 0.214 linear; a 1x1 linear ORM PNG */
     MfImage kd, orm, env;
     CHECK_OK(mf_image_alloc(&kd, 2, 2, 3));
@@ -43,7 +45,7 @@ MF_TEST(render_scene_load) {
     for (int i = 0; i < 8 * 4 * 3; ++i) env.data[i] = 0.5f;
     snprintf(p, sizeof p, "%s/env.exr", dir);
     CHECK_OK(mf_image_write(p, &env, MF_ENC_LINEAR, 32));
-    put(dir, "scene.json",
+    put_in(dir, "scene.json",
         "{\"mesh\": \"quad.obj\",\n"
         " \"material\": {\"kd\": \"kd.png\", \"orm\": \"orm.png\"},\n"
         " \"materials\": {\"blue\": {\"kd\": [0.1, 0.2, 0.9], \"orm\": [0, 0.3, 1]}},\n"
@@ -94,22 +96,58 @@ MF_TEST(render_scene_load) {
     mf_scene_free(&s);
 
     /* Errors name the file and the JSON path. */
-    put(dir, "bad1.json", "{\"mesh\": \"quad.obj\", \"cameras\": {\"camera_angle_x\": 0.7, \"frames\": [{\"transform_matrix\": [[1,0,0]]}]}}");
+    put_in(dir, "bad1.json", "{\"mesh\": \"quad.obj\", \"cameras\": {\"camera_angle_x\": 0.7, \"frames\": [{\"transform_matrix\": [[1,0,0]]}]}}");
     snprintf(p, sizeof p, "%s/bad1.json", dir);
     CHECK_ERR(mf_scene_load(p, &s), "bad1.json: cameras.frames[0].transform_matrix");
-    put(dir, "bad2.json", "{\"mesh\": \"quad.obj\", \"materials\": {\"green\": {\"kd\": [1,1,1]}}, "
+    put_in(dir, "bad2.json", "{\"mesh\": \"quad.obj\", \"materials\": {\"green\": {\"kd\": [1,1,1]}}, "
                           "\"cameras\": {\"camera_angle_x\": 0.7, \"frames\": [{\"transform_matrix\": [[1,0,0,0],[0,1,0,0],[0,0,1,3],[0,0,0,1]]}]}}");
     snprintf(p, sizeof p, "%s/bad2.json", dir);
     CHECK_ERR(mf_scene_load(p, &s), "bad2.json: materials.green");
-    put(dir, "bad3.json", "{\"mesh\": \"quad.obj\", \"material\": {\"kd\": \"nope.png\"}, "
+    put_in(dir, "bad3.json", "{\"mesh\": \"quad.obj\", \"material\": {\"kd\": \"nope.png\"}, "
                           "\"cameras\": {\"camera_angle_x\": 0.7, \"frames\": [{\"transform_matrix\": [[1,0,0,0],[0,1,0,0],[0,0,1,3],[0,0,0,1]]}]}}");
     snprintf(p, sizeof p, "%s/bad3.json", dir);
     CHECK_ERR(mf_scene_load(p, &s), "nope.png");
-    put(dir, "bad4.json", "{\"mesh\": \"quad.obj\", \"lights\": [{\"type\": \"area\"}], "
+    put_in(dir, "bad4.json", "{\"mesh\": \"quad.obj\", \"lights\": [{\"type\": \"area\"}], "
                           "\"cameras\": {\"camera_angle_x\": 0.7, \"frames\": [{\"transform_matrix\": [[1,0,0,0],[0,1,0,0],[0,0,1,3],[0,0,0,1]]}]}}");
     snprintf(p, sizeof p, "%s/bad4.json", dir);
     CHECK_ERR(mf_scene_load(p, &s), "bad4.json: lights[0].type");
     mf_image_free(&kd);
     mf_image_free(&orm);
     mf_image_free(&env);
+}
+
+/* ---- hostile input (issue 15): each case once crashed, overflowed a buffer or reported a
+ * misleading error; it must now end in an error that names the file and what is wrong, a
+ * non-zero exit for the CLI, and no output file ---- */
+
+/* Strengths whose squares overflow float (env strength 1e31 ended in "texel not finite", a sun of
+ * 1e30 in NaN pixels) and far-away point lights are refused by the field that gives them. */
+MF_TEST(hostile_huge_strengths) {
+    char dir[512], buf[2048];
+    snprintf(dir, sizeof dir, "%s", mf_test_path("hostile_strength"));
+    CHECK_OK(mf_mkdirs(dir));
+    write_render_scene(dir, "s", k_quad, "2.5");
+    write_flat(pj2(dir, "env.exr"), 8, 4, 3, 2.0f, MF_ENC_LINEAR);
+    const char *cases[][2] = {
+        {"\"env\": {\"file\": \"env.exr\", \"strength\": 1e31}", "env.strength: 1e+31 is out of range"},
+        {"\"env\": {\"file\": \"env.exr\", \"strength\": 9e17}", "env.strength: 9e+17 times the brightest texel"},
+        {"\"lights\": [{\"type\": \"sun\", \"dir\": [0, 0, 1], \"strength\": 1e30}]", "lights[0].strength: 1e+30 is out of range"},
+        {"\"lights\": [{\"type\": \"point\", \"pos\": [0, 0, 1], \"power\": 1e25}]", "lights[0].power: 1e+25 is out of range"},
+        {"\"lights\": [{\"type\": \"point\", \"pos\": [0, 3e38, 1], \"power\": 1}]", "lights[0].pos: y = 3e+38 is out of range"},
+        {"\"lights\": [{\"type\": \"sun\", \"dir\": [0, 0, 1], \"strength\": 1, \"color\": [1, 1e20, 1]}]", "lights[0].color: 1e+20 is out of range"},
+    };
+    for (int k = 0; k < 6; ++k) {
+        snprintf(buf, sizeof buf, "{\"mesh\": \"s.obj\", %s, \"cameras\": \"s_cams.json\", \"width\": 8, \"height\": 8}\n", cases[k][0]);
+        put(pj2(dir, "strength.json"), buf);
+        MfScene sc = {0};
+        CHECK_ERR(mf_scene_load(pj2(dir, "strength.json"), &sc), cases[k][1]);
+        mf_scene_free(&sc);
+    }
+    /* in range: loads */
+    snprintf(buf, sizeof buf, "{\"mesh\": \"s.obj\", \"env\": {\"file\": \"env.exr\", \"strength\": 1e3}, \"lights\": [{\"type\": \"sun\", "
+             "\"dir\": [0, 0, 1], \"strength\": 1e6}], \"cameras\": \"s_cams.json\", \"width\": 8, \"height\": 8}\n");
+    put(pj2(dir, "strength.json"), buf);
+    MfScene sc = {0};
+    CHECK_OK(mf_scene_load(pj2(dir, "strength.json"), &sc));
+    mf_scene_free(&sc);
 }
