@@ -19,6 +19,8 @@
 typedef struct {
     const EvBench *b;
     const EvEvalOpts *o;
+    EvEvalOpts quiet; /* *o with quiet = 1: a scene's loads after its first (the loader's notes are said once) */
+    int loaded[MAX_ITEMS]; /* (nsc,) 1: the scene was loaded once (its notes said) */
     char scene_root[MF_PATH_MAX];
     char scenes[MAX_ITEMS][64], methods[MAX_ITEMS][64];
     const char *mptr[MAX_ITEMS]; /* (nm,) into methods */
@@ -199,7 +201,8 @@ static int score_run(Bench *B, int m, int s, FILE *csv) {
         return MF_OK;
     }
     mf_log_info("eval: %s on %s", method, scene);
-    rc = ev_eval_scene(sd, rd, method, ds, scene, B->o, &B->t, csv, &B->excluded);
+    rc = ev_eval_scene(sd, rd, method, ds, scene, B->loaded[s] ? &B->quiet : B->o, &B->t, csv, &B->excluded);
+    B->loaded[s] = 1;
     if (rc) return mf_fail_prefix(rc, "%s", rd);
     ++B->evaluated;
     double wall, rss, prior;
@@ -213,7 +216,7 @@ static int score_run(Bench *B, int m, int s, FILE *csv) {
     if (!rc && wall > 0 && !mf_path_join(md, sizeof md, b->results, B->methods[0]) && !mf_path_join(bd, sizeof bd, md, scene))
         run_cost(bd, &bwall, &brss, NULL, NULL, NULL, NULL);
     if (!rc && wall > 0 && bwall > 0) rc = ev_table_add(&B->t, method, ds, scene, "time_x", wall / bwall);
-    if (!rc && !b->no_curves && s == 0) rc = snapshot_curve(sd, rd, B->o, B->cx[m], B->cy[m], MAX_ITEMS, &B->series[m].n);
+    if (!rc && !b->no_curves && s == 0) rc = snapshot_curve(sd, rd, &B->quiet, B->cx[m], B->cy[m], MAX_ITEMS, &B->series[m].n);
     return rc;
 }
 
@@ -312,13 +315,15 @@ static int write_grid(Bench *B, int sc, MfStrBuf *grids) {
     int rows = 0, rc;
     char sd[MF_PATH_MAX];
     if ((rc = mf_path_join(sd, sizeof sd, B->scene_root, B->scenes[sc]))) return rc;
-    if (ev_eval_grid_row(sd, NULL, B->o, cells[rows]) == MF_OK) rlab[rows++] = "ground truth";
+    const EvEvalOpts *o = B->loaded[sc] ? &B->quiet : B->o;
+    if (ev_eval_grid_row(sd, NULL, o, cells[rows]) == MF_OK) rlab[rows++] = "ground truth";
+    B->loaded[sc] = 1;
     for (int m = 0; m < B->nm && rows < MAXR; ++m) {
         char md[MF_PATH_MAX], rd[MF_PATH_MAX];
         if (mf_path_join(md, sizeof md, B->b->results, B->methods[m]) || mf_path_join(rd, sizeof rd, md, B->scenes[sc]) ||
             !mf_file_exists(rd))
             continue;
-        if (ev_eval_grid_row(sd, rd, B->o, cells[rows]) != MF_OK) continue;
+        if (ev_eval_grid_row(sd, rd, &B->quiet, cells[rows]) != MF_OK) continue;
         size_t l = strlen(labels);
         snprintf(labels + l, sizeof labels - l, ", %.63s", B->methods[m]);
         double v;
@@ -372,6 +377,8 @@ int ev_bench_run(const EvBench *b, const EvEvalOpts *o) {
     if (!B) return mf_fail(MF_ENOMEM, "ev_bench_run: out of memory");
     B->b = b;
     B->o = o;
+    B->quiet = *o;
+    B->quiet.quiet = 1;
     ev_table_init(&B->t);
     int rc = find_runs(B);
     if (!rc) rc = mf_mkdirs(b->out);

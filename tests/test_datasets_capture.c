@@ -80,7 +80,7 @@ MF_TEST(ds_capture_intrinsics_and_split) {
     CHECK(v.n == 2 && !strcmp(v.views[0].name, "f0") && !strcmp(v.views[v.n - 1].name, "f8"));
     ds_views_free(&v);
     /* downsampled by 2: intrinsics scale with the image */
-    DsLoadOptions o = {0, 0, 2, 0, NULL};
+    DsLoadOptions o = {0, 0, 2, 0, NULL, 0};
     CHECK_OK(ds_load(dir, "test", &o, &v));
     if (!mf_test_failed_now()) {
         CHECK(v.w == 4);
@@ -127,7 +127,7 @@ MF_TEST(ds_capture_masks) {
     }
     /* --mask DIR: every frame needs DIR/<name>.png */
     const char *md = mf_test_path("cap_masks_dir");
-    DsLoadOptions o = {0, 0, 1, 0, md};
+    DsLoadOptions o = {0, 0, 1, 0, md, 0};
     write_png(mf_test_path("cap_masks_dir/f0.png"), 8, 8, 1, 1);
     write_png(mf_test_path("cap_masks_dir/f8.png"), 8, 4, 1, 1);
     CHECK_ERR(ds_load(dir, "test", &o, &v), "cap_masks_dir/f8.png: mask is 8x4, the image");
@@ -138,7 +138,7 @@ MF_TEST(ds_capture_masks) {
         ds_views_free(&v);
     }
     CHECK_ERR(ds_load(dir, "train", &o, &v), "cap_masks_dir/f1.png");
-    DsLoadOptions rel = {0, 0, 1, 0, "masks"}; /* relative: inside the scene folder */
+    DsLoadOptions rel = {0, 0, 1, 0, "masks", 0}; /* relative: inside the scene folder */
     CHECK_ERR(ds_load(dir, "train", &rel, &v), "cap_mask/masks/f1.png");
 }
 
