@@ -140,15 +140,19 @@ static int find_runs(Bench *B) {
     const EvBench *b = B->b;
     const char *data = b->data;
     if (is_scene(data)) {
-        const char *slash = strrchr(data, '/');
-        snprintf(B->scenes[0], 64, "%s", slash && slash[1] ? slash + 1 : data);
-        snprintf(B->scene_root, sizeof B->scene_root, "%.*s", slash ? (int)(slash - data) : 1, slash ? data : ".");
+        char d[MF_PATH_MAX]; /* data without trailing slashes ("cap/" is the scene cap) */
+        size_t n = strlen(data);
+        while (n > 1 && data[n - 1] == '/') --n;
+        snprintf(d, sizeof d, "%.*s", (int)n, data);
+        const char *slash = strrchr(d, '/');
+        snprintf(B->scenes[0], 64, "%.63s", slash && slash[1] ? slash + 1 : d);
+        snprintf(B->scene_root, sizeof B->scene_root, "%.*s", slash ? (int)(slash - d) : 1, slash ? d : ".");
         B->nsc = 1;
     } else {
         snprintf(B->scene_root, sizeof B->scene_root, "%s", data);
         B->nsc = list_dirs(data, B->scenes, MAX_ITEMS, 1);
     }
-    if (b->scenes && B->nsc > 1) { /* keep only the listed scenes */
+    if (b->scenes) { /* keep only the listed scenes; DATA as one scene must be listed too */
         int k = 0;
         for (int i = 0; i < B->nsc; ++i) {
             char list[4096];
@@ -157,6 +161,12 @@ static int find_runs(Bench *B) {
             snprintf(key, sizeof key, ",%.63s,", B->scenes[i]);
             if (strstr(list, key)) memmove(B->scenes[k++], B->scenes[i], 64);
         }
+        if (k == 0 && is_scene(data))
+            return mf_fail(MF_EARG, "--scenes '%s': %s is one scene, '%s', which the list does not name (list it, or drop --scenes)",
+                           b->scenes, data, B->scenes[0]);
+        if (k == 0 && B->nsc > 0)
+            return mf_fail(MF_EARG, "--scenes '%s': names none of the %d scenes of %s (e.g. '%s')", b->scenes, B->nsc, data,
+                           B->scenes[0]);
         B->nsc = k;
     }
     if (B->nsc <= 0) return mf_fail(MF_EIO, "%s: no scene with transforms_test.json or transforms.json", data);
