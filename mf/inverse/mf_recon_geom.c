@@ -89,7 +89,7 @@ static int build_hull(const MfReconGeomOpts *o, const MfCamera *cams, const MfIm
     return rc == MF_OK ? MF_OK : mf_fail_prefix(rc, "--geometry vhull");
 }
 
-/* geom_log.csv: one row per step (mask loss and weighted regulariser before the step). */
+/* geom_log.csv: one row per step (mask loss and weighted regulariser before the step); steps 0: the header. */
 static int write_geom_log(const char *out_dir, const MfGeomFitStep *log, int steps) {
     char path[MF_PATH_MAX];
     int rc = mf_path_join(path, sizeof path, out_dir, "geom_log.csv");
@@ -127,9 +127,10 @@ static int build_dmtet(const MfReconGeomOpts *o, const MfCamera *cams, const MfI
         info->geom_s = mf_now() - t0;
         info->step_ms = info->steps ? 1e3 * info->geom_s / info->steps : 0;
         if (info->steps) info->loss_first = log[0].mask, info->loss_last = log[info->steps - 1].mask;
-        int wrc = info->steps ? write_geom_log(out_dir, log, info->steps) : MF_OK;
-        if (!rc) rc = wrc;
     }
+    /* always, header only at 0 steps: the folder never keeps an earlier run's log */
+    int wrc = write_geom_log(out_dir, log, info->steps);
+    if (!rc) rc = wrc;
     if (!rc)
         mf_log_info("geometry: DMTet, mask term only (no colour loss): %d^3 grid, %d steps of %d views in %.2f s (%.1f ms/step), "
                     "mask loss %.5f -> %.5f", o->dmtet_res, info->steps, o->geom_views ? o->geom_views : n, info->geom_s,
