@@ -182,6 +182,8 @@ MF_TEST(recon_geometry_dmtet_tiny) {
     snprintf(args, sizeof args, "recon %s -o %s_2views --geometry dmtet --max-views 2", bare, run);
     rc = mf_test_run_mf(args, NULL, err, sizeof err);
     CHECK_MSG(rc == 1 && strstr(err, "--geometry dmtet") && strstr(err, "need at least 3"), "dmtet on 2 views: exit %d, '%s'", rc, err);
+    snprintf(p, sizeof p, "%s_2views", run);
+    CHECK_MSG(!mf_file_exists(p), "%s: a refused run left a folder", p);
 
 #define DMTET "--geometry dmtet --dmtet-res 32 --geom-iters 30 --geom-views 0 " SMALL
     snprintf(args, sizeof args, "recon %s -o %s --iters 4 " DMTET, bare, run);

@@ -128,9 +128,12 @@ static int build_dmtet(const MfReconGeomOpts *o, const MfCamera *cams, const MfI
         info->step_ms = info->steps ? 1e3 * info->geom_s / info->steps : 0;
         if (info->steps) info->loss_first = log[0].mask, info->loss_last = log[info->steps - 1].mask;
     }
-    /* always, header only at 0 steps: the folder never keeps an earlier run's log */
-    int wrc = write_geom_log(out_dir, log, info->steps);
-    if (!rc) rc = wrc;
+    /* header only at 0 steps, so the folder never keeps an earlier run's log; nothing when the hull
+     * failed (a refused run leaves no folder behind) */
+    if (!rc || info->steps) {
+        int wrc = write_geom_log(out_dir, log, info->steps);
+        if (!rc) rc = wrc;
+    }
     if (!rc)
         mf_log_info("geometry: DMTet, mask term only (no colour loss): %d^3 grid, %d steps of %d views in %.2f s (%.1f ms/step), "
                     "mask loss %.5f -> %.5f", o->dmtet_res, info->steps, o->geom_views ? o->geom_views : n, info->geom_s,
