@@ -69,7 +69,7 @@ int ds_views_keep_side(DsViews *v, MfVec3 centre, MfVec3 side, int max_views) {
 }
 
 static DsLoadOptions opts_or_default(const DsLoadOptions *opt) {
-    DsLoadOptions o = {1, 0, 1, 0, NULL};
+    DsLoadOptions o = {1, 0, 1, 0, NULL, 0};
     if (opt) o = *opt;
     if (o.downsample < 1) o.downsample = 1;
     return o;
@@ -310,7 +310,7 @@ static int load_transforms(const char *dir, const char *split, TfKind kind, cons
         single = 1;
     }
     MfTransforms tf;
-    if ((rc = mf_transforms_load(jpath, MF_TF_CAPTURE, &tf))) return rc;
+    if ((rc = mf_transforms_load(jpath, MF_TF_CAPTURE | (o->quiet ? MF_TF_QUIET : 0), &tf))) return rc;
     DsViews v = {0};
     DsView *views = NULL;
     FrameJob *jobs = NULL;
@@ -382,7 +382,7 @@ static int load_transforms(const char *dir, const char *split, TfKind kind, cons
     }
     /* 3. failures and sizes in frame order; cameras at the final size */
     if ((rc = finish_frames(jobs, views, nf))) goto fail;
-    warn_no_alpha(jobs, views, nf, kind);
+    if (!o->quiet) warn_no_alpha(jobs, views, nf, kind);
     free(jobs);
     free(sel);
     v.format = kind == TF_ORB ? DS_FMT_STANFORD_ORB : (kind == TF_BVAULT ? DS_FMT_BVAULT : DS_FMT_NERF_SYNTHETIC);

@@ -108,6 +108,8 @@ typedef struct {
     const char *mask_dir; /* borrowed; NULL or "": none. Else <mask_dir>/<frame name>.png (first channel,
                              linear; a relative mask_dir is inside the scene folder) replaces each
                              view's alpha (NeRF-Synthetic / bvault / instant-ngp layouts) */
+    int quiet;       /* 1: no notes or warnings about the files (aabb_scale ignored, no alpha channel):
+                        a command loading a scene again after a first load that said them */
 } DsLoadOptions;
 
 /* One transforms.json for all frames (instant-ngp / nerfstudio): test and val are the frames

@@ -19,6 +19,8 @@
 typedef struct {
     const EvBench *b;
     const EvEvalOpts *o;
+    EvEvalOpts quiet; /* *o with quiet = 1: a scene's loads after its first (the loader's notes are said once) */
+    int loaded[MAX_ITEMS]; /* (nsc,) 1: the scene was loaded once (its notes said) */
     char scene_root[MF_PATH_MAX];
     char scenes[MAX_ITEMS][64], methods[MAX_ITEMS][64];
     const char *mptr[MAX_ITEMS]; /* (nm,) into methods */
@@ -138,15 +140,19 @@ static int find_runs(Bench *B) {
     const EvBench *b = B->b;
     const char *data = b->data;
     if (is_scene(data)) {
-        const char *slash = strrchr(data, '/');
-        snprintf(B->scenes[0], 64, "%s", slash && slash[1] ? slash + 1 : data);
-        snprintf(B->scene_root, sizeof B->scene_root, "%.*s", slash ? (int)(slash - data) : 1, slash ? data : ".");
+        char d[MF_PATH_MAX]; /* data without trailing slashes ("cap/" is the scene cap) */
+        size_t n = strlen(data);
+        while (n > 1 && data[n - 1] == '/') --n;
+        snprintf(d, sizeof d, "%.*s", (int)n, data);
+        const char *slash = strrchr(d, '/');
+        snprintf(B->scenes[0], 64, "%.63s", slash && slash[1] ? slash + 1 : d);
+        snprintf(B->scene_root, sizeof B->scene_root, "%.*s", slash ? (int)(slash - d) : 1, slash ? d : ".");
         B->nsc = 1;
     } else {
         snprintf(B->scene_root, sizeof B->scene_root, "%s", data);
         B->nsc = list_dirs(data, B->scenes, MAX_ITEMS, 1);
     }
-    if (b->scenes && B->nsc > 1) { /* keep only the listed scenes */
+    if (b->scenes) { /* keep only the listed scenes; DATA as one scene must be listed too */
         int k = 0;
         for (int i = 0; i < B->nsc; ++i) {
             char list[4096];
@@ -155,6 +161,12 @@ static int find_runs(Bench *B) {
             snprintf(key, sizeof key, ",%.63s,", B->scenes[i]);
             if (strstr(list, key)) memmove(B->scenes[k++], B->scenes[i], 64);
         }
+        if (k == 0 && is_scene(data))
+            return mf_fail(MF_EARG, "--scenes '%s': %s is one scene, '%s', which the list does not name (list it, or drop --scenes)",
+                           b->scenes, data, B->scenes[0]);
+        if (k == 0 && B->nsc > 0)
+            return mf_fail(MF_EARG, "--scenes '%s': names none of the %d scenes of %s (e.g. '%s')", b->scenes, B->nsc, data,
+                           B->scenes[0]);
         B->nsc = k;
     }
     if (B->nsc <= 0) return mf_fail(MF_EIO, "%s: no scene with transforms_test.json or transforms.json", data);
@@ -199,7 +211,8 @@ static int score_run(Bench *B, int m, int s, FILE *csv) {
         return MF_OK;
     }
     mf_log_info("eval: %s on %s", method, scene);
-    rc = ev_eval_scene(sd, rd, method, ds, scene, B->o, &B->t, csv, &B->excluded);
+    rc = ev_eval_scene(sd, rd, method, ds, scene, B->loaded[s] ? &B->quiet : B->o, &B->t, csv, &B->excluded);
+    B->loaded[s] = 1;
     if (rc) return mf_fail_prefix(rc, "%s", rd);
     ++B->evaluated;
     double wall, rss, prior;
@@ -213,7 +226,7 @@ static int score_run(Bench *B, int m, int s, FILE *csv) {
     if (!rc && wall > 0 && !mf_path_join(md, sizeof md, b->results, B->methods[0]) && !mf_path_join(bd, sizeof bd, md, scene))
         run_cost(bd, &bwall, &brss, NULL, NULL, NULL, NULL);
     if (!rc && wall > 0 && bwall > 0) rc = ev_table_add(&B->t, method, ds, scene, "time_x", wall / bwall);
-    if (!rc && !b->no_curves && s == 0) rc = snapshot_curve(sd, rd, B->o, B->cx[m], B->cy[m], MAX_ITEMS, &B->series[m].n);
+    if (!rc && !b->no_curves && s == 0) rc = snapshot_curve(sd, rd, &B->quiet, B->cx[m], B->cy[m], MAX_ITEMS, &B->series[m].n);
     return rc;
 }
 
@@ -312,13 +325,15 @@ static int write_grid(Bench *B, int sc, MfStrBuf *grids) {
     int rows = 0, rc;
     char sd[MF_PATH_MAX];
     if ((rc = mf_path_join(sd, sizeof sd, B->scene_root, B->scenes[sc]))) return rc;
-    if (ev_eval_grid_row(sd, NULL, B->o, cells[rows]) == MF_OK) rlab[rows++] = "ground truth";
+    const EvEvalOpts *o = B->loaded[sc] ? &B->quiet : B->o;
+    if (ev_eval_grid_row(sd, NULL, o, cells[rows]) == MF_OK) rlab[rows++] = "ground truth";
+    B->loaded[sc] = 1;
     for (int m = 0; m < B->nm && rows < MAXR; ++m) {
         char md[MF_PATH_MAX], rd[MF_PATH_MAX];
         if (mf_path_join(md, sizeof md, B->b->results, B->methods[m]) || mf_path_join(rd, sizeof rd, md, B->scenes[sc]) ||
             !mf_file_exists(rd))
             continue;
-        if (ev_eval_grid_row(sd, rd, B->o, cells[rows]) != MF_OK) continue;
+        if (ev_eval_grid_row(sd, rd, &B->quiet, cells[rows]) != MF_OK) continue;
         size_t l = strlen(labels);
         snprintf(labels + l, sizeof labels - l, ", %.63s", B->methods[m]);
         double v;
@@ -372,6 +387,8 @@ int ev_bench_run(const EvBench *b, const EvEvalOpts *o) {
     if (!B) return mf_fail(MF_ENOMEM, "ev_bench_run: out of memory");
     B->b = b;
     B->o = o;
+    B->quiet = *o;
+    B->quiet.quiet = 1;
     ev_table_init(&B->t);
     int rc = find_runs(B);
     if (!rc) rc = mf_mkdirs(b->out);

@@ -230,7 +230,7 @@ int ev_eval_scene(const char *scene_dir, const char *result_dir, const char *met
     int rc = (flat || grey) ? trivial_result(scene_dir, grey, &res) : ev_result_load(result_dir, o->mesh_path, &res);
     if (rc) return rc;
     DsViews dv;
-    DsLoadOptions lo = {1, o->max_views, 1, 0, o->mask};
+    DsLoadOptions lo = {1, o->max_views, 1, 0, o->mask, o->quiet};
     if ((rc = ds_load(scene_dir, "test", &lo, &dv))) {
         ev_result_free(&res);
         return rc;
@@ -397,7 +397,7 @@ const char *const ev_grid_col_names[EV_GRID_COLS] = {"relit", "albedo", "roughne
 int ev_eval_grid_row(const char *scene_dir, const char *result_dir, const EvEvalOpts *o, MfImage cells[EV_GRID_COLS]) {
     memset(cells, 0, EV_GRID_COLS * sizeof *cells);
     DsViews dv;
-    DsLoadOptions lo = {1, 1, 1, 0, NULL};
+    DsLoadOptions lo = {1, 1, 1, 0, o->mask, o->quiet};
     int rc = ds_load(scene_dir, "test", &lo, &dv);
     if (rc) return rc;
     MfImage relit = {0}, env = {0};

@@ -68,6 +68,8 @@ typedef struct {
     const char *mesh_path; /* NULL: the result folder's mesh.obj */
     const char *mask;      /* NULL: the images' alpha; else DsLoadOptions.mask_dir (e.g. "masks": <scene>/masks/) */
     int no_geom;           /* 1: skip the geometry records (geom_*) */
+    int quiet;             /* 1: the scene loader's notes are not said again (DsLoadOptions.quiet): a
+                              scene already loaded by this command */
 } EvEvalOpts;
 
 /* Trivial guesses that every method must beat (pass as result_dir, with the scene's GT):

@@ -182,6 +182,8 @@ MF_TEST(recon_geometry_dmtet_tiny) {
     snprintf(args, sizeof args, "recon %s -o %s_2views --geometry dmtet --max-views 2", bare, run);
     rc = mf_test_run_mf(args, NULL, err, sizeof err);
     CHECK_MSG(rc == 1 && strstr(err, "--geometry dmtet") && strstr(err, "need at least 3"), "dmtet on 2 views: exit %d, '%s'", rc, err);
+    snprintf(p, sizeof p, "%s_2views", run);
+    CHECK_MSG(!mf_file_exists(p), "%s: a refused run left a folder", p);
 
 #define DMTET "--geometry dmtet --dmtet-res 32 --geom-iters 30 --geom-views 0 " SMALL
     snprintf(args, sizeof args, "recon %s -o %s --iters 4 " DMTET, bare, run);
@@ -217,5 +219,11 @@ MF_TEST(recon_geometry_dmtet_tiny) {
     CHECK(nb == na && before && after && !memcmp(before, after, nb));
     free(before), free(after);
     CHECK(geom_result(run, "hull_s", NULL, 0) == 0 && isnan(geom_result(run, "geom_s", NULL, 0)));
+    /* a new run into the folder with --geom-iters 0: its log has no step, not the 30 of the first run */
+    snprintf(args, sizeof args, "recon %s -o %s --iters 1 --geometry dmtet --dmtet-res 32 --geom-iters 0 " SMALL, bare, run);
+    rc = mf_test_run_mf(args, NULL, err, sizeof err);
+    CHECK_MSG(rc == 0 && strstr(err, "0 steps"), "--geom-iters 0: exit %d, '%s'", rc, err);
+    rows = read_geom_log(q, &first, &last);
+    CHECK_MSG(rows == 0, "geom_log.csv after a --geom-iters 0 run: %d rows (an earlier run's log left?)", rows);
 #undef DMTET
 }

@@ -248,7 +248,7 @@ MF_TEST(ds_render_split_layout_and_resume) {
     char scene[MF_PATH_MAX];
     snprintf(scene, sizeof scene, "%s/000_cup", a);
     CHECK(ds_detect_format(scene) == DS_FMT_BVAULT);
-    DsLoadOptions lo = {1, 0, 1, 0, NULL};
+    DsLoadOptions lo = {1, 0, 1, 0, NULL, 0};
     DsViews v;
     CHECK_OK(ds_load_bvault(scene, "test", &lo, &v));
     if (!mf_test_failed_now()) {
@@ -316,7 +316,7 @@ MF_TEST(ds_render_split_povray_diffuse) {
     CHECK(cov > 5);
     /* POV-Ray's relit view exists, is finite and has the object's coverage */
     DsViews v;
-    DsLoadOptions lo = {0, 0, 1, 0, NULL};
+    DsLoadOptions lo = {0, 0, 1, 0, NULL, 0};
     snprintf(p, sizeof p, "%s/000_cup", a);
     CHECK_OK(ds_load_bvault(p, "test", &lo, &v));
     if (!mf_test_failed_now()) {

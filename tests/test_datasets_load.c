@@ -136,7 +136,7 @@ MF_TEST(ds_load_nerf_synthetic) {
     CHECK(strstr(v.views[0].image_path, "train/r_0.png") != NULL);
     ds_views_free(&v);
     /* test split via auto-detection; max_views; downsample */
-    DsLoadOptions o = {1, 1, 2, 0, NULL};
+    DsLoadOptions o = {1, 1, 2, 0, NULL, 0};
     CHECK_OK(ds_load(dir, "test", &o, &v));
     CHECK(v.n == 1 && v.w == 4 && v.h == 4 && v.views[0].rgba.w == 4);
     if (v.n == 1) {
@@ -261,7 +261,7 @@ MF_TEST(ds_load_nerfactor) {
     CHECK_ERR(ds_load_nerfactor(dir, "test", NULL, &v), "test_000/metadata.json: cam_angle_x: missing");
     CHECK_ERR(ds_load_nerfactor(dir, "nope", NULL, &v), "no nope_NNN folders");
     /* downsampled: normals and albedo follow */
-    DsLoadOptions o2 = {1, 2, 2, 0, NULL};
+    DsLoadOptions o2 = {1, 2, 2, 0, NULL, 0};
     CHECK_OK(ds_load_nerfactor(dir, "train", &o2, &v));
     CHECK(v.n == 2 && v.w == 4 && v.views[1].normal.w == 4 && v.views[1].albedo.h == 4);
     if (v.n == 2) CHECK_NEAR(v.views[1].cam.fx, 4 / (2.0 * tan(ANGLE / 2.0)), 1e-4);
@@ -383,7 +383,7 @@ MF_TEST(ds_load_stanford_orb_ldr) {
     write_coded_png(p, 5, 8, 8, 3, 8);
     snprintf(p, sizeof p, "%s/train_mask/0000.png", cd);
     write_coded_png(p, 6, 8, 8, 1, 8);
-    DsLoadOptions o = {1, 0, 1, 1, NULL};
+    DsLoadOptions o = {1, 0, 1, 1, NULL, 0};
     DsViews v = {0};
     CHECK_OK(ds_load_stanford_orb(root, "teapot_scene001", "train", &o, &v));
     CHECK(v.n == 1 && v.format == DS_FMT_STANFORD_ORB);
@@ -486,7 +486,7 @@ MF_TEST(ds_load_bvault) {
     CHECK_ERR(ds_load_relit(&v, 0, 0, &r), "relight/attic/r_0.exr: no such file");
     ds_views_free(&v);
     /* GT skipped on request */
-    DsLoadOptions o = {0, 0, 1, 0, NULL};
+    DsLoadOptions o = {0, 0, 1, 0, NULL, 0};
     CHECK_OK(ds_load_bvault(dir, "test", &o, &v));
     CHECK(v.n == 2 && v.views[0].albedo.data == NULL);
     ds_views_free(&v);
@@ -575,7 +575,7 @@ MF_TEST(ds_capture_intrinsics_and_split) {
     CHECK(v.n == 2 && !strcmp(v.views[0].name, "f0") && !strcmp(v.views[v.n - 1].name, "f8"));
     ds_views_free(&v);
     /* downsampled by 2: intrinsics scale with the image */
-    DsLoadOptions o = {0, 0, 2, 0, NULL};
+    DsLoadOptions o = {0, 0, 2, 0, NULL, 0};
     CHECK_OK(ds_load(dir, "test", &o, &v));
     if (!mf_test_failed_now()) {
         CHECK(v.w == 4);
@@ -622,7 +622,7 @@ MF_TEST(ds_capture_masks) {
     }
     /* --mask DIR: every frame needs DIR/<name>.png */
     const char *md = mf_test_path("cap_masks_dir");
-    DsLoadOptions o = {0, 0, 1, 0, md};
+    DsLoadOptions o = {0, 0, 1, 0, md, 0};
     write_png(mf_test_path("cap_masks_dir/f0.png"), 8, 8, 1, 1);
     write_png(mf_test_path("cap_masks_dir/f8.png"), 8, 4, 1, 1);
     CHECK_ERR(ds_load(dir, "test", &o, &v), "cap_masks_dir/f8.png: mask is 8x4, the image");
@@ -633,7 +633,7 @@ MF_TEST(ds_capture_masks) {
         ds_views_free(&v);
     }
     CHECK_ERR(ds_load(dir, "train", &o, &v), "cap_masks_dir/f1.png");
-    DsLoadOptions rel = {0, 0, 1, 0, "masks"}; /* relative: inside the scene folder */
+    DsLoadOptions rel = {0, 0, 1, 0, "masks", 0}; /* relative: inside the scene folder */
     CHECK_ERR(ds_load(dir, "train", &rel, &v), "cap_mask/masks/f1.png");
 }
 

@@ -13,6 +13,7 @@
 #include "core/mf_error.h"
 #include "geom/mf_meshproc.h"
 #include "inverse/mf_geom_fit.h"
+#include "inverse/mf_recon_geom.h"
 #include "render/mf_antialias.h"
 #include "render/mf_rtscene.h"
 #include "mf_test.h"
@@ -203,4 +204,37 @@ MF_TEST(inverse_geom_fit_sdf_reg_grad) {
     CHECK_MSG(emax <= 1e-3 * gmax + 1e-7, "max |adjoint - fd| %.3g of %.3g", emax, gmax);
     free(sdf);
     free(d);
+}
+
+/* mf recon --geometry dmtet's grid (mf_recon_geom_mesh): on a grid of side 1.4 the hull of the
+ * R1 = 0.7 sphere's masks touches the border, so the grid is enlarged 1.5x once, as the vhull path
+ * does (mf_vhull_grid), and the extracted mesh is closed and reaches beyond the first grid. Without
+ * the enlargement the mesh is cut open at |x| = 0.7 (boundary edges, side 1.4). */
+MF_TEST(inverse_recon_geom_dmtet_enlarges_grid) {
+    MfCamera cams[NVIEW];
+    MfImage masks[NVIEW];
+    memset(masks, 0, sizeof masks);
+    CHECK_OK(make_cams(cams));
+    CHECK_OK(make_masks(cams, masks));
+    MfReconGeomOpts o = mf_recon_geom_opts_default();
+    o.geometry = "dmtet", o.dmtet_res = 24, o.geom_iters = 0, o.hull_extent = 1.4f, o.hull_target_tris = 3000;
+    MfMesh m = {0};
+    MfReconGeomInfo info;
+    CHECK_OK(mf_recon_geom_mesh(&o, "dmtet", NULL, cams, masks, NVIEW, 64, mf_test_path("recon_geom_dmtet_border"), 0, &m, &info));
+    CHECK_MSG(fabs(info.hull.extent - 2.1) < 1e-4 && !info.hull.touches_border, "grid side %g (want 2.1), still touching %d",
+              (double)info.hull.extent, info.hull.touches_border);
+    float mx = 0;
+    for (int i = 0; i < 3 * m.nv; ++i) mx = fmaxf(mx, fabsf(m.pos[i]));
+    MfManifoldInfo mi = {0};
+    if (m.nv) {
+        CHECK_OK(mf_mesh_weld(&m, 1e-5f)); /* the unwrap's seams split vertices */
+        CHECK_OK(mf_mesh_manifold_check(&m, &mi));
+    }
+    /* closed (no boundary edge); besides the sphere's hull, 4 closed islands near (+-0.8, +-0.8, 0)
+     * that no view both sees and carves (8 views; a view that does not see a point does not carve it) */
+    CHECK_MSG(m.nt > 100 && mf_manifold_ok(&mi), "dmtet mesh: %d triangles, %d boundary edges, %d components, euler %ld", m.nt,
+              mi.boundary_edges, mi.components, mi.euler);
+    CHECK_MSG(mx > 0.72f && mx < 1.05f, "dmtet mesh reaches |coordinate| %g: the first grid's border is 0.7", (double)mx);
+    mf_mesh_free(&m);
+    for (int v = 0; v < NVIEW; ++v) mf_image_free(&masks[v]);
 }

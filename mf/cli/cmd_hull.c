@@ -55,7 +55,7 @@ __attribute__((constructor)) static void hull_usage(void) {
 }
 
 static int hull_run(const char *data, const HullArgs *a) {
-    DsLoadOptions lo = {0, a->max_views, 1, 0, NULL};
+    DsLoadOptions lo = {0, a->max_views, 1, 0, NULL, 0};
     DsViews dv;
     if (ds_load(data, a->split, &lo, &dv)) return MF_EXIT_FAIL;
     MfCamera *cams = malloc((size_t)dv.n * sizeof *cams);

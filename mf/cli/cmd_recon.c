@@ -87,7 +87,7 @@ static int cmd_recon(int argc, char **argv) {
 /* The training views at --res (all of them with --side: its filter needs the mesh), and the mesh
  * path (--mesh, else the data set's, else DATA/mesh.obj) into mesh_path. */
 static int load_views(const char *data, const ReconArgs *a, DsViews *dv, char mesh_path[MF_PATH_MAX]) {
-    DsLoadOptions lo = {0, strcmp(a->side, "all") ? 0 : a->max_views, 1, 0, a->mask};
+    DsLoadOptions lo = {0, strcmp(a->side, "all") ? 0 : a->max_views, 1, 0, a->mask, 0};
     int rc = ds_load_width(data, a->split, &lo, a->res, dv);
     if (rc) return rc;
     if (a->mesh) snprintf(mesh_path, MF_PATH_MAX, "%s", a->mesh);

@@ -72,24 +72,39 @@ int mf_vhull_check_masks(const MfImage *masks, int n, int *masked) {
     return k < 3 ? mf_fail(MF_EARG, "%d of %d views have a mask (alpha both below and above 0.5); need at least 3", k, n) : MF_OK;
 }
 
+int mf_vhull_grid(const MfCamera *cams, const MfImage *masks, int n, int res, float extent, MfTetGrid *grid, float **field,
+                  int *touches) {
+    if (res < 1 || !(extent > 0)) return mf_fail(MF_EARG, "bad grid (res %d, extent %g)", res, extent);
+    MfTetGrid g = mf_tetgrid_make(res, mf_v3s(0), extent);
+    float *f = malloc(mf_tetgrid_nverts(&g) * sizeof *f);
+    if (!f) return mf_fail(MF_ENOMEM, "out of memory for a %d^3 grid", res);
+    int rc = mf_vhull(&g, cams, masks, n, f), still = 0;
+    if (rc == MF_OK && touches_border(&g, f)) {
+        g = mf_tetgrid_make(res, mf_v3s(0), 1.5f * extent);
+        rc = mf_vhull(&g, cams, masks, n, f);
+        still = rc == MF_OK && touches_border(&g, f);
+        if (still) mf_log_warn("visual hull: the hull touches the border of the grid (side %g): it is cut there", 1.5f * extent);
+    }
+    if (rc != MF_OK) {
+        free(f);
+        return rc;
+    }
+    *grid = g;
+    *field = f;
+    if (touches) *touches = still;
+    return MF_OK;
+}
+
 int mf_vhull_mesh(const MfCamera *cams, const MfImage *masks, int n, const MfHullOpts *opt, MfMesh *out, MfHullInfo *info) {
     MfHullInfo r = {0};
-    int rc0 = mf_vhull_check_masks(masks, n, &r.masked_views);
-    if (rc0) return mf_fail_prefix(rc0, "visual hull");
-    if (opt->res < 1 || !(opt->extent > 0)) return mf_fail(MF_EARG, "visual hull: bad grid (res %d, extent %g)", opt->res, opt->extent);
-    MfTetGrid g = mf_tetgrid_make(opt->res, mf_v3s(0), opt->extent);
-    float *f = malloc(mf_tetgrid_nverts(&g) * sizeof *f);
-    if (!f) return mf_fail(MF_ENOMEM, "visual hull: out of memory for a %d^3 grid", opt->res);
-    int rc = mf_vhull(&g, cams, masks, n, f);
-    if (rc == MF_OK && touches_border(&g, f)) {
-        g = mf_tetgrid_make(opt->res, mf_v3s(0), 1.5f * opt->extent);
-        rc = mf_vhull(&g, cams, masks, n, f);
-        r.touches_border = rc == MF_OK && touches_border(&g, f);
-        if (r.touches_border) mf_log_warn("visual hull: the hull touches the border of the grid (side %g): it is cut there", 1.5f * opt->extent);
-    }
+    int rc = mf_vhull_check_masks(masks, n, &r.masked_views);
+    MfTetGrid g;
+    float *f = NULL;
+    if (rc == MF_OK) rc = mf_vhull_grid(cams, masks, n, opt->res, opt->extent, &g, &f, &r.touches_border);
+    if (rc != MF_OK) return mf_fail_prefix(rc, "visual hull");
     r.extent = g.cell * (float)g.res;
     MfMesh m = {0};
-    if (rc == MF_OK) rc = mf_vhull_extract_clean(&g, f, opt, &m, &r.extracted_tris, &r.dropped_components);
+    rc = mf_vhull_extract_clean(&g, f, opt, &m, &r.extracted_tris, &r.dropped_components);
     free(f);
     if (rc != MF_OK) return mf_fail_prefix(rc, "visual hull");
     *out = m;

@@ -44,8 +44,15 @@ typedef struct {
     int extracted_tris; /* triangles before clean-up and decimation */
 } MfHullInfo;
 
+/* The soft hull's field (mf_vhull) on a res^3 grid of side extent centred at the origin, into *grid
+ * and *field (malloc'd, (mf_tetgrid_nverts(grid),), the caller frees it). When the hull touches the
+ * grid's border (a border vertex inside), the grid is enlarged 1.5x once; when it still touches,
+ * *touches = 1 (may be NULL) and a warning says the hull is cut there. MF_EARG on res < 1 or
+ * extent <= 0. The grid of mf_vhull_mesh and of mf recon --geometry dmtet. */
+int mf_vhull_grid(const MfCamera *cams, const MfImage *masks, int n, int res, float extent, MfTetGrid *grid, float **field,
+                  int *touches);
 /* The hull as a clean mesh: refuses (MF_EARG, saying why) fewer than 3 masked views; builds the
- * field on the grid, enlarges the grid 1.5x once when the hull touches its border (then warns),
+ * field on the grid (mf_vhull_grid: enlarged 1.5x once when the hull touches its border),
  * extracts by marching tets (an empty hull is an error, never an empty mesh), welds, drops
  * degenerate triangles and small components, smooths, decimates (mf_meshproc). */
 int mf_vhull_mesh(const MfCamera *cams, const MfImage *masks, int n, const MfHullOpts *opt, MfMesh *out, MfHullInfo *info);

@@ -89,7 +89,7 @@ static int build_hull(const MfReconGeomOpts *o, const MfCamera *cams, const MfIm
     return rc == MF_OK ? MF_OK : mf_fail_prefix(rc, "--geometry vhull");
 }
 
-/* geom_log.csv: one row per step (mask loss and weighted regulariser before the step). */
+/* geom_log.csv: one row per step (mask loss and weighted regulariser before the step); steps 0: the header. */
 static int write_geom_log(const char *out_dir, const MfGeomFitStep *log, int steps) {
     char path[MF_PATH_MAX];
     int rc = mf_path_join(path, sizeof path, out_dir, "geom_log.csv");
@@ -109,16 +109,18 @@ static int write_geom_log(const char *out_dir, const MfGeomFitStep *log, int ste
 /* DMTet's mask term: soft hull (in cell units) -> geom_iters Adam steps -> clean mesh -> unwrap. */
 static int build_dmtet(const MfReconGeomOpts *o, const MfCamera *cams, const MfImage *masks, int n, int tex_res,
                        const char *out_dir, const char *path, MfReconGeomInfo *info) {
-    MfTetGrid g = mf_tetgrid_make(o->dmtet_res, mf_v3s(0), o->hull_extent);
-    size_t nv = mf_tetgrid_nverts(&g);
-    float *sdf = malloc(nv * sizeof *sdf);
+    MfTetGrid g = {0};
+    float *sdf = NULL;
     MfGeomFitStep *log = o->geom_iters > 0 ? calloc((size_t)o->geom_iters, sizeof *log) : NULL;
-    int rc = sdf && (log || o->geom_iters == 0) ? MF_OK : mf_fail(MF_ENOMEM, "out of memory for a %d^3 grid", o->dmtet_res);
+    int rc = log || o->geom_iters == 0 ? MF_OK : mf_fail(MF_ENOMEM, "out of memory for %d steps' log", o->geom_iters);
     double t0 = mf_now();
-    if (!rc) rc = mf_vhull_check_masks(masks, n, NULL);
-    if (!rc) rc = mf_vhull(&g, cams, masks, n, sdf);
+    if (!rc) rc = mf_vhull_check_masks(masks, n, &info->hull.masked_views);
+    /* the hull's grid: enlarged 1.5x once when the hull touches its border, as mf_vhull_mesh does */
+    if (!rc) rc = mf_vhull_grid(cams, masks, n, o->dmtet_res, o->hull_extent, &g, &sdf, &info->hull.touches_border);
+    info->hull.extent = g.cell * (float)g.res;
+    size_t nv = rc ? 0 : mf_tetgrid_nverts(&g);
     /* mask - 0.5 in [-0.5, 0.5]: as a distance, in cells, so geom_lr is in cells per step */
-    for (size_t v = 0; !rc && v < nv; ++v) sdf[v] *= g.cell;
+    for (size_t v = 0; v < nv; ++v) sdf[v] *= g.cell;
     info->hull_s = mf_now() - t0;
     MfGeomFitOpts fo = {o->geom_iters, o->geom_lr * g.cell, 0, o->geom_sdf_reg, o->geom_views};
     if (!rc && o->geom_iters > 0) {
@@ -127,7 +129,11 @@ static int build_dmtet(const MfReconGeomOpts *o, const MfCamera *cams, const MfI
         info->geom_s = mf_now() - t0;
         info->step_ms = info->steps ? 1e3 * info->geom_s / info->steps : 0;
         if (info->steps) info->loss_first = log[0].mask, info->loss_last = log[info->steps - 1].mask;
-        int wrc = info->steps ? write_geom_log(out_dir, log, info->steps) : MF_OK;
+    }
+    /* header only at 0 steps, so the folder never keeps an earlier run's log; nothing when the hull
+     * failed (a refused run leaves no folder behind) */
+    if (!rc || info->steps) {
+        int wrc = write_geom_log(out_dir, log, info->steps);
         if (!rc) rc = wrc;
     }
     if (!rc)
@@ -187,6 +193,8 @@ void mf_recon_geom_to_json(const MfReconGeomInfo *info, cJSON *obj) {
         cJSON_AddNumberToObject(g, "mask_loss_first", info->loss_first);
         cJSON_AddNumberToObject(g, "mask_loss_last", info->loss_last);
         cJSON_AddNumberToObject(g, "dropped_components", info->dropped_components);
+        cJSON_AddNumberToObject(g, "grid_extent", info->hull.extent);
+        cJSON_AddBoolToObject(g, "touches_border", info->hull.touches_border);
         cJSON_AddNumberToObject(g, "charts", info->atlas.charts);
         return;
     }

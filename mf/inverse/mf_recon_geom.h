@@ -11,7 +11,8 @@
  *          UVs is reused (the hull and the unwrap are deterministic; an unreadable one is rebuilt
  *          with a warning).
  *   dmtet  DMTet's mask term (mf_geom_fit, issue 14 pass 1 without its colour loss): an SDF on a
- *          dmtet_res^3 tet grid (side hull_extent) initialised from the soft visual hull
+ *          dmtet_res^3 tet grid (side hull_extent, enlarged 1.5x once when the hull touches its
+ *          border: mf_vhull_grid, as vhull) initialised from the soft visual hull
  *          (mf_vhull, scaled to cell units), geom_iters Adam steps on the training views' masks
  *          (geom_views per step, in turn), then extraction and the hull's clean-up (weld, small
  *          components dropped, Taubin, decimation: the hull_* options), unwrapped as vhull ->
@@ -54,7 +55,8 @@ typedef struct {
     char mesh_path[MF_PATH_MAX]; /* the mesh optimised on */
     int reused;                  /* vhull/dmtet with resume: geometry/<source>.obj was reused */
     double hull_s, unwrap_s;     /* wall seconds (0 when reused or given) */
-    MfHullInfo hull;             /* vhull, built: the hull's report */
+    MfHullInfo hull;             /* vhull, built: the hull's report; dmtet, built: masked_views, extent
+                                    (the grid's side after enlarging) and touches_border */
     int hull_tris;               /* vhull: triangles of the unwrapped hull */
     MfUvAtlasInfo atlas;         /* vhull, built: the unwrap's report */
     double geom_s;               /* dmtet, built: wall s of the mask-term steps */

@@ -69,7 +69,7 @@ static const MfOpt k_geom_opts[] = {
                "unwrapped (written to RESULT_DIR/geometry/vhull.obj), or DMTet's mask term from that hull (RESULT_DIR/geometry/dmtet.obj, per-step loss in RESULT_DIR/geom_log.csv)",
                .choices = "given|vhull|dmtet", .unset = "given when DATASET_DIR has a mesh (or --mesh), else vhull"),
     MF_OPT_INT(G, hull_res, MF_HULL_DEFAULT_RES, 4, 512, "vhull: grid cubes per axis (mf hull --res)"),
-    MF_OPT_FLOAT(G, hull_extent, MF_HULL_DEFAULT_EXTENT, 1e-6, 1e6, "vhull, dmtet: side of the grid cube centred at the origin (vhull: enlarged 1.5x once when the hull touches it)"),
+    MF_OPT_FLOAT(G, hull_extent, MF_HULL_DEFAULT_EXTENT, 1e-6, 1e6, "vhull, dmtet: side of the grid cube centred at the origin (enlarged 1.5x once when the hull touches it)"),
     MF_OPT_INT(G, hull_smooth, MF_HULL_DEFAULT_SMOOTH, 0, 10000, "vhull, dmtet: Taubin smoothing iterations"),
     MF_OPT_INT(G, hull_target_tris, MF_HULL_DEFAULT_TARGET_TRIS, 0, 100000000, "vhull, dmtet: decimate to at most this many triangles (0: keep all)"),
     MF_OPT_FLOAT(G, hull_min_component, MF_HULL_DEFAULT_MIN_COMPONENT, 0, 1, "vhull, dmtet: drop components with fewer than this fraction of the largest's triangles"),

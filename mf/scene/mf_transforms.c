@@ -90,7 +90,7 @@ int mf_transforms_parse(const char *file, const char *prefix, const cJSON *obj, 
     if (!rc && cap) rc = read_intrinsics(file, w, obj, t->intr);
     if (!rc) rc = mf_json_array(file, w, obj, "frames", &frames, &n);
     if (rc) return rc;
-    if (cap && cJSON_GetObjectItemCaseSensitive(obj, "aabb_scale"))
+    if (cap && !(flags & MF_TF_QUIET) && cJSON_GetObjectItemCaseSensitive(obj, "aabb_scale"))
         mf_log_info("%s: aabb_scale ignored (mf works on a given mesh; no bounding volume is used)", file);
     t->frames = calloc(n > 0 ? (size_t)n : 1, sizeof *t->frames);
     if (!t->frames) return mf_fail(MF_ENOMEM, "%s: out of memory", file);

@@ -12,8 +12,9 @@
 /* Flags. 0: camera_angle_x required at the root, file_path optional, nothing else read.
  * MF_TF_CAPTURE: file_path required; camera_angle_x (root or frame) optional where fl_x is given;
  * fl_x fl_y cx cy w h, mask_path, scene_name read; non-zero k1..k4 p1 p2 and non-pinhole
- * camera_model refused by name; aabb_scale ignored with a log line. */
-enum { MF_TF_CAPTURE = 1 };
+ * camera_model refused by name; aabb_scale ignored with a log line.
+ * MF_TF_QUIET: no log lines (for a file loaded again in the same command, whose notes were said). */
+enum { MF_TF_CAPTURE = 1, MF_TF_QUIET = 2 };
 
 typedef struct {
     double c2w[16];        /* (4, 4) row-major camera-to-world, OpenGL camera axes */
