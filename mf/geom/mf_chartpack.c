@@ -99,6 +99,8 @@ typedef struct {
     int x, y, rot;
 } Spot;
 
+static int place_all(Packer *k, int mode, Spot *pos, int *maxx, int *maxy);
+
 /* Packs every chart at scale s; pos (n,) the spots. Returns 1 if all fit in the grid, 0 if not,
  * MF_ENOMEM. The charts' profiles are rasterised first (in parallel, each into its own slice),
  * then placed in order. */
@@ -121,6 +123,17 @@ static int try_scale(Packer *k, double s, Spot *pos, int *maxx, int *maxy) {
         int stride = (int)((c + 1 < k->n ? k->ofs[c + 1] : need) - k->ofs[c]) / 4;
         for (int r = 0; r < 4; ++r) profile(&k->ch[c], r, s, d, k->buf + k->ofs[c] + (size_t)r * stride, &k->prof[4 * c + r]);
     }
+    for (int mode = 0; mode < 2; ++mode) {
+        int f = place_all(k, mode, pos, maxx, maxy);
+        if (f) return f;
+    }
+    return 0;
+}
+
+/* Places the charts (profiles rasterised) on the skyline in order; mode 0 minimises the chart's
+ * bottom y, mode 1 its top (y + highest profile row); ties: the least area left under the chart. */
+static int place_all(Packer *k, int mode, Spot *pos, int *maxx, int *maxy) {
+    int P = k->P, d = k->d;
     for (int x = 0; x < P; ++x) k->sky[x] = d;
     *maxx = *maxy = 0;
     for (int oi = 0; oi < k->n; ++oi) {
@@ -131,13 +144,13 @@ static int try_scale(Packer *k, double s, Spot *pos, int *maxx, int *maxy) {
         for (int r = 0; r < 4; ++r) {
             const Profile *p = &pr[r];
             for (int x = d; x + p->mw + d <= P; ++x) {
-                int y = d;
-                for (int j = -d; j < p->mw + d && (best_y < 0 || y <= best_y); ++j)
+                int y = d, add = mode ? p->mtop : 0; /* the score: y + add */
+                for (int j = -d; j < p->mw + d && (best_y < 0 || y + add <= best_y); ++j)
                     if (p->botd[j + d] != INT32_MAX && k->sky[x + j] - p->botd[j + d] > y) y = k->sky[x + j] - p->botd[j + d];
-                if ((long)y + p->mtop + d > P || (best_y >= 0 && y > best_y)) continue;
+                if ((long)y + p->mtop + d > P || (best_y >= 0 && y + add > best_y)) continue;
                 long waste = 0;
                 for (int c = 0; c < p->mw; ++c) waste += (long)y + p->bot[c] - k->sky[x + c];
-                if (best_y < 0 || y < best_y || waste < best_waste) best_y = y, best_waste = waste, best = (Spot){x, y, r};
+                if (best_y < 0 || y + add < best_y || waste < best_waste) best_y = y + add, best_waste = waste, best = (Spot){x, y, r};
             }
         }
         if (best_y < 0) return 0;

@@ -6,11 +6,12 @@
  * quarter-turn rotations. Charts are placed one by one, largest area first, on a skyline (the
  * first free row of every grid column): a chart's dilated bottom profile (its cells grown by
  * ceil(gutter P / res) texels in x and y) must stay above the skyline, and the position and
- * rotation chosen are those with the lowest resulting chart top, ties broken by the least area
- * left under the chart, then by x and by rotation. Texels under an overhang are lost (no holes are
+ * rotation chosen are those with the lowest chart bottom (or, in a second pass tried when the
+ * first does not fit, the lowest chart top), ties broken by the least area left under the
+ * chart, then by x and by rotation. Texels under an overhang are lost (no holes are
  * filled), but ragged charts interlock where rectangles cannot. The scale is the largest that fits
- * in [gutter, 1 - gutter]^2 found by bisection (7 steps between the area bound and the first
- * scale that fits). stretch 1 then scales the layout along u and v separately to span the square
+ * in [gutter, 1 - gutter]^2 found by bisection (7 steps after walking down from the area bound
+ * to the first scale that fits). stretch 1 then scales the layout along u and v separately to span the square
  * (gaps only grow). Charts never share a texel of the grid and are at least the gutter apart, so
  * their UV triangles cannot overlap. Deterministic (charts are rasterised in parallel, placed one by one). */
 #ifndef MF_CHARTPACK_H
