@@ -262,14 +262,15 @@ static int write_tables(Bench *B, MfStrBuf *page, MfStrBuf *extra) {
     const char *cost_m[] = {"time_s", "time_x", "prior_share", "mem_mb"};
     const char *orb_m[] = {"relit_orb_psnr_h", "relit_orb_psnr_l"};
     const char *nv_m[] = {"nv_psnr", "nv_ssim", "nv_l1", "nv_flip"};
-    const char *geom_m[] = {"geom_chamfer", "geom_normal_deg", "geom_view_normal_deg", "geom_mask_iou"};
+    const char *geom_m[] = {"geom_chamfer", "geom_chamfer_uniform", "geom_normal_deg", "geom_normal_1mcos",
+                            "geom_view_normal_deg", "geom_view_normal_1mcos", "geom_mask_iou"};
     struct { const char *file, *caption; const char *const *metrics; int nk; } tabs[] = {
         {"relight", "Relighting (test views under novel lights)", relit_m, 4},
         {"materials", "Albedo and ORM (per test view)", mat_m, 6},
         {"cost", "Wall time (s), wall time as a multiple of the first method's on the same scene (time_x), the prior's share of the wall time (MaterialFusion), and peak memory (MB) per scene", cost_m, 4},
         {"orb", "Stanford-ORB's own relighting metrics (PSNR-H, PSNR-L)", orb_m, 2},
         {"novelview", "Novel views under the TRAINING light (held-out test views; the scene has no relit or material ground truth)", nv_m, 4},
-        {"geometry", "Geometry against the GT mesh: Chamfer x1e3 (Stanford-ORB: GT vertices vs 30k area samples), normal error in degrees (those point pairs; and the test views' normal maps), test-view mask IoU", geom_m, 4},
+        {"geometry", "Geometry against the GT mesh: Chamfer x1e3 (Stanford-ORB: GT vertices vs 30k area samples; uniform: 30k area samples of each mesh), normal error in degrees and as 1 - cos (those point pairs; and the test views' normal maps), test-view mask IoU", geom_m, 7},
     };
     mf_sb_printf(page, "<p>Data: <code>");
     char rel[MF_PATH_MAX];

@@ -197,9 +197,10 @@ static int score_novel_views(const DsViews *dv, const EvResult *res, const MfRtS
     return rc;
 }
 
-/* Geometry against the scene's GT mesh (issue 14 item 11): Stanford-ORB Chamfer and point-pair
- * normal error (ev_geom_score, EV_GEOM_SAMPLES area samples), and over the test cameras the
- * image-space normal error and mask IoU (ev_geom_views). Nothing when the scene has no GT mesh;
+/* Geometry against the scene's GT mesh (issue 14 item 11): Stanford-ORB Chamfer, its uniform
+ * variant and the point-pair normal error in degrees and as 1 - cos (ev_geom_score,
+ * EV_GEOM_SAMPLES area samples), and over the test cameras the image-space normal error (degrees,
+ * 1 - cos) and mask IoU (ev_geom_views). Nothing when the scene has no GT mesh;
  * a failure (an unreadable GT mesh, a mesh without area) is logged by the caller, not fatal. */
 static int score_geometry(const DsViews *dv, const MfMesh *pred, const EvEvalOpts *o, EvTable *t, const char *method,
                           const char *dataset, const char *scene) {
@@ -215,8 +216,11 @@ static int score_geometry(const DsViews *dv, const MfMesh *pred, const EvEvalOpt
     if (!rc) rc = ev_geom_score(&gt, pred, EV_GEOM_SAMPLES, o->seed, &gs);
     if (!rc) rc = ev_geom_views(&gt, pred, cams, dv->n, &gv);
     if (!rc) rc = ev_table_add(t, method, dataset, scene, "geom_chamfer", gs.chamfer);
+    if (!rc) rc = ev_table_add(t, method, dataset, scene, "geom_chamfer_uniform", gs.chamfer_uniform);
     if (!rc) rc = ev_table_add(t, method, dataset, scene, "geom_normal_deg", gs.normal_deg);
+    if (!rc) rc = ev_table_add(t, method, dataset, scene, "geom_normal_1mcos", gs.normal_1mcos);
     if (!rc) rc = ev_table_add(t, method, dataset, scene, "geom_view_normal_deg", gv.normal_deg);
+    if (!rc) rc = ev_table_add(t, method, dataset, scene, "geom_view_normal_1mcos", gv.normal_1mcos);
     if (!rc) rc = ev_table_add(t, method, dataset, scene, "geom_mask_iou", gv.mask_iou);
     free(cams);
     mf_mesh_free(&gt);

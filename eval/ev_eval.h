@@ -24,9 +24,11 @@
  * empty mask) is excluded and counted, never turned into a NaN.
  * Geometry (issue 14), when the scene has a GT mesh (DsViews.mesh_path) and unless no_geom: the
  * result's mesh against it, per scene only: geom_chamfer (Stanford-ORB Chamfer x 1e3, GT vertices
- * vs EV_GEOM_SAMPLES area samples of the result), geom_normal_deg (the same point pairs),
- * geom_view_normal_deg and geom_mask_iou (normal maps and masks ray-cast from the scored test
- * cameras; eval/ev_geom.h). A method that keeps the given mesh scores about 0 / 0 / 0 / 1. */
+ * vs EV_GEOM_SAMPLES area samples of the result), geom_chamfer_uniform (EV_GEOM_SAMPLES area
+ * samples of each mesh), geom_normal_deg and geom_normal_1mcos (the point pairs of geom_chamfer),
+ * geom_view_normal_deg, geom_view_normal_1mcos and geom_mask_iou (normal maps and masks ray-cast
+ * from the scored test cameras; eval/ev_geom.h). A method that keeps the given mesh scores about
+ * 0 (the sampling floors) on all but the IoU, which is 1. */
 #ifndef EV_EVAL_H
 #define EV_EVAL_H
 
@@ -56,7 +58,8 @@ typedef struct {
 int ev_result_load(const char *dir, const char *mesh_path, EvResult *out);
 void ev_result_free(EvResult *r);
 
-/* Area samples of the result mesh for geom_chamfer (Stanford-ORB uses 30000). */
+/* Area samples of the result mesh for geom_chamfer, and of each mesh for geom_chamfer_uniform
+ * (Stanford-ORB uses 30000). */
 #define EV_GEOM_SAMPLES 30000
 
 typedef struct {

@@ -98,41 +98,74 @@ static int gt_normals(const MfMesh *m, float *n) {
     return MF_OK;
 }
 
-int ev_geom_score(const MfMesh *gt, const MfMesh *pred, int n_samples, uint64_t seed, EvGeomScore *out) {
-    if (gt->nv < 1 || gt->nt < 1) return mf_fail(MF_EARG, "geometry score: the GT mesh is empty");
-    if (pred->nt < 1 || n_samples < 1) return mf_fail(MF_EARG, "geometry score: the predicted mesh is empty");
-    /* area CDF of the prediction */
-    double *cdf = malloc((size_t)pred->nt * sizeof *cdf), acc = 0;
-    float *gn = malloc((size_t)gt->nv * 3 * sizeof *gn), *sp = malloc((size_t)n_samples * 3 * sizeof *sp);
-    float *sn = malloc((size_t)n_samples * 3 * sizeof *sn);
-    int *nn_g = malloc((size_t)gt->nv * sizeof *nn_g), *nn_s = malloc((size_t)n_samples * sizeof *nn_s);
-    double *d_g = malloc((size_t)gt->nv * sizeof *d_g), *d_s = malloc((size_t)n_samples * sizeof *d_s);
-    int rc = MF_OK;
-    if (!cdf || !gn || !sp || !sn || !nn_g || !nn_s || !d_g || !d_s) { rc = mf_fail(MF_ENOMEM, "geometry score: out of memory"); goto done; }
-    for (int t = 0; t < pred->nt; ++t) {
-        const uint32_t *s = pred->tri + 3 * t;
-        acc += 0.5 * mf_len(mf_cross(mf_sub(vtx(pred, s[1]), vtx(pred, s[0])), mf_sub(vtx(pred, s[2]), vtx(pred, s[0]))));
+int ev_geom_sample(const MfMesh *m, int n, uint64_t seed, uint64_t stream, float *pts, float *nrm) {
+    if (m->nt < 1 || n < 1) return mf_fail(MF_EARG, "area samples: empty mesh");
+    double *cdf = malloc((size_t)m->nt * sizeof *cdf), acc = 0; /* (nt,) running area */
+    if (!cdf) return mf_fail(MF_ENOMEM, "area samples: out of memory");
+    for (int t = 0; t < m->nt; ++t) {
+        const uint32_t *s = m->tri + 3 * t;
+        acc += 0.5 * mf_len(mf_cross(mf_sub(vtx(m, s[1]), vtx(m, s[0])), mf_sub(vtx(m, s[2]), vtx(m, s[0]))));
         cdf[t] = acc;
     }
-    if (!(acc > 0)) { rc = mf_fail(MF_EARG, "geometry score: the predicted mesh has zero area"); goto done; }
+    if (!(acc > 0)) {
+        free(cdf);
+        return mf_fail(MF_EARG, "area samples: the mesh has zero area");
+    }
     MfRng rng;
-    mf_rng_seed(&rng, seed, 14);
-    for (int k = 0; k < n_samples; ++k) {
+    mf_rng_seed(&rng, seed, stream);
+    for (int k = 0; k < n; ++k) {
         double u = mf_rng_double(&rng) * acc;
-        int lo = 0, hi = pred->nt - 1;
+        int lo = 0, hi = m->nt - 1;
         while (lo < hi) {
             int mid = (lo + hi) / 2;
             if (cdf[mid] < u) lo = mid + 1;
             else hi = mid;
         }
-        const uint32_t *s = pred->tri + 3 * lo;
+        const uint32_t *s = m->tri + 3 * lo;
         float r1 = sqrtf(mf_rng_float(&rng)), r2 = mf_rng_float(&rng);
-        MfVec3 a = vtx(pred, s[0]), b = vtx(pred, s[1]), c = vtx(pred, s[2]);
+        MfVec3 a = vtx(m, s[0]), b = vtx(m, s[1]), c = vtx(m, s[2]);
         MfVec3 p = mf_add(mf_add(mf_scale(a, 1 - r1), mf_scale(b, r1 * (1 - r2))), mf_scale(c, r1 * r2));
-        MfVec3 n = mf_norm(mf_cross(mf_sub(b, a), mf_sub(c, a)));
-        memcpy(sp + 3 * k, &p, sizeof p);
-        memcpy(sn + 3 * k, &n, sizeof n);
+        memcpy(pts + 3 * k, &p, sizeof p);
+        if (nrm) {
+            MfVec3 nn = mf_norm(mf_cross(mf_sub(b, a), mf_sub(c, a)));
+            memcpy(nrm + 3 * k, &nn, sizeof nn);
+        }
     }
+    free(cdf);
+    return MF_OK;
+}
+
+/* The mean squared nearest distance a -> b plus b -> a, over 2 (not yet x 1e3); scratch nn and
+ * d2 hold max(na, nb) entries. */
+static int chamfer_pts(const float *a, int na, const float *b, int nb, int *nn, double *d2, double *out) {
+    double sa = 0, sb = 0;
+    int rc = ev_nearest(b, nb, a, na, nn, d2);
+    for (int i = 0; rc == MF_OK && i < na; ++i) sa += d2[i];
+    if (rc == MF_OK) rc = ev_nearest(a, na, b, nb, nn, d2);
+    for (int i = 0; rc == MF_OK && i < nb; ++i) sb += d2[i];
+    if (rc == MF_OK) *out = 0.5 * (sa / na + sb / nb);
+    return rc;
+}
+
+int ev_geom_score(const MfMesh *gt, const MfMesh *pred, int n_samples, uint64_t seed, EvGeomScore *out) {
+    if (gt->nv < 1 || gt->nt < 1) return mf_fail(MF_EARG, "geometry score: the GT mesh is empty");
+    if (pred->nt < 1 || n_samples < 1) return mf_fail(MF_EARG, "geometry score: the predicted mesh is empty");
+    int nmax = gt->nv > n_samples ? gt->nv : n_samples;
+    float *gn = malloc((size_t)gt->nv * 3 * sizeof *gn), *sp = malloc((size_t)n_samples * 3 * sizeof *sp);
+    float *sn = malloc((size_t)n_samples * 3 * sizeof *sn), *gp = malloc((size_t)n_samples * 3 * sizeof *gp);
+    int *nn_g = malloc((size_t)gt->nv * sizeof *nn_g), *nn_s = malloc((size_t)nmax * sizeof *nn_s);
+    double *d_g = malloc((size_t)gt->nv * sizeof *d_g), *d_s = malloc((size_t)nmax * sizeof *d_s), uni = 0;
+    int rc = MF_OK;
+    if (!gn || !sp || !sn || !gp || !nn_g || !nn_s || !d_g || !d_s) { rc = mf_fail(MF_ENOMEM, "geometry score: out of memory"); goto done; }
+    if (ev_geom_sample(pred, n_samples, seed, EV_GEOM_STREAM_PRED, sp, sn) != MF_OK) {
+        rc = mf_fail(MF_EARG, "geometry score: the predicted mesh has zero area");
+        goto done;
+    }
+    if (ev_geom_sample(gt, n_samples, seed, EV_GEOM_STREAM_GT, gp, NULL) != MF_OK) {
+        rc = mf_fail(MF_EARG, "geometry score: the GT mesh has zero area");
+        goto done;
+    }
+    if ((rc = chamfer_pts(gp, n_samples, sp, n_samples, nn_s, d_s, &uni)) != MF_OK) goto done;
     if ((rc = gt_normals(gt, gn)) != MF_OK) goto done;
     if ((rc = ev_nearest(sp, n_samples, gt->pos, gt->nv, nn_g, d_g)) != MF_OK) goto done;
     if ((rc = ev_nearest(gt->pos, gt->nv, sp, n_samples, nn_s, d_s)) != MF_OK) goto done;
@@ -151,12 +184,13 @@ int ev_geom_score(const MfMesh *gt, const MfMesh *pred, int n_samples, uint64_t 
     r.gt_to_pred = 1e3 * sg / gt->nv;
     r.pred_to_gt = 1e3 * ss / n_samples;
     r.chamfer = 0.5 * (r.gt_to_pred + r.pred_to_gt);
+    r.chamfer_uniform = 1e3 * uni;
     r.normal_deg = 0.5 * (ag / gt->nv + as / n_samples);
     r.normal_1mcos = 0.5 * (cg / gt->nv + cs / n_samples);
     r.n_gt = gt->nv, r.n_pred = n_samples;
     *out = r;
 done:
-    free(cdf), free(gn), free(sp), free(sn), free(nn_g), free(nn_s), free(d_g), free(d_s);
+    free(gn), free(sp), free(sn), free(gp), free(nn_g), free(nn_s), free(d_g), free(d_s);
     return rc;
 }
 

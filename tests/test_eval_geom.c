@@ -1,5 +1,6 @@
 /* mf eval's geometry columns (issue 14 item 11): a result's mesh against the scene's GT mesh
- * (geom_chamfer, geom_normal_deg, geom_view_normal_deg, geom_mask_iou), through ev_eval_scene and
+ * (geom_chamfer, geom_chamfer_uniform, geom_normal_deg, geom_normal_1mcos, geom_view_normal_deg,
+ * geom_view_normal_1mcos, geom_mask_iou), through ev_eval_scene and
  * through `mf eval` (scenes.csv, geometry.md). */
 #include <math.h>
 #include <stdio.h>
@@ -89,9 +90,10 @@ MF_TEST(eval_geometry_columns) {
     int ex = 0;
     CHECK_OK(ev_eval_scene(scene, given, "given", "d", "s", &o, &t, NULL, &ex));
     CHECK_OK(ev_eval_scene(scene, big, "big", "d", "s", &o, &t, NULL, &ex));
-    const char *names[4] = {"geom_chamfer", "geom_normal_deg", "geom_view_normal_deg", "geom_mask_iou"};
-    double g[4] = {0}, b[4] = {0};
-    for (int k = 0; k < 4; ++k) {
+    const char *names[7] = {"geom_chamfer", "geom_normal_deg", "geom_view_normal_deg", "geom_mask_iou",
+                            "geom_chamfer_uniform", "geom_normal_1mcos", "geom_view_normal_1mcos"};
+    double g[7] = {0}, b[7] = {0};
+    for (int k = 0; k < 7; ++k) {
         CHECK_MSG(ev_table_find(&t, "given", "d", "s", names[k], &g[k]) && ev_table_find(&t, "big", "d", "s", names[k], &b[k]),
                   "%s missing", names[k]);
     }
@@ -101,6 +103,18 @@ MF_TEST(eval_geometry_columns) {
      * vertices); the GT mesh itself: that floor only */
     CHECK_MSG(fabs(b[0] - 1.6) < 0.1 * 1.6, "Chamfer r 0.4 vs 0.44: %g (want 1.6)", b[0]);
     CHECK_MSG(g[0] < 0.05, "Chamfer of the GT mesh itself: %g", g[0]);
+    /* the uniform variant: eps^2 + 4 r R / N each way (the nearest of N = 30000 samples; see
+     * test_eval_geom_chamfer.c), the GT mesh itself 4 r^2 / N; 3% for the 128 x 64 tessellation */
+    double uni_big = 1e3 * (0.04 * 0.04 + 4 * 0.4 * 0.44 / EV_GEOM_SAMPLES), uni_given = 1e3 * 4 * 0.4 * 0.4 / EV_GEOM_SAMPLES;
+    printf("    uniform Chamfer: given %.4f (floor %.4f), sphere 1.1x %.4f (analytic %.4f)\n", g[4], uni_given, b[4], uni_big);
+    CHECK_MSG(fabs(b[4] / uni_big - 1) < 0.03 && fabs(g[4] / uni_given - 1) < 0.1, "uniform Chamfer: big %g (want %g), given %g (want %g)",
+              b[4], uni_big, g[4], uni_given);
+    /* 1 - cos beside the mean angle: 1 - cos is convex below 90 degrees, so its mean is at least
+     * 1 - cos(mean angle) (Jensen); small for the GT mesh itself */
+    for (int k = 5; k <= 6; ++k) {
+        double lo = 1 - cos((k == 5 ? b[1] : b[2]) * M_PI / 180);
+        CHECK_MSG(b[k] >= lo && b[k] < 0.02 && g[k] < 1e-3, "%s: big %g (>= %g), given %g", names[k], b[k], lo, g[k]);
+    }
     CHECK_MSG(g[2] < 0.05 && g[3] == 1.0, "GT mesh itself: view normals %g deg, IoU %g", g[2], g[3]);
     /* silhouettes from distance 1.5: IoU = (tan asin(0.4/1.5) / tan asin(0.44/1.5))^2 = 0.813 */
     double want = pow(tan(asin(0.4 / 1.5)) / tan(asin(0.44 / 1.5)), 2.0);
@@ -134,6 +148,8 @@ MF_TEST(eval_geometry_columns) {
     CHECK_OK(mf_read_file(mf_test_path("eg/report/geometry.md"), &md, NULL));
     if (csv && md) {
         CHECK(strstr(csv, "geom_chamfer") && strstr(csv, "geom_mask_iou") && strstr(csv, "geom_view_normal_deg"));
+        CHECK_MSG(strstr(md, "geom_chamfer_uniform ↓") && strstr(md, "geom_normal_1mcos ↓") && strstr(md, "geom_view_normal_1mcos ↓"),
+                  "geometry.md lacks the uniform Chamfer or 1 - cos columns:\n%s", md);
         CHECK_MSG(strstr(md, "geom_mask_iou ↑") && strstr(md, "geom_chamfer ↓") && strstr(md, "given") && strstr(md, "big"),
                   "geometry.md:\n%s", md);
     }

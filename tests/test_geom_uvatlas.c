@@ -36,6 +36,54 @@ static int file_equal(const char *p, const char *q) {
     return eq;
 }
 
+static int uf_root(int *p, int x) {
+    while (p[x] != x) x = p[x] = p[p[x]];
+    return x;
+}
+
+/* The gutter: rasterises m's UV triangles at the texel centres of a (4 tex_res)^2 grid, each
+ * centre owned by its chart (components of triangles sharing vertices), and counts centres with
+ * a centre of another chart within 4 gutter - 3 cells in x and in y: such a pair is closer than
+ * sqrt(2) (4 gutter - 3) / (4 tex_res) < gutter / tex_res, so two charts came nearer than the
+ * gutter. */
+static long gutter_violations(const MfMesh *m, int tex_res, float gutter) {
+    int R = (int)(4 * gutter) - 3, G = 4 * tex_res;
+    if (R < 1) return 0;
+    int *par = malloc((size_t)m->nv * sizeof *par), *own = malloc((size_t)G * G * sizeof *own);
+    long bad = 0;
+    if (!par || !own) { free(par), free(own); return -1; }
+    for (int v = 0; v < m->nv; ++v) par[v] = v;
+    for (int t = 0; t < m->nt; ++t)
+        for (int k = 1; k < 3; ++k) par[uf_root(par, (int)m->tri[3 * t + k])] = uf_root(par, (int)m->tri[3 * t]);
+    for (size_t i = 0; i < (size_t)G * G; ++i) own[i] = -1;
+    for (int t = 0; t < m->nt; ++t) {
+        const float *p[3] = {m->uv + 2 * m->tri[3 * t], m->uv + 2 * m->tri[3 * t + 1], m->uv + 2 * m->tri[3 * t + 2]};
+        double x0 = fmin(p[0][0], fmin(p[1][0], p[2][0])) * G, x1 = fmax(p[0][0], fmax(p[1][0], p[2][0])) * G;
+        double y0 = fmin(p[0][1], fmin(p[1][1], p[2][1])) * G, y1 = fmax(p[0][1], fmax(p[1][1], p[2][1])) * G;
+        int c = uf_root(par, (int)m->tri[3 * t]);
+        for (int j = (int)fmax(0, floor(y0 - 0.5)); j <= (int)fmin(G - 1, ceil(y1)); ++j)
+            for (int i = (int)fmax(0, floor(x0 - 0.5)); i <= (int)fmin(G - 1, ceil(x1)); ++i) {
+                double x = (i + 0.5) / G, y = (j + 0.5) / G, w[3];
+                for (int e = 0; e < 3; ++e) {
+                    const float *a = p[e], *b = p[(e + 1) % 3];
+                    w[e] = ((double)b[0] - a[0]) * (y - a[1]) - ((double)b[1] - a[1]) * (x - a[0]);
+                }
+                if (w[0] >= 0 && w[1] >= 0 && w[2] >= 0) own[(size_t)j * G + i] = c;
+            }
+    }
+    for (int j = 0; j < G; ++j)
+        for (int i = 0; i < G; ++i) {
+            int c = own[(size_t)j * G + i], hit = 0;
+            if (c < 0) continue;
+            for (int y = j; y <= j + R && y < G && !hit; ++y) /* pairs counted once: the window above and to the right */
+                for (int x = i - R; x <= i + R && !hit; ++x)
+                    if (x >= 0 && x < G && (y > j || x > i) && own[(size_t)y * G + x] >= 0 && own[(size_t)y * G + x] != c) hit = 1;
+            bad += hit;
+        }
+    free(par), free(own);
+    return bad;
+}
+
 /* Unwraps `in` with 1 and then 2 threads: the OBJs must be byte-identical; no overlaps at
  * 4096^2, no flips, everything inside [0,1]^2. Returns the atlas use at 256^2. */
 static double check_unwrap(const char *name, const MfMesh *in, const MfUvAtlasOpts *opts, MfUvAtlasInfo *info_out) {
@@ -65,6 +113,8 @@ static double check_unwrap(const char *name, const MfMesh *in, const MfUvAtlasOp
     CHECK_MSG(c.flipped == 0 && uv_flips(&out[0]) == 0, "%s: %d flipped UV triangles", name, c.flipped);
     CHECK_MSG(c.outside == 0, "%s: %d triangles outside [0,1]^2", name, c.outside);
     CHECK(c.charts == info.charts);
+    long gv = gutter_violations(&out[0], o.tex_res, o.gutter);
+    CHECK_MSG(gv == 0, "%s: %ld texel centres (at %d^2) nearer than the %g-texel gutter to another chart", name, gv, 4 * o.tex_res, o.gutter);
     fprintf(stderr, "  %s: atlas use %.1f%% at 256^2 (%.1f%% at 4096^2)\n", name, 100 * c256.coverage, 100 * c.coverage);
     *info_out = info;
     mf_mesh_free(&out[0]);
@@ -79,7 +129,7 @@ MF_TEST(geom_uvatlas_torus_cup) {
     CHECK_OK(mf_shape_torus(&torus, 0.5f, 0.2f, 96, 48));
     double use = check_unwrap("torus", &torus, NULL, &info);
     CHECK(info.charts > 1 && info.charts < torus.nt / 20);
-    CHECK(use > 0.3);
+    CHECK_MSG(use > 0.4 && info.packed_shapes, "torus: atlas use %g (shelves gave 0.327), packed by shape %d", use, info.packed_shapes);
     /* whole-torus charts (no normal limit, no size cap): LSCM of the grown disc flips or
      * overlaps, so the split paths run; the result must still be valid */
     MfUvAtlasOpts o = mf_uvatlas_defaults();
@@ -94,7 +144,7 @@ MF_TEST(geom_uvatlas_torus_cup) {
     DsObject cup;
     CHECK_OK(ds_object_generate(&cup, DS_FAM_CUP, 7, 64));
     use = check_unwrap("cup", &cup.mesh, NULL, &info);
-    CHECK(use > 0.3);
+    CHECK_MSG(use >= 0.5, "cup: atlas use %g (shelves gave 0.425)", use);
     ds_object_free(&cup);
 }
 
@@ -107,8 +157,13 @@ MF_TEST(geom_uvatlas_50k) {
         float s = 1.0f + 0.04f * sinf(23.0f * p[0]) * sinf(19.0f * p[1]) * cosf(17.0f * p[2]);
         for (int k = 0; k < 3; ++k) p[k] *= s;
     }
+    double t0 = mf_now();
     double use = check_unwrap("bumpy torus", &torus, NULL, &info);
-    CHECK(use > 0.3);
+    /* issue 14: atlas use >= 50% at 256^2 (shelf packing gave 47.7%); <= 5 s for 50k triangles
+     * (the check measures two unwraps, 1 and 2 threads, plus rasterising at 4096^2; timing
+     * only reported here, the machine may be shared) */
+    CHECK_MSG(use >= 0.5, "bumpy torus: atlas use %g, want >= 0.5", use);
+    fprintf(stderr, "  bumpy torus: two unwraps and the checks in %.2f s\n", mf_now() - t0);
     mf_mesh_free(&torus);
 }
 

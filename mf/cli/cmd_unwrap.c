@@ -33,7 +33,7 @@ static const char k_usage_head[] =
     "usage: mf unwrap IN.obj -o OUT.obj [--tex-res 256] [--gutter 2] [--max-angle 60] [--max-chart-tris 1000]\n"
     "Cuts IN (OBJ or glTF; its UVs, if any, are ignored) into disc charts grown by face normals,\n"
     "flattens each by least-squares conformal maps (charts with flipped or overlapping triangles\n"
-    "are split), and packs them into [0,1]^2 with a gutter; writes OUT.obj with UVs (seams split\n"
+    "are split), and packs them by their shapes into [0,1]^2 with a gutter; writes OUT.obj with UVs (seams split\n"
     "vertices; triangle order, normals and materials kept). Prints one CSV line on stdout:\n"
     "  mesh,tris,charts,unwrap_s,atlas_use\n"
     "atlas_use: the fraction of a tex_res^2 texture's texel centres inside a UV triangle.\n";
@@ -62,9 +62,9 @@ static int unwrap_run(const char *in_path, const UnwrapArgs *a) {
                         in_path, info.forced_single);
         printf("%s,%d,%d,%.3f,%.4f\n", in_path, out.nt, info.charts, dt, chk.coverage);
         mf_log_info("unwrap: %d triangles, %d charts grown, %d after splits (topology %d, flips %d, overlaps %d), "
-                    "most CG iterations %d, atlas use %.1f%% at %d^2 in %.2f s -> %s",
+                    "most CG iterations %d, packed by %s, atlas use %.1f%% at %d^2 in %.2f s -> %s",
                     out.nt, info.grown, info.charts, info.split_topology, info.split_flip, info.split_overlap,
-                    info.cg_iters_max, 100.0 * chk.coverage, a->tex_res, dt, a->out);
+                    info.cg_iters_max, info.packed_shapes ? "shape" : "rectangle", 100.0 * chk.coverage, a->tex_res, dt, a->out);
         if (a->check_res)
             mf_log_info("unwrap: check at %d^2: %ld texel centres covered twice within a chart, %ld by two charts, "
                         "%d flipped triangles, %d outside [0,1]^2", a->check_res, hi.overlap_same, hi.overlap_other, hi.flipped, hi.outside);

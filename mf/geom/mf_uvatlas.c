@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "core/mf_error.h"
+#include "geom/mf_chartpack.h"
 #include "geom/mf_pack.h"
 
 MfUvAtlasOpts mf_uvatlas_defaults(void) { return (MfUvAtlasOpts){256, 2.0f, 60.0f, 1000, 1}; }
@@ -693,7 +694,7 @@ static int solve_all(const Mesh *m, int *chart, int nc, Chart **chp, MfUvAtlasIn
 /* Output: one vertex per chart and input vertex (input vertices at the same position with the same
  * normal are one), ordered by (chart, lowest such vertex index); UVs from the packed rectangles. */
 static int build_output(const MfMesh *in, const Mesh *m, const int *chart, const Chart *ch, const MfPackRect *rect,
-                        int stretch, MfMesh *out) {
+                        const MfChartPlace *place, int stretch, MfMesh *out) {
     size_t nc3 = 3 * (size_t)in->nt;
     uint64_t *key = malloc(nc3 * sizeof *key + 1);
     if (!key) return mf_fail(MF_ENOMEM, "out of memory for the unwrapped mesh");
@@ -710,6 +711,13 @@ static int build_output(const MfMesh *in, const Mesh *m, const int *chart, const
         if (in->nrm) memcpy(out->nrm + 3 * k, in->nrm + 3 * (size_t)v, 3 * sizeof(float));
         const Chart *cc = &ch[c];
         const double *uv = cc->uv + 2 * local_of(cc, m->rep[v]);
+        if (place) {
+            double rx, ry;
+            mf_chartpack_turn(place[c].rot, cc->w, cc->h, uv[0], uv[1], &rx, &ry);
+            out->uv[2 * k] = (float)(place[c].x0 + place[c].sx * rx);
+            out->uv[2 * k + 1] = (float)(place[c].y0 + place[c].sy * ry);
+            continue;
+        }
         double sx = cc->w > 0 ? rect[c].w / cc->w : 0, sy = cc->h > 0 ? rect[c].h / cc->h : 0;
         if (!stretch) sx = sy = fmin(cc->w > 0 ? sx : sy, cc->h > 0 ? sy : sx);
         out->uv[2 * k] = (float)(rect[c].x0 + uv[0] * sx);
@@ -731,6 +739,57 @@ static int build_output(const MfMesh *in, const Mesh *m, const int *chart, const
             if (in->mat_names[i] && !(out->mat_names[i] = strdup(in->mat_names[i]))) return mf_fail(MF_ENOMEM, "out of memory");
     } else out->nmat = in->nmat;
     return MF_OK;
+}
+
+/* A chart thinner than 1/64 of its length (a sliver, most often a single triangle) is stretched
+ * across to that aspect, so that at any atlas scale its float UVs keep a positive area; normalised
+ * charts are wider than tall, with the lower-left corner at 0. */
+static void widen_thin(Chart *c) {
+    const double min_aspect = 1.0 / 64;
+    if (!(c->w > 0) || !(c->h > 0) || c->h >= min_aspect * c->w) return;
+    double f = min_aspect * c->w / c->h;
+    for (int j = 0; j < c->nvl; ++j) c->uv[2 * j + 1] *= f;
+    c->h *= f;
+}
+
+/* Triangles of m whose float UVs have area <= 0. */
+static int float_flips(const MfMesh *m) {
+    int n = 0;
+    for (int t = 0; t < m->nt; ++t) {
+        const float *a = m->uv + 2 * m->tri[3 * t], *b = m->uv + 2 * m->tri[3 * t + 1], *c = m->uv + 2 * m->tri[3 * t + 2];
+        n += !(((double)b[0] - a[0]) * ((double)c[1] - a[1]) - ((double)b[1] - a[1]) * ((double)c[0] - a[0]) > 0);
+    }
+    return n;
+}
+
+/* Packs the charts by their shapes (mf_chartpack); *place stays NULL when they do not fit that
+ * way (then the caller packs rectangles on shelves). */
+static int pack_charts(const Mesh *m, const int *chart, const Chart *ch, int nc, const MfUvAtlasOpts *opts, MfChartPlace **place,
+                       MfUvAtlasInfo *info) {
+    MfChartShape *sh = malloc((size_t)nc * sizeof *sh);
+    int *ofs = calloc((size_t)nc + 1, sizeof *ofs), *lt = malloc(3 * (size_t)m->nt * sizeof *lt + 1), rc = MF_OK;
+    MfChartPlace *pl = malloc((size_t)nc * sizeof *pl);
+    if (!sh || !ofs || !lt || !pl) rc = mf_fail(MF_ENOMEM, "out of memory for packing");
+    for (int t = 0; t < m->nt && !rc; ++t) ++ofs[chart[t] + 1];
+    for (int c = 0; c < nc && !rc; ++c) ofs[c + 1] += ofs[c];
+    for (int t = 0; t < m->nt && !rc; ++t) { /* each chart's local corners, in triangle order */
+        const Chart *cc = &ch[chart[t]];
+        int o = 3 * ofs[chart[t]]++;
+        for (int k = 0; k < 3; ++k) lt[o + k] = local_of(cc, m->rep[m->tri[3 * t + k]]);
+    }
+    for (int c = 0, o = 0; c < nc && !rc; o += 3 * ch[c].nt, ++c) {
+        const Chart *cc = &ch[c];
+        double a = 0;
+        for (int i = 0; i < cc->nt; ++i) a += 0.5 * orient2(cc->uv + 2 * lt[o + 3 * i], cc->uv + 2 * lt[o + 3 * i + 1], cc->uv + 2 * lt[o + 3 * i + 2]);
+        sh[c] = (MfChartShape){cc->uv, lt + o, cc->nvl, cc->nt, cc->w, cc->h, a};
+    }
+    if (!rc) {
+        int f = mf_chartpack(sh, nc, opts->tex_res, opts->gutter, opts->stretch, pl, NULL);
+        if (f == MF_OK) *place = pl, pl = NULL, info->packed_shapes = 1;
+        else if (f < 0) rc = f;
+    }
+    free(sh), free(ofs), free(lt), free(pl);
+    return rc;
 }
 
 int mf_uvatlas(const MfMesh *in, const MfUvAtlasOpts *opts, MfMesh *out, MfUvAtlasInfo *info_out) {
@@ -759,15 +818,29 @@ int mf_uvatlas(const MfMesh *in, const MfUvAtlasOpts *opts, MfMesh *out, MfUvAtl
                 !(rect = malloc((size_t)nc * sizeof *rect))))
         rc = mf_fail(MF_ENOMEM, "out of memory for packing");
     for (int c = 0; c < nc && !rc; ++c) {
+        widen_thin(&ch[c]);
         size[2 * c] = (float)ch[c].w, size[2 * c + 1] = (float)ch[c].h;
         info.forced_single += ch[c].split && ch[c].nt == 1;
     }
-    if (!rc) rc = mf_pack_order_by_height(size, nc, order);
-    if (!rc) {
-        mf_pack_shelves(size, order, nc, opts->gutter / (float)opts->tex_res, 1.0f / (float)opts->tex_res, opts->stretch, rect);
-        rc = build_output(in, &m, chart, ch, rect, opts->stretch, out);
-        if (rc) mf_mesh_free(out);
+    MfChartPlace *place = NULL;
+    if (!rc) rc = pack_charts(&m, chart, ch, nc, opts, &place, &info);
+    if (!rc && place) {
+        rc = build_output(in, &m, chart, ch, rect, place, opts->stretch, out);
+        if (!rc && float_flips(out) > 0) { /* a sliver rounded flat in float: pack rectangles instead */
+            mf_mesh_free(out);
+            free(place), place = NULL;
+            info.packed_shapes = 0;
+        } else if (rc) mf_mesh_free(out);
     }
+    if (!rc && !place) {
+        rc = mf_pack_order_by_height(size, nc, order);
+        if (!rc) {
+            mf_pack_shelves(size, order, nc, opts->gutter / (float)opts->tex_res, 1.0f / (float)opts->tex_res, opts->stretch, rect);
+            rc = build_output(in, &m, chart, ch, rect, NULL, opts->stretch, out);
+            if (rc) mf_mesh_free(out);
+        }
+    }
+    free(place);
     info.charts = nc;
     for (int c = 0; ch && c < nc; ++c) chart_clear(&ch[c]);
     free(ch), free(chart), free(size), free(order), free(rect);

@@ -17,8 +17,12 @@
  *    far-apart seed triangles, breadth-first growth from both) and solved again; this ends at
  *    single triangles at worst (MfUvAtlasInfo.forced_single).
  * 4. Each chart is scaled to its 3D area, rotated to its minimum-area bounding rectangle (over
- *    its convex hull's edge directions; wider than tall) and shelf-packed (mf_pack) into [0,1]^2
- *    with `gutter` texels of a tex_res texture between charts.
+ *    its convex hull's edge directions; wider than tall), stretched across to an aspect of at
+ *    least 1:64 when thinner (slivers: so float UVs keep a positive area), and packed by its
+ *    rasterised shape (mf_chartpack: skyline, four quarter turns, half-texel grid) into [0,1]^2
+ *    with `gutter` texels of a tex_res texture between charts. If that fails (too many charts
+ *    for the grid) or a triangle's float UV area comes out <= 0, the charts' bounding rectangles
+ *    are shelf-packed instead (mf_pack), as before.
  *
  * The output has one vertex per chart and input vertex (input vertices at the same position with
  * the same normal count as one), so seams split vertices; triangles keep their order, normals and
@@ -45,6 +49,7 @@ typedef struct {
     int split_overlap;   /* splits because a chart's UV boundary crossed itself */
     int forced_single;   /* single-triangle charts made by splitting (last resort) */
     int cg_iters_max;    /* most CG iterations of one chart */
+    int packed_shapes;   /* 1: charts packed by their shapes (mf_chartpack); 0: by rectangles on shelves */
 } MfUvAtlasInfo;
 
 MfUvAtlasOpts mf_uvatlas_defaults(void);
