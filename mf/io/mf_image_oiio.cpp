@@ -62,9 +62,13 @@ static int read_open(ImageInput *in, unsigned long long max_bytes, int *w, int *
      * (EXR mixing half and float) take the converting path. */
     bool ok;
     size_t tsz = spec.format.size();
-    if (spec.channelformats.empty() && tsz > 0 && tsz <= sizeof(float) && spec.format != TypeDesc::FLOAT) {
+    if (spec.channelformats.empty() && tsz > 0 && tsz <= sizeof(float)) {
         unsigned char *nat = (unsigned char *)buf + n * (sizeof(float) - tsz);
-        ok = in->read_image(0, 0, 0, spec.nchannels, spec.format, nat) && widen(spec.format, nat, buf, n);
+        /* scanline files straight through read_native_scanlines: read_image/read_scanlines size
+         * their buffer from the width alone (256 rows of a 1M-pixel-wide, 2-row EXR: 4 GiB) */
+        ok = spec.tile_width > 0 ? in->read_image(0, 0, 0, spec.nchannels, spec.format, nat)
+                                 : in->read_native_scanlines(0, 0, spec.y, spec.y + spec.height, spec.z, nat);
+        ok = ok && (spec.format == TypeDesc::FLOAT || widen(spec.format, nat, buf, n));
     } else {
         ok = in->read_image(0, 0, 0, spec.nchannels, TypeDesc::FLOAT, buf);
     }
