@@ -203,3 +203,46 @@ MF_TEST(hostile_exr_bytes_reproducible) {
     }
     free(da), free(db);
 }
+
+/* An EXR header attribute of unknown type whose size field says 1.5 GB, in a file of a few hundred
+ * bytes: OpenImageIO's reader (OpenEXR's C++ library) allocated the declared size before it found
+ * the end of the file (seconds per file under ASan: the fuzz harness's slowest inputs). mf_image_read
+ * now parses the header with the C API first, which reads no further than the file goes. */
+MF_TEST(hostile_exr_attribute_size) {
+    const char *good = mf_test_path("hostile_attr_ok.exr"), *bad = mf_test_path("hostile_attr_big.exr");
+    MfImage im = {0};
+    CHECK_OK(mf_image_alloc(&im, 4, 4, 3));
+    CHECK_OK(mf_image_write(good, &im, MF_ENC_LINEAR, 32));
+    mf_image_free(&im);
+    char *d = NULL;
+    size_t len = 0;
+    CHECK_OK(mf_read_file(good, &d, &len));
+    if (!d) return;
+    /* walk the attributes (name\0 type\0 size value) to the NUL that ends the header */
+    size_t at = 8;
+    while (at < len && d[at]) {
+        size_t nl = strnlen(d + at, len - at) + 1, tl = nl < len - at ? strnlen(d + at + nl, len - at - nl) + 1 : 0;
+        int32_t sz = 0;
+        if (!tl || at + nl + tl + 4 > len) break;
+        memcpy(&sz, d + at + nl + tl, 4);
+        at += nl + tl + 4 + (size_t)sz;
+    }
+    CHECK(at < len && d[at] == 0);
+    static const char attr[] = "junk\0mystery\0\0\0\0\0abcd"; /* size patched below */
+    size_t alen = sizeof attr - 1;
+    char *b = malloc(len + alen);
+    if (b && at < len) {
+        memcpy(b, d, at);
+        memcpy(b + at, attr, alen);
+        int32_t big = 1500000000;
+        memcpy(b + at + 13, &big, 4);
+        memcpy(b + at + alen, d + at, len - at);
+        CHECK_OK(mf_write_file(bad, b, len + alen));
+        CHECK_ERR(mf_image_read(bad, MF_ENC_LINEAR, &im), "hostile_attr_big.exr: not a readable EXR");
+        CHECK(im.data == NULL);
+        CHECK_OK(mf_image_read(good, MF_ENC_LINEAR, &im)); /* the pre-check passes a sound file */
+        mf_image_free(&im);
+    }
+    free(b);
+    free(d);
+}

@@ -111,6 +111,11 @@ MF_TEST(render_scene_load) {
                           "\"cameras\": {\"camera_angle_x\": 0.7, \"frames\": [{\"transform_matrix\": [[1,0,0,0],[0,1,0,0],[0,0,1,3],[0,0,0,1]]}]}}");
     snprintf(p, sizeof p, "%s/bad4.json", dir);
     CHECK_ERR(mf_scene_load(p, &s), "bad4.json: lights[0].type");
+    /* a seed of 2^64 or more was converted to unsigned long long (undefined behaviour, fuzz_scene) */
+    put_in(dir, "bad5.json", "{\"mesh\": \"quad.obj\", \"render\": {\"seed\": 1e45}, "
+                          "\"cameras\": {\"camera_angle_x\": 0.7, \"frames\": [{\"transform_matrix\": [[1,0,0,0],[0,1,0,0],[0,0,1,3],[0,0,0,1]]}]}}");
+    snprintf(p, sizeof p, "%s/bad5.json", dir);
+    CHECK_ERR(mf_scene_load(p, &s), "bad5.json: render.seed: expected a non-negative integer below 2^64");
     mf_image_free(&kd);
     mf_image_free(&orm);
     mf_image_free(&env);

@@ -156,6 +156,30 @@ static exr_result_t decode_chunk(exr_context_t f, exr_decode_pipeline_t *dec, in
     return exr_decoding_run(f, 0, dec);
 }
 
+int mf_exr_check_header(const char *path, unsigned long long file_bytes) {
+    g_exr_msg[0] = '\0';
+    exr_context_initializer_t ci = exr_init();
+    /* strict: an attribute that cannot be read (its size runs past the end) fails the parse
+     * instead of being skipped */
+    ci.flags |= EXR_CONTEXT_FLAG_STRICT_HEADER;
+    exr_context_t f = NULL;
+    exr_result_t rv = exr_start_read(&f, path, &ci);
+    int nparts = 0, code = MF_OK;
+    if (rv || (rv = exr_get_count(f, &nparts))) code = exr_fail(MF_EFORMAT, path, "not a readable EXR", rv);
+    for (int p = 0; !code && p < nparts; ++p) {
+        exr_attr_box2i_t dw;
+        const exr_attr_chlist_t *cl = NULL;
+        if ((rv = exr_get_data_window(f, p, &dw)) || (rv = exr_get_channels(f, p, &cl)) || !cl) {
+            code = exr_fail(MF_EFORMAT, path, "bad header", rv ? rv : EXR_ERR_MISSING_REQ_ATTR);
+            break;
+        }
+        long long w = (long long)dw.max.x - dw.min.x + 1, h = (long long)dw.max.y - dw.min.y + 1;
+        code = mf_image_check_decode(path, w, h, cl->num_channels, file_bytes);
+    }
+    exr_finish(&f);
+    return code;
+}
+
 int mf_exr_read(const char *path, MfExrImage *out) {
     g_exr_msg[0] = '\0';
     unsigned long long fsize = 0;

@@ -64,6 +64,12 @@ typedef struct {
 int mf_exr_read(const char *path, MfExrImage *out);
 /* Frees and zeroes; safe on a zeroed struct. */
 void mf_exr_free(MfExrImage *im);
+/* Parses only the header of an EXR file of file_bytes bytes (every part) with the C API, which
+ * reads attributes no further than the file goes, and checks each part's data window and channel
+ * count with mf_image_check_decode. MF_OK or MF_EFORMAT naming path. mf_image_read calls it on
+ * EXR files before OpenImageIO, whose OpenEXR C++ reader allocates an attribute's declared size
+ * (up to 2 GB, from a 60-byte file) before it finds that the file ends. */
+int mf_exr_check_header(const char *path, unsigned long long file_bytes);
 /* The (h, w) plane of a channel, or NULL when the file has no such channel. */
 const float *mf_exr_channel(const MfExrImage *im, const char *name);
 

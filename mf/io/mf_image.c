@@ -1,12 +1,14 @@
 #include "io/mf_image.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "core/mf_math.h"
+#include "io/mf_exr.h"
 #include "io/mf_image_oiio.h"
 
 int mf_image_alloc(MfImage *img, int w, int h, int c) {
@@ -82,6 +84,16 @@ static int finish_read(const char *path, int rc, const char *err, unsigned long 
     return MF_OK;
 }
 
+/* 1 when the file starts with the OpenEXR magic number (whatever its name says). */
+static int is_exr(const char *path) {
+    unsigned char m[4] = {0};
+    FILE *f = fopen(path, "rb");
+    if (!f) return 0;
+    size_t n = fread(m, 1, 4, f);
+    fclose(f);
+    return n == 4 && m[0] == 0x76 && m[1] == 0x2f && m[2] == 0x31 && m[3] == 0x01;
+}
+
 int mf_image_read(const char *path, MfEncoding enc, MfImage *out) {
     int w = 0, h = 0, c = 0, is_int = 0, ach = -1;
     float *data = NULL;
@@ -89,6 +101,7 @@ int mf_image_read(const char *path, MfEncoding enc, MfImage *out) {
     unsigned long long fsize = 0;
     int rc = mf_input_file(path, &fsize);
     if (rc) return rc;
+    if (is_exr(path) && (rc = mf_exr_check_header(path, fsize))) return rc;
     rc = mf_oiio_read(path, mf_image_decode_limit(fsize), &w, &h, &c, &is_int, &ach, &data, err, sizeof err);
     return finish_read(path, rc, err, fsize, w, h, c, is_int, ach, data, enc, out);
 }

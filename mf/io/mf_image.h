@@ -31,7 +31,9 @@ float mf_linear_to_srgb(float l);
 
 /* Reads any format OpenImageIO knows (PNG 8/16, JPEG, EXR half/float, HDR, ...). A directory
  * is refused by name; so is a header whose size asks for more decoded bytes than the file can
- * hold (mf_image_decode_limit), before anything is allocated. */
+ * hold (mf_image_decode_limit), before anything is allocated. An EXR file's header is first
+ * parsed by mf_exr_check_header (OpenEXR's C API, bounded by the file's length), so a corrupt
+ * header is refused before OpenImageIO's reader allocates what it declares. */
 int mf_image_read(const char *path, MfEncoding enc, MfImage *out);
 /* The same for an encoded PNG or JPEG held in memory (an image embedded in a glTF file): ext
  * ("png" or "jpg") picks the decoder, name (the file and the place in it) is used in messages;

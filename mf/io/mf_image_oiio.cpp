@@ -15,6 +15,20 @@ static void set_err(char *err, size_t cap, const std::string &msg) {
     std::snprintf(err, cap, "%s", msg.empty() ? "unknown OpenImageIO error" : msg.c_str());
 }
 
+/* Converts n values of type t at src to float at dst, where src = (char *)dst + n * (4 - t.size()),
+ * in blocks: a block is read before it is written, and writing values [0, i) reaches no source
+ * byte of value i or later ((i) * 4 <= n * (4 - size) + i * size). */
+static bool widen(TypeDesc t, const unsigned char *src, float *dst, size_t n) {
+    size_t ts = t.size();
+    float tmp[4096];
+    for (size_t i = 0; i < n; i += 4096) {
+        size_t k = n - i < 4096 ? n - i : 4096; /* block [i, i + k): read whole, then written */
+        if (!convert_pixel_values(t, src + i * ts, TypeDesc::FLOAT, tmp, (int)k)) return false;
+        std::memcpy(dst + i, tmp, k * sizeof(float));
+    }
+    return true;
+}
+
 /* Reads subimage 0 of an open input (see mf_oiio_read). */
 static int read_open(ImageInput *in, unsigned long long max_bytes, int *w, int *h, int *c, int *is_int, int *alpha_channel,
                      float **data, char *err, size_t errcap) {
@@ -41,7 +55,24 @@ static int read_open(ImageInput *in, unsigned long long max_bytes, int *w, int *
         set_err(err, errcap, "out of memory");
         return -1;
     }
-    if (!in->read_image(0, 0, 0, spec.nchannels, TypeDesc::FLOAT, buf)) {
+    /* Asked for float, ImageInput::read_scanlines converts through a scratch buffer of about
+     * 64 MiB whatever the image's size (2^26 / scanline bytes rows); reading the file's own type
+     * needs none, so a one-format image is read as it is into the tail of buf and widened in
+     * place (front to back: the source is never behind the destination). Per-channel formats
+     * (EXR mixing half and float) take the converting path. */
+    bool ok;
+    size_t tsz = spec.format.size();
+    if (spec.channelformats.empty() && tsz > 0 && tsz <= sizeof(float)) {
+        unsigned char *nat = (unsigned char *)buf + n * (sizeof(float) - tsz);
+        /* scanline files straight through read_native_scanlines: read_image/read_scanlines size
+         * their buffer from the width alone (256 rows of a 1M-pixel-wide, 2-row EXR: 4 GiB) */
+        ok = spec.tile_width > 0 ? in->read_image(0, 0, 0, spec.nchannels, spec.format, nat)
+                                 : in->read_native_scanlines(0, 0, spec.y, spec.y + spec.height, spec.z, nat);
+        ok = ok && (spec.format == TypeDesc::FLOAT || widen(spec.format, nat, buf, n));
+    } else {
+        ok = in->read_image(0, 0, 0, spec.nchannels, TypeDesc::FLOAT, buf);
+    }
+    if (!ok) {
         std::string e = in->geterror();
         std::free(buf);
         set_err(err, errcap, e.empty() ? std::string("cannot decode pixels (truncated or corrupt file?)") : e);

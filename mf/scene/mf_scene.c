@@ -269,7 +269,9 @@ static int parse_render(Ctx *c, const cJSON *root) {
         return mf_fail(MF_EFORMAT, "%s: render.spp_sqrt: expected an integer in [1, %d]", c->file, MF_OPT_SPP_MAX);
     if (b < 1 || b > MF_OPT_PIXEL_SAMPLES_MAX || b != floor(b))
         return mf_fail(MF_EFORMAT, "%s: render.pixel_samples: expected an integer in [1, %d]", c->file, MF_OPT_PIXEL_SAMPLES_MAX);
-    if (s < 0 || s != floor(s)) return mf_fail(MF_EFORMAT, "%s: render.seed: expected a non-negative integer", c->file);
+    /* 2^64 and above do not convert to the unsigned 64-bit seed (undefined behaviour, found by fuzz_scene) */
+    if (s < 0 || s != floor(s) || s >= 18446744073709551616.0)
+        return mf_fail(MF_EFORMAT, "%s: render.seed: expected a non-negative integer below 2^64", c->file);
     int l = mf_lobes_parse(lobes);
     if (l < 0) return mf_fail(MF_EFORMAT, "%s: render.lobes: '%s' is not all, diffuse or specular", c->file, lobes);
     r->spp_sqrt = (int)a;
