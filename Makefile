@@ -213,8 +213,8 @@ data-%: $(DATA)/%/.rendered ;
 # baseline or MaterialFusion with ablation flags (paper Table 5).
 METHOD        ?= nvdiffrecmc
 BENCH_METHODS ?= nvdiffrecmc materialfusion mf-trust mf-gamma-const mf-no-rgb mf-no-latent
-# the splits where only the method and its trust weighting are compared
-BENCH_METHODS_SHORT := nvdiffrecmc materialfusion mf-trust
+# the splits where only the method and its trust weightings are compared
+BENCH_METHODS_SHORT := nvdiffrecmc materialfusion mf-trust mf-chtrust
 FLAGS_nvdiffrecmc    := --method nvdiffrecmc
 FLAGS_materialfusion := --method materialfusion
 FLAGS_mf-trust       := --method materialfusion --sds-weight conflict
