@@ -75,6 +75,21 @@ void ev_prior2d_preds_free(EvPrior2dPreds *p) {
     memset(p, 0, sizeof *p);
 }
 
+/* Mean squared error of each channel of po vs go (the 2-channel roughness/metallic images of
+ * ev_protocol_prepare_orm) inside mask: mse[2]. */
+static void orm_channel_mse(const MfImage *po, const MfImage *go, const MfImage *mask, double mse[2]) {
+    double s[2] = {0.0, 0.0};
+    size_t n = 0;
+    for (int y = 0; y < go->h; ++y)
+        for (int x = 0; x < go->w; ++x) {
+            if (!ev_mask_inside(mask, x, y)) continue;
+            const float *p = mf_image_px(po, x, y), *g = mf_image_px(go, x, y);
+            for (int k = 0; k < 2; ++k) s[k] += ((double)p[k] - g[k]) * ((double)p[k] - g[k]);
+            ++n;
+        }
+    for (int k = 0; k < 2; ++k) mse[k] = n ? s[k] / (double)n : 0.0;
+}
+
 static int score(EvTable *t, const char *method, const char *scene, const MfImage *alb, const MfImage *orm,
                  const MfImage *gt_alb, const MfImage *gt_orm) {
     int rc = MF_OK;
@@ -93,12 +108,15 @@ static int score(EvTable *t, const char *method, const char *scene, const MfImag
     }
     if (orm) {
         MfImage po = {0}, go = {0};
-        double ps, l1;
+        double ps, l1, mse[2];
         rc = ev_protocol_prepare_orm(orm, gt_orm, gt_alb, &po, &go);
         if (!rc) rc = ev_psnr(&po, &go, gt_alb, &ps);
         if (!rc) rc = ev_l1(&po, &go, gt_alb, &l1);
+        if (!rc) orm_channel_mse(&po, &go, gt_alb, mse);
         if (!rc) rc = ev_table_add(t, method, "test-2d", scene, "orm_psnr", ps);
         if (!rc) rc = ev_table_add(t, method, "test-2d", scene, "orm_l1", l1);
+        if (!rc) rc = ev_table_add(t, method, "test-2d", scene, "rough_mse", mse[0]);
+        if (!rc) rc = ev_table_add(t, method, "test-2d", scene, "metal_mse", mse[1]);
         mf_image_free(&po), mf_image_free(&go);
         if (rc) return mf_fail_prefix(rc, "eval-prior: %s, sample %s", method, scene);
     }
@@ -116,6 +134,16 @@ int ev_prior2d_score(const EvPrior2dSplit *s, const EvPrior2dPreds *p, EvTable *
                            p->orm[m] ? &p->orm[m][i] : NULL, &s->albedo[i], &s->orm[i]);
     }
     return rc;
+}
+
+void ev_prior2d_trust(const EvTable *t, int m, double trust[2]) {
+    static const char *metric[2] = {"rough_mse", "metal_mse"};
+    for (int k = 0; k < 2; ++k) {
+        EvStat p = ev_table_stat(t, ev_prior2d_methods[m], "test-2d", metric[k]);
+        EvStat c = ev_table_stat(t, ev_prior2d_methods[EV_P2_MEAN_ORM], "test-2d", metric[k]);
+        double r = (p.n && c.n && c.mean > 0.0) ? 1.0 - p.mean / c.mean : 0.0;
+        trust[k] = r < 0.0 ? 0.0 : (r > 1.0 ? 1.0 : r);
+    }
 }
 
 /* rows = the first views (up to 4), columns = input, GT albedo, SM, MV, Retinex, GT ORM, SM ORM, MV ORM */
@@ -161,9 +189,11 @@ int ev_prior2d_write(const char *out, const EvTable *t, const EvPrior2dSplit *s,
                          "{\"test_dir\":\"%s\",\"objects\":%d,\"views\":%d,\"resolution\":%d,\"samples\":%d,"
                          "\"ddim_steps\":%d,\"guidance\":%.3f,\"seed\":%d,\"retinex_sigma\":%.3f,"
                          "\"train_mean_roughness\":%.5f,\"train_mean_metallic\":%.5f,"
-                         "\"stablematerial_wall_s\":%.1f,\"stablematerialmv_wall_s\":%.1f}\n",
+                         "\"stablematerial_wall_s\":%.1f,\"stablematerialmv_wall_s\":%.1f,"
+                         "\"trust_roughness\":%.4f,\"trust_metallic\":%.4f}\n",
                          in->test_dir, s->n / s->V, s->V, s->R, in->samples, in->steps, in->guidance, in->seed,
-                         in->retinex_sigma, in->train_roughness, in->train_metallic, in->sm_wall_s, in->mv_wall_s);
+                         in->retinex_sigma, in->train_roughness, in->train_metallic, in->sm_wall_s, in->mv_wall_s, in->trust[0],
+                         in->trust[1]);
         mf_path_join(path, sizeof path, out, "table2d.json");
         rc = mf_write_file(path, js, (size_t)l);
     }

@@ -9,7 +9,9 @@
  * reads the split, scores and writes. Scores follow the evaluation layer's protocol: albedo
  * aligned per channel in linear space by the ratio of means inside the GT mask
  * (ev_protocol_prepare, EV_ALIGN_MEAN), then sRGB, PSNR / SSIM / L1 inside the mask; ORM on
- * roughness and metallic (ev_protocol_prepare_orm), PSNR / L1 inside the mask. Records go to an
+ * roughness and metallic (ev_protocol_prepare_orm), PSNR / L1 inside the mask, and each channel's
+ * mean squared error inside the mask (rough_mse, metal_mse; not in the table, used for the trust
+ * below). Records go to an
  * EvTable under data set "test-2d", scene = the sample number "NNNNNN". */
 #ifndef EV_PRIOR2D_H
 #define EV_PRIOR2D_H
@@ -46,16 +48,24 @@ void ev_prior2d_preds_free(EvPrior2dPreds *p);
 /* Scores every prediction against the split's ground truth into t (view by view, methods in order). */
 int ev_prior2d_score(const EvPrior2dSplit *s, const EvPrior2dPreds *p, EvTable *t);
 
+/* The prior's measured reliability per ORM channel, for SDS's channel trust (--sds-trust-rough,
+ * --sds-trust-metal): trust[k] = 1 - MSE(method m) / MSE(Train-mean ORM), the fraction of the
+ * constant predictor's squared error that method m removes, over all views (means of the per-view
+ * rough_mse / metal_mse records), clamped to [0, 1]; 0 when either method has no record. k: 0
+ * roughness, 1 metallic. */
+void ev_prior2d_trust(const EvTable *t, int m, double trust[2]);
+
 /* The settings the table's caption and table2d.json state. */
 typedef struct {
     const char *test_dir;
     int samples, steps, seed;
     float guidance, retinex_sigma, train_roughness, train_metallic;
     double sm_wall_s, mv_wall_s; /* wall seconds of the two prior methods */
+    double trust[2];             /* ev_prior2d_trust of StableMaterial: roughness, metallic */
 } EvPrior2dInfo;
 
-/* Writes OUT/table2d.md (paper layout), table2d.csv (every record), table2d.json (settings and
- * timings) and examples2d.png (rows: the first views, up to 4; columns: input, GT albedo, SM, MV,
+/* Writes OUT/table2d.md (paper layout), table2d.csv (every record), table2d.json (settings,
+ * timings and StableMaterial's channel trust) and examples2d.png (rows: the first views, up to 4; columns: input, GT albedo, SM, MV,
  * Retinex, GT ORM, SM ORM, MV ORM; a failure to write the picture is only logged). */
 int ev_prior2d_write(const char *out, const EvTable *t, const EvPrior2dSplit *s, const EvPrior2dPreds *p,
                      const EvPrior2dInfo *info);

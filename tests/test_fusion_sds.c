@@ -456,6 +456,48 @@ MF_TEST(fusion_sds_coverage_weight) {
     mf_mesh_free(&mesh);
 }
 
+/* Channel trust: the hook's ORM gradient has its roughness and metallic channels scaled by
+ * trust_rough / trust_metal (occlusion and albedo untouched); trust 0 on both leaves only the
+ * occlusion channel's pull; out-of-range trust is refused. */
+MF_TEST(fusion_sds_channel_trust) {
+    MfMesh mesh;
+    MfRecon *r = NULL;
+    CHECK_OK(make_recon(&mesh, &r));
+    MfSdsOpts o = mf_sds_opts_default();
+    o.k_views = 2;
+    MfSds *s = tiny_sds_opts(&o);
+    o.trust_rough = 0.25f, o.trust_metal = 0.0f;
+    MfSds *st = tiny_sds_opts(&o);
+    if (!r || !s || !st) return;
+    MfParamBlock *kd = mf_recon_block(r, MF_BLOCK_KD), *orm = mf_recon_block(r, MF_BLOCK_ORM);
+    int batch[2] = {0, 1};
+    double l;
+    mf_param_zero_grad(kd), mf_param_zero_grad(orm);
+    CHECK_OK(mf_sds_hook(s, r, 0, batch, 2, &l));
+    float *h = malloc(orm->n * sizeof(float)), *hk = malloc(kd->n * sizeof(float));
+    if (!h || !hk) return;
+    memcpy(h, orm->g, orm->n * sizeof(float)), memcpy(hk, kd->g, kd->n * sizeof(float));
+    mf_param_zero_grad(kd), mf_param_zero_grad(orm);
+    CHECK_OK(mf_sds_hook(st, r, 0, batch, 2, &l));
+    const float scale[3] = {1.0f, 0.25f, 0.0f};
+    double err = 0.0, mag[3] = {0, 0, 0}, kerr = 0.0;
+    for (size_t i = 0; i < orm->n; ++i) {
+        err = fmax(err, fabs(orm->g[i] - scale[i % 3] * h[i]));
+        mag[i % 3] = fmax(mag[i % 3], fabs(h[i]));
+    }
+    for (size_t i = 0; i < kd->n; ++i) kerr = fmax(kerr, fabs(kd->g[i] - hk[i]));
+    CHECK(mag[1] > 0.0 && mag[2] > 0.0);
+    CHECK_MSG(err <= 1e-6 * fmax(mag[1], mag[2]), "channel trust off by %.3g", err);
+    CHECK(kerr == 0.0);
+    free(h), free(hk);
+    mf_sds_free(s), mf_sds_free(st);
+    o.trust_metal = 1.5f;
+    MfSds *bad = NULL;
+    CHECK(mf_sds_new(NULL, &o, &bad) == MF_EARG && bad == NULL);
+    mf_recon_free(r);
+    mf_mesh_free(&mesh);
+}
+
 /* The SDS hook, killed (an error) when iteration `kill_at` begins: the checkpoint of the
  * iterations before it is on disk, as after a real interruption. */
 typedef struct {

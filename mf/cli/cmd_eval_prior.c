@@ -103,7 +103,8 @@ static int run_prior(MfPrior *p, const EvPrior2dSplit *s, EvPrior2dPreds *pr, in
 static int eval_prior_run(EvalPriorArgs *a) {
     EvPrior2dSplit s = {0};
     EvPrior2dPreds pr = {0};
-    EvPrior2dInfo info = {a->dir, a->samples, a->steps, a->seed, a->guidance, a->retinex_sigma, 0, 0, 0, 0};
+    EvPrior2dInfo info = {.test_dir = a->dir, .samples = a->samples, .steps = a->steps, .seed = a->seed,
+                          .guidance = a->guidance, .retinex_sigma = a->retinex_sigma};
     MfPrior *p = NULL;
     EvTable t;
     ev_table_init(&t);
@@ -126,6 +127,7 @@ static int eval_prior_run(EvalPriorArgs *a) {
             !(rc = bl_albedo_retinex(&s.rgb[i], info.retinex_sigma, &pr.albedo[EV_P2_RETINEX][i])))
             rc = bl_orm_constant(&s.rgb[i], info.train_roughness, info.train_metallic, &pr.orm[EV_P2_MEAN_ORM][i]);
     if (!rc) rc = ev_prior2d_score(&s, &pr, &t);
+    if (!rc) ev_prior2d_trust(&t, EV_P2_SM, info.trust);
     if (!rc) rc = ev_prior2d_write(a->out, &t, &s, &pr, &info);
     for (int m = 0; m < EV_PRIOR2D_NM && !rc; ++m) {
         printf("%-18s", ev_prior2d_methods[m]);
@@ -135,7 +137,11 @@ static int eval_prior_run(EvalPriorArgs *a) {
         }
         printf("\n");
     }
-    if (!rc) printf("wrote %s/table2d.md (SM %.1f s, MV %.1f s)\n", a->out, info.sm_wall_s, info.mv_wall_s);
+    if (!rc)
+        printf("channel trust of StableMaterial (1 - MSE / Train-mean ORM's MSE): roughness %.4f metallic %.4f\n"
+               "  (mf recon --method materialfusion --sds-trust-rough %.2f --sds-trust-metal %.2f)\n"
+               "wrote %s/table2d.md (SM %.1f s, MV %.1f s)\n",
+               info.trust[0], info.trust[1], info.trust[0], info.trust[1], a->out, info.sm_wall_s, info.mv_wall_s);
     ev_prior2d_preds_free(&pr);
     ev_table_free(&t);
     mf_prior_free(p);

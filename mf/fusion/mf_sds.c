@@ -35,6 +35,9 @@ int mf_sds_new(MfPrior *prior, const MfSdsOpts *o, MfSds **out) {
                        o->k_views, MF_SDS_MAX_VIEWS, o->t_min, o->t_max, o->aov_samples, o->every);
     if (o->weight < MF_SDS_WEIGHT_NONE || o->weight > MF_SDS_WEIGHT_COVERAGE)
         return mf_fail(MF_EARG, "SDS options: weight %d is not none (0), conflict (1) or coverage (2)", o->weight);
+    if (!(o->trust_rough >= 0.0f && o->trust_rough <= 1.0f && o->trust_metal >= 0.0f && o->trust_metal <= 1.0f))
+        return mf_fail(MF_EARG, "SDS options: channel trust roughness %g, metallic %g (each in [0, 1])", o->trust_rough,
+                       o->trust_metal);
     MfSds *s = calloc(1, sizeof *s);
     if (!s) return mf_fail(MF_ENOMEM, "out of memory");
     s->prior = prior;
@@ -334,12 +337,12 @@ int mf_sds_coverage(MfRecon *r, float **out, size_t *ntex) {
     return MF_OK;
 }
 
-/* g (n,) += gamma * h, texel by texel over its 3 channels; with MF_SDS_WEIGHT_CONFLICT the part of
- * h that opposes g (the iteration's image and regulariser gradient) is removed first; with
- * MF_SDS_WEIGHT_COVERAGE h is scaled by the texel's weight cov (n / 3,). */
-static void apply_held(float *g, const float *h, size_t n, float gamma, int weight, const float *cov) {
+/* g (n,) += gamma * h, texel by texel over its 3 channels, channel c of h scaled by ch[c] first;
+ * with MF_SDS_WEIGHT_CONFLICT the part of h that opposes g (the iteration's image and regulariser
+ * gradient) is removed; with MF_SDS_WEIGHT_COVERAGE h is scaled by the texel's weight cov (n / 3,). */
+static void apply_held(float *g, const float *h, size_t n, float gamma, const float ch[3], int weight, const float *cov) {
     for (size_t i = 0; i + 2 < n; i += 3) {
-        float hv[3] = {h[i], h[i + 1], h[i + 2]};
+        float hv[3] = {h[i] * ch[0], h[i + 1] * ch[1], h[i + 2] * ch[2]};
         if (weight == MF_SDS_WEIGHT_COVERAGE)
             for (int c = 0; c < 3; ++c) hv[c] *= cov[i / 3];
         if (weight == MF_SDS_WEIGHT_CONFLICT) {
@@ -395,8 +398,9 @@ int mf_sds_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double 
         if (s->coverage_n * 3 != orm->n) return mf_fail(MF_EARG, "SDS coverage: the kd and ORM textures differ in size");
     }
     MfStageClock ts = mf_stage_clock();
-    apply_held(kd->g, s->held_kd, kd->n, (float)gamma, s->o.weight, s->coverage);
-    apply_held(orm->g, s->held_orm, orm->n, (float)gamma, s->o.weight, s->coverage);
+    const float ch_kd[3] = {1.0f, 1.0f, 1.0f}, ch_orm[3] = {1.0f, s->o.trust_rough, s->o.trust_metal};
+    apply_held(kd->g, s->held_kd, kd->n, (float)gamma, ch_kd, s->o.weight, s->coverage);
+    apply_held(orm->g, s->held_orm, orm->n, (float)gamma, ch_orm, s->o.weight, s->coverage);
     mf_stage_lap(&s->times.apply, &ts);
     *loss = gamma * s->held_loss;
     return MF_OK;

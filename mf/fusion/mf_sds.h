@@ -31,6 +31,11 @@
  * conditioned on their images, so a texel no training view sees gets no prior gradient at all.) "Seen" = the texel gets weight from a view's primary hits
  * (mf_diff_aov_backward of an all-ones image at the view's resolution, one ray per pixel), counted
  * once when the term is first applied.
+ * Channel trust (trust_rough, trust_metal, in [0, 1], default 1 = the paper): the held ORM gradient's
+ * roughness and metallic channels are scaled by these factors before the weighting above — the
+ * prior's reliability per channel as measured on a validation split by `mf eval-prior`
+ * (ev_prior2d_trust: 1 - its MSE over a constant training-mean predictor's), so a channel the
+ * prior predicts no better than a constant gets no pull. Albedo and occlusion are not scaled.
  * zhat and D(zhat) are held constant (classic SDS): the latent term back-propagates through the
  * encoder into the maps, the RGB term directly into the maps (as the official code), then through
  * the AOV render into the kd / ORM texels. (The official code also lets zhat depend on z through
@@ -62,6 +67,8 @@ typedef struct {
     int rgb01;           /* 1: L_rgb on [0, 1] maps (official code); 0: on the prior's [-1, 1] maps (4x) */
     int weight;          /* MF_SDS_WEIGHT_NONE, _CONFLICT or _COVERAGE (trust, see above) */
     int prior_threads;   /* OpenBLAS threads set by mf_sds_new (0: left as they are) */
+    float trust_rough;   /* channel trust (see above) of the ORM gradient's roughness channel, [0, 1] */
+    float trust_metal;   /* ... and of its metallic channel */
 } MfSdsOpts;
 
 enum { MF_SDS_WEIGHT_NONE = 0, MF_SDS_WEIGHT_CONFLICT = 1, MF_SDS_WEIGHT_COVERAGE = 2 }; /* choices "none|conflict|coverage" */

@@ -30,6 +30,10 @@ static const MfOpt k_opts[] = {
                  "trust in the prior: none; conflict (per texel, drop the part opposing the images' gradient); "
                  "coverage (per texel, times 4 / (4 + training views that see it))",
                  .choices = "none|conflict|coverage"),
+    MF_OPT_NAMED(S, "sds_trust_rough", trust_rough, MF_OPT_FLOAT, 1, 0, 1,
+                 "scale of the prior's roughness gradient (1: the paper; `mf eval-prior` on a validation split prints the measured reliability)"),
+    MF_OPT_NAMED(S, "sds_trust_metal", trust_metal, MF_OPT_FLOAT, 1, 0, 1,
+                 "scale of the prior's metallic gradient (as --sds-trust-rough)"),
 };
 #undef S
 const MfOptTable mf_sds_opt_table = MF_OPT_TABLE("MaterialFusion (SDS+ prior term) options", k_opts);
