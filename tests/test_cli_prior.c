@@ -102,8 +102,13 @@ MF_TEST(prior_eval_cli_writes_table) {
     ev_table_init(&t);
     mf_path_join(f, sizeof f, out, "table2d.csv");
     CHECK_OK(ev_table_read_csv(&t, f));
-    /* 4 views: SM and MV 5 metrics each, input and Retinex 3 (albedo), mean ORM 2 */
-    CHECK_MSG(t.n == 4 * (5 + 5 + 3 + 3 + 2), "%zu records", t.n);
+    /* 4 views: SM and MV 5 metrics + 2 channel MSEs each, input and Retinex 3 (albedo), mean ORM 2 + 2 */
+    CHECK_MSG(t.n == 4 * (7 + 7 + 3 + 3 + 4), "%zu records", t.n);
+    CHECK(ev_table_stat(&t, "Train-mean ORM", "test-2d", "metal_mse").n == 4);
+    mf_path_join(f, sizeof f, out, "table2d.json");
+    CHECK_OK(mf_read_file(f, &txt, &len));
+    CHECK(txt && strstr(txt, "\"trust_roughness\":") && strstr(txt, "\"trust_metallic\":"));
+    free(txt);
     EvStat a = ev_table_stat(&t, "Input image", "test-2d", "albedo_psnr");
     CHECK(a.n == 4 && a.mean > 5);
     ev_table_free(&t);
