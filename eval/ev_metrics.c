@@ -53,39 +53,51 @@ static int finite_out(double v, const char *fn, double *out) {
 
 /* ---------------------------------------------------------------- PSNR and L1 */
 
-/* Mean over (inside) pixels and all channels of |a-b|^p, p = 1 or 2. */
-static int mean_err(const MfImage *a, const MfImage *b, const MfImage *mask, int p, const char *fn, double *out) {
+/* Mean over (inside) pixels and all channels of |a-b|^p, p = 1 or 2; with per_ch (a->c,) also
+ * each channel's own mean. */
+static int mean_err(const MfImage *a, const MfImage *b, const MfImage *mask, int p, const char *fn, double *out,
+                    double *per_ch) {
     int rc = check_pair(a, b, mask, fn);
     if (rc) return rc;
     double sum = 0.0;
     size_t n = 0;
+    if (per_ch)
+        for (int k = 0; k < a->c; k++) per_ch[k] = 0.0;
     for (int y = 0; y < a->h; y++)
         for (int x = 0; x < a->w; x++) {
             if (mask && !ev_mask_inside(mask, x, y)) continue;
             const float *pa = mf_image_px(a, x, y), *pb = mf_image_px(b, x, y);
             for (int k = 0; k < a->c; k++) {
-                double d = (double)pa[k] - (double)pb[k];
-                sum += p == 1 ? fabs(d) : d * d;
+                double d = (double)pa[k] - (double)pb[k], e = p == 1 ? fabs(d) : d * d;
+                sum += e;
+                if (per_ch) per_ch[k] += e;
             }
             n += (size_t)a->c;
         }
     if (n == 0) return mf_fail(MF_EARG, "%s: the mask is empty (no pixel with coverage > 0.5)", fn);
     *out = sum / (double)n;
+    if (per_ch)
+        for (int k = 0; k < a->c; k++) per_ch[k] /= (double)(n / (size_t)a->c);
     return MF_OK;
 }
 
 int ev_psnr(const MfImage *a, const MfImage *b, const MfImage *mask, double *out) {
     double mse;
-    int rc = mean_err(a, b, mask, 2, "psnr", &mse);
+    int rc = mean_err(a, b, mask, 2, "psnr", &mse, NULL);
     if (rc) return rc;
     double v = mse > 0.0 ? 10.0 * log10(1.0 / mse) : EV_PSNR_MAX;
     if (v > EV_PSNR_MAX) v = EV_PSNR_MAX;
     return finite_out(v, "psnr", out);
 }
 
+int ev_mse_channels(const MfImage *a, const MfImage *b, const MfImage *mask, double *mse) {
+    double all;
+    return mean_err(a, b, mask, 2, "mse", &all, mse);
+}
+
 int ev_l1(const MfImage *a, const MfImage *b, const MfImage *mask, double *out) {
     double v;
-    int rc = mean_err(a, b, mask, 1, "l1", &v);
+    int rc = mean_err(a, b, mask, 1, "l1", &v, NULL);
     if (rc) return rc;
     return finite_out(v, "l1", out);
 }

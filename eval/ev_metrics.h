@@ -46,6 +46,8 @@
 /* mask may be NULL (all pixels). */
 int ev_psnr(const MfImage *a, const MfImage *b, const MfImage *mask, double *out);
 int ev_l1(const MfImage *a, const MfImage *b, const MfImage *mask, double *out);
+/* Mean squared error of each channel, mse (a->c,), over the same pixels as ev_psnr. */
+int ev_mse_channels(const MfImage *a, const MfImage *b, const MfImage *mask, double *mse);
 int ev_ssim(const MfImage *a, const MfImage *b, const MfImage *mask, double *out);
 /* Per-pixel SSIM map averaged over channels, (h, w), uncropped (the border strip is valid data
  * but excluded from ev_ssim's mean). */

@@ -75,21 +75,6 @@ void ev_prior2d_preds_free(EvPrior2dPreds *p) {
     memset(p, 0, sizeof *p);
 }
 
-/* Mean squared error of each channel of po vs go (the 2-channel roughness/metallic images of
- * ev_protocol_prepare_orm) inside mask: mse[2]. */
-static void orm_channel_mse(const MfImage *po, const MfImage *go, const MfImage *mask, double mse[2]) {
-    double s[2] = {0.0, 0.0};
-    size_t n = 0;
-    for (int y = 0; y < go->h; ++y)
-        for (int x = 0; x < go->w; ++x) {
-            if (!ev_mask_inside(mask, x, y)) continue;
-            const float *p = mf_image_px(po, x, y), *g = mf_image_px(go, x, y);
-            for (int k = 0; k < 2; ++k) s[k] += ((double)p[k] - g[k]) * ((double)p[k] - g[k]);
-            ++n;
-        }
-    for (int k = 0; k < 2; ++k) mse[k] = n ? s[k] / (double)n : 0.0;
-}
-
 static int score(EvTable *t, const char *method, const char *scene, const MfImage *alb, const MfImage *orm,
                  const MfImage *gt_alb, const MfImage *gt_orm) {
     int rc = MF_OK;
@@ -112,7 +97,7 @@ static int score(EvTable *t, const char *method, const char *scene, const MfImag
         rc = ev_protocol_prepare_orm(orm, gt_orm, gt_alb, &po, &go);
         if (!rc) rc = ev_psnr(&po, &go, gt_alb, &ps);
         if (!rc) rc = ev_l1(&po, &go, gt_alb, &l1);
-        if (!rc) orm_channel_mse(&po, &go, gt_alb, mse);
+        if (!rc) rc = ev_mse_channels(&po, &go, gt_alb, mse); /* po, go: (h, w, 2) roughness, metallic */
         if (!rc) rc = ev_table_add(t, method, "test-2d", scene, "orm_psnr", ps);
         if (!rc) rc = ev_table_add(t, method, "test-2d", scene, "orm_l1", l1);
         if (!rc) rc = ev_table_add(t, method, "test-2d", scene, "rough_mse", mse[0]);
