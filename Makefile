@@ -383,13 +383,16 @@ endif
 test-slurm: $(BUILD)/mf
 	sh tests/test_slurm.sh
 
-# Public data sets, when the user points at a local copy (with meshes: geometry recovery is not
-# implemented yet): NERF_SYNTHETIC=/path/nerf_synthetic, NERFACTOR=..., STANFORD_ORB=...
+# Public data sets, when the user points at a local copy: NERF_SYNTHETIC=/path/nerf_synthetic,
+# NERFACTOR=..., STANFORD_ORB=... A scene folder with mesh.obj (UVs) is reconstructed on it; one
+# without (NeRF-Synthetic and NeRFactor ship none) on the visual hull of its masks, unwrapped
+# (`mf recon`'s default without a mesh, --geometry vhull).
 bench-external:
 	@for v in NERF_SYNTHETIC NERFACTOR STANFORD_ORB; do \
-	  eval d=\$$$$v; if [ -z "$$d" ]; then echo "bench: $$v not set: skipped (point it at a local copy whose scenes hold mesh.obj with UVs)"; \
-	  elif ! ls $$d/*/mesh.obj >/dev/null 2>&1; then echo "bench: $$d has no <scene>/mesh.obj: skipped (bench-external does not run mf recon --geometry vhull yet; supply meshes with UVs)"; \
+	  eval d=\$$$$v; if [ -z "$$d" ]; then echo "bench: $$v not set: skipped (point it at a local copy of the data set)"; \
+	  elif ! ls -d $$d/*/ >/dev/null 2>&1; then echo "bench: $$v=$$d holds no scene folders: skipped"; \
 	  else for s in $$d/*/; do n=$$(basename $$s); \
+	    [ -f $$s/mesh.obj ] || echo "bench: $$v/$$n has no mesh.obj: geometry from the visual hull (--geometry vhull)"; \
 	    $(foreach m,$(BENCH_METHODS),{ [ -f $(RESULTS)/$$v/$(m)/$$n/run.json ] || $(MF) recon $$s -o $(RESULTS)/$$v/$(m)/$$n $(FLAGS_$(m)) --config $(RECON_CONFIG) --resume || exit 1; };) \
 	  done; $(MF) eval $$d --results $(RESULTS)/$$v --dataset $$v -o $(REPORT)/$$v || exit 1; fi; done
 

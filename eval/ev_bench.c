@@ -95,8 +95,8 @@ static void run_cost(const char *result_dir, double *wall, double *rss, double *
 
 /* Relit PSNR at each snapshot of one run (first relighting light, up to 4 views), against the
  * wall time logged at that iteration: the speed-vs-error curve. */
-static int snapshot_curve(const char *scene_dir, const char *result_dir, const EvEvalOpts *base, double *x, double *y,
-                          int max, int *n) {
+static int snapshot_curve(const char *scene_dir, const char *scene, const char *result_dir, const EvEvalOpts *base,
+                          double *x, double *y, int max, int *n) {
     char snaps[MF_PATH_MAX], logp[MF_PATH_MAX], mesh[MF_PATH_MAX];
     *n = 0;
     if (mf_path_join(snaps, sizeof snaps, result_dir, "snapshots") || mf_path_join(logp, sizeof logp, result_dir, "log.csv") ||
@@ -124,11 +124,14 @@ static int snapshot_curve(const char *scene_dir, const char *result_dir, const E
         EvTable t;
         ev_table_init(&t);
         int ex = 0;
-        if (ev_eval_scene(scene_dir, sd, "m", "d", "s", &o, &t, NULL, &ex) == MF_OK) {
+        int relit = 1;
+        if (ev_eval_scene(scene_dir, sd, "m", "d", scene, &o, &t, NULL, &ex) == MF_OK) {
             EvStat s = ev_table_stat(&t, "m", "d", "relit_psnr");
             if (s.n) x[*n] = wall, y[*n] = s.mean, ++*n;
+            relit = s.n > 0;
         }
         ev_table_free(&t);
+        if (!relit) break; /* a scene without relit ground truth (a capture) has no relit curve */
     }
     free(log);
     return MF_OK;
@@ -226,7 +229,7 @@ static int score_run(Bench *B, int m, int s, FILE *csv) {
     if (!rc && wall > 0 && !mf_path_join(md, sizeof md, b->results, B->methods[0]) && !mf_path_join(bd, sizeof bd, md, scene))
         run_cost(bd, &bwall, &brss, NULL, NULL, NULL, NULL);
     if (!rc && wall > 0 && bwall > 0) rc = ev_table_add(&B->t, method, ds, scene, "time_x", wall / bwall);
-    if (!rc && !b->no_curves && s == 0) rc = snapshot_curve(sd, rd, &B->quiet, B->cx[m], B->cy[m], MAX_ITEMS, &B->series[m].n);
+    if (!rc && !b->no_curves && s == 0) rc = snapshot_curve(sd, scene, rd, &B->quiet, B->cx[m], B->cy[m], MAX_ITEMS, &B->series[m].n);
     return rc;
 }
 
