@@ -92,7 +92,8 @@ MF_TEST(prior_guidance_one_is_conditional) {
     float *vc = mf_denoiser_forward(p->dn, &w, x, t, rgb, keep, B, 1, 0);
     double diff1 = 0, diff3 = 0;
     for (size_t i = 0; i < 2 * nz; ++i) diff1 = fmax(diff1, fabs(v1[i] - vc[i])), diff3 = fmax(diff3, fabs(v3[i] - vc[i]));
-    CHECK_MSG(diff1 < 1e-5, "guidance 1 differs from the conditional prediction by %g", diff1);
+    /* exactly: guidance 1 runs the conditional half only (no u + 1 * (c - u) rounding) */
+    CHECK_MSG(diff1 == 0.0, "guidance 1 differs from the conditional prediction by %g", diff1);
     CHECK(diff3 > 1e-3); /* guidance 3 does change it */
     /* multi-view: joint attention over V = 4 views changes the prediction, V = 1 joint does not */
     float *vj = malloc(2 * nz * sizeof(float));

@@ -379,7 +379,7 @@ static int guided_v(MfPrior *p, const float *zimg, const float *rgb, const float
                     float guidance, int same_rgb, float *v) {
     int zc = p->cfg.ae.zc, h = p->cfg.dn.h, R = p->cfg.ae.res;
     size_t hw = (size_t)h * h, nz = zc * hw, nx = 3 * nz, nv = 2 * nz, ni = (size_t)3 * R * R;
-    int B2 = 2 * B;
+    int B2 = guidance == 1.0f ? B : 2 * B; /* guidance 1 is the conditional prediction alone: no unconditional half */
     float *x = malloc(((size_t)B2 * nx + (size_t)B2 * ni + 2 * (size_t)B2) * sizeof(float));
     if (!x) return mf_fail(MF_ENOMEM, "prior: out of memory");
     float *rgb2 = x + (size_t)B2 * nx, *tt = rgb2 + (size_t)B2 * ni, *keep = tt + B2;
@@ -393,7 +393,8 @@ static int guided_v(MfPrior *p, const float *zimg, const float *rgb, const float
         tt[b] = (float)t, keep[b] = cond ? 1.0f : 0.0f;
     }
     float *out = mf_denoiser_forward_ex(p->dn, &p->dnw, x, tt, rgb2, keep, B2, V, joint, same_rgb);
-    if (out) mf_diffusion_cfg(v, out + (size_t)B * nv, out, guidance, (size_t)B * nv);
+    if (out && B2 == B) memcpy(v, out, (size_t)B * nv * sizeof(float));
+    else if (out) mf_diffusion_cfg(v, out + (size_t)B * nv, out, guidance, (size_t)B * nv);
     free(x);
     return out ? MF_OK : -1;
 }

@@ -107,7 +107,8 @@ int mf_prior_encode_materials_backward(MfPrior *p, const float *dzmat, float *da
 int mf_prior_decode_materials(MfPrior *p, const float *zmat, int B, float *albedo, float *orm);
 
 /* Guided v (B, 2zc, h, h) for noisy material latents xt (B, 2zc, h, h) at timestep t, given the
- * scaled image latent zimg (B, zc, h, h) and the condition image rgb (B, 3, R, R). */
+ * scaled image latent zimg (B, zc, h, h) and the condition image rgb (B, 3, R, R). Guidance 1 is
+ * the conditional prediction itself: the unconditional half of the batch is not run (half the cost). */
 int mf_prior_guided_v(MfPrior *p, const float *zimg, const float *rgb, const float *xt, int t, int B, int V,
                       int joint, float guidance, float *v);
 /* One sample per item: DDIM from pure noise (seeded) over nsteps with guidance; zmat (B, 2zc, h, h). */
