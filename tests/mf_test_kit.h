@@ -104,14 +104,14 @@ static inline const char *pj2(const char *a, const char *b) {
 static inline int same3(MfVec3 a, MfVec3 b) { return memcmp(&a, &b, sizeof a) == 0; }
 
 /* Central differences against the analytic gradient grad (n,) of loss(ctx), a function of p (n,):
- * at i = 0, stride, 2 stride, ... < n, p[i] +- h with h = eps * max(1, |p[i]|) (p[i] restored
+ * at i = first, first + stride, ... < n, p[i] +- h with h = eps * max(1, |p[i]|) (p[i] restored
  * after), numeric = (loss(+h) - loss(-h)) / 2h; entry i is off when |numeric - grad[i]| > tol *
  * max(1, |numeric|). The first 5 entries off go to stderr, labelled what. Adds the entries probed
  * to *checked; returns how many were off. */
-static inline int grad_check(double (*loss)(void *ctx), void *ctx, float *p, const float *grad, size_t n, size_t stride,
-                             double eps, double tol, const char *what, int *checked) {
+static inline int grad_check(double (*loss)(void *ctx), void *ctx, float *p, const float *grad, size_t n, size_t first,
+                             size_t stride, double eps, double tol, const char *what, int *checked) {
     int bad = 0;
-    for (size_t i = 0; i < n; i += stride) {
+    for (size_t i = first; i < n; i += stride) {
         float keep = p[i];
         double h = eps * fmax(1.0, fabs(keep));
         p[i] = keep + (float)h;

@@ -53,7 +53,7 @@ MF_TEST(prior_denoiser_gradients) {
         memset(dn->grads, 0, dn->tab.numel * sizeof(float));
         mf_denoiser_backward(dn, &g.w, wo);
         int checked = 0;
-        int bad = grad_check(dn_loss, &g, dn->params, dn->grads, dn->tab.numel, 1 + dn->tab.numel / 150, 1e-2, 2e-2,
+        int bad = grad_check(dn_loss, &g, dn->params, dn->grads, dn->tab.numel, 0, 1 + dn->tab.numel / 150, 1e-2, 2e-2,
                              "param", &checked);
         CHECK_MSG(bad == 0, "joint %d: %d of %d denoiser gradient entries off", joint, bad, checked);
         mf_denoiser_work_free(&g.w);
