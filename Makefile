@@ -411,8 +411,33 @@ $(PRIOR_DATA)/manifest.json: | $(BUILD)/mf
 train-prior: $(BUILD)/mf $(PRIOR_DATA)/manifest.json
 	$(MF) train-prior $(PRIOR_DATA) -o $(PRIOR_CKPT) $(PRIOR_TRAIN_ARGS) --loss-csv reports/prior/loss.csv --resume
 	@mkdir -p $(dir $(PRIOR_WEIGHTS)) && cp $(PRIOR_CKPT)/prior.mfck $(PRIOR_WEIGHTS)
-$(DATA)/test-2d/manifest.json: | $(BUILD)/mf
-	$(MF) gen --split test-2d -o $(DATA)/test-2d
+# test-2d and its variants: each `mf gen --split test-2d` with its GEN2D_ARGS_<name> (one table,
+# one rule): the renderer axis of the generalisation matrix (bench-domain), the validation splits of
+# calibrate-trust (another seed, never the test split) and the content x renderer matrix
+# (bench-matrix: 32 objects filtered by content; in = none of the held-out families/recipes, held =
+# only objects with one). Other manifests (prior-train, ...) have rules of their own.
+GEN2D_ARGS_test-2d              :=
+GEN2D_ARGS_test-2d-diffuse      := --diffuse 1
+GEN2D_ARGS_test-2d-pov          := --diffuse 1 --renderer povray
+# the same with POV-Ray's radiosity count 1000 (default 200): how much of the POV-Ray gap is its own sampling error
+GEN2D_ARGS_test-2d-pov1000      := --diffuse 1 --renderer povray --pov-radiosity 1000
+GEN2D_ARGS_val-2d               := --seed 2
+GEN2D_ARGS_val-2d-cyc           := --seed 2 --renderer cycles
+GEN2D_ARGS_test-2d-in           := --count 32 --content train
+GEN2D_ARGS_test-2d-held         := --count 32 --content heldout
+GEN2D_ARGS_test-2d-in-diffuse   := --count 32 --content train --diffuse 1
+GEN2D_ARGS_test-2d-held-diffuse := --count 32 --content heldout --diffuse 1
+GEN2D_ARGS_test-2d-in-pov       := --count 32 --content train --diffuse 1 --renderer povray
+GEN2D_ARGS_test-2d-held-pov     := --count 32 --content heldout --diffuse 1 --renderer povray
+GEN2D_ARGS_test-2d-in-wide      := --count 32 --content train --widen 1
+GEN2D_ARGS_test-2d-held-wide    := --count 32 --content heldout --widen 1
+GEN2D_ARGS_test-2d-in-cyc       := --count 32 --content train --renderer cycles
+GEN2D_ARGS_test-2d-held-cyc     := --count 32 --content heldout --renderer cycles
+GEN2D_SPLITS := test-2d test-2d-diffuse test-2d-pov test-2d-pov1000 val-2d val-2d-cyc \
+                test-2d-in test-2d-held test-2d-in-diffuse test-2d-held-diffuse test-2d-in-pov test-2d-held-pov \
+                test-2d-in-wide test-2d-held-wide test-2d-in-cyc test-2d-held-cyc
+$(GEN2D_SPLITS:%=$(DATA)/%/manifest.json): $(DATA)/%/manifest.json: | $(BUILD)/mf
+	$(MF) gen $(strip --split test-2d $(GEN2D_ARGS_$*)) -o $(DATA)/$*
 eval-prior: $(BUILD)/mf $(DATA)/test-2d/manifest.json $(PRIOR_DATA)/manifest.json
 	$(MF) eval-prior $(DATA)/test-2d --train $(PRIOR_DATA) -o reports/prior
 bench-prior: $(BUILD)/mf
@@ -442,16 +467,16 @@ DOMAIN_REPORT    ?= reports/generalisation
 DOMAIN_SPLITS    := test-2d test-2d-diffuse test-2d-pov test-2d-pov1000
 DOMAIN_TRAIN     ?= $(DATA)/prior-train-mean
 DOMAIN_EVAL_ARGS ?= --samples 10 --no-mv
-GEN2D_ARGS_test-2d-diffuse := --diffuse 1
-GEN2D_ARGS_test-2d-pov     := --diffuse 1 --renderer povray
-# the same with POV-Ray's radiosity count 1000 (default 200): how much of the POV-Ray gap is its own sampling error
-GEN2D_ARGS_test-2d-pov1000 := --diffuse 1 --renderer povray --pov-radiosity 1000
-$(DATA)/test-2d-diffuse/manifest.json $(DATA)/test-2d-pov/manifest.json $(DATA)/test-2d-pov1000/manifest.json: $(DATA)/%/manifest.json: | $(BUILD)/mf
-	$(MF) gen --split test-2d $(GEN2D_ARGS_$*) -o $(DATA)/$*
 $(DOMAIN_TRAIN)/manifest.json: | $(BUILD)/mf
 	$(MF) gen --split prior-train --count 240 --seed 1 -o $(DOMAIN_TRAIN)
-$(DOMAIN_REPORT)/%/table2d.csv: $(DATA)/%/manifest.json $(DOMAIN_TRAIN)/manifest.json | $(BUILD)/mf
-	$(MF) eval-prior $(DATA)/$* --train $(DOMAIN_TRAIN) $(DOMAIN_EVAL_ARGS) -o $(DOMAIN_REPORT)/$*
+# $(call eval-prior-2d,REPORT,FILE): the rule REPORT/<split>/FILE <- mf eval-prior on DATA/<split>
+# with the settings above, into REPORT/<split>/ (table2d.csv, table2d.json, ...); for the domain
+# cells here and calibrate-trust's splits below.
+define eval-prior-2d
+$(1)/%/$(2): $$(DATA)/%/manifest.json $$(DOMAIN_TRAIN)/manifest.json | $$(BUILD)/mf
+	$$(MF) eval-prior $$(DATA)/$$* --train $$(DOMAIN_TRAIN) $$(DOMAIN_EVAL_ARGS) -o $(1)/$$*
+endef
+$(eval $(call eval-prior-2d,$(DOMAIN_REPORT),table2d.csv))
 # the input images' own gap: masked PSNR of POV-Ray's lit view against ours, per view
 $(DOMAIN_REPORT)/input_gap_%.csv: $(DATA)/test-2d-diffuse/manifest.json $(DATA)/%/manifest.json | $(BUILD)/mf
 	@echo "method,dataset,scene,metric,value" > $@.tmp
@@ -487,12 +512,7 @@ bench-domain: $(BUILD)/mf $(foreach s,$(DOMAIN_SPLITS),$(DOMAIN_REPORT)/$(s)/tab
 # the smaller value per channel over the splits -> reports/prior/trust.md.
 TRUST_REPORT ?= reports/prior/trust
 TRUST_SPLITS := val-2d $(if $(shell command -v blender 2>/dev/null),val-2d-cyc)
-GEN2D_ARGS_val-2d     := --seed 2
-GEN2D_ARGS_val-2d-cyc := --seed 2 --renderer cycles
-$(DATA)/val-2d/manifest.json $(DATA)/val-2d-cyc/manifest.json: $(DATA)/%/manifest.json: | $(BUILD)/mf
-	$(MF) gen --split test-2d $(GEN2D_ARGS_$*) -o $(DATA)/$*
-$(TRUST_REPORT)/%/table2d.json: $(DATA)/%/manifest.json $(DOMAIN_TRAIN)/manifest.json | $(BUILD)/mf
-	$(MF) eval-prior $(DATA)/$* --train $(DOMAIN_TRAIN) $(DOMAIN_EVAL_ARGS) -o $(TRUST_REPORT)/$*
+$(eval $(call eval-prior-2d,$(TRUST_REPORT),table2d.json))
 calibrate-trust: $(foreach s,$(TRUST_SPLITS),$(TRUST_REPORT)/$(s)/table2d.json)
 	@{ echo "# The prior's channel trust (generated by \`make calibrate-trust\`; do not edit)"; echo; \
 	  echo "trust = 1 - MSE(StableMaterial) / MSE(training-set mean), per channel inside the GT mask, over the validation views (mf eval-prior $(DOMAIN_EVAL_ARGS); committed prior). Validation splits: test-2d objects with --seed 2 (not the test split). $(if $(filter val-2d-cyc,$(TRUST_SPLITS)),,Cycles split skipped: no blender.)"; echo; \
@@ -533,18 +553,6 @@ MATRIX_PRIORS  ?= v1=mf/prior/weights/prior.mfck wide=mf/prior/weights/prior-wid
 MATRIX_HAVE_BLENDER := $(if $(shell command -v blender 2>/dev/null),1,)
 MATRIX_SPLITS  := test-2d-in test-2d-held test-2d-in-diffuse test-2d-in-pov test-2d-held-diffuse test-2d-held-pov test-2d-in-wide test-2d-held-wide \
                   $(if $(MATRIX_HAVE_BLENDER),test-2d-in-cyc test-2d-held-cyc)
-GEN2D_ARGS_test-2d-in           := --content train
-GEN2D_ARGS_test-2d-held         := --content heldout
-GEN2D_ARGS_test-2d-in-diffuse   := --content train --diffuse 1
-GEN2D_ARGS_test-2d-held-diffuse := --content heldout --diffuse 1
-GEN2D_ARGS_test-2d-in-pov       := --content train --diffuse 1 --renderer povray
-GEN2D_ARGS_test-2d-held-pov     := --content heldout --diffuse 1 --renderer povray
-GEN2D_ARGS_test-2d-in-wide      := --content train --widen 1
-GEN2D_ARGS_test-2d-held-wide    := --content heldout --widen 1
-GEN2D_ARGS_test-2d-in-cyc       := --content train --renderer cycles
-GEN2D_ARGS_test-2d-held-cyc     := --content heldout --renderer cycles
-$(foreach s,$(MATRIX_SPLITS),$(DATA)/$(s)/manifest.json): $(DATA)/%/manifest.json: | $(BUILD)/mf
-	$(MF) gen --split test-2d --count 32 $(GEN2D_ARGS_$*) -o $(DATA)/$*
 matrix-label = $(word 1,$(subst =, ,$(1)))
 matrix-weights = $(word 2,$(subst =, ,$(1)))
 matrix-cells = $(foreach s,$(2),--cell $(call matrix-label,$(1)):$(s:test-2d-%=%)=$(MATRIX_REPORT)/$(call matrix-label,$(1))/$(s)/table2d.csv)

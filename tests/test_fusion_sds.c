@@ -348,6 +348,36 @@ MF_TEST(fusion_sds_pick_views_skips_holdout) {
     mf_mesh_free(&mesh);
 }
 
+/* The iteration's other gradient g (n,) made from the prior's h (n,): for the conflict test. */
+typedef void (*DataGradFn)(const float *h, float *g, size_t n);
+
+/* The trust tests' common step: the plain hook s, then its variant sv, each at iteration 0 on
+ * views {0, 1} from zeroed kd and ORM gradients; before the variant runs, the kd gradient is set
+ * to data(h_kd) when data is given. *h_kd and *h_orm (malloc'ed, each block's n floats; free
+ * them) hold the plain hook's gradients; on return the blocks hold the variant's. */
+static int hook_then_variant(MfSds *s, MfSds *sv, MfRecon *r, DataGradFn data, float **h_kd, float **h_orm) {
+    MfParamBlock *kd = mf_recon_block(r, MF_BLOCK_KD), *orm = mf_recon_block(r, MF_BLOCK_ORM);
+    int batch[2] = {0, 1};
+    double l;
+    *h_kd = *h_orm = NULL;
+    mf_param_zero_grad(kd), mf_param_zero_grad(orm);
+    int rc = mf_sds_hook(s, r, 0, batch, 2, &l);
+    if (rc) return rc;
+    *h_kd = malloc(kd->n * sizeof(float)), *h_orm = malloc(orm->n * sizeof(float));
+    if (!*h_kd || !*h_orm) return mf_fail(MF_ENOMEM, "test: out of memory");
+    memcpy(*h_kd, kd->g, kd->n * sizeof(float)), memcpy(*h_orm, orm->g, orm->n * sizeof(float));
+    mf_param_zero_grad(kd), mf_param_zero_grad(orm);
+    if (data) data(*h_kd, kd->g, kd->n);
+    return mf_sds_hook(sv, r, 0, batch, 2, &l);
+}
+
+/* Against the prior on even texels, along it on odd ones. */
+static float conflict_data_at(const float *h, size_t i) { return ((i / 3) % 2 ? 0.5f : -2.0f) * h[i]; }
+
+static void conflict_data(const float *h, float *g, size_t n) {
+    for (size_t i = 0; i < n; ++i) g[i] = conflict_data_at(h, i);
+}
+
 /* --sds-weight conflict: where the prior's texel gradient opposes the iteration's other gradient,
  * the opposing part is removed (here: exactly cancelled), elsewhere it is applied in full. */
 MF_TEST(fusion_sds_conflict_weight) {
@@ -361,29 +391,21 @@ MF_TEST(fusion_sds_conflict_weight) {
     MfSds *sc = tiny_sds_opts(&o);
     if (!r || !s || !sc) return;
     MfParamBlock *kd = mf_recon_block(r, MF_BLOCK_KD);
-    int batch[2] = {0, 1};
-    double l;
-    mf_param_zero_grad(kd);
-    CHECK_OK(mf_sds_hook(s, r, 0, batch, 2, &l));
-    size_t n = kd->n;
-    float *h = malloc(n * sizeof(float)), *g0 = malloc(n * sizeof(float));
-    if (!h || !g0) return;
-    memcpy(h, kd->g, n * sizeof(float));
-    /* the "data" gradient: against the prior on even texels, along it on odd ones */
-    for (size_t i = 0; i < n; ++i) g0[i] = ((i / 3) % 2 ? 0.5f : -2.0f) * h[i];
-    memcpy(kd->g, g0, n * sizeof(float));
-    CHECK_OK(mf_sds_hook(sc, r, 0, batch, 2, &l));
+    float *h = NULL, *ho = NULL;
+    CHECK_OK(hook_then_variant(s, sc, r, conflict_data, &h, &ho));
+    if (mf_test_failed_now()) return;
     double hmax = 0.0, err = 0.0;
     int conflicts = 0;
-    for (size_t i = 0; i < n; ++i) {
+    for (size_t i = 0; i < kd->n; ++i) {
         hmax = fmax(hmax, fabs(h[i]));
-        double want = (i / 3) % 2 ? g0[i] + h[i] : g0[i]; /* opposing: the prior's part cancelled */
+        float g0 = conflict_data_at(h, i);
+        double want = (i / 3) % 2 ? g0 + h[i] : g0; /* opposing: the prior's part cancelled */
         err = fmax(err, fabs(kd->g[i] - want));
         conflicts += (i / 3) % 2 == 0 && h[i] != 0.0f;
     }
     CHECK(hmax > 0.0 && conflicts > 0);
     CHECK_MSG(err <= 1e-5 * hmax, "conflict weighting off by %.3g (prior gradient scale %.3g)", err, hmax);
-    free(h), free(g0);
+    free(h), free(ho);
     mf_sds_free(s), mf_sds_free(sc);
     mf_recon_free(r);
     mf_mesh_free(&mesh);
@@ -433,15 +455,9 @@ MF_TEST(fusion_sds_coverage_weight) {
     CHECK(seen_some && unseen_some);
     /* the hook: prior gradient h scaled by the weight, texel by texel */
     MfParamBlock *kdb = mf_recon_block(r, MF_BLOCK_KD);
-    int batch[2] = {0, 1};
-    double l;
-    mf_param_zero_grad(kdb);
-    CHECK_OK(mf_sds_hook(s, r, 0, batch, 2, &l));
-    float *h = malloc(kdb->n * sizeof(float));
-    if (!h) return;
-    memcpy(h, kdb->g, kdb->n * sizeof(float));
-    mf_param_zero_grad(kdb);
-    CHECK_OK(mf_sds_hook(sc, r, 0, batch, 2, &l));
+    float *h = NULL, *ho = NULL;
+    CHECK_OK(hook_then_variant(s, sc, r, NULL, &h, &ho));
+    if (mf_test_failed_now()) return;
     double err = 0.0, hmax = 0.0;
     for (size_t i = 0; i < kdb->n; ++i) {
         err = fmax(err, fabs(kdb->g[i] - h[i] * w[i / 3]));
@@ -449,7 +465,7 @@ MF_TEST(fusion_sds_coverage_weight) {
     }
     CHECK(hmax > 0.0);
     CHECK_MSG(err <= 1e-6 * hmax, "coverage weighting off by %.3g (prior gradient scale %.3g)", err, hmax);
-    free(h), free(w), free(a0), free(a1), free(m);
+    free(h), free(ho), free(w), free(a0), free(a1), free(m);
     mf_image_free(&kd);
     mf_sds_free(s), mf_sds_free(sc);
     mf_recon_free(r);
@@ -470,15 +486,9 @@ MF_TEST(fusion_sds_channel_trust) {
     MfSds *st = tiny_sds_opts(&o);
     if (!r || !s || !st) return;
     MfParamBlock *kd = mf_recon_block(r, MF_BLOCK_KD), *orm = mf_recon_block(r, MF_BLOCK_ORM);
-    int batch[2] = {0, 1};
-    double l;
-    mf_param_zero_grad(kd), mf_param_zero_grad(orm);
-    CHECK_OK(mf_sds_hook(s, r, 0, batch, 2, &l));
-    float *h = malloc(orm->n * sizeof(float)), *hk = malloc(kd->n * sizeof(float));
-    if (!h || !hk) return;
-    memcpy(h, orm->g, orm->n * sizeof(float)), memcpy(hk, kd->g, kd->n * sizeof(float));
-    mf_param_zero_grad(kd), mf_param_zero_grad(orm);
-    CHECK_OK(mf_sds_hook(st, r, 0, batch, 2, &l));
+    float *h = NULL, *hk = NULL;
+    CHECK_OK(hook_then_variant(s, st, r, NULL, &hk, &h));
+    if (mf_test_failed_now()) return;
     const float scale[3] = {1.0f, 0.25f, 0.0f};
     double err = 0.0, mag[3] = {0, 0, 0}, kerr = 0.0;
     for (size_t i = 0; i < orm->n; ++i) {

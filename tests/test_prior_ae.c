@@ -15,6 +15,7 @@
 #include "prior/mf_prior.h"
 #include "prior/mf_prior_train.h"
 #include "tests/mf_test.h"
+#include "tests/mf_test_kit.h"
 #include "tests/mf_test_prior.h"
 
 /* ---- gradient checks -------------------------------------------------------------------------------- */
@@ -26,7 +27,8 @@ typedef struct {
     int B;
 } AeGC;
 
-static double ae_loss(AeGC *g) {
+static double ae_loss(void *ctx) {
+    AeGC *g = ctx;
     float *z = mf_ae_encode(g->ae, &g->w, g->x, g->B), *y = mf_ae_decode(g->ae, &g->w, z, g->B);
     int R = g->ae->cfg.res;
     return tp_dot(y, g->wout, (size_t)g->B * 3 * R * R);
@@ -53,29 +55,8 @@ MF_TEST(prior_ae_shapes_and_gradients) {
     double gmax = 0;
     for (size_t i = 0; i < ae->tab.numel; ++i) gmax = fmax(gmax, fabs(ae->grads[i]));
     CHECK(gmax > 1e-2); /* the check below is not vacuous */
-    for (size_t i = 0; i < ae->tab.numel; i += 1 + ae->tab.numel / 60) {
-        float keep = ae->params[i];
-        double h = 1e-2 * fmax(1.0, fabs(keep));
-        ae->params[i] = keep + (float)h;
-        double lp = ae_loss(&g);
-        ae->params[i] = keep - (float)h;
-        double lm = ae_loss(&g);
-        ae->params[i] = keep;
-        double num = (lp - lm) / (2 * h), an = ae->grads[i];
-        if (fabs(num - an) > 2e-2 * fmax(1.0, fabs(num))) ++bad;
-        ++checked;
-    }
-    for (size_t i = 0; i < ni; i += 13) {
-        float keep = x[i];
-        x[i] = keep + 1e-2f;
-        double lp = ae_loss(&g);
-        x[i] = keep - 1e-2f;
-        double lm = ae_loss(&g);
-        x[i] = keep;
-        double num = (lp - lm) / 2e-2;
-        if (fabs(num - dx[i]) > 2e-2 * fmax(1.0, fabs(num))) ++bad;
-        ++checked;
-    }
+    bad += grad_check(ae_loss, &g, ae->params, ae->grads, ae->tab.numel, 0, 1 + ae->tab.numel / 60, 1e-2, 2e-2, "param", &checked);
+    bad += grad_check(ae_loss, &g, x, dx, ni, 0, 13, 1e-2, 2e-2, "input", &checked); /* |x| < 1: step 1e-2 */
     CHECK_MSG(bad == 0, "%d of %d AE gradient entries off", bad, checked);
     mf_ae_work_free(&g.w);
     free(x), free(wo), free(dx), free(dz);

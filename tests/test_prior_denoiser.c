@@ -15,6 +15,7 @@
 #include "prior/mf_prior.h"
 #include "prior/mf_prior_train.h"
 #include "tests/mf_test.h"
+#include "tests/mf_test_kit.h"
 #include "tests/mf_test_prior.h"
 
 /* ---- gradient checks -------------------------------------------------------------------------------- */
@@ -25,7 +26,8 @@ typedef struct {
     int B, V, joint;
 } DnGC;
 
-static double dn_loss(DnGC *g) {
+static double dn_loss(void *ctx) {
+    DnGC *g = ctx;
     float *v = mf_denoiser_forward(g->dn, &g->w, g->x, g->t, g->rgb, g->keep, g->B, g->V, g->joint);
     const MfDenoiserConfig *c = &g->dn->cfg;
     return tp_dot(v, g->wout, (size_t)g->B * 2 * c->zc * c->h * c->h);
@@ -50,22 +52,9 @@ MF_TEST(prior_denoiser_gradients) {
         dn_loss(&g);
         memset(dn->grads, 0, dn->tab.numel * sizeof(float));
         mf_denoiser_backward(dn, &g.w, wo);
-        int bad = 0, checked = 0;
-        for (size_t i = 0; i < dn->tab.numel; i += 1 + dn->tab.numel / 150) {
-            float k0 = dn->params[i];
-            double h = 1e-2 * fmax(1.0, fabs(k0));
-            dn->params[i] = k0 + (float)h;
-            double lp = dn_loss(&g);
-            dn->params[i] = k0 - (float)h;
-            double lm = dn_loss(&g);
-            dn->params[i] = k0;
-            double num = (lp - lm) / (2 * h), an = dn->grads[i];
-            if (fabs(num - an) > 2e-2 * fmax(1.0, fabs(num))) {
-                if (bad < 5) fprintf(stderr, "  param %zu: numeric %.6g analytic %.6g\n", i, num, an);
-                ++bad;
-            }
-            ++checked;
-        }
+        int checked = 0;
+        int bad = grad_check(dn_loss, &g, dn->params, dn->grads, dn->tab.numel, 0, 1 + dn->tab.numel / 150, 1e-2, 2e-2,
+                             "param", &checked);
         CHECK_MSG(bad == 0, "joint %d: %d of %d denoiser gradient entries off", joint, bad, checked);
         mf_denoiser_work_free(&g.w);
     }

@@ -17,6 +17,7 @@
 #include "prior/mf_prior.h"
 #include "prior/mf_prior_train.h"
 #include "tests/mf_test.h"
+#include "tests/mf_test_kit.h"
 #include "tests/mf_test_prior.h"
 
 MF_TEST(prior_bad_weights_refused) {
@@ -140,6 +141,27 @@ MF_TEST(prior_predict_mean_views_independent) {
     mf_prior_free(p);
 }
 
+/* The gradient checks' losses: <encoder output, w> for fixed weights w. */
+typedef struct {
+    MfPrior *p;
+    const float *img, *alb, *orm, *w;
+    float *z;
+    int B;
+    size_t nz;
+} PriorGC;
+
+static double encode_loss(void *ctx) {
+    PriorGC *g = ctx;
+    mf_prior_encode(g->p, g->img, g->B, g->z);
+    return tp_dot(g->z, g->w, g->nz);
+}
+
+static double materials_loss(void *ctx) {
+    PriorGC *g = ctx;
+    mf_prior_encode_materials(g->p, g->alb, g->orm, g->B, g->z);
+    return tp_dot(g->z, g->w, g->nz);
+}
+
 MF_TEST(prior_encode_backward_matches_differences) {
     MfPrior *p;
     tp_tiny_prior(&p);
@@ -150,20 +172,9 @@ MF_TEST(prior_encode_backward_matches_differences) {
     tp_fill(img, ni, 4, 1.0f), tp_fill(wz, nz, 5, 1.0f);
     CHECK_OK(mf_prior_encode(p, img, B, z));
     mf_prior_encode_backward(p, wz, dimg);
-    int bad = 0;
-    for (size_t i = 0; i < ni; i += 17) {
-        float k = img[i];
-        img[i] = k + 1e-2f;
-        mf_prior_encode(p, img, B, z);
-        double lp = tp_dot(z, wz, nz);
-        img[i] = k - 1e-2f;
-        mf_prior_encode(p, img, B, z);
-        double lm = tp_dot(z, wz, nz);
-        img[i] = k;
-        double num = (lp - lm) / 2e-2;
-        if (fabs(num - dimg[i]) > 2e-2 * fmax(1.0, fabs(num))) ++bad;
-    }
-    CHECK(bad == 0);
+    PriorGC g = {.p = p, .img = img, .w = wz, .z = z, .B = B, .nz = nz};
+    int checked = 0, bad = grad_check(encode_loss, &g, img, dimg, ni, 0, 17, 1e-2, 2e-2, "image", &checked);
+    CHECK_MSG(bad == 0, "%d of %d encoder input gradients off", bad, checked);
     free(img), free(z), free(wz), free(dimg);
     mf_prior_free(p);
 }
@@ -206,21 +217,10 @@ MF_TEST(prior_material_latents_and_backward) {
     CHECK(e < 1e-5);
     CHECK_OK(mf_prior_encode_materials(p, alb, orm, B, zm));
     CHECK_OK(mf_prior_encode_materials_backward(p, wz, da, dor));
-    int bad = 0;
-    for (int k = 0; k < 2; ++k)
-        for (size_t i = 5; i < ni; i += 97) {
-            float *m = k ? orm : alb, keep = m[i];
-            m[i] = keep + 1e-2f;
-            mf_prior_encode_materials(p, alb, orm, B, zm);
-            double lp = tp_dot(zm, wz, nm);
-            m[i] = keep - 1e-2f;
-            mf_prior_encode_materials(p, alb, orm, B, zm);
-            double lm = tp_dot(zm, wz, nm);
-            m[i] = keep;
-            double num = (lp - lm) / 2e-2, an = k ? dor[i] : da[i];
-            if (fabs(num - an) > 2e-2 * fmax(1.0, fabs(num))) ++bad;
-        }
-    CHECK(bad == 0);
+    PriorGC g = {.p = p, .alb = alb, .orm = orm, .w = wz, .z = zm, .B = B, .nz = nm};
+    int checked = 0, bad = grad_check(materials_loss, &g, alb, da, ni, 5, 97, 1e-2, 2e-2, "albedo", &checked);
+    bad += grad_check(materials_loss, &g, orm, dor, ni, 5, 97, 1e-2, 2e-2, "orm", &checked);
+    CHECK_MSG(bad == 0, "%d of %d material gradients off", bad, checked);
     /* decode_materials splits like decode */
     CHECK_OK(mf_prior_decode_materials(p, zm, B, ra, ro));
     for (size_t i = 0; i < z1; ++i) z1buf[i] = zm[8 * 16 + i]; /* item 1 albedo latent */
