@@ -1,6 +1,7 @@
 #include "datasets/ds_asset.h"
 
 #include <ctype.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -47,6 +48,8 @@ int ds_object_from_asset(const char *path, DsObject *o) {
     mf_mesh_normalize(&o->mesh, 1.0f);
     take_image(&o->kd, &a.mats[0].albedo);
     take_image(&o->orm, &a.mats[0].orm);
+    if (a.mats[0].has_normal) take_image(&o->normal, &a.mats[0].normal);
+    snprintf(o->unrendered, sizeof o->unrendered, "%s", a.mats[0].unrendered);
     ds_asset_stem(path, o->asset, sizeof o->asset);
     mf_gltf_asset_free(&a);
     return MF_OK;

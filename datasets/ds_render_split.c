@@ -24,6 +24,7 @@
 typedef struct {
     MfMesh mesh;
     MfImage kd, orm;     /* (res, res, 3) linear */
+    MfImage normal;      /* gt/normal.png (linear, tangent space; assets only), or data NULL */
     MfRtScene *rt;
     MfTexMaterial mat;
     double angle_x;
@@ -36,6 +37,7 @@ static void scene_free(Scene *sc) {
     mf_mesh_free(&sc->mesh);
     mf_image_free(&sc->kd);
     mf_image_free(&sc->orm);
+    mf_image_free(&sc->normal);
     free(sc->train);
     free(sc->test);
     memset(sc, 0, sizeof *sc);
@@ -63,6 +65,14 @@ static int scene_load(Scene *sc, const char *sdir) {
     if ((rc = mf_path_join(p, sizeof p, sdir, "mesh.obj")) || (rc = mf_obj_read(p, &sc->mesh))) goto fail;
     if ((rc = mf_path_join(p, sizeof p, sdir, "gt/kd.png")) || (rc = mf_image_read(p, MF_ENC_SRGB, &sc->kd))) goto fail;
     if ((rc = mf_path_join(p, sizeof p, sdir, "gt/orm.png")) || (rc = mf_image_read(p, MF_ENC_LINEAR, &sc->orm))) goto fail;
+    /* an asset's normal map: the renderer's normal-map path, as mf relight / mf eval use a result's normal.png */
+    if ((rc = mf_path_join(p, sizeof p, sdir, "gt/normal.png"))) goto fail;
+    if (mf_file_exists(p)) {
+        if ((rc = mf_image_read(p, MF_ENC_LINEAR, &sc->normal))) goto fail;
+        if (sc->normal.c < 3) { rc = mf_fail(MF_EFORMAT, "%s: needs 3 channels", p); goto fail; }
+        if (!sc->mesh.uv) { rc = mf_fail(MF_EFORMAT, "%s: a normal map needs a mesh with UVs", p); goto fail; }
+        sc->mat.normal = &sc->normal;
+    }
     if ((rc = mf_rtscene_new(&sc->mesh, &sc->rt))) goto fail;
     if ((rc = read_cams(sdir, "train", &sc->angle_x, &sc->train, &sc->n_train)) || (rc = read_cams(sdir, "test", &sc->angle_x, &sc->test, &sc->n_test)))
         goto fail;
@@ -134,6 +144,8 @@ static int render_set(Ctx *c, const char *env_rel, const char *env_name, int kin
     }
     char pdir[MF_PATH_MAX];
     DsPovScene ps = {&sc->mesh, &sc->kd, {0.5f, 0.5f, 0.5f}, &env_img, NULL, 0, s->pov_radiosity > 0 ? s->pov_radiosity : DS_SPLIT_POV_RADIOSITY, 0, 1};
+    if (s->povray && sc->normal.data && kind != 1)
+        mf_log_warn("%s: POV-Ray's lit views ignore gt/normal.png (our AOVs use it)", c->sdir);
     if (s->povray) {
         snprintf(rel, sizeof rel, ".povray/%s", env_name);
         if (!(rc = mf_path_join(pdir, sizeof pdir, c->sdir, rel)) && !(rc = mf_mkdirs(pdir))) rc = ds_povray_export_assets(&ps, pdir);

@@ -852,6 +852,7 @@ void ds_object_free(DsObject *o) {
     mf_mesh_free(&o->mesh);
     mf_image_free(&o->kd);
     mf_image_free(&o->orm);
+    mf_image_free(&o->normal);
     memset(o, 0, sizeof *o);
 }
 
@@ -862,7 +863,10 @@ int ds_object_write_textures(const DsObject *o, const char *dir) {
     if ((rc = mf_path_join(p, sizeof p, dir, "kd.png"))) return rc;
     if ((rc = mf_image_write(p, &o->kd, MF_ENC_SRGB, 8))) return rc;
     if ((rc = mf_path_join(p, sizeof p, dir, "orm.png"))) return rc;
-    return mf_image_write(p, &o->orm, MF_ENC_LINEAR, 8);
+    if ((rc = mf_image_write(p, &o->orm, MF_ENC_LINEAR, 8))) return rc;
+    if (!o->normal.data) return MF_OK;
+    if ((rc = mf_path_join(p, sizeof p, dir, "normal.png"))) return rc;
+    return mf_image_write(p, &o->normal, MF_ENC_LINEAR, 8); /* as a result's normal.png */
 }
 
 int ds_object_write(const DsObject *o, const char *scene_dir) {
@@ -878,8 +882,13 @@ int ds_object_write(const DsObject *o, const char *scene_dir) {
     cJSON *root = cJSON_CreateObject(), *parts = cJSON_CreateArray();
     char seedstr[32];
     snprintf(seedstr, sizeof seedstr, "%llu", (unsigned long long)o->seed);
-    if (o->asset[0]) cJSON_AddStringToObject(root, "asset", o->asset);
-    else cJSON_AddStringToObject(root, "family", ds_family_name(o->family));
+    if (o->asset[0]) {
+        cJSON_AddStringToObject(root, "asset", o->asset);
+        cJSON_AddBoolToObject(root, "normal_map", o->normal.data != NULL);
+        if (o->unrendered[0]) cJSON_AddStringToObject(root, "not_rendered", o->unrendered);
+    } else {
+        cJSON_AddStringToObject(root, "family", ds_family_name(o->family));
+    }
     cJSON_AddStringToObject(root, "seed", seedstr);
     cJSON_AddNumberToObject(root, "triangles", o->mesh.nt);
     cJSON_AddNumberToObject(root, "texture_size", o->kd.w);

@@ -66,6 +66,9 @@ typedef struct {
     MfImage kd;   /* owned; (res, res, 3) linear base colour */
     MfImage orm;  /* owned; (res, res, 3) linear: R = 1, G roughness, B metallic */
     char asset[64]; /* non-empty: read from this asset (ds_asset.h; its stem), family/seed/parts unused */
+    MfImage normal; /* owned; (h, w, 3) linear tangent-space normal map (render/mf_normalmap.h), or
+                       data NULL: none (assets only; written as gt/normal.png, used by the GT renders) */
+    char unrendered[256]; /* assets: what of the material is not rendered ("" = nothing; ds_asset.h) */
 } DsObject;
 
 const char *ds_family_name(DsFamily f);
@@ -77,7 +80,8 @@ int ds_family_from_name(const char *name);
 int ds_object_generate(DsObject *o, DsFamily fam, uint64_t seed, int tex_res);
 void ds_object_free(DsObject *o);
 
-/* Writes kd.png (sRGB 8-bit) and orm.png (linear 8-bit) into dir (created). */
+/* Writes kd.png (sRGB 8-bit) and orm.png (linear 8-bit) into dir (created), and normal.png
+ * (linear 8-bit, like a result's) when the object has a normal map. */
 int ds_object_write_textures(const DsObject *o, const char *dir);
 
 /* Writes the object's ground truth in the bvault layout (DESIGN.md "Contracts") under scene_dir:

@@ -115,6 +115,9 @@ int ds_write_split(DsSplitSpec *s, const char *out_dir, const char *env_dir, uin
         if ((rc = mf_path_join(sdir, sizeof sdir, out_dir, name))) { ds_object_free(&o); break; }
         if (s->diffuse) ds_object_make_diffuse(&o); /* metallic 0, roughness >= 0.6 */
         if (s->ambiguous) ds_object_make_ambiguous(&o, (DsAmbiguity)(k % DS_AMBIG_COUNT));
+        int has_normal = o.normal.data != NULL;
+        char unrendered[sizeof o.unrendered];
+        snprintf(unrendered, sizeof unrendered, "%s", o.unrendered);
         rc = ds_object_write(&o, sdir);
         ds_object_free(&o);
         if (rc) break;
@@ -147,8 +150,11 @@ int ds_write_split(DsSplitSpec *s, const char *out_dir, const char *env_dir, uin
         snprintf(envname, sizeof envname, "%s", probes[perm[0]]);
         strip_ext(envname);
         cJSON_AddStringToObject(sc, "name", name);
-        if (s->asset) cJSON_AddStringToObject(sc, "asset", s->asset);
-        else cJSON_AddStringToObject(sc, "family", ds_family_name(fam));
+        if (s->asset) {
+            cJSON_AddStringToObject(sc, "asset", s->asset);
+            cJSON_AddBoolToObject(sc, "normal_map", has_normal);
+            if (unrendered[0]) cJSON_AddStringToObject(sc, "not_rendered", unrendered);
+        } else cJSON_AddStringToObject(sc, "family", ds_family_name(fam));
         if (s->ambiguous) cJSON_AddStringToObject(sc, "ambiguity", ds_ambiguity_name((DsAmbiguity)(k % DS_AMBIG_COUNT)));
         char seedstr[32];
         snprintf(seedstr, sizeof seedstr, "%llu", (unsigned long long)oseed);

@@ -29,6 +29,10 @@ static int result_from_gltf(const char *path, EvResult *out) {
     if (!rc) {
         r.mesh = a.mesh, r.kd = a.mats[0].albedo, r.orm = a.mats[0].orm;
         memset(&a.mesh, 0, sizeof a.mesh), memset(&a.mats[0].albedo, 0, sizeof(MfImage)), memset(&a.mats[0].orm, 0, sizeof(MfImage));
+        if (a.mats[0].has_normal) { /* a result's scene.glb carries its normal.png as normalTexture */
+            r.normal = a.mats[0].normal, r.has_normal = 1;
+            memset(&a.mats[0].normal, 0, sizeof(MfImage));
+        }
     }
     mf_gltf_asset_free(&a);
     char p[MF_PATH_MAX];

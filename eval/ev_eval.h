@@ -53,7 +53,7 @@ typedef struct {
 /* mesh_path NULL: dir/mesh.obj (a snapshot folder passes its run's mesh; an OBJ or a glTF file).
  * Loads normal.png too when the folder has one (renders then use it as the material's normal map).
  * dir may also name a .glb/.gltf file (a result's scene.glb, or any asset with one material): mesh,
- * albedo and ORM come from it (io/mf_gltf_read.h; its normal map is not read), env.exr from the
+ * albedo, ORM and normalTexture come from it (io/mf_gltf_read.h), env.exr from the
  * file's folder when present. */
 int ev_result_load(const char *dir, const char *mesh_path, EvResult *out);
 void ev_result_free(EvResult *r);

@@ -45,7 +45,9 @@
     "  in-process (--no-render: the layout only): train/ test/ r_NNN.png, gt/albedo/ gt/orm/ r_NNN.png, relight/<env>/r_NNN.exr\n" \
     "  (test-3d-diffuse: diffuse objects, lit views by POV-Ray; test-3d-ambig: material ambiguity). Rerunning resumes.\n" \
     "  --asset FILE.glb: one scene, DIR/000_<name>/, whose object is a glTF asset (normalised like ours; its\n" \
-    "    base colour and occlusion/roughness/metallic textures become gt/kd.png, gt/orm.png).\n" \
+    "    base colour and occlusion/roughness/metallic textures become gt/kd.png, gt/orm.png, its normalTexture\n" \
+    "    gt/normal.png, used by the renders; emission and other unrendered features are warned about and\n" \
+    "    listed in split.json and gt/object.json as not_rendered).\n" \
     "  --compare-povray FILE.md: render the relit test views (first --views N, at --res R) with both\n" \
     "    renderers and append a table row (PSNR, mean relative error) to FILE.md.\n" \
     "  Probes: *.exr of --env-dir (default Blender's studio lights).\n" \

@@ -9,7 +9,9 @@
 
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
+#include "core/mf_log.h"
 #include "io/mf_obj.h"
+#include "scene/mf_tangent.h"
 
 enum {
     GLB_MAGIC = 0x46546C67, /* "glTF" */
@@ -40,10 +42,11 @@ typedef struct {
 /* The mesh being assembled. */
 typedef struct {
     float *pos, *nrm, *uv; /* (cap_v, 3), (cap_v, 3), (cap_v, 2) */
+    float *tan;            /* (cap_v, 4) TANGENT in our axes, w = +-1; w = 0: the primitive had none */
     uint32_t *tri;         /* (cap_t, 3) */
     int *mat;              /* (cap_t,) slot into used[] */
     size_t nv, nt, cap_v, cap_t;
-    int all_nrm, any_uv;
+    int all_nrm, any_uv, any_tan;
     int *used;             /* (nused,) glTF material index per slot, -1 = the default material */
     int nused;
     char *seen;            /* (nnodes,) nodes visited */
@@ -337,7 +340,9 @@ static int grow(const Gltf *g, Build *b, size_t nv, size_t nt) {
         if (n) b->nrm = n;
         float *u = n ? realloc(b->uv, cap * 2 * sizeof(float) + 1) : NULL;
         if (u) b->uv = u;
-        if (!u) return mf_fail(MF_ENOMEM, "%s: out of memory for %zu vertices", g->path, cap);
+        float *tg = u ? realloc(b->tan, cap * 4 * sizeof(float) + 1) : NULL;
+        if (tg) b->tan = tg;
+        if (!tg) return mf_fail(MF_ENOMEM, "%s: out of memory for %zu vertices", g->path, cap);
         b->cap_v = cap;
     }
     if (b->nt + nt > b->cap_t) {
@@ -379,11 +384,12 @@ static int add_primitive(const Gltf *g, Build *b, const cJSON *prim, const char 
     if (mode != 4) return mf_fail(MF_EFORMAT, "%s: %s.mode = %ld: only triangles (4) are supported", g->path, w, mode);
     const cJSON *attrs = item(prim, "attributes");
     if (!cJSON_IsObject(attrs)) return mf_fail(MF_EFORMAT, "%s: %s.attributes: expected an object", g->path, w);
-    Acc P, N, T, I;
-    int hp, hn, ht;
+    Acc P, N, T, I, TG;
+    int hp, hn, ht, htg;
     if ((rc = attribute(g, attrs, "POSITION", w, 3, 0, 0, &P, &hp))) return rc;
     if (!hp) return mf_fail(MF_EFORMAT, "%s: %s.attributes.POSITION: missing", g->path, w);
-    if ((rc = attribute(g, attrs, "NORMAL", w, 3, 0, P.count, &N, &hn)) || (rc = attribute(g, attrs, "TEXCOORD_0", w, 2, 1, P.count, &T, &ht)))
+    if ((rc = attribute(g, attrs, "NORMAL", w, 3, 0, P.count, &N, &hn)) || (rc = attribute(g, attrs, "TEXCOORD_0", w, 2, 1, P.count, &T, &ht)) ||
+        (rc = attribute(g, attrs, "TANGENT", w, 4, 0, P.count, &TG, &htg)))
         return rc;
     size_t nidx = P.count;
     if (ind >= 0) {
@@ -428,6 +434,20 @@ static int add_primitive(const Gltf *g, Build *b, const cJSON *prim, const char 
         } else {
             no[0] = no[1] = no[2] = 0.0f;
         }
+        float *tg = b->tan + 4 * (v0 + i);
+        tg[0] = tg[1] = tg[2] = tg[3] = 0.0f;
+        if (htg) { /* a surface direction: the node matrix itself; a mirror flips the handedness */
+            double t[4], m[3];
+            for (int j = 0; j < 4; ++j) t[j] = acc_f(&TG, i, j);
+            for (int j = 0; j < 3; ++j) m[j] = M[j * 4] * t[0] + M[j * 4 + 1] * t[1] + M[j * 4 + 2] * t[2];
+            double l = sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2]);
+            if (!isfinite(l) || !isfinite(t[3])) return mf_fail(MF_ENAN, "%s: %s.attributes.TANGENT: tangent %zu is not finite", g->path, w, i);
+            if (l > 0) {
+                m[0] /= l, m[1] /= l, m[2] /= l;
+                to_z_up(m, tg);
+                tg[3] = (t[3] < 0) != (det < 0) ? -1.0f : 1.0f;
+            }
+        }
         float *uv = b->uv + 2 * (v0 + i);
         uv[0] = ht ? acc_f(&T, i, 0) : 0.0f;
         uv[1] = ht ? 1.0f - acc_f(&T, i, 1) : 0.0f;
@@ -451,6 +471,7 @@ static int add_primitive(const Gltf *g, Build *b, const cJSON *prim, const char 
     b->nt += nidx / 3;
     b->all_nrm &= hn;
     b->any_uv |= ht;
+    b->any_tan |= htg;
     return MF_OK;
 }
 
@@ -611,6 +632,48 @@ static float sample(const MfImage *img, float x, float y, int ch) {
     return (a * (1 - fx) + b * fx) * (1 - fy) + (c * (1 - fx) + d * fx) * fy;
 }
 
+/* Appends ", what" (or "what" first) to the list in buf (cap bytes), truncating with "...". */
+static void add_item(char *buf, size_t cap, const char *what) {
+    size_t l = strlen(buf);
+    if (l + 8 >= cap) return;
+    int n = snprintf(buf + l, cap - l, "%s%s", l ? ", " : "", what);
+    if (n < 0 || (size_t)n >= cap - l) snprintf(buf + cap - 4, 4, "...");
+}
+
+/* What of material mo changes the look but is not rendered: emission, transparency, texture
+ * transforms, KHR_materials_* and other material extensions; listed in out (cap bytes, "" = none). */
+static void unrendered(const cJSON *mo, char *out, size_t cap) {
+    out[0] = 0;
+    double e[3] = {0, 0, 0};
+    const cJSON *ef = item(mo, "emissiveFactor");
+    for (int k = 0; k < 3 && cJSON_IsArray(ef); ++k) {
+        const cJSON *x = cJSON_GetArrayItem(ef, k);
+        e[k] = cJSON_IsNumber(x) ? x->valuedouble : 0;
+    }
+    int emissive = e[0] != 0 || e[1] != 0 || e[2] != 0;
+    if (emissive) add_item(out, cap, "emissiveFactor");
+    if (item(mo, "emissiveTexture")) add_item(out, cap, emissive ? "emissiveTexture" : "emissiveTexture (emissiveFactor 0: dark)");
+    const char *am = cJSON_GetStringValue(item(mo, "alphaMode"));
+    if (am && strcmp(am, "OPAQUE")) {
+        char t[64];
+        snprintf(t, sizeof t, "alphaMode %.16s", am);
+        add_item(out, cap, t);
+    }
+    const cJSON *ex = item(mo, "extensions");
+    for (const cJSON *x = cJSON_IsObject(ex) ? ex->child : NULL; x; x = x->next) add_item(out, cap, x->string);
+    const cJSON *pbr = item(mo, "pbrMetallicRoughness");
+    const cJSON *tis[5] = {item(pbr, "baseColorTexture"), item(pbr, "metallicRoughnessTexture"), item(mo, "occlusionTexture"),
+                           item(mo, "normalTexture"), item(mo, "emissiveTexture")};
+    for (int i = 0; i < 5; ++i) {
+        const cJSON *tx = item(tis[i], "extensions");
+        for (const cJSON *x = cJSON_IsObject(tx) ? tx->child : NULL; x; x = x->next) {
+            char t[96];
+            snprintf(t, sizeof t, "%.64s on a texture", x->string ? x->string : "?");
+            if (!strstr(out, t)) add_item(out, cap, t);
+        }
+    }
+}
+
 static int material(const Gltf *g, long m, int slot, MfGltfPbr *out) {
     const cJSON *mo = NULL;
     char w[64];
@@ -656,6 +719,24 @@ static int material(const Gltf *g, long m, int slot, MfGltfPbr *out) {
             o[2] = (has_mr ? mf_image_px(&mr, x, y)[2] : 1.0f) * (float)metal;
         }
     out->orm_textured = has_mr || has_occ;
+    /* normalTexture: linear, texCoord 0; scale s: n = normalize((2 v - 1) * (s, s, 1)) */
+    const cJSON *nt = item(mo, "normalTexture");
+    double nscale = jnum(nt, "scale", 1.0);
+    if (!isfinite(nscale)) { rc = mf_fail(MF_EFORMAT, "%s: %s.normalTexture.scale must be finite", g->path, w); goto done; }
+    if ((rc = texture(g, mo, "normalTexture", w, MF_ENC_LINEAR, &out->normal, &out->has_normal))) goto done;
+    out->normal_scale = (float)nscale;
+    if (out->has_normal && nscale != 1.0)
+        for (size_t p = 0; p < (size_t)out->normal.w * out->normal.h; ++p) {
+            float *v = out->normal.data + 3 * p;
+            double t[3] = {(2.0 * v[0] - 1.0) * nscale, (2.0 * v[1] - 1.0) * nscale, 2.0 * v[2] - 1.0};
+            double l = sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
+            if (l > 0)
+                for (int k = 0; k < 3; ++k) v[k] = (float)(0.5 * (t[k] / l + 1.0));
+        }
+    unrendered(mo, out->unrendered, sizeof out->unrendered);
+    if (out->unrendered[0])
+        mf_log_warn("%s: material '%s': not rendered: %s (renders of this asset, ground truth included, lack it)", g->path, out->name,
+                    out->unrendered);
 done:
     mf_image_free(&mr);
     mf_image_free(&occ);
@@ -726,9 +807,93 @@ void mf_gltf_asset_free(MfGltfAsset *a) {
     for (int i = 0; a->mats && i < a->nmat; ++i) {
         mf_image_free(&a->mats[i].albedo);
         mf_image_free(&a->mats[i].orm);
+        mf_image_free(&a->mats[i].normal);
     }
     free(a->mats);
     memset(a, 0, sizeof *a);
+}
+
+/* Frame at a point of triangle t with barycentrics bw: unit N, T (Gram-Schmidt), B = w N x T.
+ * tan (nv, 4); rows with w = 0 are replaced by alt (may be NULL: none). 0 when degenerate. */
+static int frame_at(const MfMesh *m, const float *tan, const float *alt, int t, const float *bw, MfVec3 *T, MfVec3 *B, MfVec3 *N) {
+    const uint32_t *v = m->tri + 3 * (size_t)t;
+    MfVec3 n = mf_v3s(0.0f), tt = mf_v3s(0.0f);
+    float w = 0.0f;
+    for (int k = 0; k < 3; ++k) {
+        const float *nk = m->nrm + 3 * (size_t)v[k], *tk = tan + 4 * (size_t)v[k];
+        if (tk[3] == 0.0f && alt) tk = alt + 4 * (size_t)v[k];
+        n = mf_madd(n, mf_v3(nk[0], nk[1], nk[2]), bw[k]);
+        tt = mf_madd(tt, mf_v3(tk[0], tk[1], tk[2]), bw[k]);
+        w += bw[k] * tk[3];
+    }
+    float ln = mf_len(n);
+    if (!(ln > 1e-12f)) return 0;
+    n = mf_scale(n, 1.0f / ln);
+    tt = mf_sub(tt, mf_scale(n, mf_dot(n, tt)));
+    float lt = mf_len(tt);
+    if (!(lt > 1e-6f)) return 0;
+    *N = n;
+    *T = mf_scale(tt, 1.0f / lt);
+    *B = mf_scale(mf_cross(n, *T), w < 0.0f ? -1.0f : 1.0f);
+    return 1;
+}
+
+/* Re-expresses map (material slot `slot`; tri_slot (nt,)) from the file's tangent frames ftan
+ * (nv, 4) into ours (mf_mesh_tangents), texel by texel over the triangles' UV footprints. */
+static int normal_to_our_frames(const char *path, const MfMesh *m, const float *ftan, const int *tri_slot, int slot, MfImage *map) {
+    size_t nv = (size_t)m->nv, npx = (size_t)map->w * (size_t)map->h;
+    float *ours = malloc(nv * 4 * sizeof(float) + 1), *best = malloc(npx * sizeof(float) + 1), *src = malloc(npx * 3 * sizeof(float) + 1);
+    int rc = ours && best && src ? mf_mesh_tangents(m, ours) : mf_fail(MF_ENOMEM, "%s: out of memory for the normal map's tangent frames", path);
+    if (!rc) {
+        memcpy(src, map->data, npx * 3 * sizeof(float));
+        for (size_t i = 0; i < npx; ++i) best[i] = INFINITY;
+    }
+    const int W = map->w, H = map->h;
+    int skipped = 0;
+    for (int t = 0; !rc && t < m->nt; ++t) {
+        if (tri_slot && tri_slot[t] != slot) continue;
+        const uint32_t *v = m->tri + 3 * (size_t)t;
+        double px[3], py[3]; /* continuous texel coordinates (mf_texture.h) */
+        for (int k = 0; k < 3; ++k) px[k] = m->uv[2 * v[k]] * W - 0.5, py[k] = (1.0 - m->uv[2 * v[k] + 1]) * H - 0.5;
+        double x0 = floor(fmin(px[0], fmin(px[1], px[2]))) - 1, x1 = ceil(fmax(px[0], fmax(px[1], px[2]))) + 1;
+        double y0 = floor(fmin(py[0], fmin(py[1], py[2]))) - 1, y1 = ceil(fmax(py[0], fmax(py[1], py[2]))) + 1;
+        double area = (px[1] - px[0]) * (py[2] - py[0]) - (px[2] - px[0]) * (py[1] - py[0]);
+        if (!(fabs(area) > 1e-12)) continue;
+        if ((x1 - x0 + 1) * (y1 - y0 + 1) > 4.0 * (double)npx + 64) { ++skipped; continue; } /* a tiling triangle */
+        double elen[3];
+        for (int e = 0; e < 3; ++e) elen[e] = hypot(px[(e + 2) % 3] - px[(e + 1) % 3], py[(e + 2) % 3] - py[(e + 1) % 3]);
+        for (double y = y0; y <= y1; ++y)
+            for (double x = x0; x <= x1; ++x) {
+                /* barycentric k: the edge opposite vertex k; outside distance in texels */
+                double b[3], out = -INFINITY;
+                for (int k = 0; k < 3; ++k) {
+                    int i1 = (k + 1) % 3, i2 = (k + 2) % 3;
+                    b[k] = ((px[i1] - x) * (py[i2] - y) - (px[i2] - x) * (py[i1] - y)) / area;
+                    out = fmax(out, -b[k] * fabs(area) / (elen[k] > 0 ? elen[k] : 1));
+                }
+                if (out > 1.0) continue;
+                int ix = (int)(((long)x % W + W) % W), iy = (int)(((long)y % H + H) % H);
+                size_t pi = (size_t)iy * W + ix;
+                if (!((float)out < best[pi])) continue;
+                float bw[3], s = 0;
+                for (int k = 0; k < 3; ++k) bw[k] = (float)fmax(b[k], 0.0), s += bw[k];
+                for (int k = 0; k < 3; ++k) bw[k] /= s;
+                MfVec3 Tf, Bf, Nf, To, Bo, No;
+                if (!frame_at(m, ftan, ours, t, bw, &Tf, &Bf, &Nf) || !frame_at(m, ours, NULL, t, bw, &To, &Bo, &No)) continue;
+                const float *sv = src + 3 * pi;
+                MfVec3 n = mf_add(mf_add(mf_scale(Tf, 2 * sv[0] - 1), mf_scale(Bf, 2 * sv[1] - 1)), mf_scale(Nf, 2 * sv[2] - 1));
+                MfVec3 o = mf_v3(mf_dot(n, To), mf_dot(n, Bo), mf_dot(n, No));
+                float lo = mf_len(o);
+                if (!(lo > 1e-12f) || !isfinite(lo)) continue;
+                float *dv = map->data + 3 * pi;
+                dv[0] = 0.5f * (o.x / lo + 1.0f), dv[1] = 0.5f * (o.y / lo + 1.0f), dv[2] = 0.5f * (o.z / lo + 1.0f);
+                best[pi] = (float)out;
+            }
+    }
+    if (!rc && skipped)
+        mf_log_warn("%s: %d triangles span more than 4 copies of the normal map in UV (tiling): their texels were not re-expressed from TANGENT", path, skipped);
+    free(ours), free(best), free(src);
+    return rc;
 }
 
 static int read_gltf(const char *path, int with_materials, MfGltfAsset *out) {
@@ -754,6 +919,18 @@ static int read_gltf(const char *path, int with_materials, MfGltfAsset *out) {
         a.nmat = b.nused;
         if (!(a.mats = calloc((size_t)b.nused, sizeof *a.mats))) rc = mf_fail(MF_ENOMEM, "%s: out of memory", path);
         for (int i = 0; !rc && i < b.nused; ++i) rc = material(&g, b.used[i], i, &a.mats[i]);
+        for (int i = 0; !rc && i < b.nused; ++i) {
+            MfGltfPbr *p = &a.mats[i];
+            if (p->has_normal && !a.mesh.uv) {
+                mf_log_warn("%s: material '%s': normalTexture ignored (the mesh has no TEXCOORD_0)", path, p->name);
+                mf_image_free(&p->normal);
+                p->has_normal = 0;
+            }
+            if (p->has_normal && b.any_tan) {
+                rc = normal_to_our_frames(path, &a.mesh, b.tan, b.mat, i, &p->normal);
+                a.tangents = 1;
+            }
+        }
         if (!rc && b.nused > 1) {
             a.mesh.mat = b.mat;
             b.mat = NULL;
@@ -763,7 +940,7 @@ static int read_gltf(const char *path, int with_materials, MfGltfAsset *out) {
                 if (!(a.mesh.mat_names[i] = strdup(a.mats[i].name))) rc = mf_fail(MF_ENOMEM, "%s: out of memory", path);
         }
     }
-    free(b.pos), free(b.nrm), free(b.uv), free(b.tri), free(b.mat), free(b.used), free(b.seen);
+    free(b.pos), free(b.nrm), free(b.uv), free(b.tan), free(b.tri), free(b.mat), free(b.used), free(b.seen);
     gltf_free(&g);
     if (rc) {
         mf_gltf_asset_free(&a);

@@ -18,6 +18,20 @@
  * B metallic), at the size of the metallicRoughness texture (occlusion sampled bilinearly where
  * the two differ). A channel without a texture is a 1x1 image of its factor. Primitives without
  * a material get glTF's default material (factors 1, no textures).
+ * normalTexture (linear, TEXCOORD_0; glTF's convention, which is ours: n_t = 2 v - 1, +X along
+ * increasing u, +Y toward the image's top row, bitangent = w cross(N, T), scene/mf_tangent.h)
+ * with `scale` applied as the spec says: n_t = normalize((2 v - 1) * (scale, scale, 1)). Every
+ * consumer (renderer, relight, eval, the data-set writer) builds tangent frames with
+ * mf_mesh_tangents from the mesh, so the map is returned relative to those frames: without a
+ * TANGENT attribute glTF asks for generated (MikkTSpace) tangents and ours stand in for them,
+ * the map is unchanged; with TANGENT (float VEC4, transformed by the node matrices like
+ * positions, w flipped under a mirror) each texel a triangle covers (texel centres inside the
+ * triangle in UV space, or up to one texel outside its edges, the nearest triangle winning) is
+ * re-expressed from the file's interpolated frame into ours: n_ours = (n.T, n.B, n.N) of
+ * n = T_f x + B_f y + N z, normalised. Vertices of primitives without TANGENT use our frame.
+ * Emission (emissiveFactor / emissiveTexture), alphaMode other than OPAQUE, material extensions
+ * (KHR_materials_*) and texture extensions (KHR_texture_transform) are not rendered: they are
+ * listed in MfGltfPbr.unrendered and a warning names the file and the material.
  *
  * Refused with a message naming the file and the JSON path: any extensionsRequired (Draco,
  * meshopt, quantization, texture transforms, KTX2/WebP images, ...), sparse accessors, primitive
@@ -40,12 +54,20 @@ typedef struct {
     MfImage albedo;  /* owned; (h, w, 3) linear base colour, texture x factor; 1x1 without a texture */
     MfImage orm;     /* owned; (h, w, 3) linear: R occlusion, G roughness, B metallic; 1x1 without textures */
     int albedo_textured, orm_textured; /* 1 when the image came from a texture */
+    MfImage normal;  /* owned when has_normal; (h, w, 3) linear tangent-space normal map, scale applied,
+                        relative to mf_mesh_tangents of `mesh` (render/mf_normalmap.h convention) */
+    int has_normal;
+    float normal_scale;     /* normalTexture.scale as the file gives it (already applied to `normal`) */
+    char unrendered[256];   /* what of the material changes the look but is not rendered ("" = nothing):
+                               emissiveFactor / emissiveTexture, alphaMode, material extensions
+                               (KHR_materials_*), texture extensions (KHR_texture_transform) */
 } MfGltfPbr;
 
 typedef struct {
     MfMesh mesh;     /* owned; +Z up; mesh.mat (nt,) and mesh.mat_names when nmat > 1 */
     MfGltfPbr *mats; /* owned; (nmat,) the materials the primitives use, in first-use order */
     int nmat;        /* >= 1 */
+    int tangents;    /* 1: the file had TANGENT and its normal maps were re-expressed in our frames */
 } MfGltfAsset;
 
 /* Reads path (.glb or .gltf, told apart by the first 4 bytes, "glTF" = binary). */
