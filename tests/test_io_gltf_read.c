@@ -14,9 +14,11 @@
 #include "io/mf_gltf.h"
 #include "io/mf_gltf_read.h"
 #include "io/mf_image.h"
+#include "io/mf_json.h"
 #include "io/mf_obj.h"
 #include "scene/mf_scene.h"
 #include "mf_test.h"
+#include "mf_test_kit.h"
 
 static void put32(unsigned char *p, uint32_t v) {
     for (int i = 0; i < 4; ++i) p[i] = (unsigned char)(v >> (8 * i));
@@ -437,4 +439,205 @@ MF_TEST(gltf_read_bad_inputs) {
     CHECK_ERR(mf_gltf_read(tc, &a), "image type 'image/webp' is not supported");
     /* a directory */
     CHECK_ERR(mf_gltf_read(mf_test_tmpdir(), &a), "directory");
+}
+
+/* ---- normalTexture, TANGENT, and what is not rendered ---- */
+
+/* One triangle (0,0,0) (1,0,0) (0,1,0), normal +Z, TEXCOORD_0 (x, 1 - y) (so u runs along +X and
+ * our v along +Y), optional TANGENT tan (4 numbers for every vertex), and material JSON mat
+ * (an object's text), written as .gltf with a data-URI buffer; the images are files beside it. */
+static void write_nm_triangle(const char *path, const float *tan, const char *mat) {
+    float data[36] = {0, 0, 0, 1, 0, 0, 0, 1, 0, /* POSITION */ 0, 0, 1, 0, 0, 1, 0, 0, 1, /* NORMAL */
+                      0, 1, 1, 1, 0, 0 /* TEXCOORD_0 */};
+    for (int i = 0; tan && i < 3; ++i) memcpy(data + 24 + 4 * i, tan, 4 * sizeof(float));
+    char *enc = b64((const unsigned char *)data, sizeof data);
+    char *txt = malloc(strlen(enc) + strlen(mat) + 4096);
+    sprintf(txt,
+            "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],"
+            "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"NORMAL\":1,\"TEXCOORD_0\":2%s},\"material\":0}]}],"
+            "\"materials\":[%s],\"textures\":[{\"source\":0}],\"images\":[{\"uri\":\"nm.png\"}],"
+            "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"},"
+            "{\"bufferView\":0,\"byteOffset\":36,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"},"
+            "{\"bufferView\":0,\"byteOffset\":72,\"componentType\":5126,\"count\":3,\"type\":\"VEC2\"},"
+            "{\"bufferView\":0,\"byteOffset\":96,\"componentType\":5126,\"count\":3,\"type\":\"VEC4\"}],"
+            "\"bufferViews\":[{\"buffer\":0,\"byteLength\":144}],"
+            "\"buffers\":[{\"byteLength\":144,\"uri\":\"data:application/octet-stream;base64,%s\"}]}",
+            tan ? ",\"TANGENT\":3" : "", mat, enc);
+    CHECK_OK(mf_write_file(path, txt, strlen(txt)));
+    free(txt), free(enc);
+}
+
+/* Texel (x, y) of the material's normal map against the tangent-space vector want (normalised here). */
+static void check_texel(const MfGltfAsset *a, int x, int y, double wx, double wy, double wz, const char *what) {
+    CHECK_MSG(a->nmat == 1 && a->mats[0].has_normal, "%s: no normal map read", what);
+    if (a->nmat != 1 || !a->mats[0].has_normal) return;
+    const MfImage *m = &a->mats[0].normal;
+    double l = sqrt(wx * wx + wy * wy + wz * wz), w[3] = {wx / l, wy / l, wz / l};
+    const float *v = mf_image_px(m, x, y);
+    double err = 0;
+    for (int k = 0; k < 3; ++k) err = fmax(err, fabs((2.0 * v[k] - 1.0) - w[k]));
+    CHECK_MSG(err < 2e-3, "%s: texel (%d, %d) = (%.4f %.4f %.4f) in tangent space, expected (%.4f %.4f %.4f)", what, x, y, 2 * v[0] - 1,
+              2 * v[1] - 1, 2 * v[2] - 1, w[0], w[1], w[2]);
+}
+
+/* normalTexture: read (linear), scale applied as the spec says, and with TANGENT re-expressed in
+ * our tangent frames (mf_mesh_tangents): a file frame equal to ours leaves the map alone, one
+ * turned by 90 degrees or mirrored (w = -1) turns or mirrors the texels it covers; texels outside
+ * every triangle's footprint (plus one texel) are left alone. Our writer's scene.glb (TANGENT =
+ * our frames) reads back as the normal.png it was given. */
+MF_TEST(gltf_read_normal_texture) {
+    const char *dir = mf_test_path("nmtex");
+    CHECK_OK(mf_mkdirs(dir));
+    char png[MF_PATH_MAX], gl[MF_PATH_MAX];
+    mf_path_join(png, sizeof png, dir, "nm.png"), mf_path_join(gl, sizeof gl, dir, "tri.gltf");
+    const unsigned char tex[3] = {204, 128, 230};
+    MfImage im = {0};
+    CHECK_OK(mf_image_alloc(&im, 8, 8, 3));
+    for (int i = 0; i < 64; ++i)
+        for (int c = 0; c < 3; ++c) im.data[3 * i + c] = tex[c] / 255.0f;
+    CHECK_OK(mf_image_write(png, &im, MF_ENC_LINEAR, 8));
+    mf_image_free(&im);
+    CHECK_OK(mf_image_read(png, MF_ENC_LINEAR, &im)); /* the decoded texels */
+    const double tx = 2 * tex[0] / 255.0 - 1, ty = 2 * tex[1] / 255.0 - 1, tz = 2 * tex[2] / 255.0 - 1;
+    MfGltfAsset a = {0};
+    /* no TANGENT: the map as stored; with scale 0.5: x and y halved, renormalised */
+    write_nm_triangle(gl, NULL, "{\"normalTexture\":{\"index\":0}}");
+    CHECK_OK(mf_gltf_read(gl, &a));
+    CHECK(!a.tangents && a.nmat == 1 && a.mats[0].has_normal && a.mats[0].normal.w == 8 && im.c == 3);
+    if (a.nmat == 1 && a.mats[0].has_normal && a.mats[0].normal.w == 8 && im.c == 3)
+        CHECK(!memcmp(a.mats[0].normal.data, im.data, sizeof(float) * 192)); /* unchanged, bit for bit */
+    mf_gltf_asset_free(&a);
+    write_nm_triangle(gl, NULL, "{\"normalTexture\":{\"index\":0,\"scale\":0.5}}");
+    CHECK_OK(mf_gltf_read(gl, &a));
+    check_texel(&a, 2, 3, 0.5 * tx, 0.5 * ty, tz, "scale 0.5");
+    CHECK_NEAR(a.nmat == 1 ? a.mats[0].normal_scale : 0, 0.5, 0);
+    mf_gltf_asset_free(&a);
+    /* TANGENT along +X (u), w = +1: our frame (T = +X, B = N x T = +Y in glTF axes) */
+    const float t_same[4] = {1, 0, 0, 1}, t_turn[4] = {0, 1, 0, 1}, t_mirror[4] = {1, 0, 0, -1};
+    write_nm_triangle(gl, t_same, "{\"normalTexture\":{\"index\":0}}");
+    CHECK_OK(mf_gltf_read(gl, &a));
+    CHECK(a.tangents == 1);
+    check_texel(&a, 1, 6, tx, ty, tz, "TANGENT = our frame");
+    mf_gltf_asset_free(&a);
+    /* TANGENT along +Y (our bitangent): file B = N x T = -X, so (x, y) -> ours (-y, x) */
+    write_nm_triangle(gl, t_turn, "{\"normalTexture\":{\"index\":0}}");
+    CHECK_OK(mf_gltf_read(gl, &a));
+    /* the triangle covers the image's lower-left half (row 0 is v = 1, the vertex (0, 1, 0)) */
+    check_texel(&a, 0, 7, -ty, tx, tz, "TANGENT turned 90 degrees, inside");
+    check_texel(&a, 1, 6, -ty, tx, tz, "TANGENT turned 90 degrees, inside");
+    /* (the footprint wraps like the sampler: texels within one texel across the map's border count) */
+    if (a.nmat == 1 && a.mats[0].has_normal && a.mats[0].normal.w == 8)
+        CHECK_MSG(!memcmp(mf_image_px(&a.mats[0].normal, 6, 1), mf_image_px(&im, 6, 1), 3 * sizeof(float)),
+                  "TANGENT turned 90 degrees: texel (6, 1), outside the triangle, changed");
+    mf_gltf_asset_free(&a);
+    /* w = -1: the file's bitangent is -ours, so y flips */
+    write_nm_triangle(gl, t_mirror, "{\"normalTexture\":{\"index\":0}}");
+    CHECK_OK(mf_gltf_read(gl, &a));
+    check_texel(&a, 1, 6, tx, -ty, tz, "TANGENT w = -1");
+    mf_gltf_asset_free(&a);
+    mf_image_free(&im);
+    /* our writer's glb (normalTexture + TANGENT from mf_mesh_tangents) reads back as its normal.png */
+    MfMesh m = {0};
+    char nrm[MF_PATH_MAX], glb[MF_PATH_MAX];
+    mf_path_join(nrm, sizeof nrm, dir, "normal.png"), mf_path_join(glb, sizeof glb, dir, "scene.glb");
+    CHECK_OK(mf_mesh_uv_sphere(&m, 12, 8, mf_v3(0, 0, 0), 0.5f));
+    CHECK_OK(mf_image_alloc(&im, 8, 8, 3));
+    for (int i = 0; i < 64; ++i) { /* unit tangent-space vectors varying over the map */
+        double ang = 0.7 * i, sx = 0.5 * cos(ang), sy = 0.5 * sin(ang), sz = sqrt(1 - sx * sx - sy * sy);
+        im.data[3 * i] = (float)(0.5 * (sx + 1)), im.data[3 * i + 1] = (float)(0.5 * (sy + 1)), im.data[3 * i + 2] = (float)(0.5 * (sz + 1));
+    }
+    CHECK_OK(mf_image_write(nrm, &im, MF_ENC_LINEAR, 8));
+    mf_image_free(&im);
+    CHECK_OK(mf_image_read(nrm, MF_ENC_LINEAR, &im));
+    MfGltfMaterial mat = mf_gltf_material_default();
+    mat.normal_png = nrm;
+    CHECK_OK(mf_gltf_write_glb(glb, &m, &mat));
+    CHECK_OK(mf_gltf_read(glb, &a));
+    CHECK(a.tangents == 1 && a.nmat == 1 && a.mats[0].has_normal);
+    if (a.nmat == 1 && a.mats[0].has_normal && a.mats[0].normal.w == 8) {
+        double worst = 0;
+        for (int i = 0; i < 64 * 3; ++i) worst = fmax(worst, fabs(a.mats[0].normal.data[i] - im.data[i]));
+        CHECK_MSG(worst < 2.0 / 255, "our glb's normal map reads back off by %g", worst);
+    }
+    mf_gltf_asset_free(&a);
+    /* mf relight / mf eval on that glb: the result carries the normal map */
+    EvResult r = {0};
+    CHECK_OK(ev_result_load(glb, NULL, &r));
+    CHECK(r.has_normal && r.normal.w == 8);
+    ev_result_free(&r);
+    mf_image_free(&im);
+    mf_mesh_free(&m);
+}
+
+/* Bad normalTexture references are refused naming the file: a texture index out of range, a
+ * missing image file, a second UV set. */
+MF_TEST(gltf_read_normal_texture_bad) {
+    const char *dir = mf_test_path("nmbad");
+    CHECK_OK(mf_mkdirs(dir));
+    char gl[MF_PATH_MAX];
+    mf_path_join(gl, sizeof gl, dir, "tri.gltf");
+    MfGltfAsset a = {0};
+    write_nm_triangle(gl, NULL, "{\"normalTexture\":{\"index\":3}}");
+    CHECK_ERR(mf_gltf_read(gl, &a), gl);
+    CHECK_ERR(mf_gltf_read(gl, &a), "normalTexture: textures[3] does not exist");
+    write_nm_triangle(gl, NULL, "{\"normalTexture\":{\"index\":0}}"); /* nm.png is not there */
+    CHECK_ERR(mf_gltf_read(gl, &a), gl);
+    CHECK_ERR(mf_gltf_read(gl, &a), "nm.png");
+    write_nm_triangle(gl, NULL, "{\"normalTexture\":{\"index\":0,\"texCoord\":1}}");
+    CHECK_ERR(mf_gltf_read(gl, &a), "normalTexture.texCoord = 1: only TEXCOORD_0");
+    write_nm_triangle(gl, NULL, "{\"normalTexture\":{\"index\":0,\"scale\":\"big\"}}");
+    CHECK_ERR(mf_gltf_read(gl, &a), "normalTexture.scale");
+}
+
+/* Emission and other features that change the look are listed (and warned about) by material;
+ * mf gen --asset says so on stderr and records them in split.json and gt/object.json. */
+MF_TEST(gltf_read_unrendered_warned) {
+    const char *dir = mf_test_path("emis");
+    CHECK_OK(mf_mkdirs(dir));
+    char gl[MF_PATH_MAX], png[MF_PATH_MAX];
+    mf_path_join(gl, sizeof gl, dir, "glow.gltf"), mf_path_join(png, sizeof png, dir, "nm.png");
+    write_flat(png, 2, 2, 3, 0.5f, MF_ENC_LINEAR);
+    write_nm_triangle(gl, NULL,
+                      "{\"name\":\"Lamp\",\"emissiveFactor\":[1,0.5,0],\"alphaMode\":\"BLEND\","
+                      "\"extensions\":{\"KHR_materials_clearcoat\":{\"clearcoatFactor\":1}},"
+                      "\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0,\"extensions\":{\"KHR_texture_transform\":{}}}}}");
+    MfGltfAsset a = {0};
+    CHECK_OK(mf_gltf_read(gl, &a));
+    const char *u = a.nmat == 1 ? a.mats[0].unrendered : "";
+    CHECK_MSG(strstr(u, "emissiveFactor") && strstr(u, "alphaMode BLEND") && strstr(u, "KHR_materials_clearcoat") &&
+                  strstr(u, "KHR_texture_transform"), "unrendered: '%s'", u);
+    mf_gltf_asset_free(&a);
+    /* nothing to say about a plain material */
+    write_nm_triangle(gl, NULL, "{\"emissiveFactor\":[0,0,0]}");
+    CHECK_OK(mf_gltf_read(gl, &a));
+    CHECK_MSG(a.nmat == 1 && !a.mats[0].unrendered[0], "unrendered: '%s'", a.nmat == 1 ? a.mats[0].unrendered : "?");
+    mf_gltf_asset_free(&a);
+    /* an emissive texture alone, through mf gen --asset (layout only) */
+    write_nm_triangle(gl, NULL, "{\"name\":\"Lamp\",\"emissiveTexture\":{\"index\":0},\"emissiveFactor\":[1,1,1]}");
+    char probes[MF_PATH_MAX], out[MF_PATH_MAX], args[3 * MF_PATH_MAX + 128], err[4096];
+    mf_path_join(probes, sizeof probes, dir, "probes"), mf_path_join(out, sizeof out, dir, "split");
+    CHECK_OK(mf_mkdirs(probes));
+    for (int i = 0; i < 3; ++i) {
+        char p[MF_PATH_MAX + 16];
+        snprintf(p, sizeof p, "%s/p%d.exr", probes, i);
+        write_flat(p, 8, 4, 3, 0.5f, MF_ENC_LINEAR);
+    }
+    snprintf(args, sizeof args, "gen --split tiny --asset %s --env-dir %s --no-render -o %s", gl, probes, out);
+    CHECK(mf_test_run_mf(args, NULL, err, sizeof err) == 0);
+    CHECK_MSG(strstr(err, gl) && strstr(err, "'Lamp'") && strstr(err, "emissiveFactor, emissiveTexture") && strstr(err, "not rendered"),
+              "stderr: %s", err);
+    char p[MF_PATH_MAX + 32];
+    cJSON *j = NULL;
+    snprintf(p, sizeof p, "%s/split.json", out);
+    CHECK_OK(mf_json_load(p, &j));
+    const cJSON *sc = cJSON_GetArrayItem(cJSON_GetObjectItem(j, "scenes"), 0);
+    const char *nr = cJSON_GetStringValue(cJSON_GetObjectItem(sc, "not_rendered"));
+    CHECK_MSG(nr && strstr(nr, "emissiveTexture"), "split.json not_rendered: %s", nr ? nr : "(none)");
+    CHECK(cJSON_IsFalse(cJSON_GetObjectItem(sc, "normal_map")));
+    cJSON_Delete(j);
+    snprintf(p, sizeof p, "%s/000_glow/gt/object.json", out);
+    CHECK_OK(mf_json_load(p, &j));
+    nr = cJSON_GetStringValue(cJSON_GetObjectItem(j, "not_rendered"));
+    CHECK_MSG(nr && strstr(nr, "emissiveFactor"), "object.json not_rendered: %s", nr ? nr : "(none)");
+    cJSON_Delete(j);
 }

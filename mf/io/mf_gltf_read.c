@@ -721,8 +721,9 @@ static int material(const Gltf *g, long m, int slot, MfGltfPbr *out) {
     out->orm_textured = has_mr || has_occ;
     /* normalTexture: linear, texCoord 0; scale s: n = normalize((2 v - 1) * (s, s, 1)) */
     const cJSON *nt = item(mo, "normalTexture");
-    double nscale = jnum(nt, "scale", 1.0);
-    if (!isfinite(nscale)) { rc = mf_fail(MF_EFORMAT, "%s: %s.normalTexture.scale must be finite", g->path, w); goto done; }
+    const cJSON *ns = item(nt, "scale");
+    double nscale = ns ? (cJSON_IsNumber(ns) ? ns->valuedouble : NAN) : 1.0;
+    if (!isfinite(nscale)) { rc = mf_fail(MF_EFORMAT, "%s: %s.normalTexture.scale: expected a finite number", g->path, w); goto done; }
     if ((rc = texture(g, mo, "normalTexture", w, MF_ENC_LINEAR, &out->normal, &out->has_normal))) goto done;
     out->normal_scale = (float)nscale;
     if (out->has_normal && nscale != 1.0)
