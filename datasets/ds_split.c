@@ -56,11 +56,12 @@ static int copy_file(const char *from, const char *to) {
 }
 
 /* A scene JSON for `mf render` (mf_scene.h): paths relative to the scene folder. */
-static int write_render_json(const char *path, const char *env, const char *cameras, const DsSplitSpec *s, uint64_t seed) {
+static int write_render_json(const char *path, const char *env, const char *cameras, const DsSplitSpec *s, uint64_t seed, int normal) {
     cJSON *r = cJSON_CreateObject(), *mat = cJSON_CreateObject(), *envo = cJSON_CreateObject(), *ren = cJSON_CreateObject();
     cJSON_AddStringToObject(r, "mesh", "mesh.obj");
     cJSON_AddStringToObject(mat, "kd", "gt/kd.png");
     cJSON_AddStringToObject(mat, "orm", "gt/orm.png");
+    if (normal) cJSON_AddStringToObject(mat, "normal", "gt/normal.png"); /* an asset's normalTexture */
     cJSON_AddItemToObject(r, "material", mat);
     cJSON_AddStringToObject(envo, "file", env);
     cJSON_AddNumberToObject(envo, "rotation_z_deg", 0);
@@ -141,9 +142,9 @@ int ds_write_split(DsSplitSpec *s, const char *out_dir, const char *env_dir, uin
         if ((rc = mf_path_join(src, sizeof src, env_dir, probes[perm[0]])) || (rc = mf_path_join(p, sizeof p, sdir, "gt/env.exr")) ||
             (rc = copy_file(src, p)))
             break;
-        if ((rc = mf_path_join(p, sizeof p, sdir, "render_train.json")) || (rc = write_render_json(p, "gt/env.exr", "transforms_train.json", s, oseed)))
+        if ((rc = mf_path_join(p, sizeof p, sdir, "render_train.json")) || (rc = write_render_json(p, "gt/env.exr", "transforms_train.json", s, oseed, has_normal)))
             break;
-        if ((rc = mf_path_join(p, sizeof p, sdir, "render_test.json")) || (rc = write_render_json(p, "gt/env.exr", "transforms_test.json", s, oseed + 1)))
+        if ((rc = mf_path_join(p, sizeof p, sdir, "render_test.json")) || (rc = write_render_json(p, "gt/env.exr", "transforms_test.json", s, oseed + 1, has_normal)))
             break;
         cJSON *sc = cJSON_CreateObject(), *rl = cJSON_CreateArray();
         char envname[256];
@@ -172,7 +173,7 @@ int ds_write_split(DsSplitSpec *s, const char *out_dir, const char *env_dir, uin
                 (rc = copy_file(src, p)))
                 break;
             snprintf(jn, sizeof jn, "render_relight_%s.json", en);
-            if ((rc = mf_path_join(p, sizeof p, sdir, jn)) || (rc = write_render_json(p, rel, "transforms_test.json", s, oseed + 2 + (uint64_t)r)))
+            if ((rc = mf_path_join(p, sizeof p, sdir, jn)) || (rc = write_render_json(p, rel, "transforms_test.json", s, oseed + 2 + (uint64_t)r, has_normal)))
                 break;
         }
     }

@@ -216,6 +216,12 @@ MF_TEST(ds_asset_normal_map_gt_renders) {
     CHECK_OK(mf_json_load(p, &j));
     const cJSON *sc = cJSON_GetArrayItem(cJSON_GetObjectItem(j, "scenes"), 0);
     CHECK(cJSON_IsTrue(cJSON_GetObjectItem(sc, "normal_map")));
+    cJSON *rj = NULL; /* the scene file for `mf render` names the map too */
+    snprintf(p, sizeof p, "%s/000_tilt_nm/render_test.json", mf_test_path("nm_tilt"));
+    CHECK_OK(mf_json_load(p, &rj));
+    const char *rn = cJSON_GetStringValue(cJSON_GetObjectItem(cJSON_GetObjectItem(rj, "material"), "normal"));
+    CHECK_MSG(rn && !strcmp(rn, "gt/normal.png"), "render_test.json material.normal: %s", rn ? rn : "(none)");
+    cJSON_Delete(rj);
     const char *env = cJSON_GetStringValue(cJSON_GetArrayItem(cJSON_GetObjectItem(sc, "relight"), 0));
     const char *seeds = cJSON_GetStringValue(cJSON_GetObjectItem(sc, "object_seed"));
     char dir[MF_PATH_MAX];

@@ -565,6 +565,21 @@ MF_TEST(gltf_read_normal_texture) {
     CHECK_OK(ev_result_load(glb, NULL, &r));
     CHECK(r.has_normal && r.normal.w == 8);
     ev_result_free(&r);
+    /* mf render: a scene file on the glb takes its normal map; one on an OBJ names it with "normal" */
+    char scene[MF_PATH_MAX], obj[MF_PATH_MAX];
+    mf_path_join(scene, sizeof scene, dir, "scene.json"), mf_path_join(obj, sizeof obj, dir, "mesh.obj");
+    CHECK_OK(mf_obj_write(obj, &m, NULL));
+    const char *cams = "\"cameras\": {\"camera_angle_x\": 0.69, \"frames\": [{\"transform_matrix\": [[1,0,0,0],[0,1,0,0],[0,0,1,3],[0,0,0,1]]}]}";
+    const char *meshes[2] = {"\"mesh\": \"scene.glb\"", "\"mesh\": \"mesh.obj\", \"material\": {\"normal\": \"normal.png\"}"};
+    for (int k = 0; k < 2; ++k) {
+        char js[1024];
+        snprintf(js, sizeof js, "{%s, %s}", meshes[k], cams);
+        CHECK_OK(mf_write_file(scene, js, strlen(js)));
+        MfScene sc = {0};
+        CHECK_OK(mf_scene_load(scene, &sc));
+        CHECK_MSG(sc.nmat == 1 && sc.mats && sc.mats[0].normal && sc.mats[0].normal->w == 8, "scene %d: no normal map", k);
+        mf_scene_free(&sc);
+    }
     mf_image_free(&im);
     mf_mesh_free(&m);
 }

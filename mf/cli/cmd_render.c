@@ -96,6 +96,7 @@ static int render_scene(const char *scene_path, const char *outdir, const Render
         mats[i].orm = sc.mats[i].orm;
         mats[i].kd_const = sc.mats[i].kd_const;
         mats[i].orm_const = sc.mats[i].orm_const;
+        mats[i].normal = sc.mats[i].normal;
     }
     MfRenderInput in = {rt, &sc.mesh, mats, sc.nmat, sc.has_env ? &sc.env : NULL, sc.lights, sc.nlights};
     MfRenderOpts o = {sc.render.spp_sqrt, sc.render.pixel_samples, sc.render.seed, sc.render.lobes};

@@ -109,6 +109,14 @@ static int parse_material(Ctx *c, const char *where, const cJSON *m, MfSceneMate
     if (!cJSON_IsObject(m)) return mf_fail(MF_EFORMAT, "%s: %s: expected an object", c->file, where);
     int rc = parse_channel(c, where, m, "kd", MF_ENC_SRGB, &out->kd, &out->kd_const);
     if (!rc) rc = parse_channel(c, where, m, "orm", MF_ENC_LINEAR, &out->orm, &out->orm_const);
+    const cJSON *n = cJSON_GetObjectItemCaseSensitive(m, "normal");
+    if (!rc && n && !cJSON_IsNull(n)) {
+        char w[256];
+        snprintf(w, sizeof w, "%s.normal", where);
+        if (!cJSON_IsString(n)) return mf_fail(MF_EFORMAT, "%s: %s: expected a file name (a tangent-space normal map)", c->file, w);
+        if (!c->s->mesh.uv) return mf_fail(MF_EFORMAT, "%s: %s: a normal map needs a mesh with UVs", c->file, w);
+        rc = add_image(c, n->valuestring, MF_ENC_LINEAR, w, &out->normal);
+    }
     return rc;
 }
 
@@ -302,6 +310,8 @@ static int gltf_materials(Ctx *c, MfGltfAsset *gltf) {
         memset(&gltf->mats[i].albedo, 0, sizeof(MfImage));
         if (!rc) rc = push_image(c, gltf->mats[i].orm, &s->mats[i].orm);
         memset(&gltf->mats[i].orm, 0, sizeof(MfImage));
+        if (!rc && gltf->mats[i].has_normal) rc = push_image(c, gltf->mats[i].normal, &s->mats[i].normal);
+        memset(&gltf->mats[i].normal, 0, sizeof(MfImage)), gltf->mats[i].has_normal = 0;
         if (rc) return rc;
     }
     return MF_OK;
@@ -312,7 +322,7 @@ static int parse_materials(Ctx *c, const cJSON *root, MfGltfAsset *gltf) {
     s->nmat = s->mesh.nmat > 0 ? s->mesh.nmat : 1;
     s->mats = calloc((size_t)s->nmat, sizeof *s->mats);
     if (!s->mats) return mf_fail(MF_ENOMEM, "%s: out of memory", c->file);
-    MfSceneMaterial dflt = {NULL, NULL, mf_v3s(0.8f), mf_v3(0.0f, 0.5f, 0.0f)};
+    MfSceneMaterial dflt = {NULL, NULL, mf_v3s(0.8f), mf_v3(0.0f, 0.5f, 0.0f), NULL};
     const cJSON *m = cJSON_GetObjectItemCaseSensitive(root, "material");
     int rc;
     if (gltf && (!m || cJSON_IsNull(m)) && !cJSON_GetObjectItemCaseSensitive(root, "materials")) return gltf_materials(c, gltf);
@@ -374,6 +384,7 @@ int mf_scene_load(const char *path, MfScene *out) {
     for (int i = 0; i < s.nmat; ++i) {
         if (s.mats[i].kd) s.mats[i].kd = &s.images[(intptr_t)s.mats[i].kd - 1];
         if (s.mats[i].orm) s.mats[i].orm = &s.images[(intptr_t)s.mats[i].orm - 1];
+        if (s.mats[i].normal) s.mats[i].normal = &s.images[(intptr_t)s.mats[i].normal - 1];
     }
     *out = s;
     return MF_OK;

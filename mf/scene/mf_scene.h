@@ -10,8 +10,11 @@
  *     "kd":  "kd.png" | [r, g, b],             base colour: PNG/JPEG read as sRGB and decoded to
  *                                              linear (EXR/HDR taken as linear), or linear
  *                                              numbers; default [0.8, 0.8, 0.8]
- *     "orm": "orm.png" | [o, r, m]             glTF ORM: read as linear data; G roughness,
- *   },                                         B metallic (R unused); default [0, 0.5, 0]
+ *     "orm": "orm.png" | [o, r, m],            glTF ORM: read as linear data; G roughness,
+ *                                              B metallic (R unused); default [0, 0.5, 0]
+ *     "normal": "normal.png"                   optional tangent-space normal map (linear, glTF
+ *   },                                         convention, render/mf_normalmap.h; needs UVs).
+ *                                              A glTF mesh's own materials bring their normalTexture
  *   "materials": {"<usemtl name>": {...}},     optional per-OBJ-material overrides, same fields
  *   "env": {"file": "probe.exr",               optional (absent or null: no environment light);
  *           "rotation_z_deg": 0,               lat-long HDR, Blender mapping; rotation about +Z
@@ -58,6 +61,7 @@ typedef struct {
     const MfImage *orm; /* borrowed or NULL: orm_const */
     MfVec3 kd_const;    /* linear base colour */
     MfVec3 orm_const;   /* (occlusion, roughness, metallic) */
+    const MfImage *normal; /* borrowed; tangent-space normal map (render/mf_normalmap.h), or NULL */
 } MfSceneMaterial;
 
 /* Renderer settings stored in the scene (mirrors MfRenderOpts). */
