@@ -851,6 +851,27 @@ static int normal_to_our_frames(const char *path, const MfMesh *m, const float *
     }
     const int W = map->w, H = map->h;
     int skipped = 0;
+    /* the work: texels visited over all footprints; overlapping or tiling UVs (or a hostile file)
+     * could multiply it, so past a budget generous for an unwrapped mesh the map is kept as stored */
+    double visits = 0, budget = 16.0 * (double)npx + 64.0 * (double)m->nt;
+    for (int t = 0; !rc && t < m->nt && visits <= budget; ++t) {
+        if (tri_slot && tri_slot[t] != slot) continue;
+        const uint32_t *v = m->tri + 3 * (size_t)t;
+        double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+        for (int k = 0; k < 3; ++k)
+            for (int d = 0; d < 2; ++d) {
+                double c = d ? (1.0 - m->uv[2 * v[k] + 1]) * H : m->uv[2 * v[k]] * W;
+                lo[d] = fmin(lo[d], c), hi[d] = fmax(hi[d], c);
+            }
+        double area = (hi[0] - lo[0] + 4) * (hi[1] - lo[1] + 4);
+        visits += area <= 4.0 * (double)npx + 64 ? area : 0; /* tiling triangles are skipped below */
+    }
+    if (!rc && visits > budget) {
+        mf_log_warn("%s: the normal map's UV footprint is too large to re-express from TANGENT (%.3g texel visits, budget %.3g): "
+                    "used as stored, in our tangent frames", path, visits, budget);
+        free(ours), free(best), free(src);
+        return MF_OK;
+    }
     for (int t = 0; !rc && t < m->nt; ++t) {
         if (tri_slot && tri_slot[t] != slot) continue;
         const uint32_t *v = m->tri + 3 * (size_t)t;

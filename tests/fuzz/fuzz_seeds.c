@@ -100,13 +100,14 @@ static int seeds_binary(void) {
     return rc | put_file("prior", "tiny", -1, pp);
 }
 
-/* glTF: our writer's .glb with and without textures (a small UV sphere), and .gltf text with a
+/* glTF: our writer's .glb with and without textures (normal map and TANGENT included; a small UV
+ * sphere), and .gltf text with a normalTexture, emission and a material extension, and with a
  * base64 buffer, a node hierarchy (TRS, matrix, a mirror), indices and an external image file. */
 static int seeds_gltf(void) {
     MfMesh m = {0};
     if (mf_mesh_uv_sphere(&m, 4, 3, mf_v3(0, 0, 0), 0.5f)) return -1;
     MfGltfMaterial mat = mf_gltf_material_default();
-    mat.albedo_png = mat.orm_png = mf_fuzz_path("fix/rgba.png");
+    mat.albedo_png = mat.orm_png = mat.normal_png = mf_fuzz_path("fix/rgba.png"); /* normal map: TANGENT too */
     const char *a = mf_fuzz_path("seed_tex.glb"), *b = mf_fuzz_path("seed_plain.glb");
     int rc = mf_gltf_write_glb(a, &m, &mat) || mf_gltf_write_glb(b, &m, NULL);
     mf_mesh_free(&m);
@@ -120,7 +121,8 @@ static int seeds_gltf(void) {
                    "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"NORMAL\":1,\"TEXCOORD_0\":2},\"indices\":3,\"material\":0}]}],"
                    "\"materials\":[{\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0},\"baseColorFactor\":[1,0.5,0.5,1],"
                    "\"metallicRoughnessTexture\":{\"index\":0},\"metallicFactor\":0.5,\"roughnessFactor\":0.5},"
-                   "\"occlusionTexture\":{\"index\":0,\"strength\":0.5}}],"
+                   "\"occlusionTexture\":{\"index\":0,\"strength\":0.5},\"normalTexture\":{\"index\":0,\"scale\":0.5},"
+                   "\"emissiveFactor\":[1,0,0],\"extensions\":{\"KHR_materials_clearcoat\":{}}}],"
                    "\"textures\":[{\"source\":0}],\"images\":[{\"uri\":\"fix/rgba.png\"}],"
                    "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"},"
                    "{\"bufferView\":0,\"byteOffset\":36,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"},"
