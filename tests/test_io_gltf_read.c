@@ -446,9 +446,13 @@ MF_TEST(gltf_read_bad_inputs) {
 /* One triangle (0,0,0) (1,0,0) (0,1,0), normal +Z, TEXCOORD_0 (x, 1 - y) (so u runs along +X and
  * our v along +Y), optional TANGENT tan (4 numbers for every vertex), and material JSON mat
  * (an object's text), written as .gltf with a data-URI buffer; the images are files beside it. */
-static void write_nm_triangle(const char *path, const float *tan, const char *mat) {
+static void write_nm_triangle_uv(const char *path, const float *tan, const char *mat, const float *uv);
+static void write_nm_triangle(const char *path, const float *tan, const char *mat) { write_nm_triangle_uv(path, tan, mat, NULL); }
+/* uv: 6 numbers replacing TEXCOORD_0, or NULL */
+static void write_nm_triangle_uv(const char *path, const float *tan, const char *mat, const float *uv) {
     float data[36] = {0, 0, 0, 1, 0, 0, 0, 1, 0, /* POSITION */ 0, 0, 1, 0, 0, 1, 0, 0, 1, /* NORMAL */
                       0, 1, 1, 1, 0, 0 /* TEXCOORD_0 */};
+    if (uv) memcpy(data + 18, uv, 6 * sizeof(float));
     for (int i = 0; tan && i < 3; ++i) memcpy(data + 24 + 4 * i, tan, 4 * sizeof(float));
     char *enc = b64((const unsigned char *)data, sizeof data);
     char *txt = malloc(strlen(enc) + strlen(mat) + 4096);
@@ -529,6 +533,16 @@ MF_TEST(gltf_read_normal_texture) {
     if (a.nmat == 1 && a.mats[0].has_normal && a.mats[0].normal.w == 8)
         CHECK_MSG(!memcmp(mf_image_px(&a.mats[0].normal, 6, 1), mf_image_px(&im, 6, 1), 3 * sizeof(float)),
                   "TANGENT turned 90 degrees: texel (6, 1), outside the triangle, changed");
+    mf_gltf_asset_free(&a);
+    /* UVs far out (1e12) or tiling 100 times: the re-expression skips those triangles (with a
+     * warning) instead of visiting billions of texels */
+    const float far[6] = {1e12f, 1e12f, 1e12f + 1e6f, 1e12f, 1e12f, 1e12f + 1e6f}, tiled[6] = {0, 0, 100, 0, 0, 100};
+    write_nm_triangle_uv(gl, t_turn, "{\"normalTexture\":{\"index\":0}}", far);
+    CHECK_OK(mf_gltf_read(gl, &a));
+    mf_gltf_asset_free(&a);
+    write_nm_triangle_uv(gl, t_turn, "{\"normalTexture\":{\"index\":0}}", tiled);
+    CHECK_OK(mf_gltf_read(gl, &a));
+    if (a.nmat == 1 && a.mats[0].has_normal) CHECK(!memcmp(a.mats[0].normal.data, im.data, sizeof(float) * 192));
     mf_gltf_asset_free(&a);
     /* w = -1: the file's bitangent is -ours, so y flips */
     write_nm_triangle(gl, t_mirror, "{\"normalTexture\":{\"index\":0}}");

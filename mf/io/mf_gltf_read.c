@@ -881,7 +881,11 @@ static int normal_to_our_frames(const char *path, const MfMesh *m, const float *
         double y0 = floor(fmin(py[0], fmin(py[1], py[2]))) - 1, y1 = ceil(fmax(py[0], fmax(py[1], py[2]))) + 1;
         double area = (px[1] - px[0]) * (py[2] - py[0]) - (px[2] - px[0]) * (py[1] - py[0]);
         if (!(fabs(area) > 1e-12)) continue;
-        if ((x1 - x0 + 1) * (y1 - y0 + 1) > 4.0 * (double)npx + 64) { ++skipped; continue; } /* a tiling triangle */
+        /* a tiling triangle, or one so far out in UV that texel steps would lose precision */
+        if ((x1 - x0 + 1) * (y1 - y0 + 1) > 4.0 * (double)npx + 64 || fmax(fabs(x0), fabs(x1)) > 1e9 || fmax(fabs(y0), fabs(y1)) > 1e9) {
+            ++skipped;
+            continue;
+        }
         double elen[3];
         for (int e = 0; e < 3; ++e) elen[e] = hypot(px[(e + 2) % 3] - px[(e + 1) % 3], py[(e + 2) % 3] - py[(e + 1) % 3]);
         for (double y = y0; y <= y1; ++y)
@@ -913,7 +917,8 @@ static int normal_to_our_frames(const char *path, const MfMesh *m, const float *
             }
     }
     if (!rc && skipped)
-        mf_log_warn("%s: %d triangles span more than 4 copies of the normal map in UV (tiling): their texels were not re-expressed from TANGENT", path, skipped);
+        mf_log_warn("%s: %d triangles span more than 4 copies of the normal map in UV (tiling) or lie beyond 1e9 texels: their texels were "
+                    "not re-expressed from TANGENT", path, skipped);
     free(ours), free(best), free(src);
     return rc;
 }
