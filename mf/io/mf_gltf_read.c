@@ -508,7 +508,8 @@ static int visit(const Gltf *g, Build *b, long n, const double *parent, int dept
     if (kids && !cJSON_IsArray(kids)) return mf_fail(MF_EFORMAT, "%s: %s.children: expected an array", g->path, w);
     for (int i = 0; kids && i < cJSON_GetArraySize(kids) && !rc; ++i) {
         const cJSON *k = cJSON_GetArrayItem(kids, i);
-        if (!cJSON_IsNumber(k)) return mf_fail(MF_EFORMAT, "%s: %s.children[%d]: expected a node index", g->path, w, i);
+        if (!cJSON_IsNumber(k) || !(k->valuedouble >= -1 && k->valuedouble <= 0x7fffffff)) /* (visit names one out of range) */
+            return mf_fail(MF_EFORMAT, "%s: %s.children[%d]: expected a node index", g->path, w, i);
         rc = visit(g, b, (long)k->valuedouble, M, depth + 1, w);
     }
     return rc;
@@ -530,7 +531,8 @@ static int build_mesh(const Gltf *g, Build *b) {
         const cJSON *roots = item(sc, "nodes");
         for (int i = 0; cJSON_IsArray(roots) && i < cJSON_GetArraySize(roots) && !rc; ++i) {
             const cJSON *r = cJSON_GetArrayItem(roots, i);
-            if (!cJSON_IsNumber(r)) return mf_fail(MF_EFORMAT, "%s: scenes[%ld].nodes[%d]: expected a node index", g->path, s, i);
+            if (!cJSON_IsNumber(r) || !(r->valuedouble >= -1 && r->valuedouble <= 0x7fffffff))
+                return mf_fail(MF_EFORMAT, "%s: scenes[%ld].nodes[%d]: expected a node index", g->path, s, i);
             rc = visit(g, b, (long)r->valuedouble, I4, 0, "scenes");
         }
     } else {
