@@ -3,8 +3,11 @@
  * split writer, renderer, reconstruction and evaluation as the generated objects (issue 15).
  *
  * The asset must have UVs and one material (its textures become the ground truth gt/kd.png and
- * gt/orm.png, ORM = glTF occlusion R, roughness G, metallic B, as mf_gltf_read reads them); the
- * mesh is normalised like the generated objects (centred, largest extent 1, +Z up). */
+ * gt/orm.png, ORM = glTF occlusion R, roughness G, metallic B, as mf_gltf_read reads them; its
+ * normalTexture becomes o->normal, written as gt/normal.png and used by the GT renders); the
+ * mesh is normalised like the generated objects (centred, largest extent 1, +Z up). What the
+ * material has that is not rendered (emission, ...; MfGltfPbr.unrendered) is copied into
+ * o->unrendered, recorded as not_rendered in gt/object.json and split.json. */
 #ifndef DS_ASSET_H
 #define DS_ASSET_H
 
