@@ -225,5 +225,23 @@ MF_TEST(recon_geometry_dmtet_tiny) {
     CHECK_MSG(rc == 0 && strstr(err, "0 steps"), "--geom-iters 0: exit %d, '%s'", rc, err);
     rows = read_geom_log(q, &first, &last);
     CHECK_MSG(rows == 0, "geom_log.csv after a --geom-iters 0 run: %d rows (an earlier run's log left?)", rows);
+    /* --resume with another --geometry is refused, naming the other run's file, which stays */
+    char hull[1300];
+    snprintf(hull, sizeof hull, "%s/geometry/vhull.obj", run);
+    snprintf(args, sizeof args, "recon %s -o %s --iters 1 --resume --geometry vhull " SMALL, bare, run);
+    rc = mf_test_run_mf(args, NULL, err, sizeof err);
+    CHECK_MSG(rc == 1 && strstr(err, "--resume") && strstr(err, "dmtet.obj"), "--resume vhull on a dmtet run: exit %d, '%s'", rc, err);
+    CHECK(mf_file_exists(p) && mf_file_exists(q) && !mf_file_exists(hull));
+    /* --geometry vhull into that folder: the dmtet run's mesh and log go, so the folder holds one run */
+    snprintf(args, sizeof args, "recon %s -o %s --iters 1 --geometry vhull " SMALL, bare, run);
+    rc = mf_test_run_mf(args, NULL, err, sizeof err);
+    CHECK_MSG(rc == 0 && strstr(err, "removed") && strstr(err, "dmtet.obj"), "vhull after dmtet: exit %d, '%s'", rc, err);
+    CHECK_MSG(!mf_file_exists(p) && !mf_file_exists(q) && mf_file_exists(hull), "vhull after dmtet: dmtet.obj %d, geom_log.csv %d, vhull.obj %d",
+              mf_file_exists(p), mf_file_exists(q), mf_file_exists(hull));
+    /* --geometry given: the hull goes too; resuming vhull would have kept it (above: same mode keeps its files) */
+    snprintf(args, sizeof args, "recon %s -o %s --iters 1 --geometry given " SMALL, scene, run);
+    rc = mf_test_run_mf(args, NULL, err, sizeof err);
+    CHECK_MSG(rc == 0 && !mf_file_exists(hull) && !mf_file_exists(p), "given after vhull: exit %d, vhull.obj %d, '%s'", rc,
+              mf_file_exists(hull), err);
 #undef DMTET
 }

@@ -21,6 +21,12 @@ static float mask_at(const MfImage *m, float px, float py) {
     return (1 - fy) * ((1 - fx) * a00 + fx * a10) + fy * ((1 - fx) * a01 + fx * a11);
 }
 
+/* 1 when view c sees p: in front of the camera and projecting inside [0, w] x [0, h] (at *px, *py).
+ * Only such a view carves p; the one rule of mf_vhull and of the border test. */
+static int view_sees(const MfCamera *c, MfVec3 p, float *px, float *py) {
+    return mf_camera_project(c, p, px, py) && *px >= 0 && *py >= 0 && *px <= (float)c->w && *py <= (float)c->h;
+}
+
 int mf_vhull(const MfTetGrid *g, const MfCamera *cams, const MfImage *masks, int n, float *field) {
     if (n < 1) return mf_fail(MF_EARG, "visual hull: no views");
     for (int v = 0; v < n; ++v)
@@ -37,8 +43,7 @@ int mf_vhull(const MfTetGrid *g, const MfCamera *cams, const MfImage *masks, int
             float f = 0.5f;
             for (int v = 0; v < n; ++v) {
                 float px, py;
-                if (!mf_camera_project(&cams[v], p, &px, &py)) continue;
-                if (!(px >= 0 && py >= 0 && px <= (float)cams[v].w && py <= (float)cams[v].h)) continue;
+                if (!view_sees(&cams[v], p, &px, &py)) continue;
                 float a = mask_at(&masks[v], px, py) - 0.5f;
                 if (a < f) f = a;
             }
@@ -47,13 +52,22 @@ int mf_vhull(const MfTetGrid *g, const MfCamera *cams, const MfImage *masks, int
     return MF_OK;
 }
 
-/* 1 when some grid vertex on the border of g is inside the hull. */
-static int touches_border(const MfTetGrid *g, const float *f) {
+/* 1 when some grid vertex on the border of g is inside the hull and seen by at least one view.
+ * A vertex no view sees keeps +0.5 (nothing carved it) but says nothing about the object: with
+ * few views the grid's corners are often out of every frame, and counting them would report
+ * the hull as cut on any scene. */
+static int touches_border(const MfTetGrid *g, const float *f, const MfCamera *cams, int nviews) {
     size_t n = (size_t)g->res + 1;
     for (size_t k = 0; k < n; ++k)
         for (size_t j = 0; j < n; ++j)
-            for (size_t i = 0; i < n; ++i)
-                if ((i == 0 || j == 0 || k == 0 || i == n - 1 || j == n - 1 || k == n - 1) && f[i + n * (j + n * k)] > 0) return 1;
+            for (size_t i = 0; i < n; ++i) {
+                size_t idx = i + n * (j + n * k);
+                if (!(i == 0 || j == 0 || k == 0 || i == n - 1 || j == n - 1 || k == n - 1) || !(f[idx] > 0)) continue;
+                MfVec3 p = mf_tetgrid_base(g, idx);
+                float px, py;
+                for (int v = 0; v < nviews; ++v)
+                    if (view_sees(&cams[v], p, &px, &py)) return 1;
+            }
     return 0;
 }
 
@@ -79,10 +93,10 @@ int mf_vhull_grid(const MfCamera *cams, const MfImage *masks, int n, int res, fl
     float *f = malloc(mf_tetgrid_nverts(&g) * sizeof *f);
     if (!f) return mf_fail(MF_ENOMEM, "out of memory for a %d^3 grid", res);
     int rc = mf_vhull(&g, cams, masks, n, f), still = 0;
-    if (rc == MF_OK && touches_border(&g, f)) {
+    if (rc == MF_OK && touches_border(&g, f, cams, n)) {
         g = mf_tetgrid_make(res, mf_v3s(0), 1.5f * extent);
         rc = mf_vhull(&g, cams, masks, n, f);
-        still = rc == MF_OK && touches_border(&g, f);
+        still = rc == MF_OK && touches_border(&g, f, cams, n);
         if (still) mf_log_warn("visual hull: the hull touches the border of the grid (side %g): it is cut there", 1.5f * extent);
     }
     if (rc != MF_OK) {

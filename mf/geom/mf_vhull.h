@@ -46,9 +46,10 @@ typedef struct {
 
 /* The soft hull's field (mf_vhull) on a res^3 grid of side extent centred at the origin, into *grid
  * and *field (malloc'd, (mf_tetgrid_nverts(grid),), the caller frees it). When the hull touches the
- * grid's border (a border vertex inside), the grid is enlarged 1.5x once; when it still touches,
- * *touches = 1 (may be NULL) and a warning says the hull is cut there. MF_EARG on res < 1 or
- * extent <= 0. The grid of mf_vhull_mesh and of mf recon --geometry dmtet. */
+ * grid's border (a border vertex inside and seen by at least one view: a vertex no view sees is
+ * +0.5 but does not count, or a few one-sided views would always "touch"), the grid is enlarged
+ * 1.5x once; when it still touches, *touches = 1 (may be NULL) and a warning says the hull is
+ * cut there. MF_EARG on res < 1 or extent <= 0. The grid of mf_vhull_mesh and of mf recon --geometry dmtet. */
 int mf_vhull_grid(const MfCamera *cams, const MfImage *masks, int n, int res, float extent, MfTetGrid *grid, float **field,
                   int *touches);
 /* The hull as a clean mesh: refuses (MF_EARG, saying why) fewer than 3 masked views; builds the

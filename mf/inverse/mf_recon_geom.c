@@ -1,9 +1,12 @@
 #include "inverse/mf_recon_geom.h"
 
+#include <errno.h>
 #include <math.h>
 #include <stdlib.h>
 #include <stdio.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include "core/mf_error.h"
 #include "core/mf_log.h"
@@ -149,14 +152,52 @@ static int build_dmtet(const MfReconGeomOpts *o, const MfCamera *cams, const MfI
     return rc == MF_OK ? MF_OK : mf_fail_prefix(rc, "--geometry dmtet");
 }
 
+/* 1 when a and b name the same existing file (same device and inode). */
+static int same_file(const char *a, const char *b) {
+    struct stat x, y;
+    return !stat(a, &x) && !stat(b, &y) && x.st_dev == y.st_dev && x.st_ino == y.st_ino;
+}
+
+/* Removes from out_dir what an earlier run with another --geometry left (its mesh, dmtet's log),
+ * so the folder holds one run; keep (the mesh this run uses, may be NULL) is never removed. The
+ * outputs of this run's own source stay: they are rewritten, or reused by --resume. check_only:
+ * removes nothing; MF_EARG naming the first such file (a --resume must continue the same run). */
+static int remove_other_geometry(const char *out_dir, const char *source, const char *keep, int check_only) {
+    static const struct { const char *file, *owner; } outs[] = {
+        {"geometry/vhull.obj", "vhull"}, {"geometry/dmtet.obj", "dmtet"}, {"geom_log.csv", "dmtet"}};
+    char path[MF_PATH_MAX];
+    for (size_t i = 0; i < sizeof outs / sizeof outs[0]; ++i) {
+        if (!strcmp(outs[i].owner, source)) continue;
+        int rc = mf_path_join(path, sizeof path, out_dir, outs[i].file);
+        if (rc) return rc;
+        if (!mf_file_exists(path) || (keep && same_file(path, keep))) continue;
+        if (check_only)
+            return mf_fail(MF_EARG, "--resume --geometry %s: %s is an earlier --geometry %s run's; resume with --geometry %s, or "
+                           "run without --resume to start afresh (which removes it)", source, path, outs[i].owner, outs[i].owner);
+        if (remove(path) != 0)
+            return mf_fail(MF_EIO, "%s: cannot remove an earlier --geometry %s run's output: %s", path, outs[i].owner, strerror(errno));
+        mf_log_info("%s: removed (an earlier --geometry %s run's output; this run uses --geometry %s)", path, outs[i].owner, source);
+    }
+    int rc = check_only ? MF_OK : mf_path_join(path, sizeof path, out_dir, "geometry");
+    if (!rc && !check_only) rmdir(path); /* only when that left it empty */
+    return rc;
+}
+
 int mf_recon_geom_mesh(const MfReconGeomOpts *o, const char *source, const char *given_path, const MfCamera *cams,
                        const MfImage *masks, int n, int tex_res, const char *out_dir, int resume, MfMesh *mesh,
                        MfReconGeomInfo *info) {
     memset(info, 0, sizeof *info);
     info->source = source;
+    /* a resumed run continues one run: another source's outputs mean the folder holds another run */
+    if (resume) {
+        int rc = remove_other_geometry(out_dir, source, !strcmp(source, "given") ? given_path : NULL, 1);
+        if (rc) return rc;
+    }
     if (!strcmp(source, "given")) {
         snprintf(info->mesh_path, sizeof info->mesh_path, "%s", given_path);
-        return read_given(given_path, mesh);
+        int rc = read_given(given_path, mesh);
+        if (!rc && (rc = remove_other_geometry(out_dir, source, given_path, 0))) mf_mesh_free(mesh);
+        return rc;
     }
     int dmtet = !strcmp(source, "dmtet");
     int rc = mf_path_join(info->mesh_path, sizeof info->mesh_path, out_dir, dmtet ? "geometry/dmtet.obj" : "geometry/vhull.obj");
@@ -165,7 +206,8 @@ int mf_recon_geom_mesh(const MfReconGeomOpts *o, const char *source, const char 
         info->reused = 1;
         info->hull_tris = mesh->nt;
         mf_log_info("geometry: reusing %s (%d triangles)", info->mesh_path, mesh->nt);
-        return MF_OK;
+        if ((rc = remove_other_geometry(out_dir, source, NULL, 0))) mf_mesh_free(mesh);
+        return rc;
     }
     rc = dmtet ? build_dmtet(o, cams, masks, n, tex_res, out_dir, info->mesh_path, info)
                : build_hull(o, cams, masks, n, tex_res, info->mesh_path, info);
@@ -173,7 +215,8 @@ int mf_recon_geom_mesh(const MfReconGeomOpts *o, const char *source, const char 
     /* read back what was written: a resumed run reuses the file, so both optimise the same bytes */
     if ((rc = mf_mesh_read(info->mesh_path, mesh))) return rc;
     info->hull_tris = mesh->nt;
-    return MF_OK;
+    if ((rc = remove_other_geometry(out_dir, source, NULL, 0))) mf_mesh_free(mesh);
+    return rc;
 }
 
 void mf_recon_geom_to_json(const MfReconGeomInfo *info, cJSON *obj) {

@@ -19,6 +19,12 @@
  *          <out>/geometry/dmtet.obj; the per-step loss -> <out>/geom_log.csv. Reused with resume
  *          like vhull.obj. Only silhouettes drive it: no colour term, so concavities the masks
  *          do not see stay as the hull left them.
+ * One folder, one run: once the mesh is read or built, what an earlier run with another source
+ * left in out_dir (geometry/vhull.obj; geometry/dmtet.obj and geom_log.csv) is removed, with a
+ * log line each, so the folder never mixes two runs' geometry; the given mesh itself is never
+ * removed (--mesh may name an earlier run's hull). The source's own files stay (rewritten, or
+ * reused by resume). With resume, another source's files are refused instead (MF_EARG naming
+ * the file, before anything is built): a resumed run continues one run.
  * The options are a declarative table (mf_recon_geom_opt_table, mf_recon_opts.c). */
 #ifndef MF_RECON_GEOM_H
 #define MF_RECON_GEOM_H
@@ -73,7 +79,9 @@ int mf_recon_geom_resolve(const MfReconGeomOpts *o, int mesh_exists, const char 
 /* The mesh to optimise on, into *mesh (with UVs), per *source (mf_recon_geom_resolve):
  * given reads given_path; vhull builds from cams (n,) and masks (n,) (last channel = mask, sizes
  * matching the cameras) and writes out_dir/geometry/vhull.obj (reused with resume). tex_res: the
- * run's texture side (the unwrap's gutter is counted in its texels). */
+ * run's texture side (the unwrap's gutter is counted in its texels). On success, the other
+ * sources' outputs in out_dir are removed (above; with resume, refused); MF_EIO when one
+ * cannot be removed. */
 int mf_recon_geom_mesh(const MfReconGeomOpts *o, const char *source, const char *given_path, const MfCamera *cams,
                        const MfImage *masks, int n, int tex_res, const char *out_dir, int resume, MfMesh *mesh,
                        MfReconGeomInfo *info);
