@@ -44,7 +44,7 @@ int mf_exr_write(const char *path, int w, int h, const MfExrChannel *ch, int n, 
         size_t st = ch[i].stride > 0 ? (size_t)ch[i].stride : 1;
         for (size_t p = 0; p < (size_t)w * h; ++p) {
             float v = ch[i].data[p * st];
-            if (!isfinite(v) || (half && fabsf(v) > HALF_MAX))
+            if (!isfinite(v) || ((half || (i == n - 1 && (flags & MF_EXR_HALF_LAST))) && fabsf(v) > HALF_MAX))
                 return mf_fail(MF_ENAN, "%s: channel '%s' pixel (%zu, %zu) = %g is %s", path, ch[i].name, p % (size_t)w,
                                p / (size_t)w, (double)v, isfinite(v) ? "beyond the half range (write float)" : "not finite");
         }
@@ -62,7 +62,7 @@ int mf_exr_write(const char *path, int w, int h, const MfExrChannel *ch, int n, 
     rv = exr_add_part(f, "main", EXR_STORAGE_SCANLINE, &part);
     if (!rv) rv = exr_initialize_required_attr_simple(f, part, w, h, EXR_COMPRESSION_ZIP);
     for (int i = 0; i < n && !rv; ++i)
-        rv = exr_add_channel(f, part, ch[i].name, half ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT, EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
+        rv = exr_add_channel(f, part, ch[i].name, half || (i == n - 1 && (flags & MF_EXR_HALF_LAST)) ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT, EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
     if (!rv) rv = exr_write_header(f);
     int32_t spc = 1;
     if (!rv) rv = exr_get_scanlines_per_chunk(f, part, &spc);
