@@ -95,6 +95,19 @@ MF_TEST(image_bad_files) {
     if (d) CHECK_ERR(mf_image_decode("mem.glb[image 0]", d, dl, "png", MF_ENC_SRGB, &b), "mem.glb[image 0]: truncated PNG");
     if (d) CHECK_ERR(mf_image_decode("sig.png", d, 8, "png", MF_ENC_SRGB, &b), "sig.png: truncated PNG: the file ends at byte 8");
     free(d);
+    /* a whole PNG whose IHDR says 64 x 6291506 rows (24 MB of RGB): its few KB of IDAT cannot
+     * hold them (deflate expands at most 1032:1), refused before any decoder allocates */
+    const char *tall = mf_test_path("tall.png");
+    CHECK_OK(mf_image_write(tall, &a, MF_ENC_SRGB, 8));
+    CHECK_OK(mf_read_file(tall, &d, &dl));
+    if (d && dl > 24) {
+        const unsigned char hh[4] = {0x00, 0x60, 0x00, 0x32}; /* 6291506, big-endian, IHDR bytes 20..23 */
+        memcpy(d + 20, hh, 4);
+        CHECK_OK(mf_write_file(tall, d, dl));
+        CHECK_ERR(mf_image_read(tall, MF_ENC_SRGB, &b), "tall.png: corrupt PNG: its IDAT chunks hold");
+    }
+    free(d);
+    CHECK(b.data == NULL);
     CHECK(b.data == NULL);
     /* NaN refused on write, and on read of an EXR that holds one */
     a.data[5] = NAN;

@@ -120,7 +120,7 @@ static const unsigned char k_png_sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a
  * libpng's. */
 static int png_check_chunks(const char *name, unsigned long long len, int (*rd)(void *, unsigned long long, unsigned char *, size_t),
                             void *ctx) {
-    unsigned long long off = 8;
+    unsigned long long off = 8, idat = 0, raw = 0;
     for (int k = 0;; ++k) {
         unsigned char h[8];
         if (rd(ctx, off, h, 8))
@@ -135,7 +135,25 @@ static int png_check_chunks(const char *name, unsigned long long len, int (*rd)(
         if (n > 0x7fffffffull || off + 12 + n > len)
             return mf_fail(MF_EFORMAT, "%s: truncated PNG: chunk %s at byte %llu declares %llu data bytes, past the end of the file (%llu bytes)",
                            name, type, off, n, len);
+        if (k == 0) { /* IHDR: width, height, bit depth, colour type -> the filtered rows' bytes (not interlaced: a lower bound) */
+            unsigned char d[13];
+            if (n != 13 || rd(ctx, off + 8, d, 13)) return mf_fail(MF_EFORMAT, "%s: corrupt PNG: IHDR is not 13 bytes", name);
+            unsigned long long w = (unsigned long long)d[0] << 24 | d[1] << 16 | d[2] << 8 | d[3];
+            unsigned long long h = (unsigned long long)d[4] << 24 | d[5] << 16 | d[6] << 8 | d[7];
+            static const int chans[7] = {1, 0, 3, 1, 2, 0, 4}; /* by colour type; 0: invalid */
+            int ch = d[9] < 7 ? chans[d[9]] : 0;
+            if (!w || !h || w > 0x7fffffffull || h > 0x7fffffffull || !ch || !d[8] || d[8] > 16)
+                return mf_fail(MF_EFORMAT, "%s: corrupt PNG: IHDR %llux%llu, bit depth %d, colour type %d", name, w, h, d[8], d[9]);
+            raw = h * (1 + (w * (unsigned long long)ch * d[8] + 7) / 8);
+        }
+        if (!strcmp(type, "IDAT")) idat += n;
         off += 12 + n;
+        /* deflate expands at most 1032:1, so rows that need more than 1032 bytes per IDAT byte
+         * cannot all be there: refused before a decoder allocates them */
+        if (!strcmp(type, "IEND") && raw > 1032 * idat + 1032)
+            return mf_fail(MF_EFORMAT, "%s: corrupt PNG: its IDAT chunks hold %llu bytes, too few for the %llu bytes of rows its IHDR declares "
+                                       "(deflate expands at most 1032:1)",
+                           name, idat, raw);
         if (!strcmp(type, "IEND")) return MF_OK;
     }
 }
