@@ -175,6 +175,18 @@ MF_TEST(hostile_exr_header_size) {
     MfExrImage ex = {0};
     CHECK_ERR(mf_exr_read(bad, &ex), "hostile_huge_window.exr: header asks for 30000x30000 x 2 channels (7200000000 bytes");
     CHECK(ex.data == NULL);
+    /* within the decode limit (2000 x 2000 x 2 floats: 32 MB) but not within what a ZIP file of a
+     * few hundred bytes can hold (deflate: at most 1032:1): refused from the header */
+    const char *mid = mf_test_path("hostile_mid_window.exr");
+    CHECK_OK(small_exr_bytes(good, 16, 16, 2, &d, &len));
+    if (d) {
+        CHECK(patch_exr_box(d, len, "dataWindow", 1999, 1999));
+        CHECK(patch_exr_box(d, len, "displayWindow", 1999, 1999));
+        CHECK_OK(mf_write_file(mid, d, len));
+        free(d);
+        CHECK_ERR(mf_image_read(mid, MF_ENC_LINEAR, &im), "hostile_mid_window.exr: part 0 declares 2000x2000 pixels, 32000000 bytes of samples");
+        CHECK(im.data == NULL);
+    }
     /* a PNG whose IHDR (CRC fixed) says 30000 x 30000 RGBA: the OpenImageIO path allocated 14.4 GB
      * of floats from the header before decoding a row */
     const char *png = mf_test_path("hostile_small.png"), *bpng = mf_test_path("hostile_huge_ihdr.png");
@@ -189,7 +201,8 @@ MF_TEST(hostile_exr_header_size) {
         uint32_t crc = crc32_png(u + 12, 17);
         u[29] = (unsigned char)(crc >> 24), u[30] = (unsigned char)(crc >> 16), u[31] = (unsigned char)(crc >> 8), u[32] = (unsigned char)crc;
         CHECK_OK(mf_write_file(bpng, d, len));
-        CHECK_ERR(mf_image_read(bpng, MF_ENC_SRGB, &im), "hostile_huge_ihdr.png: header asks for 30000x30000 x 4 channels");
+        /* refused by the IDAT bound (deflate's 1032:1) before the decode limit is reached */
+        CHECK_ERR(mf_image_read(bpng, MF_ENC_SRGB, &im), "hostile_huge_ihdr.png: corrupt PNG: its IDAT chunks hold");
         CHECK(im.data == NULL);
     } else {
         CHECK_MSG(0, "%s: not a PNG with IHDR first", png);
