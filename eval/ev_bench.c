@@ -22,7 +22,7 @@ typedef struct {
     EvEvalOpts quiet; /* *o with quiet = 1: a scene's loads after its first (the loader's notes are said once) */
     int loaded[MAX_ITEMS]; /* (nsc,) 1: the scene was loaded once (its notes said) */
     char scene_root[MF_PATH_MAX];
-    char scenes[MAX_ITEMS][64], methods[MAX_ITEMS][64];
+    char scenes[MAX_ITEMS][EV_NAME_MAX], methods[MAX_ITEMS][EV_NAME_MAX]; /* (nsc,), (nm,) */
     const char *mptr[MAX_ITEMS]; /* (nm,) into methods */
     int nsc, nm;
     const char *dataset; /* borrowed: b->dataset or inside scene_root */
@@ -41,28 +41,68 @@ static int is_scene(const char *dir) {
            (!mf_path_join(p, sizeof p, dir, "transforms.json") && mf_file_exists(p));
 }
 
-static int list_dirs(const char *dir, char names[][64], int max, int need_test_json) {
+typedef char EvName[EV_NAME_MAX];
+
+/* 1 when name is one of the comma-separated items of list. */
+static int in_list(const char *list, const char *name) {
+    size_t n = strlen(name);
+    for (const char *p = list; *p;) {
+        const char *c = strchr(p, ',');
+        size_t l = c ? (size_t)(c - p) : strlen(p);
+        if (l == n && !strncmp(p, name, n)) return 1;
+        p += l + (c != NULL);
+    }
+    return 0;
+}
+
+/* The sub-folders of dir (scene folders when need_scene; only those of the comma-separated list
+ * keep when it is not NULL), sorted, into *names (malloc'ed, (*n,)). Every entry is kept: a
+ * directory entry's name always fits EvName (NAME_MAX). MF_EIO when dir cannot be read. */
+static int list_dirs(const char *dir, int need_scene, const char *keep, EvName **names, int *n) {
+    *names = NULL;
+    *n = 0;
     DIR *d = opendir(dir);
-    if (!d) return -1;
-    int n = 0;
+    if (!d) return mf_fail(MF_EIO, "%s: cannot read the folder", dir);
+    EvName *v = NULL;
+    int cnt = 0, cap = 0, rc = MF_OK;
     struct dirent *e;
-    while ((e = readdir(d)) && n < max) {
+    while (!rc && (e = readdir(d))) {
         if (e->d_name[0] == '.') continue;
-        if (strlen(e->d_name) >= 64) continue;
+        size_t len = strlen(e->d_name);
         char p[MF_PATH_MAX];
         if (mf_path_join(p, sizeof p, dir, e->d_name)) continue;
-        if (need_test_json) {
+        if (need_scene) {
             if (!is_scene(p)) continue;
         } else {
             DIR *sub = opendir(p);
             if (!sub) continue;
             closedir(sub);
         }
-        memcpy(names[n++], e->d_name, strlen(e->d_name) + 1);
+        if (keep && !in_list(keep, e->d_name)) continue;
+        if (len >= EV_NAME_MAX) {
+            rc = mf_fail(MF_EARG, "%s: folder name longer than %d characters", p, EV_NAME_MAX - 1);
+            break;
+        }
+        if (cnt == cap) {
+            cap = cap ? 2 * cap : 16;
+            EvName *w = realloc(v, (size_t)cap * sizeof *v);
+            if (!w) {
+                rc = mf_fail(MF_ENOMEM, "%s: out of memory listing folders", dir);
+                break;
+            }
+            v = w;
+        }
+        memcpy(v[cnt++], e->d_name, len + 1);
     }
     closedir(d);
-    qsort(names, (size_t)n, 64, (int (*)(const void *, const void *))strcmp);
-    return n;
+    if (rc) {
+        free(v);
+        return rc;
+    }
+    if (cnt) qsort(v, (size_t)cnt, sizeof *v, (int (*)(const void *, const void *))strcmp);
+    *names = v;
+    *n = cnt;
+    return MF_OK;
 }
 
 /* Wall seconds, peak RSS and the prior's seconds (MaterialFusion: options.prior_s) of a result
@@ -102,10 +142,14 @@ static int snapshot_curve(const char *scene_dir, const char *scene, const char *
     if (mf_path_join(snaps, sizeof snaps, result_dir, "snapshots") || mf_path_join(logp, sizeof logp, result_dir, "log.csv") ||
         mf_path_join(mesh, sizeof mesh, result_dir, "mesh.obj"))
         return MF_EARG;
-    char names[MAX_ITEMS][64];
-    int ns = list_dirs(snaps, names, MAX_ITEMS, 0);
+    EvName *names = NULL;
+    int ns = 0;
     char *log = NULL;
-    if (ns <= 0 || mf_read_file(logp, &log, NULL)) return MF_OK;
+    if (!mf_file_exists(snaps) || list_dirs(snaps, 0, NULL, &names, &ns) || ns <= 0 || mf_read_file(logp, &log, NULL)) {
+        free(names);
+        return MF_OK;
+    }
+    if (ns > max) mf_log_warn("%s: %d snapshots; the speed-vs-error curve keeps at most %d points", snaps, ns, max);
     EvEvalOpts o = *base;
     o.max_views = 4;
     o.max_lights = 1;
@@ -134,57 +178,94 @@ static int snapshot_curve(const char *scene_dir, const char *scene, const char *
         if (!relit) break; /* a scene without relit ground truth (a capture) has no relit curve */
     }
     free(log);
+    free(names);
     return MF_OK;
 }
 
-/* Scenes (DATA itself, or its sub-folders with transforms_test.json or transforms.json, filtered), methods and the
- * data set name. */
+/* The items of --scenes that name no scene of names (n,), as "'a', 'b'" into out; 0 when none. */
+static int unknown_scenes(const char *list, EvName *names, int n, MfStrBuf *out) {
+    int bad = 0;
+    for (const char *p = list; *p;) {
+        const char *c = strchr(p, ',');
+        int l = c ? (int)(c - p) : (int)strlen(p);
+        int found = 0;
+        for (int i = 0; i < n && !found; ++i) found = (int)strlen(names[i]) == l && !strncmp(names[i], p, (size_t)l);
+        if (!found && l > 0) mf_sb_printf(out, "%s'%.*s'", bad++ ? ", " : "", l, p);
+        p += l + (c != NULL);
+    }
+    return bad;
+}
+
+/* Scenes (DATA itself, or its sub-folders with transforms_test.json or transforms.json, filtered: every
+ * listed name must be a scene there), methods and the data set name. No name is truncated or dropped: a
+ * name too long or more than MAX_ITEMS scenes or methods is an error. */
 static int find_runs(Bench *B) {
     const EvBench *b = B->b;
     const char *data = b->data;
+    EvName *found = NULL;
+    int nf = 0, rc = MF_OK;
     if (is_scene(data)) {
         char d[MF_PATH_MAX]; /* data without trailing slashes ("cap/" is the scene cap) */
         size_t n = strlen(data);
         while (n > 1 && data[n - 1] == '/') --n;
         snprintf(d, sizeof d, "%.*s", (int)n, data);
         const char *slash = strrchr(d, '/');
-        snprintf(B->scenes[0], 64, "%.63s", slash && slash[1] ? slash + 1 : d);
+        const char *name = slash && slash[1] ? slash + 1 : d;
+        if (strlen(name) >= EV_NAME_MAX) return mf_fail(MF_EARG, "%s: scene name longer than %d characters", data, EV_NAME_MAX - 1);
+        if (!(found = malloc(sizeof *found))) return mf_fail(MF_ENOMEM, "out of memory");
+        snprintf(found[0], sizeof found[0], "%s", name);
         snprintf(B->scene_root, sizeof B->scene_root, "%.*s", slash ? (int)(slash - d) : 1, slash ? d : ".");
-        B->nsc = 1;
+        nf = 1;
     } else {
         snprintf(B->scene_root, sizeof B->scene_root, "%s", data);
-        B->nsc = list_dirs(data, B->scenes, MAX_ITEMS, 1);
+        if ((rc = list_dirs(data, 1, NULL, &found, &nf))) return rc;
     }
-    if (b->scenes) { /* keep only the listed scenes; DATA as one scene must be listed too */
+    if (b->scenes) { /* every listed name must be a scene of DATA (DATA as one scene: its own name) */
+        MfStrBuf bad = {0};
+        int nbad = unknown_scenes(b->scenes, found, nf, &bad);
+        if (nbad && is_scene(data) && !in_list(b->scenes, found[0]))
+            rc = mf_fail(MF_EARG, "--scenes '%s': %s is one scene, '%s', which the list does not name (list it, or drop --scenes)",
+                         b->scenes, data, found[0]);
+        else if (nbad && is_scene(data))
+            rc = mf_fail(MF_EARG, "--scenes '%s': %s is one scene, '%s'; no scene %s there", b->scenes, data, found[0], bad.s);
+        else if (nbad)
+            rc = mf_fail(MF_EARG, "--scenes '%s': no scene %s in %s (%d scene folder(s) with transforms_test.json or transforms.json there%s%s)",
+                         b->scenes, bad.s, data, nf, nf ? ", e.g. " : "", nf ? found[0] : "");
+        mf_sb_free(&bad);
         int k = 0;
-        for (int i = 0; i < B->nsc; ++i) {
-            char list[4096];
-            snprintf(list, sizeof list, ",%s,", b->scenes);
-            char key[70];
-            snprintf(key, sizeof key, ",%.63s,", B->scenes[i]);
-            if (strstr(list, key)) memmove(B->scenes[k++], B->scenes[i], 64);
-        }
-        if (k == 0 && is_scene(data))
-            return mf_fail(MF_EARG, "--scenes '%s': %s is one scene, '%s', which the list does not name (list it, or drop --scenes)",
-                           b->scenes, data, B->scenes[0]);
-        if (k == 0 && B->nsc > 0)
-            return mf_fail(MF_EARG, "--scenes '%s': names none of the %d scenes of %s (e.g. '%s')", b->scenes, B->nsc, data,
-                           B->scenes[0]);
-        B->nsc = k;
+        for (int i = 0; i < nf && !rc; ++i)
+            if (in_list(b->scenes, found[i])) memmove(found[k++], found[i], sizeof found[i]);
+        nf = k;
+        if (!rc && nf == 0) rc = mf_fail(MF_EARG, "--scenes '%s': names no scene", b->scenes);
     }
-    if (B->nsc <= 0) return mf_fail(MF_EIO, "%s: no scene with transforms_test.json or transforms.json", data);
+    if (!rc && nf <= 0) rc = mf_fail(MF_EIO, "%s: no scene with transforms_test.json or transforms.json", data);
+    if (!rc && nf > MAX_ITEMS)
+        rc = mf_fail(MF_EARG, "%s: %d scenes, more than mf eval scores in one run (%d); pick some with --scenes", data, nf, MAX_ITEMS);
+    for (int i = 0; i < nf && !rc; ++i) memcpy(B->scenes[i], found[i], sizeof found[i]);
+    free(found);
+    found = NULL;
+    if (rc) return rc;
+    B->nsc = nf;
     int nm = 0;
     if (b->methods) {
-        char buf[1024];
-        snprintf(buf, sizeof buf, "%s", b->methods);
-        for (char *save = NULL, *t = strtok_r(buf, ",", &save); t && nm < MAX_ITEMS; t = strtok_r(NULL, ",", &save))
-            snprintf(B->methods[nm++], 64, "%s", t);
-    } else {
-        nm = list_dirs(b->results, B->methods, MAX_ITEMS, 0);
+        for (const char *p = b->methods; *p && !rc;) {
+            const char *c = strchr(p, ',');
+            size_t l = c ? (size_t)(c - p) : strlen(p);
+            if (l >= EV_NAME_MAX) rc = mf_fail(MF_EARG, "--methods: '%.*s' is longer than %d characters", (int)l, p, EV_NAME_MAX - 1);
+            else if (l > 0 && nm == MAX_ITEMS) rc = mf_fail(MF_EARG, "--methods '%s': more than %d methods", b->methods, MAX_ITEMS);
+            else if (l > 0) snprintf(B->methods[nm++], EV_NAME_MAX, "%.*s", (int)l, p);
+            p += l + (c != NULL);
+        }
+    } else if (!(rc = list_dirs(b->results, 0, NULL, &found, &nm))) {
+        if (nm > MAX_ITEMS) rc = mf_fail(MF_EARG, "%s: %d method folders, more than mf eval scores in one run (%d); pick some with --methods", b->results, nm, MAX_ITEMS);
+        for (int i = 0; i < nm && !rc; ++i) memcpy(B->methods[i], found[i], sizeof found[i]);
+        free(found);
     }
-    if (b->trivial && nm + 2 <= MAX_ITEMS) {
-        snprintf(B->methods[nm++], 64, "trivial-grey");
-        snprintf(B->methods[nm++], 64, "trivial-flat-light");
+    if (rc) return rc;
+    if (b->trivial && nm + 2 > MAX_ITEMS) return mf_fail(MF_EARG, "--trivial: %d methods and the 2 trivial guesses are more than %d", nm, MAX_ITEMS);
+    if (b->trivial) {
+        snprintf(B->methods[nm++], EV_NAME_MAX, "trivial-grey");
+        snprintf(B->methods[nm++], EV_NAME_MAX, "trivial-flat-light");
     }
     if (nm <= 0) return mf_fail(MF_EIO, "%s: no method result folders", b->results);
     B->nm = nm;
@@ -194,6 +275,7 @@ static int find_runs(Bench *B) {
         const char *slash = strrchr(B->scene_root, '/');
         B->dataset = slash && slash[1] ? slash + 1 : B->scene_root;
     }
+    if (strlen(B->dataset) >= EV_NAME_MAX) return mf_fail(MF_EARG, "data set name '%s' is longer than %d characters", B->dataset, EV_NAME_MAX - 1);
     return MF_OK;
 }
 
@@ -324,7 +406,7 @@ static int write_grid(Bench *B, int sc, MfStrBuf *grids) {
     enum { MAXR = 9 };
     MfImage cells[MAXR][EV_GRID_COLS];
     const MfImage *ptr[MAXR * EV_GRID_COLS];
-    char labels[1024] = "ground truth", psnr[MAXR][32];
+    char labels[MAXR * (EV_NAME_MAX + 2)] = "ground truth", psnr[MAXR][32];
     const char *rlab[MAXR], *ctext[MAXR * EV_GRID_COLS] = {0};
     int rows = 0, rc;
     char sd[MF_PATH_MAX];
@@ -339,7 +421,7 @@ static int write_grid(Bench *B, int sc, MfStrBuf *grids) {
             continue;
         if (ev_eval_grid_row(sd, rd, &B->quiet, cells[rows]) != MF_OK) continue;
         size_t l = strlen(labels);
-        snprintf(labels + l, sizeof labels - l, ", %.63s", B->methods[m]);
+        snprintf(labels + l, sizeof labels - l, ", %s", B->methods[m]);
         double v;
         if (ev_table_find(&B->t, B->mptr[m], B->dataset, B->scenes[sc], "relit_psnr", &v))
             snprintf(psnr[rows], sizeof psnr[rows], "%.2f dB", v), ctext[rows * EV_GRID_COLS] = psnr[rows];
@@ -348,8 +430,8 @@ static int write_grid(Bench *B, int sc, MfStrBuf *grids) {
     if (rows >= 2) {
         for (int r = 0; r < rows; ++r)
             for (int k = 0; k < EV_GRID_COLS; ++k) ptr[r * EV_GRID_COLS + k] = cells[r][k].data ? &cells[r][k] : NULL;
-        char name[128], p[MF_PATH_MAX];
-        snprintf(name, sizeof name, "grid_%.60s.png", B->scenes[sc]);
+        char name[EV_NAME_MAX + 16], p[MF_PATH_MAX];
+        snprintf(name, sizeof name, "grid_%s.png", B->scenes[sc]);
         snprintf(p, sizeof p, "%s/%s", B->b->out, name);
         rc = ev_grid_png_labelled(p, ptr, rows, EV_GRID_COLS, 128, 128, 1, &(EvGridLabels){B->scenes[sc], ev_grid_col_names, rlab, ctext});
         if (!rc) {

@@ -2,8 +2,10 @@
  * data set split and writes the report.
  *
  * Scenes: DATA itself when it holds transforms_test.json, else its sub-folders that do (sorted,
- * optionally filtered by a comma-separated list). Methods: a comma-separated list or every folder
- * of RESULTS (sorted), plus the trivial guesses when asked (EV_TRIVIAL_*_DIR, ev_eval.h). Each
+ * optionally filtered by a comma-separated list, every name of which must be a scene there).
+ * Methods: a comma-separated list or every folder of RESULTS (sorted), plus the trivial guesses
+ * when asked (EV_TRIVIAL_*_DIR, ev_eval.h). Names up to EV_NAME_MAX - 1 characters and at most 64
+ * scenes and 64 methods; anything beyond is refused, never truncated or dropped. Each
  * RESULTS/<method>/<scene>/ is scored by ev_eval_scene (a missing one is skipped with a warning);
  * its run.json adds time_s, mem_mb, prior_share and time_x (wall time over the first method's on
  * the same scene) to the table. Writes OUT/ per_view.csv, scenes.csv, {relight, materials, cost,

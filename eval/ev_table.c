@@ -20,10 +20,15 @@ void ev_table_free(EvTable *t) {
 
 static void copy_field(char *dst, size_t cap, const char *src) { snprintf(dst, cap, "%s", src ? src : ""); }
 
+static int fits(const char *s, size_t cap) { return !s || strlen(s) < cap; }
+
 int ev_table_add(EvTable *t, const char *method, const char *dataset, const char *scene, const char *metric,
                  double value) {
     if (!isfinite(value))
         return mf_fail(MF_ENAN, "%s/%s/%s: metric %s is not finite (%g)", method, dataset, scene, metric, value);
+    if (!fits(method, EV_NAME_MAX) || !fits(dataset, EV_NAME_MAX) || !fits(scene, EV_NAME_MAX) || !fits(metric, 32))
+        return mf_fail(MF_EARG, "%s/%s/%s: metric %s: a name is too long for the table (method, dataset and scene at most %d characters, metric 31)",
+                       method, dataset, scene, metric, EV_NAME_MAX - 1);
     if (t->n == t->cap) {
         size_t cap = t->cap ? 2 * t->cap : 64;
         EvRecord *r = realloc(t->rec, cap * sizeof *r);
@@ -102,13 +107,20 @@ int ev_table_read_csv(EvTable *t, const char *path) {
             }
             continue;
         }
-        char m[64], d[64], s[64], k[32];
-        double v;
-        if (sscanf(ln, "%63[^,],%63[^,],%63[^,],%31[^,],%lf", m, d, s, k, &v) != 5) {
+        char *f[5], *end = NULL, *rest = ln;
+        int nf = 0;
+        for (; nf < 5 && rest; ++nf) { /* fields as they are (a long name meets ev_table_add's check); later columns ignored */
+            f[nf] = rest;
+            char *c = strchr(rest, ',');
+            if (c) *c = 0;
+            rest = c ? c + 1 : NULL;
+        }
+        double v = nf == 5 ? strtod(f[4], &end) : 0.0;
+        if (nf != 5 || !f[0][0] || !f[1][0] || !f[2][0] || !f[3][0] || end == f[4]) {
             free(data);
             return mf_fail(MF_EFORMAT, "%s:%d: expected 5 comma-separated fields", path, line);
         }
-        rc = ev_table_add(t, m, d, s, k, v);
+        rc = ev_table_add(t, f[0], f[1], f[2], f[3], v);
         if (rc) {
             free(data);
             return mf_fail_prefix(rc, "%s:%d", path, line);

@@ -13,8 +13,12 @@
 
 #include <stddef.h>
 
+/* Bytes of a method, dataset or scene name with its NUL: 255 characters, a file name's limit
+ * (NAME_MAX), so every folder name fits; longer names are refused, never truncated. */
+#define EV_NAME_MAX 256
+
 typedef struct {
-    char method[64], dataset[64], scene[64], metric[32];
+    char method[EV_NAME_MAX], dataset[EV_NAME_MAX], scene[EV_NAME_MAX], metric[32];
     double value;
 } EvRecord;
 
@@ -30,7 +34,8 @@ typedef struct {
 
 void ev_table_init(EvTable *t);
 void ev_table_free(EvTable *t);
-/* Adds one record; MF_ENAN if value is not finite (message names method/dataset/scene/metric). */
+/* Adds one record; MF_ENAN if value is not finite, MF_EARG if a name is longer than its field
+ * (EV_NAME_MAX - 1 characters; metric 31); the message names method/dataset/scene/metric. */
 int ev_table_add(EvTable *t, const char *method, const char *dataset, const char *scene, const char *metric,
                  double value);
 /* Reads records from a CSV written by ev_table_write_csv (appends). */

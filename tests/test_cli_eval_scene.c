@@ -62,9 +62,15 @@ MF_TEST(cli_eval_scene_scenes_option) {
               err);
     snprintf(p, sizeof p, "%s/per_view.csv", rep);
     CHECK(!mf_file_exists(p));
+    /* listed beside a name that is no scene: refused, naming it */
+    rep = mf_test_path("cli_eval_scene/rep_x");
+    snprintf(args, sizeof args, "eval %s --results %s -o %s --methods m1 --no-curves --scenes x,cap", cap, res, rep);
+    CHECK_MSG(mf_test_run_mf(args, NULL, err, sizeof err) == 1, "mf %s should fail: %s", args, err);
+    CHECK_MSG(strstr(err, "is one scene, 'cap'; no scene 'x' there"), "mf %s: %s", args, err);
+    CHECK(!mf_file_exists(rep));
     /* listed (and DATA given with a trailing slash): scored as the scene cap */
     rep = mf_test_path("cli_eval_scene/rep_b");
-    snprintf(args, sizeof args, "eval %s/ --results %s -o %s --methods m1 --no-curves --scenes x,cap --dataset d", cap, res, rep);
+    snprintf(args, sizeof args, "eval %s/ --results %s -o %s --methods m1 --no-curves --scenes cap --dataset d", cap, res, rep);
     CHECK_MSG(mf_test_run_mf(args, NULL, err, sizeof err) == 0, "mf %s: %s", args, err);
     snprintf(p, sizeof p, "%s/scenes.csv", rep);
     EvTable t;
@@ -73,4 +79,54 @@ MF_TEST(cli_eval_scene_scenes_option) {
     double v;
     CHECK_MSG(ev_table_find(&t, "m1", "d", "cap", "nv_psnr", &v), "%s: no nv_psnr row for m1 on cap", p);
     ev_table_free(&t);
+}
+
+/* A split whose --scenes list names a scene that does not exist: refused, naming the unknown
+ * scenes and the split folder; nothing written. Scene folders need only exist for this check. */
+MF_TEST(cli_eval_scene_unknown_in_split) {
+    const char *mf = getenv("MF_BIN");
+    if (!mf || !mf_file_exists(mf)) MF_SKIP("MF_BIN not set (run through make test)");
+    char split[1024], res[1024], args[4096], err[16384];
+    snprintf(split, sizeof split, "%s", mf_test_path("cli_eval_scene/unknown/split"));
+    snprintf(res, sizeof res, "%s", mf_test_path("cli_eval_scene/unknown/results"));
+    CHECK(mf_test_sh("mkdir -p '%s/a' '%s/b' '%s/m1/a' && touch '%s/a/transforms_test.json' '%s/b/transforms_test.json'", split, split,
+                     res, split, split) == 0);
+    const char *rep = mf_test_path("cli_eval_scene/unknown/rep");
+    snprintf(args, sizeof args, "eval %s --results %s -o %s --no-curves --scenes a,typo,b,typo2", split, res, rep);
+    CHECK_MSG(mf_test_run_mf(args, NULL, err, sizeof err) == 1, "mf %s should fail: %s", args, err);
+    CHECK_MSG(strstr(err, "no scene 'typo', 'typo2' in ") && strstr(err, split), "mf %s: %s", args, err);
+    CHECK_MSG(!mf_file_exists(rep), "%s: written although eval failed", rep);
+}
+
+/* A 100-character scene name (a split of the capture and a folder of that name) is scored under
+ * its full name: scenes.csv, per_view.csv and the image grid's file name, nothing truncated. */
+MF_TEST(cli_eval_scene_long_name) {
+    const char *mf = getenv("MF_BIN");
+    if (!mf || !mf_file_exists(mf)) MF_SKIP("MF_BIN not set (run through make test)");
+    char cap[1024], res[1024], args[4096], err[16384], name[101], p[1400];
+    if (!fixture(cap, res)) return;
+    memset(name, 'n', 100), name[100] = 0;
+    memcpy(name, "long_", 5);
+    char split[1024], lres[1024];
+    snprintf(split, sizeof split, "%s", mf_test_path("cli_eval_scene/long/split"));
+    snprintf(lres, sizeof lres, "%s", mf_test_path("cli_eval_scene/long/results"));
+    CHECK(mf_test_sh("rm -rf '%s' '%s' && mkdir -p '%s' '%s/m1' && cp -r '%s' '%s/%s' && cp -r '%s' '%s/short' && cp -r '%s/m1/cap' '%s/m1/%s'",
+                     split, lres, split, lres, cap, split, name, cap, split, res, lres, name) == 0);
+    const char *rep = mf_test_path("cli_eval_scene/long/rep");
+    snprintf(args, sizeof args, "eval %s --results %s -o %s --no-curves --dataset d", split, lres, rep);
+    CHECK_MSG(mf_test_run_mf(args, NULL, err, sizeof err) == 0, "mf %s: %s", args, err);
+    snprintf(p, sizeof p, "%s/scenes.csv", rep);
+    EvTable t;
+    ev_table_init(&t);
+    CHECK_OK(ev_table_read_csv(&t, p));
+    double v;
+    CHECK_MSG(ev_table_find(&t, "m1", "d", name, "nv_psnr", &v), "%s: no nv_psnr row for m1 on the 100-character scene", p);
+    ev_table_free(&t);
+    char *csv = NULL;
+    snprintf(p, sizeof p, "%s/per_view.csv", rep);
+    CHECK_OK(mf_read_file(p, &csv, NULL));
+    CHECK_MSG(csv && strstr(csv, name), "%s: the full scene name is missing", p);
+    free(csv);
+    snprintf(p, sizeof p, "%s/grid_%s.png", rep, name);
+    CHECK_MSG(mf_file_exists(p), "%s: no grid under the full scene name", p);
 }

@@ -86,7 +86,28 @@ MF_TEST(image_bad_files) {
         fclose(f);
         CHECK(truncate(p, n / 2) == 0);
     }
-    CHECK_ERR(mf_image_read(p, MF_ENC_SRGB, &b), "trunc.png");
+    CHECK_ERR(mf_image_read(p, MF_ENC_SRGB, &b), "trunc.png: truncated PNG: chunk IDAT at byte");
+    CHECK(b.data == NULL);
+    /* the same bytes from memory (an image inside a glTF file), and only the signature */
+    char *d = NULL;
+    size_t dl = 0;
+    CHECK_OK(mf_read_file(p, &d, &dl));
+    if (d) CHECK_ERR(mf_image_decode("mem.glb[image 0]", d, dl, "png", MF_ENC_SRGB, &b), "mem.glb[image 0]: truncated PNG");
+    if (d) CHECK_ERR(mf_image_decode("sig.png", d, 8, "png", MF_ENC_SRGB, &b), "sig.png: truncated PNG: the file ends at byte 8");
+    free(d);
+    /* a whole PNG whose IHDR says 64 x 6291506 rows (24 MB of RGB): its few KB of IDAT cannot
+     * hold them (deflate expands at most 1032:1), refused before any decoder allocates */
+    const char *tall = mf_test_path("tall.png");
+    CHECK_OK(mf_image_write(tall, &a, MF_ENC_SRGB, 8));
+    CHECK_OK(mf_read_file(tall, &d, &dl));
+    if (d && dl > 24) {
+        const unsigned char hh[4] = {0x00, 0x60, 0x00, 0x32}; /* 6291506, big-endian, IHDR bytes 20..23 */
+        memcpy(d + 20, hh, 4);
+        CHECK_OK(mf_write_file(tall, d, dl));
+        CHECK_ERR(mf_image_read(tall, MF_ENC_SRGB, &b), "tall.png: corrupt PNG: its IDAT chunks hold");
+    }
+    free(d);
+    CHECK(b.data == NULL);
     CHECK(b.data == NULL);
     /* NaN refused on write, and on read of an EXR that holds one */
     a.data[5] = NAN;
@@ -154,6 +175,18 @@ MF_TEST(hostile_exr_header_size) {
     MfExrImage ex = {0};
     CHECK_ERR(mf_exr_read(bad, &ex), "hostile_huge_window.exr: header asks for 30000x30000 x 2 channels (7200000000 bytes");
     CHECK(ex.data == NULL);
+    /* within the decode limit (2000 x 2000 x 2 floats: 32 MB) but not within what a ZIP file of a
+     * few hundred bytes can hold (deflate: at most 1032:1): refused from the header */
+    const char *mid = mf_test_path("hostile_mid_window.exr");
+    CHECK_OK(small_exr_bytes(good, 16, 16, 2, &d, &len));
+    if (d) {
+        CHECK(patch_exr_box(d, len, "dataWindow", 1999, 1999));
+        CHECK(patch_exr_box(d, len, "displayWindow", 1999, 1999));
+        CHECK_OK(mf_write_file(mid, d, len));
+        free(d);
+        CHECK_ERR(mf_image_read(mid, MF_ENC_LINEAR, &im), "hostile_mid_window.exr: part 0 declares 2000x2000 pixels, 32000000 bytes of samples");
+        CHECK(im.data == NULL);
+    }
     /* a PNG whose IHDR (CRC fixed) says 30000 x 30000 RGBA: the OpenImageIO path allocated 14.4 GB
      * of floats from the header before decoding a row */
     const char *png = mf_test_path("hostile_small.png"), *bpng = mf_test_path("hostile_huge_ihdr.png");
@@ -168,7 +201,8 @@ MF_TEST(hostile_exr_header_size) {
         uint32_t crc = crc32_png(u + 12, 17);
         u[29] = (unsigned char)(crc >> 24), u[30] = (unsigned char)(crc >> 16), u[31] = (unsigned char)(crc >> 8), u[32] = (unsigned char)crc;
         CHECK_OK(mf_write_file(bpng, d, len));
-        CHECK_ERR(mf_image_read(bpng, MF_ENC_SRGB, &im), "hostile_huge_ihdr.png: header asks for 30000x30000 x 4 channels");
+        /* refused by the IDAT bound (deflate's 1032:1) before the decode limit is reached */
+        CHECK_ERR(mf_image_read(bpng, MF_ENC_SRGB, &im), "hostile_huge_ihdr.png: corrupt PNG: its IDAT chunks hold");
         CHECK(im.data == NULL);
     } else {
         CHECK_MSG(0, "%s: not a PNG with IHDR first", png);
@@ -248,4 +282,51 @@ MF_TEST(hostile_exr_attribute_size) {
     }
     free(b);
     free(d);
+}
+
+/* An EXR whose channels mix float and half (RGB float, A half) reads with the same values through
+ * mf_image_read (the per-channel native path of mf_image_oiio.cpp; k/16 values are exact in half). */
+MF_TEST(image_exr_mixed_channel_types) {
+    MfImage a = {0}, b = {0};
+    CHECK_OK(mf_image_alloc(&a, 13, 7, 4));
+    fill(&a);
+    const char *n[4] = {"R", "G", "B", "A"};
+    MfExrChannel ch[4];
+    for (int k = 0; k < 4; ++k) ch[k] = (MfExrChannel){n[k], a.data + k, 4};
+    const char *p = mf_test_path("mixed_types.exr");
+    CHECK_OK(mf_exr_write(p, a.w, a.h, ch, 4, MF_EXR_HALF_LAST));
+    CHECK_OK(mf_image_read(p, MF_ENC_LINEAR, &b));
+    CHECK(b.w == a.w && b.h == a.h && b.c == 4);
+    if (b.data && b.w == a.w && b.h == a.h && b.c == 4)
+        for (size_t i = 0; i < (size_t)a.w * a.h * 4; ++i)
+            if (a.data[i] != b.data[i]) {
+                CHECK_MSG(0, "%s: value %zu (channel %zu) is %g, wrote %g", p, i, i % 4, b.data[i], a.data[i]);
+                break;
+            }
+    mf_image_free(&a);
+    mf_image_free(&b);
+}
+
+/* The reader follows the file's signature: PNG bytes named .jpg read as PNG; bytes with no known
+ * signature named .png are refused as "not a PNG file" at once (OpenImageIO is not asked to try
+ * every reader it has). */
+MF_TEST(image_signature_picks_reader) {
+    MfImage a = {0}, b = {0};
+    CHECK_OK(mf_image_alloc(&a, 5, 3, 4));
+    fill(&a);
+    const char *png = mf_test_path("sig/a.png"), *jpg = mf_test_path("sig/a_really_png.jpg"), *junk = mf_test_path("sig/junk.png");
+    CHECK_OK(mf_mkdirs_for(png));
+    CHECK_OK(mf_image_write(png, &a, MF_ENC_LINEAR, 16));
+    char *d = NULL;
+    size_t len = 0;
+    CHECK_OK(mf_read_file(png, &d, &len));
+    CHECK_OK(mf_write_file(jpg, d, len));
+    free(d);
+    CHECK_OK(mf_image_read(jpg, MF_ENC_LINEAR, &b));
+    CHECK(b.w == 5 && b.h == 3 && b.c == 4);
+    mf_image_free(&b);
+    CHECK_OK(mf_write_file(junk, "GIF89a but not really an image at all", 38));
+    CHECK_ERR(mf_image_read(junk, MF_ENC_LINEAR, &b), "not a PNG file");
+    CHECK(b.data == NULL);
+    mf_image_free(&a);
 }

@@ -310,6 +310,22 @@ MF_TEST(hostile_prior_meta) {
     write_meta_only(bad, m2, (uint32_t)strlen(m2));
     CHECK_ERR(mf_prior_load(bad, &q), "hostile_prior_bad.mfck: truncated: the meta's configuration has");
     CHECK(q == NULL);
+    /* that check counts the weights from the layer tables before allocating any: the same count
+     * as the model's own tables */
+    {
+        MfPriorConfig tc;
+        mf_prior_config_tiny(&tc);
+        size_t nae = 0, ndn = 0;
+        MfPrior *tp = NULL;
+        CHECK_OK(mf_ae_numel(&tc.ae, &nae));
+        CHECK_OK(mf_denoiser_numel(&tc.dn, &ndn));
+        CHECK_OK(mf_prior_new(&tp, &tc));
+        if (tp) CHECK_MSG(nae == tp->ae->tab.numel && ndn == tp->dn->tab.numel, "counted %zu + %zu weights, the model has %zu + %zu", nae,
+                          ndn, tp->ae->tab.numel, tp->dn->tab.numel);
+        mf_prior_free(tp);
+        tc.dn.heads = 0;
+        CHECK_ERR(mf_denoiser_numel(&tc.dn, &ndn), "heads 0");
+    }
     /* the library's own guard, for configurations built in code */
     cfg.dn.heads = 0;
     CHECK_ERR(mf_prior_new(&p, &cfg), "heads 0");

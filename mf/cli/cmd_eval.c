@@ -13,7 +13,7 @@ static const MfOpt k_args[] = {
     MF_OPT_STR(A, results, NULL, "folder of <method>/<scene>/ result folders (required)", .meta = "DIR"),
     MF_OPT_STR(A, out, NULL, "report folder (required)", .alias = "-o", .meta = "DIR"),
     MF_OPT_STR(A, methods, NULL, "comma-separated methods to score", .unset = "every folder in RESULTS_DIR", .meta = "a,b,..."),
-    MF_OPT_STR(A, scenes, NULL, "comma-separated scenes to score (a list naming none is refused; DATA_DIR as one scene must be listed)", .unset = "every scene of DATA_DIR", .meta = "a,b,..."),
+    MF_OPT_STR(A, scenes, NULL, "comma-separated scenes to score (every name must be a scene of DATA_DIR, else refused naming the unknown ones; DATA_DIR as one scene must be listed)", .unset = "every scene of DATA_DIR", .meta = "a,b,..."),
     MF_OPT_STR(A, dataset, NULL, "data set name in the tables", .unset = "DATA_DIR's folder name", .meta = "NAME"),
     MF_OPT_BOOL(A, no_curves, 0, "skip the speed-vs-error curves from the texture snapshots"),
     MF_OPT_BOOL(A, trivial, 0, "also score the trivial guesses trivial-grey and trivial-flat-light"),

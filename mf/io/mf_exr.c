@@ -44,7 +44,7 @@ int mf_exr_write(const char *path, int w, int h, const MfExrChannel *ch, int n, 
         size_t st = ch[i].stride > 0 ? (size_t)ch[i].stride : 1;
         for (size_t p = 0; p < (size_t)w * h; ++p) {
             float v = ch[i].data[p * st];
-            if (!isfinite(v) || (half && fabsf(v) > HALF_MAX))
+            if (!isfinite(v) || ((half || (i == n - 1 && (flags & MF_EXR_HALF_LAST))) && fabsf(v) > HALF_MAX))
                 return mf_fail(MF_ENAN, "%s: channel '%s' pixel (%zu, %zu) = %g is %s", path, ch[i].name, p % (size_t)w,
                                p / (size_t)w, (double)v, isfinite(v) ? "beyond the half range (write float)" : "not finite");
         }
@@ -62,7 +62,7 @@ int mf_exr_write(const char *path, int w, int h, const MfExrChannel *ch, int n, 
     rv = exr_add_part(f, "main", EXR_STORAGE_SCANLINE, &part);
     if (!rv) rv = exr_initialize_required_attr_simple(f, part, w, h, EXR_COMPRESSION_ZIP);
     for (int i = 0; i < n && !rv; ++i)
-        rv = exr_add_channel(f, part, ch[i].name, half ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT, EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
+        rv = exr_add_channel(f, part, ch[i].name, half || (i == n - 1 && (flags & MF_EXR_HALF_LAST)) ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT, EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
     if (!rv) rv = exr_write_header(f);
     int32_t spc = 1;
     if (!rv) rv = exr_get_scanlines_per_chunk(f, part, &spc);
@@ -175,6 +175,27 @@ int mf_exr_check_header(const char *path, unsigned long long file_bytes) {
         }
         long long w = (long long)dw.max.x - dw.min.x + 1, h = (long long)dw.max.y - dw.min.y + 1;
         code = mf_image_check_decode(path, w, h, cl->num_channels, file_bytes);
+        /* The pixels must be in the file: for the compressions with a bounded ratio (none 1,
+         * RLE 64, zlib-based 1032:1, PXR24 4/3 of that), the part's samples in the file's own
+         * types (a lower bound: subsampled channels counted with floor) cannot exceed the file's
+         * bytes times that ratio. PIZ, B44 and DWA are left to the decoder (and the decode limit). */
+        exr_compression_t comp = EXR_COMPRESSION_LAST_TYPE;
+        exr_storage_t st = EXR_STORAGE_LAST_TYPE;
+        unsigned long long ratio = 0;
+        if (!code && !exr_get_compression(f, p, &comp) && !exr_get_storage(f, p, &st) &&
+            (st == EXR_STORAGE_SCANLINE || st == EXR_STORAGE_TILED))
+            ratio = comp == EXR_COMPRESSION_NONE ? 1 : comp == EXR_COMPRESSION_RLE ? 64
+                  : (comp == EXR_COMPRESSION_ZIPS || comp == EXR_COMPRESSION_ZIP) ? 1032 : comp == EXR_COMPRESSION_PXR24 ? 1376 : 0;
+        unsigned long long samples = 0;
+        for (int k = 0; ratio && k < cl->num_channels; ++k) {
+            const exr_attr_chlist_entry_t *e = &cl->entries[k];
+            long long xs = e->x_sampling > 0 ? e->x_sampling : 1, ys = e->y_sampling > 0 ? e->y_sampling : 1;
+            samples += (unsigned long long)(w / xs) * (unsigned long long)(h / ys) * (e->pixel_type == EXR_PIXEL_HALF ? 2u : 4u);
+        }
+        if (ratio && samples > ratio * file_bytes)
+            code = mf_fail(MF_EFORMAT, "%s: part %d declares %lldx%lld pixels, %llu bytes of samples, more than its %llu-byte file can hold "
+                                       "with its compression (at most %llu:1): corrupt or hostile header",
+                           path, p, w, h, samples, file_bytes, ratio);
     }
     exr_finish(&f);
     return code;

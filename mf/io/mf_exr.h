@@ -33,7 +33,8 @@
 enum {
     MF_EXR_FLOAT = 0,            /* float32 channels (exact) */
     MF_EXR_HALF = 1,             /* float16 channels (relative error <= 2^-11) */
-    MF_EXR_ALLOW_NONFINITE = 2   /* write NaN/Inf as they are (tests of readers only) */
+    MF_EXR_ALLOW_NONFINITE = 2,  /* write NaN/Inf as they are (tests of readers only) */
+    MF_EXR_HALF_LAST = 4         /* the last channel float16, the others as the flags say (a file of mixed types) */
 };
 
 /* One channel to write. Pixel (x, y) is data[(y * w + x) * stride]; stride 0 means 1, so a
@@ -44,8 +45,8 @@ typedef struct {
     int stride;        /* floats between neighbouring pixels; 0 = 1 */
 } MfExrChannel;
 
-/* Writes n channels (names must be distinct, 1..255 chars) of a w x h image. flags: MF_EXR_HALF
- * and/or MF_EXR_ALLOW_NONFINITE. */
+/* Writes n channels (names must be distinct, 1..255 chars) of a w x h image. flags: MF_EXR_HALF,
+ * MF_EXR_HALF_LAST and/or MF_EXR_ALLOW_NONFINITE. */
 int mf_exr_write(const char *path, int w, int h, const MfExrChannel *ch, int n, int flags);
 
 /* Writes an MfImage (c = 1..4) under a layer name: layer "" gives R, G, B, A (c = 1: "Y"),

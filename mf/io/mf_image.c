@@ -1,5 +1,6 @@
 #include "io/mf_image.h"
 
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -94,6 +95,72 @@ static int is_exr(const char *path) {
     return n == 4 && m[0] == 0x76 && m[1] == 0x2f && m[2] == 0x31 && m[3] == 0x01;
 }
 
+/* Bytes [off, off + n) of a file (ctx: FILE *) or of a buffer (ctx: MemSrc *); 0 when they are all there. */
+typedef struct {
+    const unsigned char *b;
+    size_t len;
+} MemSrc;
+static int read_file_at(void *ctx, unsigned long long off, unsigned char *out, size_t n) {
+    FILE *f = ctx;
+    return off > (unsigned long long)LONG_MAX || fseek(f, (long)off, SEEK_SET) || fread(out, 1, n, f) != n;
+}
+static int read_mem_at(void *ctx, unsigned long long off, unsigned char *out, size_t n) {
+    const MemSrc *m = ctx;
+    if (off > m->len || n > m->len - off) return 1;
+    memcpy(out, m->b + off, n);
+    return 0;
+}
+
+static const unsigned char k_png_sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+
+/* A PNG's chunks (length, type, data, CRC) must lie inside its len bytes, from IHDR up to IEND:
+ * a truncated PNG is refused here by name, before libpng (through OpenImageIO) reads past the end
+ * of it. That path also leaks: OpenImageIO 2.4's read callback longjmps (png_error) over the
+ * std::string of its own message. Only the chunk framing is checked; CRCs and contents are
+ * libpng's. */
+static int png_check_chunks(const char *name, unsigned long long len, int (*rd)(void *, unsigned long long, unsigned char *, size_t),
+                            void *ctx) {
+    unsigned long long off = 8, idat = 0, raw = 0;
+    for (int k = 0;; ++k) {
+        unsigned char h[8];
+        if (rd(ctx, off, h, 8))
+            return mf_fail(MF_EFORMAT, "%s: truncated PNG: the file ends at byte %llu, inside or before chunk %d's header%s", name, len, k,
+                           k ? " (no IEND chunk)" : "");
+        unsigned long long n = (unsigned long long)h[0] << 24 | (unsigned long long)h[1] << 16 | (unsigned long long)h[2] << 8 | h[3];
+        char type[5] = {(char)h[4], (char)h[5], (char)h[6], (char)h[7], 0};
+        for (int i = 0; i < 4; ++i)
+            if (!((type[i] >= 'A' && type[i] <= 'Z') || (type[i] >= 'a' && type[i] <= 'z')))
+                return mf_fail(MF_EFORMAT, "%s: corrupt PNG: chunk %d at byte %llu has no valid type", name, k, off);
+        if (k == 0 && strcmp(type, "IHDR")) return mf_fail(MF_EFORMAT, "%s: corrupt PNG: the first chunk is %s, not IHDR", name, type);
+        if (n > 0x7fffffffull || off + 12 + n > len)
+            return mf_fail(MF_EFORMAT, "%s: truncated PNG: chunk %s at byte %llu declares %llu data bytes, past the end of the file (%llu bytes)",
+                           name, type, off, n, len);
+        if (k == 0) { /* IHDR: width, height, bit depth, colour type -> the filtered rows' bytes (not interlaced: a lower bound) */
+            unsigned char d[13];
+            if (n != 13 || rd(ctx, off + 8, d, 13)) return mf_fail(MF_EFORMAT, "%s: corrupt PNG: IHDR is not 13 bytes", name);
+            unsigned long long w = (unsigned long long)d[0] << 24 | d[1] << 16 | d[2] << 8 | d[3];
+            unsigned long long h = (unsigned long long)d[4] << 24 | d[5] << 16 | d[6] << 8 | d[7];
+            static const int chans[7] = {1, 0, 3, 1, 2, 0, 4}; /* by colour type; 0: invalid */
+            int ch = d[9] < 7 ? chans[d[9]] : 0;
+            if (!w || !h || w > 0x7fffffffull || h > 0x7fffffffull || !ch || !d[8] || d[8] > 16)
+                return mf_fail(MF_EFORMAT, "%s: corrupt PNG: IHDR %llux%llu, bit depth %d, colour type %d", name, w, h, d[8], d[9]);
+            raw = h * (1 + (w * (unsigned long long)ch * d[8] + 7) / 8);
+        }
+        if (!strcmp(type, "IDAT")) idat += n;
+        off += 12 + n;
+        /* deflate expands at most 1032:1, so rows that need more than 1032 bytes per IDAT byte
+         * cannot all be there: refused before a decoder allocates them */
+        if (!strcmp(type, "IEND") && raw > 1032 * idat + 1032)
+            return mf_fail(MF_EFORMAT, "%s: corrupt PNG: its IDAT chunks hold %llu bytes, too few for the %llu bytes of rows its IHDR declares "
+                                       "(deflate expands at most 1032:1)",
+                           name, idat, raw);
+        if (!strcmp(type, "IEND")) return MF_OK;
+    }
+}
+
+/* 1 when the bytes start with the PNG signature. */
+static int is_png_sig(const unsigned char *b, size_t n) { return n >= 8 && !memcmp(b, k_png_sig, 8); }
+
 int mf_image_read(const char *path, MfEncoding enc, MfImage *out) {
     int w = 0, h = 0, c = 0, is_int = 0, ach = -1;
     float *data = NULL;
@@ -102,6 +169,11 @@ int mf_image_read(const char *path, MfEncoding enc, MfImage *out) {
     int rc = mf_input_file(path, &fsize);
     if (rc) return rc;
     if (is_exr(path) && (rc = mf_exr_check_header(path, fsize))) return rc;
+    FILE *f = fopen(path, "rb");
+    unsigned char sig[8];
+    if (f && fread(sig, 1, 8, f) == 8 && is_png_sig(sig, 8)) rc = png_check_chunks(path, fsize, read_file_at, f);
+    if (f) fclose(f);
+    if (rc) return rc;
     rc = mf_oiio_read(path, mf_image_decode_limit(fsize), &w, &h, &c, &is_int, &ach, &data, err, sizeof err);
     return finish_read(path, rc, err, fsize, w, h, c, is_int, ach, data, enc, out);
 }
@@ -111,6 +183,11 @@ int mf_image_decode(const char *name, const void *bytes, size_t len, const char 
     float *data = NULL;
     char err[512] = "";
     if (!bytes || !len) return mf_fail(MF_EFORMAT, "%s: empty image", name);
+    MemSrc m = {bytes, len};
+    if (is_png_sig(bytes, len)) {
+        int prc = png_check_chunks(name, len, read_mem_at, &m);
+        if (prc) return prc;
+    }
     int rc = mf_oiio_read_mem(bytes, len, ext, mf_image_decode_limit(len), &w, &h, &c, &is_int, &ach, &data, err, sizeof err);
     return finish_read(name, rc, err, len, w, h, c, is_int, ach, data, enc, out);
 }

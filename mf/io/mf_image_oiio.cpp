@@ -3,10 +3,12 @@
 
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
+#include <OpenImageIO/strutil.h>
 
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <memory>
 #include <string>
 
 using namespace OIIO;
@@ -69,6 +71,17 @@ static int read_open(ImageInput *in, unsigned long long max_bytes, int *w, int *
         ok = spec.tile_width > 0 ? in->read_image(0, 0, 0, spec.nchannels, spec.format, nat)
                                  : in->read_native_scanlines(0, 0, spec.y, spec.y + spec.height, spec.z, nat);
         ok = ok && (spec.format == TypeDesc::FLOAT || widen(spec.format, nat, buf, n));
+    } else if (spec.tile_width <= 0 && spec.channelformats.size() == (size_t)spec.nchannels) {
+        /* per-channel formats (an EXR mixing half and float): the native pixels (each channel
+         * in its own type, no larger than a float) into a buffer of their size, then each
+         * channel widened with strides, instead of read_image's 64 MiB converting scratch */
+        size_t pb = spec.pixel_bytes(true), npx = (size_t)spec.width * spec.height;
+        unsigned char *nat = (unsigned char *)std::malloc(npx * pb);
+        ok = nat && in->read_native_scanlines(0, 0, spec.y, spec.y + spec.height, spec.z, nat);
+        for (int ch = 0, off = 0; ok && ch < spec.nchannels; off += (int)spec.channelformats[ch].size(), ++ch)
+            ok = convert_image(1, (int)npx, 1, 1, nat + off, spec.channelformats[ch], (stride_t)pb, AutoStride, AutoStride, buf + ch,
+                               TypeDesc::FLOAT, (stride_t)(spec.nchannels * sizeof(float)), AutoStride, AutoStride);
+        std::free(nat);
     } else {
         ok = in->read_image(0, 0, 0, spec.nchannels, TypeDesc::FLOAT, buf);
     }
@@ -95,12 +108,68 @@ static int read_open(ImageInput *in, unsigned long long max_bytes, int *w, int *
     return 0;
 }
 
+/* The formats a file's first bytes identify: their signature, the reader's key for
+ * ImageInput::create and the file name extensions that claim them. */
+struct Sig {
+    const char *magic;
+    size_t n;
+    const char *reader, *name, *exts;
+};
+static const Sig k_sigs[] = {
+    {"\x89PNG\r\n\x1a\n", 8, "png", "PNG", ".png."},
+    {"\xff\xd8\xff", 3, "jpg", "JPEG", ".jpg.jpeg.jpe.jfif."},
+    {"\x76\x2f\x31\x01", 4, "exr", "OpenEXR", ".exr.sxr.mxr."},
+    {"#?", 2, "hdr", "Radiance HDR", ".hdr.rgbe."},
+    {"II*\0", 4, "tif", "TIFF", ".tif.tiff.tx.env.sm.vsm."},
+    {"MM\0*", 4, "tif", "TIFF", ".tif.tiff.tx.env.sm.vsm."},
+    {"II+\0", 4, "tif", "TIFF", ".tif.tiff.tx.env.sm.vsm."},
+    {"MM\0+", 4, "tif", "TIFF", ".tif.tiff.tx.env.sm.vsm."},
+};
+
 extern "C" int mf_oiio_read(const char *path, unsigned long long max_bytes, int *w, int *h, int *c, int *is_int,
                             int *alpha_channel, float **data, char *err, size_t errcap) {
     ImageSpec config;
     config.attribute("oiio:UnassociatedAlpha", 1);
-    auto in = ImageInput::open(path, &config);
-    return read_open(in.get(), max_bytes, w, h, c, is_int, alpha_channel, data, err, errcap);
+    /* The reader is picked by the file's signature when it has one of the formats above (a PNG
+     * named .jpg still reads). A file that claims one of them by its extension but starts with
+     * no known signature is refused here: OpenImageIO would otherwise try every reader it has
+     * (WebP, DICOM, RAW, ...) on it, slowly, and report the last one's complaint. Any other
+     * file goes to OpenImageIO as before (extension, then every reader). */
+    unsigned char head[8] = {0};
+    size_t nh = 0;
+    if (FILE *f = std::fopen(path, "rb")) {
+        nh = std::fread(head, 1, sizeof head, f);
+        std::fclose(f);
+    }
+    const Sig *sig = nullptr;
+    for (const Sig &k : k_sigs)
+        if (!sig && nh >= k.n && !std::memcmp(head, k.magic, k.n)) sig = &k;
+    std::string ext = Strutil::lower(Filesystem::extension(path));
+    if (!sig && !ext.empty()) {
+        for (const Sig &k : k_sigs)
+            if (std::strstr(k.exts, (ext + ".").c_str())) {
+                char msg[256];
+                std::snprintf(msg, sizeof msg, "not a %s file: its first bytes are no %s signature (nor PNG, JPEG, OpenEXR, HDR or TIFF)",
+                              k.name, k.name);
+                set_err(err, errcap, msg);
+                return -1;
+            }
+    }
+    std::unique_ptr<ImageInput> in;
+    if (sig) {
+        in = ImageInput::create(sig->reader);
+        ImageSpec spec;
+        if (in && !in->open(path, spec, config)) {
+            std::string e = in->geterror();
+            set_err(err, errcap, e.empty() ? std::string("cannot open as ") + sig->name : e);
+            return -1;
+        }
+    } else {
+        in = ImageInput::open(path, &config);
+    }
+    int rc = read_open(in.get(), max_bytes, w, h, c, is_int, alpha_channel, data, err, errcap);
+    OIIO::geterror(); /* OpenImageIO keeps a global (per-thread) error until it is read: drained, so failed reads do not pile up messages */
+    return rc;
 }
 
 extern "C" int mf_oiio_read_mem(const void *bytes, size_t len, const char *ext, unsigned long long max_bytes, int *w, int *h,

@@ -6,14 +6,13 @@
 
 #include "core/mf_error.h"
 
-int mf_ae_new(MfAe **out, const MfAeConfig *cfg) {
+/* Validates the configuration and lays out ae's layers and parameter table (no weights). */
+static int ae_build(MfAe *ae, const MfAeConfig *cfg) {
     const MfAeConfig *c = cfg;
     if (c->res < 8 || c->res % 4 || c->c1 < 1 || c->c2 < 1 || c->zc < 1 || c->groups < 1 || c->c1 % c->groups ||
         c->c2 % c->groups)
         return mf_fail(MF_EARG, "autoencoder: bad configuration (res %d, c1 %d, c2 %d, zc %d, groups %d)", c->res,
                        c->c1, c->c2, c->zc, c->groups);
-    MfAe *ae = calloc(1, sizeof *ae);
-    if (!ae) return mf_fail(MF_ENOMEM, "autoencoder: out of memory");
     ae->cfg = *c;
     MfSpecTab *t = &ae->tab;
     int ok = 1;
@@ -28,16 +27,32 @@ int mf_ae_new(MfAe **out, const MfAeConfig *cfg) {
     ok = ok && mf_seq_up(d) && mf_seq_conv(d, t, "ae.dec", c->c2, 3, 1, 0) && mf_seq_res(d, t, "ae.dec", c->c2);
     ok = ok && mf_seq_up(d) && mf_seq_conv(d, t, "ae.dec", c->c1, 3, 1, 0) && mf_seq_res(d, t, "ae.dec", c->c1);
     ok = ok && mf_seq_norm(d, t, "ae.dec") && mf_seq_conv(d, t, "ae.dec", 3, 3, 1, 0);
-    if (ok) {
-        ae->params = calloc(t->numel, sizeof(float));
-        ae->grads = calloc(t->numel, sizeof(float));
+    return ok ? MF_OK : mf_fail(MF_ENOMEM, "autoencoder: out of memory");
+}
+
+int mf_ae_new(MfAe **out, const MfAeConfig *cfg) {
+    MfAe *ae = calloc(1, sizeof *ae);
+    if (!ae) return mf_fail(MF_ENOMEM, "autoencoder: out of memory");
+    int rc = ae_build(ae, cfg);
+    if (!rc) {
+        ae->params = calloc(ae->tab.numel, sizeof(float));
+        ae->grads = calloc(ae->tab.numel, sizeof(float));
+        if (!ae->params || !ae->grads) rc = mf_fail(MF_ENOMEM, "autoencoder: out of memory");
     }
-    if (!ok || !ae->params || !ae->grads) {
+    if (rc) {
         mf_ae_free(ae);
-        return mf_fail(MF_ENOMEM, "autoencoder: out of memory");
+        return rc;
     }
     *out = ae;
     return MF_OK;
+}
+
+int mf_ae_numel(const MfAeConfig *cfg, size_t *numel) {
+    MfAe ae = {0};
+    int rc = ae_build(&ae, cfg);
+    if (!rc) *numel = ae.tab.numel;
+    mf_spectab_free(&ae.tab);
+    return rc;
 }
 
 void mf_ae_free(MfAe *ae) {

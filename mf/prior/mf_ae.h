@@ -35,6 +35,8 @@ typedef struct {
 } MfAeWork;
 
 int mf_ae_new(MfAe **out, const MfAeConfig *cfg);
+/* The number of weights (floats) of a configuration, without allocating them; errors as mf_ae_new. */
+int mf_ae_numel(const MfAeConfig *cfg, size_t *numel);
 void mf_ae_free(MfAe *ae);
 void mf_ae_init_weights(MfAe *ae, unsigned long long seed);
 /* z (B, zc, R/4, R/4) unscaled, pointer into w (valid until the next encode on w); NULL = OOM. */

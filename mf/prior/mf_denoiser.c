@@ -33,7 +33,8 @@ static MfAttnBlockDims attn_bind(const MfDnAttn *a, int B, int V, int joint, con
     return d;
 }
 
-int mf_denoiser_new(MfDenoiser **out, const MfDenoiserConfig *cfg) {
+/* Validates the configuration and lays out dn's layers and parameter table (no weights). */
+static int dn_build(MfDenoiser *dn, const MfDenoiserConfig *cfg) {
     const MfDenoiserConfig *c = cfg;
     if (c->groups < 1 || c->heads < 1 || c->c1 < 1 || c->c2 < 1 || c->ct < 1 || c->zc < 1) /* before any % */
         return mf_fail(MF_EARG, "denoiser: bad configuration (c1 %d, c2 %d, ct %d, zc %d, groups %d, heads %d: all must be >= 1)",
@@ -42,8 +43,6 @@ int mf_denoiser_new(MfDenoiser **out, const MfDenoiserConfig *cfg) {
         c->c2 < c->c1 || (c->c1 + c->c2) % c->groups || c->img_res % 8 || c->i1 < 1 || c->i2 < 1 || c->i3 < 1)
         return mf_fail(MF_EARG, "denoiser: bad configuration (h %d, c1 %d, c2 %d, groups %d, heads %d)", c->h, c->c1,
                        c->c2, c->groups, c->heads);
-    MfDenoiser *dn = calloc(1, sizeof *dn);
-    if (!dn) return mf_fail(MF_ENOMEM, "denoiser: out of memory");
     dn->cfg = *c;
     MfSpecTab *t = &dn->tab;
     int ok = 1, h = c->h, G = c->groups;
@@ -69,16 +68,32 @@ int mf_denoiser_new(MfDenoiser **out, const MfDenoiserConfig *cfg) {
     ok = ok && mf_seq_conv(s, t, "img.enc", c->i2, 3, 2, 0) && mf_seq_silu(s);
     ok = ok && mf_seq_conv(s, t, "img.enc", c->i3, 3, 2, 0) && mf_seq_silu(s);
     mf_klinear_add(&dn->iproj, t, "img.proj", c->i3, c->ct);
-    if (ok && t->v) {
-        dn->params = calloc(t->numel, sizeof(float));
-        dn->grads = calloc(t->numel, sizeof(float));
+    return ok && t->v ? MF_OK : mf_fail(MF_ENOMEM, "denoiser: out of memory");
+}
+
+int mf_denoiser_new(MfDenoiser **out, const MfDenoiserConfig *cfg) {
+    MfDenoiser *dn = calloc(1, sizeof *dn);
+    if (!dn) return mf_fail(MF_ENOMEM, "denoiser: out of memory");
+    int rc = dn_build(dn, cfg);
+    if (!rc) {
+        dn->params = calloc(dn->tab.numel, sizeof(float));
+        dn->grads = calloc(dn->tab.numel, sizeof(float));
+        if (!dn->params || !dn->grads) rc = mf_fail(MF_ENOMEM, "denoiser: out of memory");
     }
-    if (!ok || !dn->params || !dn->grads) {
+    if (rc) {
         mf_denoiser_free(dn);
-        return mf_fail(MF_ENOMEM, "denoiser: out of memory");
+        return rc;
     }
     *out = dn;
     return MF_OK;
+}
+
+int mf_denoiser_numel(const MfDenoiserConfig *cfg, size_t *numel) {
+    MfDenoiser dn = {0};
+    int rc = dn_build(&dn, cfg);
+    if (!rc) *numel = dn.tab.numel;
+    mf_spectab_free(&dn.tab);
+    return rc;
 }
 
 void mf_denoiser_free(MfDenoiser *dn) {

@@ -89,6 +89,8 @@ typedef struct {
 } MfDenoiserWork;
 
 int mf_denoiser_new(MfDenoiser **out, const MfDenoiserConfig *cfg);
+/* The number of weights (floats) of a configuration, without allocating them; errors as mf_denoiser_new. */
+int mf_denoiser_numel(const MfDenoiserConfig *cfg, size_t *numel);
 void mf_denoiser_free(MfDenoiser *dn);
 void mf_denoiser_init_weights(MfDenoiser *dn, unsigned long long seed);
 /* v (B, 2zc, h, h) inside w; NULL on OOM (error set). t (B) timesteps as floats. */

@@ -249,16 +249,17 @@ int mf_prior_load(const char *path, MfPrior **out) {
     cJSON_Delete(m);
     if (rc) return rc;
     c.ae.res = res, c.ae.zc = zc, c.dn.h = res / 4, c.dn.zc = zc, c.dn.img_res = res;
-    MfPrior *p;
-    if ((rc = mf_prior_new(&p, &c))) return mf_fail_prefix(rc, "%s", path);
-    /* the configuration's weights must fit in the file before a buffer for them is allocated */
+    /* the configuration's weights must fit in the file before the model (weights and gradients)
+     * is allocated: counted from the layer tables alone */
+    size_t nae = 0, ndn = 0;
+    if ((rc = mf_ae_numel(&c.ae, &nae)) || (rc = mf_denoiser_numel(&c.dn, &ndn))) return mf_fail_prefix(rc, "%s", path);
     struct stat st;
-    size_t need = (p->ae->tab.numel + p->dn->tab.numel) * sizeof(float);
-    if (stat(path, &st) == 0 && (uint64_t)st.st_size < need) {
-        mf_prior_free(p);
+    size_t need = (nae + ndn) * sizeof(float);
+    if (stat(path, &st) == 0 && (uint64_t)st.st_size < need)
         return mf_fail(MF_EFORMAT, "%s: truncated: the meta's configuration has %zu weights (%zu bytes), the file has %lld bytes (%s)",
                        path, need / sizeof(float), need, (long long)st.st_size, EXPECT);
-    }
+    MfPrior *p;
+    if ((rc = mf_prior_new(&p, &c))) return mf_fail_prefix(rc, "%s", path);
     MfTensorSpec *specs;
     float *data;
     int n;

@@ -69,9 +69,8 @@ const char *mf_fuzz_path(const char *rel) {
 
 const char *mf_fuzz_write(const char *rel, const void *data, size_t n) {
     const char *p = mf_fuzz_path(rel);
-    if (mf_mkdirs_for(p)) return NULL;
-    FILE *f = fopen(p, "wb");
-    if (!f) return NULL;
+    FILE *f = fopen(p, "wb"); /* the folders exist after the first write: made only when missing (a mkdir per level per input cost 18% of fuzz_scene) */
+    if (!f && (mf_mkdirs_for(p) || !(f = fopen(p, "wb")))) return NULL;
     size_t w = n ? fwrite(data, 1, n, f) : 0;
     if (fclose(f) || w != n) return NULL;
     return p;
