@@ -12,7 +12,10 @@
 static const char *const kSM = "StableMaterial";
 static const char *const kBaselines[2] = {"Input image", "Retinex"};
 
-static void qualified(char *out, size_t cap, const char *label, const char *method) { snprintf(out, cap, "%s|%s", label, method); }
+/* "label|method" into out; non-zero (out cut) when it does not fit in cap */
+static int qualified(char *out, size_t cap, const char *label, const char *method) {
+    return (size_t)snprintf(out, cap, "%s|%s", label, method) >= cap;
+}
 
 int ev_domain_load(EvTable *t, const EvDomainCell *cells, int nc) {
     if (nc < 1 || nc > EV_DOMAIN_MAX_CELLS) return mf_fail(MF_EARG, "generalisation matrix: %d cells (1..%d)", nc, EV_DOMAIN_MAX_CELLS);
@@ -28,11 +31,13 @@ int ev_domain_load(EvTable *t, const EvDomainCell *cells, int nc) {
         int has_sm = 0;
         for (size_t i = 0; i < one.n && !rc; ++i) {
             const EvRecord *r = &one.rec[i];
-            char m[128];
+            char m[EV_NAME_MAX];
             if (strcmp(r->dataset, DS_NAME)) continue;
             has_sm |= !strcmp(r->method, kSM) && !strcmp(r->metric, "albedo_psnr");
-            qualified(m, sizeof m, l, r->method);
-            rc = ev_table_add(t, m, r->dataset, r->scene, r->metric, r->value);
+            if (qualified(m, sizeof m, l, r->method))
+                rc = mf_fail(MF_EFORMAT, "%s: method name '%s' too long for the cell label '%s' (label|method under %d characters)",
+                             cells[c].csv, r->method, l, EV_NAME_MAX);
+            else rc = ev_table_add(t, m, r->dataset, r->scene, r->metric, r->value);
         }
         ev_table_free(&one);
         if (rc) return rc;
