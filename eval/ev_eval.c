@@ -50,6 +50,17 @@ static int result_from_gltf(const char *path, EvResult *out) {
     return MF_OK;
 }
 
+/* r->normal from path when that file exists: a tangent-space normal map (linear, 3 channels) that
+ * renders of r use; it needs r->mesh's UVs. */
+static int load_normal(const char *path, EvResult *r) {
+    if (!mf_file_exists(path)) return MF_OK;
+    int rc = mf_image_read(path, MF_ENC_LINEAR, &r->normal);
+    r->has_normal = !rc;
+    if (!rc && r->normal.c < 3) rc = mf_fail(MF_EFORMAT, "%s: needs 3 channels", path);
+    if (!rc && !r->mesh.uv) rc = mf_fail(MF_EFORMAT, "%s: a normal map needs a mesh with UVs", path);
+    return rc;
+}
+
 int ev_result_load(const char *dir, const char *mesh_path, EvResult *out) {
     if (mf_is_gltf_path(dir)) return result_from_gltf(dir, out);
     EvResult r;
@@ -63,12 +74,7 @@ int ev_result_load(const char *dir, const char *mesh_path, EvResult *out) {
         rc = mf_env_load(&r.env, p);
         r.has_env = !rc;
     }
-    if (!rc && !(rc = mf_path_join(p, sizeof p, dir, "normal.png")) && mf_file_exists(p)) {
-        rc = mf_image_read(p, MF_ENC_LINEAR, &r.normal);
-        r.has_normal = !rc;
-        if (!rc && r.normal.c < 3) rc = mf_fail(MF_EFORMAT, "%s: needs 3 channels", p);
-        if (!rc && !r.mesh.uv) rc = mf_fail(MF_EFORMAT, "%s: a normal map needs a mesh with UVs", p);
-    }
+    if (!rc && !(rc = mf_path_join(p, sizeof p, dir, "normal.png"))) rc = load_normal(p, &r);
     if (!rc && (r.kd.c < 3 || r.orm.c < 3)) rc = mf_fail(MF_EFORMAT, "%s: albedo.png and orm.png need 3 channels", dir);
     if (rc) {
         ev_result_free(&r);
@@ -151,6 +157,8 @@ static int trivial_result(const char *scene_dir, int grey, EvResult *out) {
     } else if (!rc) {
         if (!(rc = mf_path_join(p, sizeof p, scene_dir, "gt/kd.png"))) rc = mf_image_read(p, MF_ENC_SRGB, &r.kd);
         if (!rc && !(rc = mf_path_join(p, sizeof p, scene_dir, "gt/orm.png"))) rc = mf_image_read(p, MF_ENC_LINEAR, &r.orm);
+        /* the true material includes the asset's normal map (mf gen --asset writes gt/normal.png) */
+        if (!rc && !(rc = mf_path_join(p, sizeof p, scene_dir, "gt/normal.png"))) rc = load_normal(p, &r);
     }
     if (rc) {
         ev_result_free(&r);

@@ -11,6 +11,8 @@
 #include "core/mf_fs.h"
 #include "datasets/ds_asset.h"
 #include "datasets/ds_split.h"
+#include "eval/ev_eval.h"
+#include "eval/ev_table.h"
 #include "io/mf_gltf.h"
 #include "io/mf_image.h"
 #include "io/mf_json.h"
@@ -261,6 +263,23 @@ MF_TEST(ds_asset_normal_map_gt_renders) {
         CHECK_MSG(bad > 0, "the GT relit view is also what mf_render gives without the normal map");
         mf_render_out_free(&ro);
     }
+    /* eval's trivial-flat-light row (the true material under a white light) renders the true
+     * material, the GT's normal map included: it scores differently without gt/normal.png */
+    double with_nm = -1, without_nm = -1;
+    for (int pass = 0; pass < 2; ++pass) {
+        EvEvalOpts eo = ev_eval_opts_default();
+        eo.no_geom = 1;
+        EvTable t;
+        ev_table_init(&t);
+        int ex = 0;
+        CHECK_OK(ev_eval_scene(dir, EV_TRIVIAL_FLAT_DIR, "flat", "d", "s", &eo, &t, NULL, &ex));
+        CHECK(ev_table_find(&t, "flat", "d", "s", "relit_psnr", pass ? &without_nm : &with_nm));
+        ev_table_free(&t);
+        if (!pass) CHECK(mf_test_sh("mv '%s' '%s.off'", in_dir(dir, "gt/normal.png"), in_dir(dir, "gt/normal.png")) == 0);
+    }
+    CHECK(mf_test_sh("mv '%s.off' '%s'", in_dir(dir, "gt/normal.png"), in_dir(dir, "gt/normal.png")) == 0);
+    CHECK_MSG(with_nm > 0 && without_nm > 0 && with_nm != without_nm,
+              "trivial-flat-light scores %g dB with the GT normal map and %g without", with_nm, without_nm);
     if (rt) mf_rtscene_free(rt);
     mf_transforms_free(&tf);
     mf_env_free(&e);
