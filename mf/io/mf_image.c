@@ -85,15 +85,8 @@ static int finish_read(const char *path, int rc, const char *err, unsigned long 
     return MF_OK;
 }
 
-/* 1 when the file starts with the OpenEXR magic number (whatever its name says). */
-static int is_exr(const char *path) {
-    unsigned char m[4] = {0};
-    FILE *f = fopen(path, "rb");
-    if (!f) return 0;
-    size_t n = fread(m, 1, 4, f);
-    fclose(f);
-    return n == 4 && m[0] == 0x76 && m[1] == 0x2f && m[2] == 0x31 && m[3] == 0x01;
-}
+/* 1 when the bytes start with the OpenEXR magic number (whatever the file's name says). */
+static int is_exr_magic(const unsigned char *b, size_t n) { return n >= 4 && b[0] == 0x76 && b[1] == 0x2f && b[2] == 0x31 && b[3] == 0x01; }
 
 /* Bytes [off, off + n) of a file (ctx: FILE *) or of a buffer (ctx: MemSrc *); 0 when they are all there. */
 typedef struct {
@@ -168,10 +161,12 @@ int mf_image_read(const char *path, MfEncoding enc, MfImage *out) {
     unsigned long long fsize = 0;
     int rc = mf_input_file(path, &fsize);
     if (rc) return rc;
-    if (is_exr(path) && (rc = mf_exr_check_header(path, fsize))) return rc;
+    /* header checks by the file's first bytes, read once: an EXR's sizes, a PNG's chunk framing */
     FILE *f = fopen(path, "rb");
-    unsigned char sig[8];
-    if (f && fread(sig, 1, 8, f) == 8 && is_png_sig(sig, 8)) rc = png_check_chunks(path, fsize, read_file_at, f);
+    unsigned char head[8];
+    size_t nh = f ? fread(head, 1, sizeof head, f) : 0;
+    if (is_exr_magic(head, nh)) rc = mf_exr_check_header(path, fsize);
+    else if (is_png_sig(head, nh)) rc = png_check_chunks(path, fsize, read_file_at, f);
     if (f) fclose(f);
     if (rc) return rc;
     rc = mf_oiio_read(path, mf_image_decode_limit(fsize), &w, &h, &c, &is_int, &ach, &data, err, sizeof err);
