@@ -213,7 +213,7 @@ static int find_runs(Bench *B) {
         const char *name = slash && slash[1] ? slash + 1 : d;
         if (strlen(name) >= EV_NAME_MAX) return mf_fail(MF_EARG, "%s: scene name longer than %d characters", data, EV_NAME_MAX - 1);
         if (!(found = malloc(sizeof *found))) return mf_fail(MF_ENOMEM, "out of memory");
-        snprintf(found[0], sizeof found[0], "%s", name);
+        memcpy(found[0], name, strlen(name) + 1); /* fits: checked above */
         snprintf(B->scene_root, sizeof B->scene_root, "%.*s", slash ? (int)(slash - d) : 1, slash ? d : ".");
         nf = 1;
     } else {

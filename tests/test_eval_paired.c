@@ -14,7 +14,7 @@ MF_TEST(eval_paired_stats) {
     ev_table_init(&t);
     /* scenes s0..s3: method "a" beats "ref" by 1, 2, 3, 4 dB; s4 only has ref (not paired) */
     for (int i = 0; i < 5; ++i) {
-        char s[8];
+        char s[16];
         snprintf(s, sizeof s, "s%d", i);
         CHECK_OK(ev_table_add(&t, "ref", "d", s, "relit_psnr", 20.0 + i));
         if (i < 4) CHECK_OK(ev_table_add(&t, "a", "d", s, "relit_psnr", 20.0 + i + (i + 1)));

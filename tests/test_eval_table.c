@@ -12,7 +12,7 @@ MF_TEST(eval_table_stats_and_ci) {
     ev_table_init(&t);
     double v[] = {20.0, 22.0, 24.0};
     for (int i = 0; i < 3; ++i) {
-        char s[8];
+        char s[16];
         snprintf(s, sizeof s, "s%d", i);
         CHECK_OK(ev_table_add(&t, "a", "d", s, "psnr", v[i]));
     }

@@ -249,6 +249,11 @@ static void write_triangle(const char *path, const char *nodes, const char *root
     float data[18] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 1, 0, 0, 1};
     char *enc = b64((const unsigned char *)data, sizeof data);
     char *txt = malloc(strlen(enc) + 4096);
+    CHECK(txt != NULL);
+    if (!txt) {
+        free(enc);
+        return;
+    }
     sprintf(txt,
             "{\"asset\":{\"version\":\"2.0\"}%s,\"scene\":0,\"scenes\":[{\"nodes\":%s}],\"nodes\":%s,"
             "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"NORMAL\":1}%s}]}],"
@@ -456,6 +461,11 @@ static void write_nm_triangle_uv(const char *path, const float *tan, const char 
     for (int i = 0; tan && i < 3; ++i) memcpy(data + 24 + 4 * i, tan, 4 * sizeof(float));
     char *enc = b64((const unsigned char *)data, sizeof data);
     char *txt = malloc(strlen(enc) + strlen(mat) + 4096);
+    CHECK(txt != NULL);
+    if (!txt) {
+        free(enc);
+        return;
+    }
     sprintf(txt,
             "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],"
             "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"NORMAL\":1,\"TEXCOORD_0\":2%s},\"material\":0}]}],"
@@ -647,7 +657,7 @@ MF_TEST(gltf_read_unrendered_warned) {
     mf_path_join(probes, sizeof probes, dir, "probes"), mf_path_join(out, sizeof out, dir, "split");
     CHECK_OK(mf_mkdirs(probes));
     for (int i = 0; i < 3; ++i) {
-        char p[MF_PATH_MAX + 16];
+        char p[MF_PATH_MAX + 32];
         snprintf(p, sizeof p, "%s/p%d.exr", probes, i);
         write_flat(p, 8, 4, 3, 0.5f, MF_ENC_LINEAR);
     }

@@ -205,7 +205,7 @@ static inline float clamp01(float v) { return v < 0.0f ? 0.0f : v > 1.0f ? 1.0f 
 int mf_denoise_combine_forward(const MfBilateral *b, const float *diffuse, const float *specular, const float *albedo,
                                const float *orm, float *dn_diffuse, float *dn_specular, float *rgb) {
     size_t np = (size_t)b->w * b->h;
-    float *buf = malloc(np * 12 * sizeof(float));
+    float *buf = calloc(np * 12, sizeof(float)); /* zeroed: no uninitialised read even with np = 0 */
     if (!buf) return mf_fail(MF_ENOMEM, "denoise: out of memory");
     float *in = buf, *out = buf + np * 6;
     for (size_t i = 0; i < np; ++i)
