@@ -226,6 +226,8 @@ FLAGS_mf-coverage    := --method materialfusion --sds-weight coverage
 FLAGS_mf-chtrust      = --method materialfusion $(or $(shell sed -n 's/^Flags[^`]*`\([^`]*\)`.*/\1/p' reports/prior/trust.md 2>/dev/null),$(error mf-chtrust: reports/prior/trust.md has no Flags line (make calibrate-trust writes it)))
 # the same with guidance 1 in the prior's DDIM targets (the conditional prediction; the paper: 3)
 FLAGS_mf-chtrust-g1   = $(FLAGS_mf-chtrust) --guidance 1
+# and the mean of 2 noise draws per target, each element weighted by the draws' agreement
+FLAGS_mf-spread       = $(FLAGS_mf-chtrust-g1) --sds-draws 2 --sds-weight spread
 FLAGS_mf-gamma-const := --method materialfusion --gamma-const 1
 FLAGS_mf-no-rgb      := --method materialfusion --lambda-rgb 0
 FLAGS_mf-no-latent   := --method materialfusion --lambda-latent 0

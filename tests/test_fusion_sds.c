@@ -89,11 +89,12 @@ static MfSds *tiny_sds_every(int every) {
 
 static MfSds *tiny_sds(void) { return tiny_sds_every(1); }
 
-MF_TEST(fusion_sds_chain_gradient) {
+/* The chain's texel gradients against central differences of the loss, for SDS options o. */
+static void chain_gradient(const MfSdsOpts *o) {
     MfMesh mesh;
     MfRecon *r = NULL;
     CHECK_OK(make_recon(&mesh, &r));
-    MfSds *s = tiny_sds();
+    MfSds *s = tiny_sds_opts(o);
     CHECK(s != NULL);
     if (!r || !s) return;
     /* perturb the textures away from the constant init so every term is active */
@@ -134,6 +135,84 @@ MF_TEST(fusion_sds_chain_gradient) {
     CHECK_MSG(worst < 3e-2, "SDS chain gradient relative error %.3g", worst);
     mf_sds_targets_free(&t);
     mf_sds_free(s);
+    mf_recon_free(r);
+    mf_mesh_free(&mesh);
+}
+
+MF_TEST(fusion_sds_chain_gradient) {
+    MfSdsOpts o = mf_sds_opts_default();
+    o.k_views = 2;
+    chain_gradient(&o);
+}
+
+/* The same with the spread weights (fixed with the targets) inside the loss. */
+MF_TEST(fusion_sds_chain_gradient_spread) {
+    MfSdsOpts o = mf_sds_opts_default();
+    o.k_views = 2, o.draws = 2, o.weight = MF_SDS_WEIGHT_SPREAD;
+    chain_gradient(&o);
+}
+
+/* Spread weights: 1 / (1 + var / mean masked var), scaled to mean 1 over the masked elements;
+ * unmasked elements and a batch with no spread get 1; spread needs two draws or more. */
+MF_TEST(fusion_sds_spread_weights) {
+    const float var[5] = {0.0f, 1.0f, 2.0f, 9.0f, 0.0f}, m[5] = {1.0f, 0.5f, 1.0f, 0.0f, 0.0f};
+    float w[5];
+    mf_sds_spread_weights(var, m, 5, w);
+    double raw[3] = {1.0, 1.0 / 2.0, 1.0 / 3.0}, mean = (raw[0] + raw[1] + raw[2]) / 3.0; /* var_ref = 1 */
+    for (int i = 0; i < 3; ++i) CHECK_NEAR(w[i], raw[i] / mean, 1e-6);
+    CHECK(w[3] == 1.0f && w[4] == 1.0f);
+    const float flat[3] = {0.0f, 0.0f, 0.0f}, ones[3] = {1.0f, 1.0f, 1.0f};
+    mf_sds_spread_weights(flat, ones, 3, w);
+    CHECK(w[0] == 1.0f && w[1] == 1.0f && w[2] == 1.0f);
+    MfSdsOpts o = mf_sds_opts_default();
+    o.weight = MF_SDS_WEIGHT_SPREAD;
+    MfSds *bad = NULL;
+    CHECK_ERR(mf_sds_new(NULL, &o, &bad), "--sds-draws 1");
+    CHECK(bad == NULL);
+}
+
+/* With 2 draws the targets are the mean of the single-draw target and a second draw, and the
+ * variance is that of the two: var = 2 (mean - first)^2, element by element. */
+MF_TEST(fusion_sds_draws_mean_and_variance) {
+    MfMesh mesh;
+    MfRecon *r = NULL;
+    CHECK_OK(make_recon(&mesh, &r));
+    MfSdsOpts o = mf_sds_opts_default();
+    o.k_views = 2;
+    MfSds *s1 = tiny_sds_opts(&o);
+    o.draws = 2;
+    MfSds *s2 = tiny_sds_opts(&o);
+    o.weight = MF_SDS_WEIGHT_SPREAD;
+    MfSds *s3 = tiny_sds_opts(&o);
+    if (!r || !s1 || !s2 || !s3) return;
+    MfSdsTargets t1, t2;
+    int views[2] = {0, 3};
+    CHECK_OK(mf_sds_targets(s1, r, views, 2, 5, &t1));
+    CHECK_OK(mf_sds_targets(s2, r, views, 2, 5, &t2));
+    if (mf_test_failed_now()) return;
+    CHECK(t1.zvar == NULL && t2.zvar != NULL && t2.dvar != NULL && t1.t == t2.t);
+    MfPriorConfig cfg;
+    mf_prior_config_tiny(&cfg);
+    size_t h = (size_t)cfg.ae.res / 4, nz = 2u * 2 * (size_t)cfg.ae.zc * h * h, nd = 2u * 2 * 3 * (size_t)cfg.ae.res * cfg.ae.res;
+    double zerr = 0.0, derr = 0.0, vmax = 0.0;
+    for (size_t i = 0; i < nz; ++i) {
+        double d = (double)t2.zhat[i] - t1.zhat[i];
+        zerr = fmax(zerr, fabs(t2.zvar[i] - 2.0 * d * d));
+        vmax = fmax(vmax, t2.zvar[i]);
+    }
+    for (size_t i = 0; i < nd; ++i) {
+        double d = (double)t2.dhat[i] - t1.dhat[i];
+        derr = fmax(derr, fabs(t2.dvar[i] - 2.0 * d * d));
+    }
+    CHECK(vmax > 0.0);
+    CHECK_MSG(zerr <= 1e-5 * fmax(vmax, 1.0) && derr <= 1e-5, "draw variance off: latent %.3g, maps %.3g", zerr, derr);
+    /* the spread weights enter the loss (same targets, weighted vs unweighted) */
+    double ln = 0.0, ls = 0.0;
+    CHECK_OK(mf_sds_loss(s2, r, &t2, 1.0f, 0, &ln));
+    CHECK_OK(mf_sds_loss(s3, r, &t2, 1.0f, 0, &ls));
+    CHECK_MSG(ln > 0.0 && ls > 0.0 && fabs(ls - ln) > 1e-3 * ln, "spread-weighted loss %.6g vs unweighted %.6g", ls, ln);
+    mf_sds_targets_free(&t1), mf_sds_targets_free(&t2);
+    mf_sds_free(s1), mf_sds_free(s2), mf_sds_free(s3);
     mf_recon_free(r);
     mf_mesh_free(&mesh);
 }

@@ -33,8 +33,11 @@ int mf_sds_new(MfPrior *prior, const MfSdsOpts *o, MfSds **out) {
         o->aov_samples < 1 || o->every < 1)
         return mf_fail(MF_EARG, "SDS options: k_views %d (1..%d), t in [%d, %d] (1..999), aov_samples %d, every %d (>= 1) are invalid",
                        o->k_views, MF_SDS_MAX_VIEWS, o->t_min, o->t_max, o->aov_samples, o->every);
-    if (o->weight < MF_SDS_WEIGHT_NONE || o->weight > MF_SDS_WEIGHT_COVERAGE)
-        return mf_fail(MF_EARG, "SDS options: weight %d is not none (0), conflict (1) or coverage (2)", o->weight);
+    if (o->weight < MF_SDS_WEIGHT_NONE || o->weight > MF_SDS_WEIGHT_SPREAD)
+        return mf_fail(MF_EARG, "SDS options: weight %d is not none (0), conflict (1), coverage (2) or spread (3)", o->weight);
+    if (o->draws < 1 || o->draws > 8 || (o->weight == MF_SDS_WEIGHT_SPREAD && o->draws < 2))
+        return mf_fail(MF_EARG, "SDS options: --sds-draws %d (1..8; --sds-weight spread needs >= 2, the spread is over the draws)",
+                       o->draws);
     if (!(o->trust_rough >= 0.0f && o->trust_rough <= 1.0f && o->trust_metal >= 0.0f && o->trust_metal <= 1.0f))
         return mf_fail(MF_EARG, "SDS options: channel trust roughness %g, metallic %g (each in [0, 1])", o->trust_rough,
                        o->trust_metal);
@@ -66,6 +69,8 @@ void mf_sds_targets_free(MfSdsTargets *t) {
     free(t->dhat);
     free(t->cond);
     free(t->mask);
+    free(t->zvar);
+    free(t->dvar);
     memset(t, 0, sizeof *t);
 }
 
@@ -134,6 +139,55 @@ static int maps_compute(MfSds *s, MfRecon *r, const MfSdsTargets *t, Maps *m) {
     return rc;
 }
 
+/* Welford step: mean and m2 (n,) take draw x (n,) as the k-th (k >= 2). */
+static void welford(float *mean, float *m2, const float *x, size_t n, int k) {
+    for (size_t i = 0; i < n; ++i) {
+        float d = x[i] - mean[i];
+        mean[i] += d / (float)k;
+        m2[i] += d * (x[i] - mean[i]);
+    }
+}
+
+/* t->zhat (nz) and t->dhat (nd) for the batch's latents z: the mean over o.draws noise draws at
+ * t->t (the first draw's seed is the single-draw one), t->zvar / t->dvar their sample variances. */
+static int draws(MfSds *s, MfSdsTargets *t, const float *z, int it, size_t nz, size_t nd) {
+    int D = s->o.draws, n = t->n, rc = MF_OK;
+    float *zd = NULL, *dd = NULL;
+    if (D > 1) {
+        t->zvar = calloc(nz, sizeof(float)), t->dvar = calloc(nd, sizeof(float));
+        zd = malloc(nz * sizeof(float)), dd = malloc(nd * sizeof(float));
+        if (!t->zvar || !t->dvar || !zd || !dd) rc = mf_fail(MF_ENOMEM, "SDS: out of memory");
+    }
+    for (int d = 0; d < D && !rc; ++d) {
+        MfStageClock ts = mf_stage_clock();
+        float *zo = d ? zd : t->zhat, *dout = d ? dd : t->dhat;
+        uint64_t seed = view_seed(s, it, -1, d ? 0x100u + (uint64_t)d : 3);
+        rc = mf_prior_sds_denoise(s->prior, z, t->cond, n, 1, 0, t->t, s->o.guidance, seed, zo);
+        mf_stage_lap(&s->times.denoise, &ts);
+        if (!rc) rc = mf_prior_decode_materials(s->prior, zo, n, dout, dout + nd / 2);
+        mf_stage_lap(&s->times.decode, &ts);
+        if (!rc && d) welford(t->zhat, t->zvar, zd, nz, d + 1), welford(t->dhat, t->dvar, dd, nd, d + 1);
+    }
+    for (size_t i = 0; i < nz && D > 1 && !rc; ++i) t->zvar[i] /= (float)(D - 1);
+    for (size_t i = 0; i < nd && D > 1 && !rc; ++i) t->dvar[i] /= (float)(D - 1);
+    free(zd), free(dd);
+    return rc;
+}
+
+void mf_sds_spread_weights(const float *var, const float *m, size_t n, float *w) {
+    double vs = 0.0, cnt = 0.0;
+    for (size_t i = 0; i < n; ++i)
+        if (m[i] > 0.0f) vs += var[i], cnt += 1.0;
+    double vref = cnt > 0.0 ? vs / cnt : 0.0, ws = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+        w[i] = vref > 0.0 && m[i] > 0.0f ? (float)(1.0 / (1.0 + var[i] / vref)) : 1.0f;
+        if (m[i] > 0.0f) ws += w[i];
+    }
+    float scale = ws > 0.0 ? (float)(cnt / ws) : 1.0f; /* mean 1 over the masked elements */
+    for (size_t i = 0; i < n; ++i)
+        if (m[i] > 0.0f) w[i] *= scale;
+}
+
 /* Targets for the batch; keep (may be NULL) receives the current maps that produced them. */
 static int targets(MfSds *s, MfRecon *r, const int *views, int n, int it, MfSdsTargets *t, Maps *keep) {
     if (n < 1 || n > MF_SDS_MAX_VIEWS) return mf_fail(MF_EARG, "SDS: %d views in a batch (1..%d)", n, MF_SDS_MAX_VIEWS);
@@ -184,15 +238,10 @@ static int targets(MfSds *s, MfRecon *r, const int *views, int n, int it, MfSdsT
     }
     mf_stage_lap(&s->times.cond, &ts);
     if (rc || (rc = maps_compute(s, r, &T, &cur))) goto done;
-    ts = mf_stage_clock();
     MfRng rng;
     mf_rng_seed(&rng, view_seed(s, it, -1, 2), 0);
     T.t = s->o.t_min + (int)mf_rng_below(&rng, (uint32_t)(s->o.t_max - s->o.t_min + 1));
-    rc = mf_prior_sds_denoise(s->prior, cur.z, T.cond, n, 1, 0, T.t, s->o.guidance, view_seed(s, it, -1, 3), T.zhat);
-    mf_stage_lap(&s->times.denoise, &ts);
-    if (rc) goto done;
-    rc = mf_prior_decode_materials(s->prior, T.zhat, n, T.dhat, T.dhat + nm);
-    mf_stage_lap(&s->times.decode, &ts);
+    rc = draws(s, &T, cur.z, it, nz, 2 * nm);
 done:
     free(rgba);
     if (rc || !keep) maps_free(&cur);
@@ -216,8 +265,11 @@ static int loss_of(MfSds *s, MfRecon *r, const MfSdsTargets *t, Maps *m, float s
     MfStageClock ts = mf_stage_clock();
     float *dz = calloc(nz, sizeof(float)), *al = malloc((size_t)n * hh * sizeof(float));
     float *dain = calloc(nm, sizeof(float)), *doin = calloc(nm, sizeof(float));
+    /* with spread weighting: the elements' masks, then their weights, latents (nz) and maps (2 nm) */
+    int spread = s->o.weight == MF_SDS_WEIGHT_SPREAD && t->zvar && t->dvar;
+    float *em = spread ? malloc((nz + 2 * nm) * sizeof(float)) : NULL, *ew = spread ? malloc((nz + 2 * nm) * sizeof(float)) : NULL;
     int rc = MF_OK;
-    if (!dz || !al || !dain || !doin) {
+    if (!dz || !al || !dain || !doin || (spread && (!em || !ew))) {
         rc = mf_fail(MF_ENOMEM, "SDS: out of memory");
         goto done;
     }
@@ -230,21 +282,32 @@ static int loss_of(MfSds *s, MfRecon *r, const MfSdsTargets *t, Maps *m, float s
                     for (int dx = 0; dx < f; ++dx) acc += t->mask[k * rr + (size_t)(y * f + dy) * R + x * f + dx];
                 al[k * hh + (size_t)y * h + x] = acc / (float)(f * f);
             }
-    double lat = 0.0, rgb = 0.0;
     size_t per_item = (size_t)2 * zc * hh;
+#define LAT_MASK(i) al[((i) / per_item) * hh + (i) % hh]
+#define MAP_MASK(i) t->mask[(((i) % nm) / (3 * rr)) * rr + (i) % rr]
+    if (spread) { /* weights per group: the latents, the albedo maps, the ORM maps */
+        for (size_t i = 0; i < nz; ++i) em[i] = LAT_MASK(i);
+        for (size_t i = 0; i < 2 * nm; ++i) em[nz + i] = MAP_MASK(i);
+        mf_sds_spread_weights(t->zvar, em, nz, ew);
+        mf_sds_spread_weights(t->dvar, em + nz, nm, ew + nz);
+        mf_sds_spread_weights(t->dvar + nm, em + nz + nm, nm, ew + nz + nm);
+    }
+    double lat = 0.0, rgb = 0.0;
     for (size_t i = 0; i < nz; ++i) {
-        float a = al[(i / per_item) * hh + i % hh], d = a * (z[i] - t->zhat[i]);
-        lat += (double)d * d;
-        dz[i] = scale * s->o.lambda_latent * 2.0f * a * d / (float)nz;
+        float a = LAT_MASK(i), d = a * (z[i] - t->zhat[i]), w = spread ? ew[i] : 1.0f;
+        lat += (double)w * d * d;
+        dz[i] = scale * s->o.lambda_latent * 2.0f * w * a * d / (float)nz;
     }
     /* rgb01: the difference of [0, 1] maps is half that of the [-1, 1] prior maps */
     float u = s->o.rgb01 ? 0.5f : 1.0f;
     for (size_t i = 0; i < 2 * nm; ++i) {
         size_t j = i % nm; /* index within the albedo or ORM maps: (k, c, p) */
-        float in = i < nm ? ain[j] : oin[j], d = u * (t->mask[(j / (3 * rr)) * rr + j % rr] * t->dhat[i] - in);
-        rgb += (double)d * d;
-        (i < nm ? dain : doin)[j] += -scale * s->o.lambda_rgb * 2.0f * u * d / (float)(2 * nm); /* d/d(in) of d^2 */
+        float in = i < nm ? ain[j] : oin[j], d = u * (MAP_MASK(i) * t->dhat[i] - in), w = spread ? ew[nz + i] : 1.0f;
+        rgb += (double)w * d * d;
+        (i < nm ? dain : doin)[j] += -scale * s->o.lambda_rgb * 2.0f * w * u * d / (float)(2 * nm); /* d/d(in) of w d^2 */
     }
+#undef LAT_MASK
+#undef MAP_MASK
     *loss = s->o.lambda_latent * lat / (double)nz + s->o.lambda_rgb * rgb / (double)(2 * nm);
     if (!isfinite(*loss)) {
         rc = mf_fail(MF_ENAN, "SDS: non-finite prior loss");
@@ -271,7 +334,7 @@ static int loss_of(MfSds *s, MfRecon *r, const MfSdsTargets *t, Maps *m, float s
     }
     mf_stage_lap(&s->times.aov_bwd, &ts);
 done:
-    free(dz), free(al), free(dain), free(doin);
+    free(dz), free(al), free(dain), free(doin), free(em), free(ew);
     return rc;
 }
 

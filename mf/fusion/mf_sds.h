@@ -31,6 +31,12 @@
  * conditioned on their images, so a texel no training view sees gets no prior gradient at all.) "Seen" = the texel gets weight from a view's primary hits
  * (mf_diff_aov_backward of an all-ones image at the view's resolution, one ray per pixel), counted
  * once when the term is first applied.
+ * Or (spread, needs draws >= 2) each element of the loss — latent, albedo map, ORM map — is weighted
+ * by how much the prior's targets agree over the noise draws (the same t and views, other noise):
+ * w = 1 / (1 + var / var_ref), var = the element's sample variance over the draws, var_ref = the
+ * mean variance over the masked elements of its group (latents, albedo maps, ORM maps), then w is
+ * scaled to mean 1 over those elements (mf_sds_spread_weights): the term keeps its strength and
+ * moves it to the pixels where the prior is sure. With draws > 1 the targets are the draws' mean.
  * Channel trust (trust_rough, trust_metal, in [0, 1], default 1 = the paper): the held ORM gradient's
  * roughness and metallic channels are scaled by these factors before the weighting above — the
  * prior's reliability per channel as measured on a validation split by `mf eval-prior`
@@ -65,13 +71,14 @@ typedef struct {
                             multiples; its texel gradient is held and applied (times gamma_i) at
                             every iteration in between (measured default: mf_sds_opts.c). */
     int rgb01;           /* 1: L_rgb on [0, 1] maps (official code); 0: on the prior's [-1, 1] maps (4x) */
-    int weight;          /* MF_SDS_WEIGHT_NONE, _CONFLICT or _COVERAGE (trust, see above) */
+    int weight;          /* MF_SDS_WEIGHT_NONE, _CONFLICT, _COVERAGE or _SPREAD (trust, see above) */
+    int draws;           /* noise draws per target at the batch's t: the target is their mean (1: the paper) */
     int prior_threads;   /* OpenBLAS threads set by mf_sds_new (0: left as they are) */
     float trust_rough;   /* channel trust (see above) of the ORM gradient's roughness channel, [0, 1] */
     float trust_metal;   /* ... and of its metallic channel */
 } MfSdsOpts;
 
-enum { MF_SDS_WEIGHT_NONE = 0, MF_SDS_WEIGHT_CONFLICT = 1, MF_SDS_WEIGHT_COVERAGE = 2 }; /* choices "none|conflict|coverage" */
+enum { MF_SDS_WEIGHT_NONE = 0, MF_SDS_WEIGHT_CONFLICT = 1, MF_SDS_WEIGHT_COVERAGE = 2, MF_SDS_WEIGHT_SPREAD = 3 }; /* "none|conflict|coverage|spread" */
 /* coverage: a texel seen by n training views gets the weight C0 / (C0 + n) (1 where no view sees it) */
 #define MF_SDS_COVERAGE_C0 4.0f
 
@@ -115,10 +122,16 @@ typedef struct {
     float *dhat;     /* (2, n, 3, R, R) owned: decoded albedo maps, then ORM maps */
     float *cond;     /* (n, 3, R, R) owned */
     float *mask;     /* (n, R, R) owned */
+    float *zvar;     /* (n, 2zc, h, h) owned: sample variance of zhat over the draws; NULL with 1 draw */
+    float *dvar;     /* (2, n, 3, R, R) owned: the same of D(zhat); NULL with 1 draw */
     MfCamera cam[MF_SDS_MAX_VIEWS];     /* the views' cameras at R x R */
     uint64_t aov_seed[MF_SDS_MAX_VIEWS]; /* seeds of the AOV renders (the loss re-renders the same hits) */
 } MfSdsTargets;
 
+/* Spread weights (see "spread" above): w (n,) from the variances var (n,) and the elements' masks
+ * m (n,) in [0, 1] (weight only where m > 0; w = 1 elsewhere, and everywhere when no masked
+ * element varies). */
+void mf_sds_spread_weights(const float *var, const float *m, size_t n, float *w);
 int mf_sds_targets(MfSds *s, MfRecon *r, const int *views, int n, int it, MfSdsTargets *t);
 void mf_sds_targets_free(MfSdsTargets *t);
 /* Loss against fixed targets (without gamma; means over all elements of the batch); when grads is

@@ -28,8 +28,11 @@ static const MfOpt k_opts[] = {
                "OpenBLAS threads of the prior's matrix products (0: OpenBLAS's own count; results do not depend on it)"),
     MF_OPT_NAMED(S, "sds_weight", weight, MF_OPT_ENUM, MF_SDS_WEIGHT_NONE, 0, 0,
                  "trust in the prior: none; conflict (per texel, drop the part opposing the images' gradient); "
-                 "coverage (per texel, times 4 / (4 + training views that see it))",
-                 .choices = "none|conflict|coverage"),
+                 "coverage (per texel, times 4 / (4 + training views that see it)); "
+                 "spread (per element, less where the prior's draws disagree; needs --sds-draws >= 2)",
+                 .choices = "none|conflict|coverage|spread"),
+    MF_OPT_NAMED(S, "sds_draws", draws, MF_OPT_INT, 1, 1, 8,
+                 "noise draws per prior target (same t): the target is their mean x0 (1: the paper)"),
     MF_OPT_NAMED(S, "sds_trust_rough", trust_rough, MF_OPT_FLOAT, 1, 0, 1,
                  "scale of the prior's roughness gradient (1: the paper; `mf eval-prior` on a validation split prints the measured reliability)"),
     MF_OPT_NAMED(S, "sds_trust_metal", trust_metal, MF_OPT_FLOAT, 1, 0, 1,
