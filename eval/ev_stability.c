@@ -88,18 +88,18 @@ static const EvStabCell k_cells[] = {
     {"lr at its maximum (1)", "materialfusion", "reference", "--lr 1", NULL, 0, 0, 0},
     {"init light at its maximum (1000)", "materialfusion", "reference", "--init-light 1000", NULL, 0, 0, 0},
     R("mirror_sun", 0, 0), B("mirror_sun", 1, 0), M("mirror_sun", 0, 0),
-    R("grazing", 0, 0), B("grazing", 0, 0),
+    R("grazing", 0, 0), B("grazing", 0, 0), M("grazing", 0, 0),
     R("albedo_0", 0, 0), B("albedo_0", 0, 0), M("albedo_0", 0, 0),
     R("albedo_1", 0, 0), B("albedo_1", 0, 0),
     R("env_-8", 0, 0), B("env_-8", 0, 0), B("env_-4", 0, 0), B("env_+4", 0, 0), R("env_+8", 0, 0), B("env_+8", 0, 0),
     B("exr_-8", 1, EXP_EXR_DB), M("exr_-8", 0, EXP_EXR_DB), B("exr_-4", 0, EXP_EXR_DB), B("exr_+4", 0, EXP_EXR_DB),
     B("exr_+8", 1, EXP_EXR_DB),
-    B("png_-4", 0, EXP_PNG_DB), B("saturated", 0, 0),
+    B("png_-4", 0, EXP_PNG_DB), M("png_-4", 0, EXP_PNG_DB), B("saturated", 0, 0),
     R("scale_1e-4", 1, EXP_SCALE_RENDER_DB), B("scale_1e-4", 0, EXP_SCALE_DB),
     R("scale_1e-2", 0, EXP_SCALE_RENDER_DB), B("scale_1e-2", 0, EXP_SCALE_DB),
     R("scale_1e2", 0, EXP_SCALE_RENDER_DB), B("scale_1e2", 0, EXP_SCALE_DB),
     R("scale_1e4", 1, EXP_SCALE_RENDER_DB), B("scale_1e4", 0, EXP_SCALE_DB), M("scale_1e4", 0, EXP_SCALE_DB),
-    R("sliver", 0, 0), B("sliver", 0, 0),
+    R("sliver", 0, 0), B("sliver", 0, 0), M("sliver", 0, 0),
     B("one_view", 0, 0), M("one_view", 0, 0),
     B("mask_2x2", 1, 0), M("mask_2x2", 0, 0),
 };
@@ -109,12 +109,13 @@ const EvStabCell *ev_stab_cells(int *n) {
     return k_cells;
 }
 
-int ev_stab_run(const char *cmd, const char *stderr_path, EvStabResult *r) {
-    struct timespec t0, t1;
-    clock_gettime(CLOCK_MONOTONIC, &t0);
-    pid_t pid = fork();
-    if (pid < 0) return mf_fail(MF_EIO, "fork failed for: %s", cmd);
-    if (pid == 0) {
+/* Starts `cmd` through /bin/sh (exec: the child is the command itself) with stderr to
+ * stderr_path and stdout to /dev/null; *t0 gets the start time. */
+static int spawn_cell(const char *cmd, const char *stderr_path, pid_t *pid, struct timespec *t0) {
+    clock_gettime(CLOCK_MONOTONIC, t0);
+    *pid = fork();
+    if (*pid < 0) return mf_fail(MF_EIO, "fork failed for: %s", cmd);
+    if (*pid == 0) {
         int fd = open(stderr_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
         if (fd >= 0) dup2(fd, 2), close(fd);
         int nul = open("/dev/null", O_WRONLY);
@@ -122,15 +123,51 @@ int ev_stab_run(const char *cmd, const char *stderr_path, EvStabResult *r) {
         execl("/bin/sh", "sh", "-c", cmd, (char *)NULL);
         _exit(127);
     }
-    int st = 0;
+    return MF_OK;
+}
+
+/* The child's exit status st and usage ru, started at t0, into r. */
+static void finish_cell(int st, const struct rusage *ru, const struct timespec *t0, EvStabResult *r) {
+    struct timespec t1;
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    r->exit_code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+    r->wall_s = (double)(t1.tv_sec - t0->tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0->tv_nsec);
+    r->peak_rss_kb = ru->ru_maxrss;
+}
+
+int ev_stab_run(const char *cmd, const char *stderr_path, EvStabResult *r) {
+    struct timespec t0;
+    pid_t pid;
+    int rc = spawn_cell(cmd, stderr_path, &pid, &t0), st = 0;
+    if (rc) return rc;
     struct rusage ru;
     memset(&ru, 0, sizeof ru);
     if (wait4(pid, &st, 0, &ru) < 0) return mf_fail(MF_EIO, "wait4 failed for: %s", cmd);
-    clock_gettime(CLOCK_MONOTONIC, &t1);
-    r->exit_code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-    r->wall_s = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
-    r->peak_rss_kb = ru.ru_maxrss;
+    finish_cell(st, &ru, &t0, r);
     return MF_OK;
+}
+
+/* Runs the n commands cmds[i] (stderr to errs[i]) at most `jobs` at a time, each result into
+ * res[i] (exit code, wall seconds, peak RSS); returns when all have ended. */
+static int run_pool(char (*cmds)[4096], char (*errs)[1100], EvStabResult *const *res, int n, int jobs) {
+    pid_t pid[EV_STAB_MAX_CELLS + 2];
+    struct timespec t0[EV_STAB_MAX_CELLS + 2];
+    int next = 0, running = 0, rc = MF_OK;
+    while (next < n || running > 0) {
+        while (!rc && running < jobs && next < n) {
+            if ((rc = spawn_cell(cmds[next], errs[next], &pid[next], &t0[next]))) break;
+            ++next, ++running;
+        }
+        if (running == 0) break;
+        int st = 0;
+        struct rusage ru;
+        memset(&ru, 0, sizeof ru);
+        pid_t done = wait4(-1, &st, 0, &ru);
+        if (done < 0) return mf_fail(MF_EIO, "wait4 failed in the stability grid");
+        for (int i = 0; i < next; ++i)
+            if (pid[i] == done) finish_cell(st, &ru, &t0[i], res[i]), --running;
+    }
+    return rc;
 }
 
 static int g_exr, g_bad;
@@ -261,7 +298,7 @@ static void fmt_db(char *buf, size_t cap, double v, int sign) {
 }
 
 static int write_report(const char *out_dir, const EvStabCell *const *cells, const EvStabResult *res, int n, int iters,
-                        const EvStabResult *mem, const int *mem_iters, int nmem, double total_s) {
+                        const EvStabResult *mem, const int *mem_iters, int nmem, double total_s, int jobs, int threads) {
     char md[1024], csv[1024];
     snprintf(md, sizeof md, "%s/README.md", out_dir);
     snprintf(csv, sizeof csv, "%s/grid.csv", out_dir);
@@ -275,8 +312,9 @@ static int write_report(const char *out_dir, const EvStabCell *const *cells, con
                      "scale-aligned protocol), then the difference to the same method's reference cell. Rough / metal: texel "
                      "means of the result's orm.png, truth in brackets. Expected: exit 0 (or, for a refusal cell, non-zero "
                      "with a message naming its option), no non-finite value, and the cell's stated bound when it has one "
-                     "(|delta| <= bound dB on relit, albedo and ORM; render dB >= bound). Whole grid: %.0f s wall.\n\n",
-                 iters, total_s);
+                     "(|delta| <= bound dB on relit, albedo and ORM; render dB >= bound). Whole grid: %.0f s wall, %d cell%s at a "
+                     "time (%s); a cell's wall s is its own, under that load.\n\n",
+                 iters, total_s, jobs, jobs > 1 ? "s" : "", threads > 0 ? "OMP_NUM_THREADS set to cores / cells" : "OpenMP threads as inherited");
     mf_sb_printf(&m, "Scene variants:\n\n| scene | what |\n|---|---|\n");
     for (size_t i = 0; i < sizeof k_variants / sizeof k_variants[0]; ++i)
         mf_sb_printf(&m, "| %s | %s |\n", k_variants[i].id, k_variants[i].what);
@@ -345,40 +383,87 @@ static int cell_ok(const EvStabCell *c, const EvStabResult *r, const char *err_p
     return !(c->min_render_db > 0) || (!isnan(r->render_db) && r->render_db >= c->min_render_db);
 }
 
-int ev_stab_grid(const char *mf, const char *work, const char *out_dir, int iters, int mem_iters, int quick,
+int ev_stab_grid(const char *mf, const char *work, const char *out_dir, int iters, int mem_iters, int quick, int jobs,
                  EvStabResult *results, int cap, int *n_out) {
-    char layout[1024], scene[1200], vdir[1100], cmd[4096], err[1100], out[1100], ref_render[1100] = "";
+    char layout[1024], scene[1200], vdir[1100], ref_render[1100] = "";
     struct timespec t0, t1;
     clock_gettime(CLOCK_MONOTONIC, &t0);
     *n_out = 0;
     snprintf(layout, sizeof layout, "%s/layout", work);
     int rc = mf_mkdirs(work);
     if (rc || (rc = mf_mkdirs(out_dir)) || (rc = ev_stab_layout(layout))) return rc;
-    int nc;
+    int nc, n = 0;
     const EvStabCell *cells = ev_stab_cells(&nc);
     const EvStabCell *ran[EV_STAB_MAX_CELLS];
-    const EvStabResult *ref[2] = {NULL, NULL}; /* baseline, materialfusion reference cells */
-    for (int i = 0; i < nc && *n_out < cap && *n_out < EV_STAB_MAX_CELLS; ++i) {
+    int idx[EV_STAB_MAX_CELLS];
+    /* one pool of commands: the cells, then the memory row's two runs */
+    char(*cmd)[4096] = malloc((EV_STAB_MAX_CELLS + 2) * sizeof *cmd), (*err)[1100] = malloc((EV_STAB_MAX_CELLS + 2) * sizeof *err);
+    EvStabResult mem[2], *slot[EV_STAB_MAX_CELLS + 2];
+    if (!cmd || !err) {
+        free(cmd), free(err);
+        return mf_fail(MF_ENOMEM, "stability grid: out of memory");
+    }
+    /* threads per cell: the cores shared by the cells that run at once (set in the child's env) */
+    long cores = sysconf(_SC_NPROCESSORS_ONLN);
+    int threads = jobs > 1 ? (int)(cores > jobs ? cores / jobs : 1) : 0;
+    char env[64] = "";
+    if (threads > 0) snprintf(env, sizeof env, "OMP_NUM_THREADS=%d ", threads);
+    for (int i = 0; i < nc && n < cap && n < EV_STAB_MAX_CELLS && !rc; ++i) {
         const EvStabCell *c = &cells[i];
         const EvStabVariant *v = ev_stab_variant(c->variant);
         if (quick && !c->quick) continue;
-        if (!v) return mf_fail(MF_EARG, "stability cell %d: unknown scene variant '%s'", i, c->variant);
+        if (!v) {
+            rc = mf_fail(MF_EARG, "stability cell %d: unknown scene variant '%s'", i, c->variant);
+            break;
+        }
         snprintf(vdir, sizeof vdir, "%s/scenes/%s", work, v->id);
+        if ((rc = ev_stab_variant_build(layout, v, vdir))) {
+            rc = mf_fail_prefix(rc, "stability scene variant %s", v->id);
+            break;
+        }
         snprintf(scene, sizeof scene, "%s/000_cup", vdir);
-        if ((rc = ev_stab_variant_build(layout, v, vdir))) return mf_fail_prefix(rc, "stability scene variant %s", v->id);
-        EvStabResult *r = &results[*n_out];
+        char out[1100];
+        snprintf(out, sizeof out, "%s/cell%02d", work, i);
+        snprintf(err[n], sizeof err[n], "%s/cell%02d.err", work, i);
+        size_t e = (size_t)snprintf(cmd[n], sizeof cmd[n], "%s", env);
+        cell_cmd(cmd[n] + e, sizeof cmd[n] - e, mf, scene, out, c, iters);
+        EvStabResult *r = &results[n];
         memset(r, 0, sizeof *r);
         r->render_db = NAN;
         r->ckpt_values = r->recoveries = -1;
         for (int k = 0; k < 3; ++k) r->db[k] = r->delta[k] = NAN;
         r->rough[0] = r->rough[1] = r->metal[0] = r->metal[1] = NAN;
-        snprintf(out, sizeof out, "%s/cell%02d", work, i);
-        snprintf(err, sizeof err, "%s/cell%02d.err", work, i);
-        cell_cmd(cmd, sizeof cmd, mf, scene, out, c, iters);
-        if (ev_stab_run(cmd, err, r) || ev_stab_scan_dir(out, &r->exr_files, &r->nonfinite)) return MF_EIO;
+        slot[n] = r, ran[n] = c, idx[n] = i, ++n;
+    }
+    int mem_n[2] = {50, mem_iters}, nmem = quick ? 0 : 2;
+    for (int i = 0; i < nmem && !rc; ++i) {
+        static const EvStabCell base = {"memory", "baseline", "reference", "", NULL, 0, 0, 0};
+        char out[1100];
+        snprintf(scene, sizeof scene, "%s/scenes/reference/000_cup", work);
+        snprintf(out, sizeof out, "%s/mem%d", work, i);
+        snprintf(err[n + i], sizeof err[n + i], "%s/mem%d.err", work, i);
+        size_t e = (size_t)snprintf(cmd[n + i], sizeof cmd[n + i], "%s", env);
+        cell_cmd(cmd[n + i] + e, sizeof cmd[n + i] - e, mf, scene, out, &base, mem_n[i]);
+        memset(&mem[i], 0, sizeof mem[i]);
+        slot[n + i] = &mem[i];
+    }
+    if (!rc) rc = run_pool(cmd, err, slot, n + nmem, jobs > 1 ? jobs : 1);
+    /* scoring, in the cells' order: each reference cell comes before the cells compared with it */
+    const EvStabResult *ref[2] = {NULL, NULL}; /* baseline, materialfusion reference cells */
+    for (int j = 0; j < n && !rc; ++j) {
+        const EvStabCell *c = ran[j];
+        EvStabResult *r = &results[j];
+        char out[1100];
+        snprintf(out, sizeof out, "%s/cell%02d", work, idx[j]);
+        snprintf(scene, sizeof scene, "%s/scenes/%s/000_cup", work, c->variant);
+        if (ev_stab_scan_dir(out, &r->exr_files, &r->nonfinite)) {
+            rc = MF_EIO;
+            break;
+        }
         int render = !strcmp(c->kind, "render"), m = !strcmp(c->kind, "materialfusion");
         if (render && is_reference(c, "render")) snprintf(ref_render, sizeof ref_render, "%s", out);
-        else if (render && ref_render[0] && r->exit_code == 0 && same_images(v)) r->render_db = render_psnr(out, ref_render);
+        else if (render && ref_render[0] && r->exit_code == 0 && same_images(ev_stab_variant(c->variant)))
+            r->render_db = render_psnr(out, ref_render);
         if (!render && r->exit_code == 0) {
             ev_stab_scan_ckpt(out, &r->ckpt_values, &r->ckpt_nonfinite);
             r->recoveries = count_recoveries(out);
@@ -386,20 +471,12 @@ int ev_stab_grid(const char *mf, const char *work, const char *out_dir, int iter
             if (is_reference(c, c->kind)) ref[m] = r;
             for (int k = 0; k < 3 && ref[m]; ++k) r->delta[k] = r->db[k] - ref[m]->db[k];
         }
-        r->ok = cell_ok(c, r, err);
-        ran[(*n_out)++] = c;
+        r->ok = cell_ok(c, r, err[j]);
     }
-    EvStabResult mem[2];
-    int mem_n[2] = {50, mem_iters}, nmem = quick ? 0 : 2;
-    for (int i = 0; i < nmem; ++i) {
-        static const EvStabCell base = {"memory", "baseline", "reference", "", NULL, 0, 0, 0};
-        snprintf(scene, sizeof scene, "%s/scenes/reference/000_cup", work);
-        snprintf(out, sizeof out, "%s/mem%d", work, i);
-        snprintf(err, sizeof err, "%s/mem%d.err", work, i);
-        cell_cmd(cmd, sizeof cmd, mf, scene, out, &base, mem_n[i]);
-        if (ev_stab_run(cmd, err, &mem[i])) return MF_EIO;
-    }
+    free(cmd), free(err);
+    if (rc) return rc;
+    *n_out = n;
     clock_gettime(CLOCK_MONOTONIC, &t1);
     double total = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
-    return write_report(out_dir, ran, results, *n_out, iters, mem, mem_n, nmem, total);
+    return write_report(out_dir, ran, results, n, iters, mem, mem_n, nmem, total, jobs > 1 ? jobs : 1, threads);
 }

@@ -49,7 +49,7 @@ MF_TEST(stability_quick_grid) {
     snprintf(out, sizeof out, "%s/report", work);
     EvStabResult res[EV_STAB_MAX_CELLS];
     int n = 0, nc, nq = 0, bounded = 0;
-    CHECK_OK(ev_stab_grid(mf, work, out, 20, 50, 1, res, EV_STAB_MAX_CELLS, &n));
+    CHECK_OK(ev_stab_grid(mf, work, out, 20, 50, 1, 2, res, EV_STAB_MAX_CELLS, &n));
     const EvStabCell *cells = ev_stab_cells(&nc);
     for (int i = 0; i < nc; ++i) nq += cells[i].quick;
     CHECK(n == nq && n >= 10);
