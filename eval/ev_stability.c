@@ -314,7 +314,7 @@ static int write_report(const char *out_dir, const EvStabCell *const *cells, con
                      "with a message naming its option), no non-finite value, and the cell's stated bound when it has one "
                      "(|delta| <= bound dB on relit, albedo and ORM; render dB >= bound). Whole grid: %.0f s wall, %d cell%s at a "
                      "time (%s); a cell's wall s is its own, under that load.\n\n",
-                 iters, total_s, jobs, jobs > 1 ? "s" : "", threads > 0 ? "OMP_NUM_THREADS set to cores / cells" : "OpenMP threads as inherited");
+                 iters, total_s, jobs, jobs > 1 ? "s" : "", threads > 0 ? "every cell with OMP_NUM_THREADS = cores / cells" : "OpenMP threads as inherited");
     mf_sb_printf(&m, "Scene variants:\n\n| scene | what |\n|---|---|\n");
     for (size_t i = 0; i < sizeof k_variants / sizeof k_variants[0]; ++i)
         mf_sb_printf(&m, "| %s | %s |\n", k_variants[i].id, k_variants[i].what);

@@ -63,8 +63,10 @@ void ev_stab_scan_ckpt(const char *dir, long *values, long *nonfinite);
 /* Runs the grid: builds the variants the cells use under work/scenes/, then every cell of
  * ev_stab_cells() (quick != 0: only those marked quick, and no memory row); recon cells run
  * `iters` iterations (memory row: 50 and `mem_iters`). jobs > 1: that many cells run at once,
- * each with OMP_NUM_THREADS = cores / jobs (at least 1); the scores do not depend on it (every
- * cell is its own process with its own seed), the wall times do. results[i] belongs to the i-th
+ * each with OMP_NUM_THREADS = cores / jobs (at least 1). Results are not bit-identical across
+ * thread counts (the renderer's OpenMP sums run in another order), so every cell of a run gets
+ * the same count and is compared with its reference cell from the same run; wall times are
+ * measured under the load of the cells beside it. results[i] belongs to the i-th
  * cell run (ev_stab_cells order, skipping the others). Writes out_dir/README.md and
  * out_dir/grid.csv atomically. */
 int ev_stab_grid(const char *mf_bin, const char *work, const char *out_dir, int iters, int mem_iters, int quick, int jobs,
