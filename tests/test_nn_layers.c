@@ -141,9 +141,62 @@ MF_TEST(nn_conv2d_grad) {
     /* 32x32 = 1024 pixels: one item per GEMM with B = 2 */
     conv_case(2, 3, 1, 32, 32);
     conv_case(2, 1, 1, 32, 32);
+    /* images no wider or taller than the 3x3 reach: the stride-1 taps' clipping */
+    conv_case(2, 3, 1, 1, 1);
+    conv_case(2, 3, 1, 2, 1);
+    conv_case(1, 3, 1, 1, 3);
+    conv_case(1, 3, 1, 2, 2);
     CHECK(mf_conv2d_out_size(32, 3, 2) == 16);
     CHECK(mf_conv2d_out_size(32, 3, 1) == 32);
     CHECK(mf_conv2d_out_size(32, 1, 2) == 16);
+}
+
+/* mf_conv2d_forward_ex / backward_ex: the fused bias_b, add, dbias_b and din_acc = 0 give what the
+ * plain layer plus separate element-wise passes give (grouped, per-item and 1x1 direct paths). */
+static void conv_ex_case(int B, int K, int H, int W) {
+    int Ci = 3, Co = 4;
+    size_t nin = (size_t)B * Ci * H * W, nout = (size_t)B * Co * H * W, nw = (size_t)Co * Ci * K * K, P = (size_t)H * W;
+    float *in = fal(nin), *w = fal(nw), *b = fal(Co), *bb = fal((size_t)B * Co), *add = fal(nout), *dout = fal(nout);
+    float *col = fal(mf_conv2d_col_floats(B, Ci, H, W, Co, K, 1)), *o1 = fal(nout), *o2 = fal(nout);
+    float *din1 = fal(nin), *din2 = fal(nin), *dw1 = fal(nw), *dw2 = fal(nw), *db1 = fal(Co), *db2 = fal(Co);
+    float *dbb = fal((size_t)B * Co);
+    fill(in, nin, -1, 1, 41), fill(w, nw, -0.5f, 0.5f, 42), fill(b, Co, -0.5f, 0.5f, 43);
+    fill(bb, (size_t)B * Co, -0.5f, 0.5f, 44), fill(add, nout, -1, 1, 45), fill(dout, nout, -1, 1, 46);
+    mf_conv2d_forward(o1, col, in, w, b, B, Ci, H, W, Co, K, 1);
+    for (int i = 0; i < B; ++i)
+        for (int o = 0; o < Co; ++o)
+            for (size_t p = 0; p < P; ++p) {
+                size_t k = ((size_t)i * Co + o) * P + p;
+                o1[k] = o1[k] + bb[i * Co + o] + add[k];
+            }
+    mf_conv2d_forward_ex(o2, col, in, w, b, bb, add, B, Ci, H, W, Co, K, 1);
+    double md = 0.0;
+    for (size_t i = 0; i < nout; ++i) md = fmax(md, fabs((double)o1[i] - o2[i]));
+    CHECK_MSG(md <= 1e-6, "conv%d ex forward: max diff %g to conv + bias_b + add", K, md);
+    /* backward: din_acc = 0 onto garbage equals += onto zeros; dbias_b sums to dbias */
+    fill(din2, nin, 5, 6, 47);
+    mf_conv2d_backward(din1, dw1, db1, col, dout, in, w, B, Ci, H, W, Co, K, 1);
+    mf_conv2d_backward_ex(din2, 0, dw2, db2, dbb, col, dout, in, w, B, Ci, H, W, Co, K, 1);
+    md = 0.0;
+    for (size_t i = 0; i < nin; ++i) md = fmax(md, fabs((double)din1[i] - din2[i]));
+    for (size_t i = 0; i < nw; ++i) md = fmax(md, fabs((double)dw1[i] - dw2[i]));
+    for (int o = 0; o < Co; ++o) {
+        double s = 0.0, r = 0.0;
+        for (int i = 0; i < B; ++i) s += dbb[i * Co + o];
+        for (int i = 0; i < B; ++i)
+            for (size_t p = 0; p < P; ++p) r += dout[((size_t)i * Co + o) * P + p];
+        md = fmax(md, fmax(fabs(s - r), fabs((double)db2[o] - r)) / fmax(1.0, fabs(r)));
+    }
+    CHECK_MSG(md <= 1e-5, "conv%d ex backward: max diff %g", K, md);
+    free(in), free(w), free(b), free(bb), free(add), free(dout), free(col), free(o1), free(o2);
+    free(din1), free(din2), free(dw1), free(dw2), free(db1), free(db2), free(dbb);
+}
+
+MF_TEST(nn_conv2d_fused_ex) {
+    conv_ex_case(3, 3, 5, 6);   /* grouped */
+    conv_ex_case(2, 3, 32, 32); /* one item per GEMM */
+    conv_ex_case(2, 1, 32, 32); /* 1x1 direct */
+    conv_ex_case(3, 1, 4, 5);   /* 1x1 grouped */
 }
 
 /* ---- upsample, SiLU, tokens, MSE ------------------------------------------------------------- */

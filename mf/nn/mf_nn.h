@@ -57,6 +57,20 @@ void mf_conv2d_backward(float *din, float *dw, float *dbias, float *col, const f
                         const float *in, const float *w, int B, int Cin, int H, int W, int Cout, int K,
                         int stride);
 
+/* The same two with the element-wise steps of a block fused into their copy passes (no extra pass
+ * over the activations):
+ * forward: out = conv(in) + bias[o] + bias_b[b, o] + add[b, o, y, x], added in that order;
+ *   bias_b (B, Cout) a per-image bias (a projected time embedding) or NULL; add (B, Cout, Ho, Wo) a
+ *   residual or NULL, not aliasing out.
+ * backward: dbias_b (B, Cout) += per-image spatial sums of dout (or NULL); din_acc = 0: din is
+ *   written (=) instead of accumulated, so a scratch gradient needs no zeroing. */
+void mf_conv2d_forward_ex(float *out, float *col, const float *in, const float *w, const float *bias,
+                          const float *bias_b, const float *add, int B, int Cin, int H, int W, int Cout, int K,
+                          int stride);
+void mf_conv2d_backward_ex(float *din, int din_acc, float *dw, float *dbias, float *dbias_b, float *col,
+                           const float *dout, const float *in, const float *w, int B, int Cin, int H, int W,
+                           int Cout, int K, int stride);
+
 /* ---- nearest upsample x2 ---------------------------------------------------------------- */
 
 /* out (B, C, 2H, 2W) from in (B, C, H, W). */

@@ -61,10 +61,72 @@ static void valid_cols(int W, int Wo, int pad, int kj, int stride, int *lo, int 
     if (*hi < *lo) *hi = *lo;
 }
 
+/* Stride 1 with odd K (Ho = H, Wo = W): tap (ki, kj) reads the input plane shifted by
+ * sh = (ki - pad)*W + (kj - pad), so its col row is ONE contiguous copy of the plane (and col2im
+ * one contiguous add) over the output rows [y0, y1) whose input row exists, clipped to
+ * q + sh in [0, H*W) as [q0, q1); output columns outside [x0, x1) wrap to the neighbouring row and
+ * are fixed up (zeroed) separately. Elements of [y0*W, y1*W) outside [q0, q1) are such columns. */
+typedef struct {
+    int y0, y1, x0, x1, q0, q1, sh;
+} ConvTap;
+
+#define CONV_TAPS_MAX 49 /* the stride-1 paths take K <= 7 */
+
+static void conv_taps_s1(ConvTap *t, int H, int W, int K) {
+    int pad = K / 2, HW = H * W;
+    for (int ki = 0; ki < K; ++ki)
+        for (int kj = 0; kj < K; ++kj, ++t) {
+            int dy = ki - pad, dx = kj - pad;
+            t->y0 = dy < 0 ? (-dy < H ? -dy : H) : 0;
+            t->y1 = dy > 0 ? H - dy : H;
+            if (t->y1 < t->y0) t->y1 = t->y0;
+            t->x0 = dx < 0 ? (-dx < W ? -dx : W) : 0;
+            t->x1 = dx > 0 ? W - dx : W;
+            if (t->x1 < t->x0) t->x1 = t->x0;
+            t->sh = dy * W + dx;
+            t->q0 = t->y0 * W, t->q1 = t->y1 * W;
+            if (t->q0 + t->sh < 0) t->q0 = -t->sh;
+            if (t->q1 + t->sh > HW) t->q1 = HW - t->sh;
+            if (t->q1 < t->q0) t->q1 = t->q0;
+        }
+}
+
+static int conv_s1_fast(int K, int stride, int H, int W, int Ho, int Wo) {
+    return stride == 1 && K <= 7 && Ho == H && Wo == W;
+}
+
+/* Zeroes, in rows [y0, y1) of the plane d (H, W), the columns outside [x0, x1) (column by column:
+ * a 3x3 tap has at most one, and a loop along a row of one element would become a memset call). */
+static inline void zero_edge_cols(float *d, int W, const ConvTap *t) {
+    for (int x = 0; x < t->x0; ++x)
+        for (int y = t->y0; y < t->y1; ++y) d[(size_t)y * W + x] = 0.0f;
+    for (int x = t->x1; x < W; ++x)
+        for (int y = t->y0; y < t->y1; ++y) d[(size_t)y * W + x] = 0.0f;
+}
+
 /* col (Cin*K*K, Ho*Wo; row stride ld) from in (Cin, H, W). */
-static void im2col(float *col, size_t ld, const float *in, int Cin, int H, int W, int K, int stride,
-                   int Ho, int Wo) {
+static void im2col(float *restrict col, size_t ld, const float *restrict in, int Cin, int H, int W, int K,
+                   int stride, int Ho, int Wo) {
     int pad = K / 2;
+    if (conv_s1_fast(K, stride, H, W, Ho, Wo)) {
+        ConvTap taps[CONV_TAPS_MAX];
+        conv_taps_s1(taps, H, W, K);
+        int HW = H * W, KK = K * K;
+        for (int c = 0; c < Cin; ++c) {
+            const float *restrict src = in + (size_t)c * HW;
+            for (int k = 0; k < KK; ++k) {
+                const ConvTap *t = &taps[k];
+                float *restrict d = col + ((size_t)c * KK + k) * ld;
+                int sh = t->sh;
+                for (int q = 0; q < t->y0 * W; ++q) d[q] = 0.0f;
+#pragma omp simd
+                for (int q = t->q0; q < t->q1; ++q) d[q] = src[q + sh];
+                for (int q = t->y1 * W; q < HW; ++q) d[q] = 0.0f;
+                zero_edge_cols(d, W, t);
+            }
+        }
+        return;
+    }
     for (int r = 0; r < Cin * K * K; ++r) {
         int c = r / (K * K), ki = (r / K) % K, kj = r % K, lo, hi;
         valid_cols(W, Wo, pad, kj, stride, &lo, &hi);
@@ -88,10 +150,30 @@ static void im2col(float *col, size_t ld, const float *in, int Cin, int H, int W
     }
 }
 
-/* din (Cin, H, W) += col2im(col (Cin*K*K, Ho*Wo; row stride ld)). */
-static void col2im_add(float *din, const float *col, size_t ld, int Cin, int H, int W, int K,
-                       int stride, int Ho, int Wo) {
+/* din (Cin, H, W) += col2im(col (Cin*K*K, Ho*Wo; row stride ld)), or = when acc is 0. Each input
+ * element receives its taps in (ki, kj) order. col is scratch: the stride-1 path zeroes its
+ * wrapping edge columns. */
+static void col2im(float *restrict din, int acc, float *restrict col, size_t ld, int Cin, int H, int W, int K,
+                   int stride, int Ho, int Wo) {
     int pad = K / 2;
+    if (!acc) memset(din, 0, sizeof(float) * (size_t)Cin * H * W);
+    if (conv_s1_fast(K, stride, H, W, Ho, Wo)) {
+        ConvTap taps[CONV_TAPS_MAX];
+        conv_taps_s1(taps, H, W, K);
+        int HW = H * W, KK = K * K;
+        for (int c = 0; c < Cin; ++c) {
+            float *restrict dst = din + (size_t)c * HW;
+            for (int k = 0; k < KK; ++k) {
+                const ConvTap *t = &taps[k];
+                float *restrict s = col + ((size_t)c * KK + k) * ld;
+                int sh = t->sh;
+                zero_edge_cols(s, W, t); /* they add +0 to the wrapped neighbours */
+#pragma omp simd
+                for (int q = t->q0; q < t->q1; ++q) dst[q + sh] += s[q];
+            }
+        }
+        return;
+    }
     for (int c = 0; c < Cin; ++c) {
         float *dst = din + (size_t)c * H * W;
         for (int ki = 0; ki < K; ++ki)
@@ -113,16 +195,33 @@ static void col2im_add(float *din, const float *col, size_t ld, int Cin, int H, 
     }
 }
 
-static void add_bias_rows(float *out_b, const float *bias, int Cout, int P) {
-    if (!bias) return;
+/* out_b (Cout, P) = g (Cout, P; row stride ldg) + bias[o] + bias_b[o] (+ add_b (Cout, P)), added in
+ * that order; NULL terms are skipped (as +0). out_b may be g (ldg = P). */
+static void conv_out_rows(float *out_b, const float *g, size_t ldg, const float *bias, const float *bias_b,
+                          const float *add_b, int Cout, int P) {
     for (int o = 0; o < Cout; ++o) {
-        float bo = bias[o], *row = out_b + (size_t)o * P;
-        for (int p = 0; p < P; ++p) row[p] += bo;
+        float bo = bias ? bias[o] : 0.0f, bb = bias_b ? bias_b[o] : 0.0f;
+        const float *gr = g + (size_t)o * ldg;
+        float *orow = out_b + (size_t)o * P;
+        if (add_b) {
+            const float *ar = add_b + (size_t)o * P;
+#pragma omp simd
+            for (int p = 0; p < P; ++p) orow[p] = gr[p] + bo + bb + ar[p];
+        } else {
+#pragma omp simd
+            for (int p = 0; p < P; ++p) orow[p] = gr[p] + bo + bb;
+        }
     }
 }
 
 void mf_conv2d_forward(float *out, float *col, const float *in, const float *w, const float *bias,
                        int B, int Cin, int H, int W, int Cout, int K, int stride) {
+    mf_conv2d_forward_ex(out, col, in, w, bias, NULL, NULL, B, Cin, H, W, Cout, K, stride);
+}
+
+void mf_conv2d_forward_ex(float *out, float *col, const float *in, const float *w, const float *bias,
+                          const float *bias_b, const float *add, int B, int Cin, int H, int W, int Cout, int K,
+                          int stride) {
     int Ho = mf_conv2d_out_size(H, K, stride), Wo = mf_conv2d_out_size(W, K, stride);
     int P = Ho * Wo, CKK = Cin * K * K, nb = conv_chunk(B, P);
     size_t in_sz = (size_t)Cin * H * W, out_sz = (size_t)Cout * P;
@@ -136,14 +235,17 @@ void mf_conv2d_forward(float *out, float *col, const float *in, const float *w, 
                 im2col(col, (size_t)P, in_b, Cin, H, W, K, stride, Ho, Wo);
                 colp = col;
             }
-            /* out_b (Cout, P) = w (Cout, CKK) . col (CKK, P) */
+            /* out_b (Cout, P) = w (Cout, CKK) . col (CKK, P), then the bias terms in place */
             nn_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, Cout, P, CKK, 1.0f, w, CKK, colp, P,
                         0.0f, out_b, P);
-            add_bias_rows(out_b, bias, Cout, P);
+            if (bias || bias_b || add)
+                conv_out_rows(out_b, out_b, (size_t)P, bias, bias_b ? bias_b + (size_t)b * Cout : NULL,
+                              add ? add + b * out_sz : NULL, Cout, P);
         }
         return;
     }
-    /* grouped: col (CKK, n*P) holds n items side by side; tmp (Cout, n*P) is the GEMM result */
+    /* grouped: col (CKK, n*P) holds n items side by side; tmp (Cout, n*P) is the GEMM result, copied
+     * to out with the bias terms in the same pass */
     float *tmp = col + (size_t)CKK * nb * P;
     for (int b0 = 0; b0 < B; b0 += nb) {
         int n = B - b0 < nb ? B - b0 : nb, NP = n * P;
@@ -152,27 +254,39 @@ void mf_conv2d_forward(float *out, float *col, const float *in, const float *w, 
         nn_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, Cout, NP, CKK, 1.0f, w, CKK, col, NP, 0.0f,
                     tmp, NP);
         for (int i = 0; i < n; ++i) {
-            float *out_b = out + (b0 + i) * out_sz;
-            for (int o = 0; o < Cout; ++o)
-                memcpy(out_b + (size_t)o * P, tmp + (size_t)o * NP + (size_t)i * P, sizeof(float) * (size_t)P);
-            add_bias_rows(out_b, bias, Cout, P);
+            int b = b0 + i;
+            conv_out_rows(out + b * out_sz, tmp + (size_t)i * P, (size_t)NP, bias,
+                          bias_b ? bias_b + (size_t)b * Cout : NULL, add ? add + b * out_sz : NULL, Cout, P);
         }
     }
 }
 
-static void bias_grad_rows(float *dbias, const float *dout_b, int Cout, int P) {
-    if (!dbias) return;
+/* Row sums of g (Cout, P) (four interleaved partial sums): dbias[o] += and dbias_b[o] += (either
+ * NULL); when t is given, also copies g into t (Cout, P; row stride ldt). */
+static void conv_dout_rows(float *t, size_t ldt, float *dbias, float *dbias_b, const float *g, int Cout, int P) {
     for (int o = 0; o < Cout; ++o) {
-        const float *row = dout_b + (size_t)o * P;
-        float s = 0.0f;
-        for (int p = 0; p < P; ++p) s += row[p];
-        dbias[o] += s;
+        const float *row = g + (size_t)o * P;
+        if (t) memcpy(t + (size_t)o * ldt, row, sizeof(float) * (size_t)P);
+        if (!dbias && !dbias_b) continue;
+        float s0 = 0.0f, s1 = 0.0f, s2 = 0.0f, s3 = 0.0f;
+        int p = 0;
+        for (; p + 4 <= P; p += 4) s0 += row[p], s1 += row[p + 1], s2 += row[p + 2], s3 += row[p + 3];
+        for (; p < P; ++p) s0 += row[p];
+        float s = (s0 + s1) + (s2 + s3);
+        if (dbias) dbias[o] += s;
+        if (dbias_b) dbias_b[o] += s;
     }
 }
 
 void mf_conv2d_backward(float *din, float *dw, float *dbias, float *col, const float *dout,
                         const float *in, const float *w, int B, int Cin, int H, int W, int Cout, int K,
                         int stride) {
+    mf_conv2d_backward_ex(din, 1, dw, dbias, NULL, col, dout, in, w, B, Cin, H, W, Cout, K, stride);
+}
+
+void mf_conv2d_backward_ex(float *din, int din_acc, float *dw, float *dbias, float *dbias_b, float *col,
+                           const float *dout, const float *in, const float *w, int B, int Cin, int H, int W,
+                           int Cout, int K, int stride) {
     int Ho = mf_conv2d_out_size(H, K, stride), Wo = mf_conv2d_out_size(W, K, stride);
     int P = Ho * Wo, CKK = Cin * K * K, nb = conv_chunk(B, P);
     size_t in_sz = (size_t)Cin * H * W, out_sz = (size_t)Cout * P;
@@ -189,18 +303,18 @@ void mf_conv2d_backward(float *din, float *dw, float *dbias, float *col, const f
             if (dw)
                 nn_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, Cout, CKK, P, 1.0f, dout_b, P, colp, P,
                          1.0f, dw, CKK);
-            bias_grad_rows(dbias, dout_b, Cout, P);
+            conv_dout_rows(NULL, 0, dbias, dbias_b ? dbias_b + (size_t)b * Cout : NULL, dout_b, Cout, P);
             if (!din) continue;
             float *din_b = din + b * in_sz;
             if (direct) {
-                /* din_b (Cin, P) += w^T (Cin, Cout) . dout_b (Cout, P) */
+                /* din_b (Cin, P) (+)= w^T (Cin, Cout) . dout_b (Cout, P) */
                 nn_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, Cin, P, Cout, 1.0f, w, Cin, dout_b, P,
-                            1.0f, din_b, P);
+                            din_acc ? 1.0f : 0.0f, din_b, P);
             } else {
                 /* dcol (CKK, P) = w^T (CKK, Cout) . dout_b (Cout, P), then scatter-add */
                 nn_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, CKK, P, Cout, 1.0f, w, CKK, dout_b, P,
                             0.0f, col, P);
-                col2im_add(din_b, col, (size_t)P, Cin, H, W, K, stride, Ho, Wo);
+                col2im(din_b, din_acc, col, (size_t)P, Cin, H, W, K, stride, Ho, Wo);
             }
         }
         return;
@@ -209,11 +323,10 @@ void mf_conv2d_backward(float *din, float *dw, float *dbias, float *col, const f
     for (int b0 = 0; b0 < B; b0 += nb) {
         int n = B - b0 < nb ? B - b0 : nb, NP = n * P;
         for (int i = 0; i < n; ++i) {
-            const float *dout_b = dout + (b0 + i) * out_sz;
-            if (dw) im2col(col + (size_t)i * P, (size_t)NP, in + (b0 + i) * in_sz, Cin, H, W, K, stride, Ho, Wo);
-            for (int o = 0; o < Cout; ++o)
-                memcpy(tmp + (size_t)o * NP + (size_t)i * P, dout_b + (size_t)o * P, sizeof(float) * (size_t)P);
-            bias_grad_rows(dbias, dout_b, Cout, P);
+            int b = b0 + i;
+            if (dw) im2col(col + (size_t)i * P, (size_t)NP, in + b * in_sz, Cin, H, W, K, stride, Ho, Wo);
+            conv_dout_rows(tmp + (size_t)i * P, (size_t)NP, dbias, dbias_b ? dbias_b + (size_t)b * Cout : NULL,
+                           dout + b * out_sz, Cout, P);
         }
         if (dw)
             nn_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, Cout, CKK, NP, 1.0f, tmp, NP, col, NP, 1.0f, dw,
@@ -222,7 +335,7 @@ void mf_conv2d_backward(float *din, float *dw, float *dbias, float *col, const f
         nn_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, CKK, NP, Cout, 1.0f, w, CKK, tmp, NP, 0.0f, col,
                     NP);
         for (int i = 0; i < n; ++i)
-            col2im_add(din + (b0 + i) * in_sz, col + (size_t)i * P, (size_t)NP, Cin, H, W, K, stride, Ho, Wo);
+            col2im(din + (b0 + i) * in_sz, din_acc, col + (size_t)i * P, (size_t)NP, Cin, H, W, K, stride, Ho, Wo);
     }
 }
 
