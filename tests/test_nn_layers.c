@@ -262,6 +262,30 @@ MF_TEST(nn_silu_mse_grad) {
     free(c.in), free(c.out), free(c.r), free(din);
 }
 
+/* SiLU's own exponential (mf_nn_layers.c nn_expf) against libm in double, over the whole float
+ * range it is used on and beyond its clamp; NaN stays NaN. */
+MF_TEST(nn_silu_accuracy) {
+    enum { N = 4001 };
+    float *x = fal(N + 3), *y = fal(N + 3), *dy = fal(N + 3), *one = fal(N + 3);
+    for (int i = 0; i < N; ++i) x[i] = -100.0f + 200.0f * (float)i / (N - 1), one[i] = 1.0f;
+    x[N] = 1e30f, x[N + 1] = -1e30f, x[N + 2] = NAN;
+    one[N] = one[N + 1] = one[N + 2] = 1.0f;
+    mf_silu_forward(y, x, N + 3);
+    mf_silu_backward(dy, one, x, N + 3);
+    double worst = 0.0, worst_g = 0.0;
+    for (int i = 0; i < N + 2; ++i) {
+        double xd = x[i], s = 1.0 / (1.0 + exp(-xd)), ref = xd * s, g = s * (1.0 + xd * (1.0 - s));
+        /* relative to the value, with an absolute floor (1e-26) far below any activation that matters */
+        worst = fmax(worst, fabs(y[i] - ref) / fmax(fabs(ref), 1e-20));
+        worst_g = fmax(worst_g, fabs(dy[i] - g) / fmax(fabs(g), 1e-3));
+    }
+    CHECK_MSG(worst < 1e-6, "silu: worst relative error %g", worst);
+    CHECK_MSG(worst_g < 2e-6, "silu': worst relative error %g", worst_g);
+    CHECK(y[N] == 1e30f && y[N + 1] == 0.0f && dy[N] == 1.0f && dy[N + 1] == 0.0f);
+    CHECK(isnan(y[N + 2]) && isnan(dy[N + 2]));
+    free(x), free(y), free(dy), free(one);
+}
+
 MF_TEST(nn_tokens_transpose_adjoint) {
     int B = 2, C = 3, HW = 5;
     size_t n = (size_t)B * C * HW;
@@ -366,6 +390,65 @@ MF_TEST(nn_groupnorm_grad) {
     gradcheck("groupnorm dbeta", gn_loss, &c, c.be, db, 4, 4);
     free(c.in), free(c.out), free(c.r), free(c.ga), free(c.be), free(c.mean), free(c.rstd);
     free(din), free(dg), free(db);
+}
+
+typedef struct {
+    GnCtx gn;
+    float *sig;
+} GnsCtx;
+
+static double gns_loss(void *p) {
+    GnsCtx *c = p;
+    GnCtx *g = &c->gn;
+    mf_gnsilu_forward(g->out, c->sig, g->mean, g->rstd, g->in, g->ga, g->be, g->B, g->C, g->HW, g->G, 1e-5f);
+    return dotd(g->out, g->r, (size_t)g->B * g->C * g->HW);
+}
+
+/* Group norm + SiLU in one pass: equal to the two layers within float rounding, exact gradients
+ * (central differences), din written (din_acc = 0) or accumulated; HW above the chunk of the
+ * backward's dh buffer (512) so the chunked loop runs more than once. */
+MF_TEST(nn_gnsilu_fused) {
+    int B = 2, C = 4, HW = 700, G = 2;
+    size_t n = (size_t)B * C * HW;
+    GnsCtx c = {.gn = {.B = B, .C = C, .HW = HW, .G = G}};
+    GnCtx *g = &c.gn;
+    g->in = fal(n), g->out = fal(n), g->r = fal(n), g->ga = fal(C), g->be = fal(C), g->mean = fal(4), g->rstd = fal(4);
+    c.sig = fal(n);
+    fill(g->in, n, -1, 2, 22), fill(g->r, n, -1, 1, 23), fill(g->ga, C, 0.5f, 1.5f, 24), fill(g->be, C, -0.5f, 0.5f, 25);
+    float *h = fal(n), *a = fal(n), *m2 = fal(4), *r2 = fal(4);
+    mf_groupnorm_forward(h, m2, r2, g->in, g->ga, g->be, B, C, HW, G, 1e-5f);
+    mf_silu_forward(a, h, n);
+    gns_loss(&c);
+    double md = 0.0, ms = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+        md = fmax(md, fabs((double)a[i] - g->out[i]));
+        ms = fmax(ms, fabs(1.0 / (1.0 + exp(-(double)h[i])) - c.sig[i]));
+    }
+    CHECK_MSG(md < 2e-6 && ms < 1e-6, "gnsilu vs groupnorm + silu: max diff %g (sigmoid cache %g)", md, ms);
+    CHECK(g->mean[0] == m2[0] && g->rstd[3] == r2[3]);
+    /* reference gradients: silu backward then groupnorm backward */
+    float *dh = fal(n), *dref = fal(n), *dgr = fal(C), *dbr = fal(C), *din = fal(n), *dg = fal(C), *db = fal(C);
+    mf_silu_backward(dh, g->r, h, n);
+    mf_groupnorm_backward(dref, dgr, dbr, dh, g->in, m2, r2, g->ga, B, C, HW, G);
+    fill(din, n, 7, 8, 26); /* written over */
+    mf_gnsilu_backward(din, 0, dg, db, g->r, g->in, c.sig, g->mean, g->rstd, g->ga, g->be, B, C, HW, G);
+    md = 0.0;
+    for (size_t i = 0; i < n; ++i) md = fmax(md, fabs((double)din[i] - dref[i]));
+    for (int i = 0; i < C; ++i) md = fmax(md, fmax(fabs((double)dg[i] - dgr[i]), fabs((double)db[i] - dbr[i])) / 100.0);
+    CHECK_MSG(md < 1e-5, "gnsilu backward vs silu + groupnorm backward: max diff %g", md);
+    gradcheck("gnsilu din", gns_loss, &c, g->in, din, n, 100);
+    gradcheck("gnsilu dgamma", gns_loss, &c, g->ga, dg, C, C);
+    gradcheck("gnsilu dbeta", gns_loss, &c, g->be, db, C, C);
+    /* din_acc = 1 adds onto what is there (the forward's cache again at the unperturbed input) */
+    gns_loss(&c);
+    float *din2 = fal(n);
+    for (size_t i = 0; i < n; ++i) din2[i] = 0.5f;
+    mf_gnsilu_backward(din2, 1, NULL, NULL, g->r, g->in, c.sig, g->mean, g->rstd, g->ga, g->be, B, C, HW, G);
+    md = 0.0;
+    for (size_t i = 0; i < n; ++i) md = fmax(md, fabs((double)din2[i] - 0.5 - din[i]));
+    CHECK_MSG(md < 1e-6, "gnsilu backward din_acc = 1: max diff %g", md);
+    free(g->in), free(g->out), free(g->r), free(g->ga), free(g->be), free(g->mean), free(g->rstd), free(c.sig);
+    free(h), free(a), free(m2), free(r2), free(dh), free(dref), free(dgr), free(dbr), free(din), free(dg), free(db), free(din2);
 }
 
 /* ---- linear -------------------------------------------------------------------------------------- */

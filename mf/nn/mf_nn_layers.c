@@ -2,6 +2,7 @@
  * transposes, attention, timestep embedding, MSE) and the parameter-table helpers. */
 #include <cblas.h>
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -371,6 +372,29 @@ void mf_upsample2x_backward(float *din, const float *dout, int B, int C, int H, 
 
 /* ---- group norm ------------------------------------------------------------------------------ */
 
+/* Sum of x (n floats) in double, four interleaved partial sums (a latency chain a quarter as long). */
+static double sum_d(const float *x, size_t n) {
+    double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+    size_t i = 0;
+    for (; i + 4 <= n; i += 4) s0 += x[i], s1 += x[i + 1], s2 += x[i + 2], s3 += x[i + 3];
+    for (; i < n; ++i) s0 += x[i];
+    return (s0 + s1) + (s2 + s3);
+}
+
+/* Mean and 1/sqrt(var + eps) (population variance) of a group x (n floats), two passes in double. */
+static void gn_stats(const float *x, size_t n, float eps, float *mean, float *rstd) {
+    double mu = sum_d(x, n) / (double)n, v0 = 0.0, v1 = 0.0, v2 = 0.0, v3 = 0.0;
+    size_t i = 0;
+    for (; i + 4 <= n; i += 4) {
+        double d0 = x[i] - mu, d1 = x[i + 1] - mu, d2 = x[i + 2] - mu, d3 = x[i + 3] - mu;
+        v0 += d0 * d0, v1 += d1 * d1, v2 += d2 * d2, v3 += d3 * d3;
+    }
+    for (; i < n; ++i) v0 += (x[i] - mu) * (x[i] - mu);
+    double v = (v0 + v1) + (v2 + v3);
+    *mean = (float)mu;
+    *rstd = (float)(1.0 / sqrt(v / (double)n + eps));
+}
+
 void mf_groupnorm_forward(float *out, float *mean, float *rstd, const float *in, const float *gamma,
                           const float *beta, int B, int C, int HW, int G, float eps) {
     int cpg = C / G;
@@ -379,14 +403,8 @@ void mf_groupnorm_forward(float *out, float *mean, float *rstd, const float *in,
         int b = bg / G, g = bg % G;
         size_t off = ((size_t)b * C + (size_t)g * cpg) * HW;
         const float *x = in + off;
-        double s = 0.0;
-        for (size_t i = 0; i < n; ++i) s += x[i];
-        double mu = s / (double)n, v = 0.0;
-        for (size_t i = 0; i < n; ++i) {
-            double d = x[i] - mu;
-            v += d * d;
-        }
-        float m = (float)mu, rs = (float)(1.0 / sqrt(v / (double)n + eps));
+        float m, rs;
+        gn_stats(x, n, eps, &m, &rs);
         mean[bg] = m;
         rstd[bg] = rs;
         for (int cc = 0; cc < cpg; ++cc) {
@@ -394,67 +412,215 @@ void mf_groupnorm_forward(float *out, float *mean, float *rstd, const float *in,
             float ga = gamma[c] * rs, be = beta[c];
             const float *xc = x + (size_t)cc * HW;
             float *o = out + off + (size_t)cc * HW;
+#pragma omp simd
             for (int p = 0; p < HW; ++p) o[p] = (xc[p] - m) * ga + be;
         }
     }
+}
+
+/* The double sums of the group norm backward over one channel row: *dgs += sum dy*xh, *dbs += sum dy,
+ * with xh = (x - m)*rs (four interleaved partial sums each). */
+static void gn_row_sums(const float *x, const float *dy, int HW, float m, float rs, double *dgs, double *dbs) {
+    double g0 = 0.0, g1 = 0.0, g2 = 0.0, g3 = 0.0, b0 = 0.0, b1 = 0.0, b2 = 0.0, b3 = 0.0;
+    int p = 0;
+    for (; p + 4 <= HW; p += 4) {
+        float h0 = (x[p] - m) * rs, h1 = (x[p + 1] - m) * rs, h2 = (x[p + 2] - m) * rs, h3 = (x[p + 3] - m) * rs;
+        g0 += (double)dy[p] * h0, g1 += (double)dy[p + 1] * h1, g2 += (double)dy[p + 2] * h2, g3 += (double)dy[p + 3] * h3;
+        b0 += dy[p], b1 += dy[p + 1], b2 += dy[p + 2], b3 += dy[p + 3];
+    }
+    for (; p < HW; ++p) g0 += (double)dy[p] * ((x[p] - m) * rs), b0 += dy[p];
+    *dgs += (g0 + g1) + (g2 + g3);
+    *dbs += (b0 + b1) + (b2 + b3);
+}
+
+/* One group of the group norm backward: dgamma/dbeta of its channels and the two means m1, m2 of
+ * the input gradient dx = rs * (dy*gamma - m1 - xh*m2). */
+static void gn_group_sums(const float *x, const float *dy, int cpg, int HW, int c0, float m, float rs,
+                          const float *gamma, float *dgamma, float *dbeta, float *m1, float *m2) {
+    double s1 = 0.0, s2 = 0.0;
+    for (int cc = 0; cc < cpg; ++cc) {
+        int c = c0 + cc;
+        double dgs = 0.0, dbs = 0.0;
+        gn_row_sums(x + (size_t)cc * HW, dy + (size_t)cc * HW, HW, m, rs, &dgs, &dbs);
+        if (dgamma) dgamma[c] += (float)dgs, dbeta[c] += (float)dbs;
+        s1 += dbs * gamma[c];
+        s2 += dgs * gamma[c];
+    }
+    double n = (double)cpg * HW;
+    *m1 = (float)(s1 / n), *m2 = (float)(s2 / n);
 }
 
 void mf_groupnorm_backward(float *din, float *dgamma, float *dbeta, const float *dout,
                            const float *in, const float *mean, const float *rstd,
                            const float *gamma, int B, int C, int HW, int G) {
     int cpg = C / G;
-    size_t n = (size_t)cpg * HW;
-    /* parallel over groups: each owns its channels of dgamma/dbeta; batch items in order */
-    for (int g = 0; g < G; ++g) {
-        for (int b = 0; b < B; ++b) {
+    /* each group owns its channels of dgamma/dbeta; batch items in order */
+    for (int b = 0; b < B; ++b)
+        for (int g = 0; g < G; ++g) {
             int bg = b * G + g;
             size_t off = ((size_t)b * C + (size_t)g * cpg) * HW;
             const float *x = in + off, *dy = dout + off;
-            float m = mean[bg], rs = rstd[bg];
-            /* mean of dxhat and of dxhat * xhat over the group */
-            double s1 = 0.0, s2 = 0.0;
-            for (int cc = 0; cc < cpg; ++cc) {
-                int c = g * cpg + cc;
-                double dgs = 0.0, dbs = 0.0;
-                for (int p = 0; p < HW; ++p) {
-                    size_t i = (size_t)cc * HW + p;
-                    float xh = (x[i] - m) * rs;
-                    dgs += (double)dy[i] * xh;
-                    dbs += dy[i];
-                }
-                if (dgamma) dgamma[c] += (float)dgs, dbeta[c] += (float)dbs;
-                s1 += dbs * gamma[c];
-                s2 += dgs * gamma[c];
-            }
-            float m1 = (float)(s1 / (double)n), m2 = (float)(s2 / (double)n);
+            float m = mean[bg], rs = rstd[bg], m1, m2;
+            gn_group_sums(x, dy, cpg, HW, g * cpg, m, rs, gamma, dgamma, dbeta, &m1, &m2);
             if (!din) continue;
             float *dx = din + off;
             for (int cc = 0; cc < cpg; ++cc) {
                 float ga = gamma[g * cpg + cc];
+                const float *xc = x + (size_t)cc * HW, *dyc = dy + (size_t)cc * HW;
+                float *dxc = dx + (size_t)cc * HW;
+#pragma omp simd
                 for (int p = 0; p < HW; ++p) {
-                    size_t i = (size_t)cc * HW + p;
-                    float xh = (x[i] - m) * rs;
-                    dx[i] += rs * (dy[i] * ga - m1 - xh * m2);
+                    float xh = (xc[p] - m) * rs;
+                    dxc[p] += rs * (dyc[p] * ga - m1 - xh * m2);
                 }
+            }
+        }
+}
+
+/* ---- SiLU ------------------------------------------------------------------------------------ */
+
+/* e^x for the SiLU family, within about 2 ulp of expf for |x| <= 80: Cody-Waite reduction to r in
+ * [-ln2/2, ln2/2], a degree-7 Taylor polynomial (truncation below 1e-8 relative), 2^n set through
+ * the exponent bits. |x| > 80 (and NaN) gives +inf for positive x and 0 for negative x (expf gives
+ * inf above 88.7 and subnormals below -87: sigmoid and SiLU differ by < 1e-34 there; a NaN input
+ * still makes SiLU and its gradient NaN through their other factor x). Integer selects only, no
+ * float compare and no libm call, so the loops that use it vectorise (gcc -O2 leaves a loop with a
+ * float select scalar: the compare may trap). */
+static inline float nn_expf(float x) {
+    int32_t b, sign, big;
+    memcpy(&b, &x, sizeof b);
+    sign = b & (int32_t)0x80000000u;
+    b &= 0x7fffffff;
+    big = -(b > 0x42A00000); /* all ones where |x| > 80.0f, or NaN */
+    b = (b & ~big) | (0x42A00000 & big);
+    b |= sign;
+    memcpy(&x, &b, sizeof x);
+    float t = x * 1.44269504088896341f + 12582912.0f; /* 1.5*2^23: t's low bits hold round(x/ln2) */
+    float n = t - 12582912.0f;
+    float r = (x - n * 0.693359375f) - n * -2.12194440e-4f; /* ln2 split in two: n*hi is exact */
+    float p = 1.0f / 5040.0f;
+    p = p * r + 1.0f / 720.0f;
+    p = p * r + 1.0f / 120.0f;
+    p = p * r + 1.0f / 24.0f;
+    p = p * r + 1.0f / 6.0f;
+    p = p * r + 0.5f;
+    p = p * r + 1.0f;
+    p = p * r + 1.0f;
+    int32_t ti, e;
+    memcpy(&ti, &t, sizeof ti);
+    e = (ti - 0x4B400000 + 127) * (1 << 23); /* n + 127 in the exponent field */
+    float sc, y;
+    memcpy(&sc, &e, sizeof sc);
+    y = p * sc;
+    memcpy(&e, &y, sizeof e);
+    e = (e & ~big) | (~-(sign != 0) & 0x7F800000 & big); /* 0 (x < 0) or +inf */
+    memcpy(&y, &e, sizeof y);
+    return y;
+}
+
+void mf_silu_forward(float *out, const float *in, size_t n) {
+#pragma omp simd
+    for (size_t i = 0; i < n; ++i) {
+        float x = in[i];
+        out[i] = x / (1.0f + nn_expf(-x));
+    }
+}
+
+void mf_silu_backward(float *din, const float *dout, const float *in, size_t n) {
+#pragma omp simd
+    for (size_t i = 0; i < n; ++i) {
+        float x = in[i], s = 1.0f / (1.0f + nn_expf(-x));
+        din[i] += dout[i] * s * (1.0f + x * (1.0f - s));
+    }
+}
+
+/* ---- group norm + SiLU ------------------------------------------------------------------------- */
+
+void mf_gnsilu_forward(float *out, float *sig, float *mean, float *rstd, const float *in, const float *gamma,
+                       const float *beta, int B, int C, int HW, int G, float eps) {
+    int cpg = C / G;
+    size_t n = (size_t)cpg * HW;
+    for (int bg = 0; bg < B * G; ++bg) {
+        int b = bg / G, g = bg % G;
+        size_t off = ((size_t)b * C + (size_t)g * cpg) * HW;
+        const float *x = in + off;
+        float m, rs;
+        gn_stats(x, n, eps, &m, &rs);
+        mean[bg] = m;
+        rstd[bg] = rs;
+        for (int cc = 0; cc < cpg; ++cc) {
+            int c = g * cpg + cc;
+            float ga = gamma[c] * rs, be = beta[c];
+            const float *xc = x + (size_t)cc * HW;
+            float *o = out + off + (size_t)cc * HW, *sg = sig + off + (size_t)cc * HW;
+#pragma omp simd
+            for (int p = 0; p < HW; ++p) {
+                float h = (xc[p] - m) * ga + be, d = 1.0f + nn_expf(-h);
+                o[p] = h / d;
+                sg[p] = 1.0f / d;
             }
         }
     }
 }
 
-/* ---- SiLU ------------------------------------------------------------------------------------ */
-
-void mf_silu_forward(float *out, const float *in, size_t n) {
-    for (size_t i = 0; i < n; ++i) {
-        float x = in[i];
-        out[i] = x / (1.0f + expf(-x));
+/* dh (n) = da * silu'(h) for one channel row, h = (x - m)*ga + be recomputed as the forward did and
+ * s = sigmoid(h) as the forward stored it. */
+static void gnsilu_dh(float *restrict dh, const float *restrict da, const float *restrict x,
+                      const float *restrict s, int n, float m, float ga, float be) {
+#pragma omp simd
+    for (int p = 0; p < n; ++p) {
+        float h = (x[p] - m) * ga + be, sv = s[p];
+        dh[p] = da[p] * sv * (1.0f + h * (1.0f - sv));
     }
 }
 
-void mf_silu_backward(float *din, const float *dout, const float *in, size_t n) {
-    for (size_t i = 0; i < n; ++i) {
-        float x = in[i], s = 1.0f / (1.0f + expf(-x));
-        din[i] += dout[i] * s * (1.0f + x * (1.0f - s));
-    }
+#define GNSILU_CHUNK 512 /* floats of dh held on the stack at a time */
+
+void mf_gnsilu_backward(float *din, int din_acc, float *dgamma, float *dbeta, const float *da, const float *in,
+                        const float *sig, const float *mean, const float *rstd, const float *gamma,
+                        const float *beta, int B, int C, int HW, int G) {
+    int cpg = C / G;
+    float dh[GNSILU_CHUNK];
+    for (int b = 0; b < B; ++b)
+        for (int g = 0; g < G; ++g) {
+            int bg = b * G + g;
+            size_t off = ((size_t)b * C + (size_t)g * cpg) * HW;
+            float m = mean[bg], rs = rstd[bg];
+            double s1 = 0.0, s2 = 0.0;
+            for (int cc = 0; cc < cpg; ++cc) {
+                int c = g * cpg + cc;
+                size_t o = off + (size_t)cc * HW;
+                double dgs = 0.0, dbs = 0.0;
+                for (int p0 = 0; p0 < HW; p0 += GNSILU_CHUNK) {
+                    int k = HW - p0 < GNSILU_CHUNK ? HW - p0 : GNSILU_CHUNK;
+                    gnsilu_dh(dh, da + o + p0, in + o + p0, sig + o + p0, k, m, gamma[c] * rs, beta[c]);
+                    gn_row_sums(in + o + p0, dh, k, m, rs, &dgs, &dbs);
+                }
+                if (dgamma) dgamma[c] += (float)dgs, dbeta[c] += (float)dbs;
+                s1 += dbs * gamma[c];
+                s2 += dgs * gamma[c];
+            }
+            if (!din) continue;
+            float m1 = (float)(s1 / ((double)cpg * HW)), m2 = (float)(s2 / ((double)cpg * HW));
+            for (int cc = 0; cc < cpg; ++cc) {
+                int c = g * cpg + cc;
+                size_t o = off + (size_t)cc * HW;
+                float ga = gamma[c];
+                for (int p0 = 0; p0 < HW; p0 += GNSILU_CHUNK) {
+                    int k = HW - p0 < GNSILU_CHUNK ? HW - p0 : GNSILU_CHUNK;
+                    const float *xc = in + o + p0;
+                    float *dxc = din + o + p0;
+                    gnsilu_dh(dh, da + o + p0, xc, sig + o + p0, k, m, gamma[c] * rs, beta[c]);
+                    if (din_acc) {
+#pragma omp simd
+                        for (int p = 0; p < k; ++p) dxc[p] += rs * (dh[p] * ga - m1 - (xc[p] - m) * rs * m2);
+                    } else {
+#pragma omp simd
+                        for (int p = 0; p < k; ++p) dxc[p] = rs * (dh[p] * ga - m1 - (xc[p] - m) * rs * m2);
+                    }
+                }
+            }
+        }
 }
 
 /* ---- GELU ------------------------------------------------------------------------------------ */
