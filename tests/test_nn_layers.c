@@ -141,9 +141,62 @@ MF_TEST(nn_conv2d_grad) {
     /* 32x32 = 1024 pixels: one item per GEMM with B = 2 */
     conv_case(2, 3, 1, 32, 32);
     conv_case(2, 1, 1, 32, 32);
+    /* images no wider or taller than the 3x3 reach: the stride-1 taps' clipping */
+    conv_case(2, 3, 1, 1, 1);
+    conv_case(2, 3, 1, 2, 1);
+    conv_case(1, 3, 1, 1, 3);
+    conv_case(1, 3, 1, 2, 2);
     CHECK(mf_conv2d_out_size(32, 3, 2) == 16);
     CHECK(mf_conv2d_out_size(32, 3, 1) == 32);
     CHECK(mf_conv2d_out_size(32, 1, 2) == 16);
+}
+
+/* mf_conv2d_forward_ex / backward_ex: the fused bias_b, add, dbias_b and din_acc = 0 give what the
+ * plain layer plus separate element-wise passes give (grouped, per-item and 1x1 direct paths). */
+static void conv_ex_case(int B, int K, int H, int W) {
+    int Ci = 3, Co = 4;
+    size_t nin = (size_t)B * Ci * H * W, nout = (size_t)B * Co * H * W, nw = (size_t)Co * Ci * K * K, P = (size_t)H * W;
+    float *in = fal(nin), *w = fal(nw), *b = fal(Co), *bb = fal((size_t)B * Co), *add = fal(nout), *dout = fal(nout);
+    float *col = fal(mf_conv2d_col_floats(B, Ci, H, W, Co, K, 1)), *o1 = fal(nout), *o2 = fal(nout);
+    float *din1 = fal(nin), *din2 = fal(nin), *dw1 = fal(nw), *dw2 = fal(nw), *db1 = fal(Co), *db2 = fal(Co);
+    float *dbb = fal((size_t)B * Co);
+    fill(in, nin, -1, 1, 41), fill(w, nw, -0.5f, 0.5f, 42), fill(b, Co, -0.5f, 0.5f, 43);
+    fill(bb, (size_t)B * Co, -0.5f, 0.5f, 44), fill(add, nout, -1, 1, 45), fill(dout, nout, -1, 1, 46);
+    mf_conv2d_forward(o1, col, in, w, b, B, Ci, H, W, Co, K, 1);
+    for (int i = 0; i < B; ++i)
+        for (int o = 0; o < Co; ++o)
+            for (size_t p = 0; p < P; ++p) {
+                size_t k = ((size_t)i * Co + o) * P + p;
+                o1[k] = o1[k] + bb[i * Co + o] + add[k];
+            }
+    mf_conv2d_forward_ex(o2, col, in, w, b, bb, add, B, Ci, H, W, Co, K, 1);
+    double md = 0.0;
+    for (size_t i = 0; i < nout; ++i) md = fmax(md, fabs((double)o1[i] - o2[i]));
+    CHECK_MSG(md <= 1e-6, "conv%d ex forward: max diff %g to conv + bias_b + add", K, md);
+    /* backward: din_acc = 0 onto garbage equals += onto zeros; dbias_b sums to dbias */
+    fill(din2, nin, 5, 6, 47);
+    mf_conv2d_backward(din1, dw1, db1, col, dout, in, w, B, Ci, H, W, Co, K, 1);
+    mf_conv2d_backward_ex(din2, 0, dw2, db2, dbb, col, dout, in, w, B, Ci, H, W, Co, K, 1);
+    md = 0.0;
+    for (size_t i = 0; i < nin; ++i) md = fmax(md, fabs((double)din1[i] - din2[i]));
+    for (size_t i = 0; i < nw; ++i) md = fmax(md, fabs((double)dw1[i] - dw2[i]));
+    for (int o = 0; o < Co; ++o) {
+        double s = 0.0, r = 0.0;
+        for (int i = 0; i < B; ++i) s += dbb[i * Co + o];
+        for (int i = 0; i < B; ++i)
+            for (size_t p = 0; p < P; ++p) r += dout[((size_t)i * Co + o) * P + p];
+        md = fmax(md, fmax(fabs(s - r), fabs((double)db2[o] - r)) / fmax(1.0, fabs(r)));
+    }
+    CHECK_MSG(md <= 1e-5, "conv%d ex backward: max diff %g", K, md);
+    free(in), free(w), free(b), free(bb), free(add), free(dout), free(col), free(o1), free(o2);
+    free(din1), free(din2), free(dw1), free(dw2), free(db1), free(db2), free(dbb);
+}
+
+MF_TEST(nn_conv2d_fused_ex) {
+    conv_ex_case(3, 3, 5, 6);   /* grouped */
+    conv_ex_case(2, 3, 32, 32); /* one item per GEMM */
+    conv_ex_case(2, 1, 32, 32); /* 1x1 direct */
+    conv_ex_case(3, 1, 4, 5);   /* 1x1 grouped */
 }
 
 /* ---- upsample, SiLU, tokens, MSE ------------------------------------------------------------- */
@@ -207,6 +260,30 @@ MF_TEST(nn_silu_mse_grad) {
     float a[3] = {1, 2, 3}, b[3] = {1, 0, 0};
     CHECK_NEAR(mf_mse_forward(a, b, 3), (4.0 + 9.0) / 3.0, 1e-6);
     free(c.in), free(c.out), free(c.r), free(din);
+}
+
+/* SiLU's own exponential (mf_nn_layers.c nn_expf) against libm in double, over the whole float
+ * range it is used on and beyond its clamp; NaN stays NaN. */
+MF_TEST(nn_silu_accuracy) {
+    enum { N = 4001 };
+    float *x = fal(N + 3), *y = fal(N + 3), *dy = fal(N + 3), *one = fal(N + 3);
+    for (int i = 0; i < N; ++i) x[i] = -100.0f + 200.0f * (float)i / (N - 1), one[i] = 1.0f;
+    x[N] = 1e30f, x[N + 1] = -1e30f, x[N + 2] = NAN;
+    one[N] = one[N + 1] = one[N + 2] = 1.0f;
+    mf_silu_forward(y, x, N + 3);
+    mf_silu_backward(dy, one, x, N + 3);
+    double worst = 0.0, worst_g = 0.0;
+    for (int i = 0; i < N + 2; ++i) {
+        double xd = x[i], s = 1.0 / (1.0 + exp(-xd)), ref = xd * s, g = s * (1.0 + xd * (1.0 - s));
+        /* relative to the value, with an absolute floor (1e-26) far below any activation that matters */
+        worst = fmax(worst, fabs(y[i] - ref) / fmax(fabs(ref), 1e-20));
+        worst_g = fmax(worst_g, fabs(dy[i] - g) / fmax(fabs(g), 1e-3));
+    }
+    CHECK_MSG(worst < 1e-6, "silu: worst relative error %g", worst);
+    CHECK_MSG(worst_g < 2e-6, "silu': worst relative error %g", worst_g);
+    CHECK(y[N] == 1e30f && y[N + 1] == 0.0f && dy[N] == 1.0f && dy[N + 1] == 0.0f);
+    CHECK(isnan(y[N + 2]) && isnan(dy[N + 2]));
+    free(x), free(y), free(dy), free(one);
 }
 
 MF_TEST(nn_tokens_transpose_adjoint) {
@@ -313,6 +390,65 @@ MF_TEST(nn_groupnorm_grad) {
     gradcheck("groupnorm dbeta", gn_loss, &c, c.be, db, 4, 4);
     free(c.in), free(c.out), free(c.r), free(c.ga), free(c.be), free(c.mean), free(c.rstd);
     free(din), free(dg), free(db);
+}
+
+typedef struct {
+    GnCtx gn;
+    float *sig;
+} GnsCtx;
+
+static double gns_loss(void *p) {
+    GnsCtx *c = p;
+    GnCtx *g = &c->gn;
+    mf_gnsilu_forward(g->out, c->sig, g->mean, g->rstd, g->in, g->ga, g->be, g->B, g->C, g->HW, g->G, 1e-5f);
+    return dotd(g->out, g->r, (size_t)g->B * g->C * g->HW);
+}
+
+/* Group norm + SiLU in one pass: equal to the two layers within float rounding, exact gradients
+ * (central differences), din written (din_acc = 0) or accumulated; HW above the chunk of the
+ * backward's dh buffer (512) so the chunked loop runs more than once. */
+MF_TEST(nn_gnsilu_fused) {
+    int B = 2, C = 4, HW = 700, G = 2;
+    size_t n = (size_t)B * C * HW;
+    GnsCtx c = {.gn = {.B = B, .C = C, .HW = HW, .G = G}};
+    GnCtx *g = &c.gn;
+    g->in = fal(n), g->out = fal(n), g->r = fal(n), g->ga = fal(C), g->be = fal(C), g->mean = fal(4), g->rstd = fal(4);
+    c.sig = fal(n);
+    fill(g->in, n, -1, 2, 22), fill(g->r, n, -1, 1, 23), fill(g->ga, C, 0.5f, 1.5f, 24), fill(g->be, C, -0.5f, 0.5f, 25);
+    float *h = fal(n), *a = fal(n), *m2 = fal(4), *r2 = fal(4);
+    mf_groupnorm_forward(h, m2, r2, g->in, g->ga, g->be, B, C, HW, G, 1e-5f);
+    mf_silu_forward(a, h, n);
+    gns_loss(&c);
+    double md = 0.0, ms = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+        md = fmax(md, fabs((double)a[i] - g->out[i]));
+        ms = fmax(ms, fabs(1.0 / (1.0 + exp(-(double)h[i])) - c.sig[i]));
+    }
+    CHECK_MSG(md < 2e-6 && ms < 1e-6, "gnsilu vs groupnorm + silu: max diff %g (sigmoid cache %g)", md, ms);
+    CHECK(g->mean[0] == m2[0] && g->rstd[3] == r2[3]);
+    /* reference gradients: silu backward then groupnorm backward */
+    float *dh = fal(n), *dref = fal(n), *dgr = fal(C), *dbr = fal(C), *din = fal(n), *dg = fal(C), *db = fal(C);
+    mf_silu_backward(dh, g->r, h, n);
+    mf_groupnorm_backward(dref, dgr, dbr, dh, g->in, m2, r2, g->ga, B, C, HW, G);
+    fill(din, n, 7, 8, 26); /* written over */
+    mf_gnsilu_backward(din, 0, dg, db, g->r, g->in, c.sig, g->mean, g->rstd, g->ga, g->be, B, C, HW, G);
+    md = 0.0;
+    for (size_t i = 0; i < n; ++i) md = fmax(md, fabs((double)din[i] - dref[i]));
+    for (int i = 0; i < C; ++i) md = fmax(md, fmax(fabs((double)dg[i] - dgr[i]), fabs((double)db[i] - dbr[i])) / 100.0);
+    CHECK_MSG(md < 1e-5, "gnsilu backward vs silu + groupnorm backward: max diff %g", md);
+    gradcheck("gnsilu din", gns_loss, &c, g->in, din, n, 100);
+    gradcheck("gnsilu dgamma", gns_loss, &c, g->ga, dg, C, C);
+    gradcheck("gnsilu dbeta", gns_loss, &c, g->be, db, C, C);
+    /* din_acc = 1 adds onto what is there (the forward's cache again at the unperturbed input) */
+    gns_loss(&c);
+    float *din2 = fal(n);
+    for (size_t i = 0; i < n; ++i) din2[i] = 0.5f;
+    mf_gnsilu_backward(din2, 1, NULL, NULL, g->r, g->in, c.sig, g->mean, g->rstd, g->ga, g->be, B, C, HW, G);
+    md = 0.0;
+    for (size_t i = 0; i < n; ++i) md = fmax(md, fabs((double)din2[i] - 0.5 - din[i]));
+    CHECK_MSG(md < 1e-6, "gnsilu backward din_acc = 1: max diff %g", md);
+    free(g->in), free(g->out), free(g->r), free(g->ga), free(g->be), free(g->mean), free(g->rstd), free(c.sig);
+    free(h), free(a), free(m2), free(r2), free(dh), free(dref), free(dgr), free(dbr), free(din), free(dg), free(db), free(din2);
 }
 
 /* ---- linear -------------------------------------------------------------------------------------- */

@@ -56,6 +56,19 @@ void mf_conv2d_forward(float *out, float *col, const float *in, const float *w, 
 void mf_conv2d_backward(float *din, float *dw, float *dbias, float *col, const float *dout,
                         const float *in, const float *w, int B, int Cin, int H, int W, int Cout, int K,
                         int stride);
+/* The same two with the element-wise steps of a block fused into their copy passes (no extra pass
+ * over the activations):
+ * forward: out = conv(in) + bias[o] + bias_b[b, o] + add[b, o, y, x], added in that order;
+ *   bias_b (B, Cout) a per-image bias (a projected time embedding) or NULL; add (B, Cout, Ho, Wo) a
+ *   residual or NULL, not aliasing out.
+ * backward: dbias_b (B, Cout) += per-image spatial sums of dout (or NULL); din_acc = 0: din is
+ *   written (=) instead of accumulated, so a scratch gradient needs no zeroing. */
+void mf_conv2d_forward_ex(float *out, float *col, const float *in, const float *w, const float *bias,
+                          const float *bias_b, const float *add, int B, int Cin, int H, int W, int Cout, int K,
+                          int stride);
+void mf_conv2d_backward_ex(float *din, int din_acc, float *dw, float *dbias, float *dbias_b, float *col,
+                           const float *dout, const float *in, const float *w, int B, int Cin, int H, int W,
+                           int Cout, int K, int stride);
 
 /* ---- nearest upsample x2 ---------------------------------------------------------------- */
 
@@ -82,6 +95,19 @@ void mf_groupnorm_backward(float *din, float *dgamma, float *dbeta, const float 
 void mf_silu_forward(float *out, const float *in, size_t n);
 /* din (n) += dout * silu'(in) (in is the forward INPUT). */
 void mf_silu_backward(float *din, const float *dout, const float *in, size_t n);
+
+/* ---- group norm + SiLU in one pass ------------------------------------------------------------ */
+
+/* out (B, C, HW) = SiLU(GN(in)) with GN as mf_groupnorm_forward, computed in the same pass as the
+ * statistics' last read; caches mean, rstd (B, G) and sig (B, C, HW) = sigmoid(GN(in)), from which
+ * the backward gets SiLU' without another exponential (GN(in) itself is recomputed from in). */
+void mf_gnsilu_forward(float *out, float *sig, float *mean, float *rstd, const float *in, const float *gamma,
+                       const float *beta, int B, int C, int HW, int G, float eps);
+/* din (B, C, HW) += (din_acc = 1) or = (din_acc = 0) the input gradient, dgamma (C) +=, dbeta (C) +=
+ * (both NULL: not computed) from da (B, C, HW), the gradient of out; din may be NULL. */
+void mf_gnsilu_backward(float *din, int din_acc, float *dgamma, float *dbeta, const float *da, const float *in,
+                        const float *sig, const float *mean, const float *rstd, const float *gamma,
+                        const float *beta, int B, int C, int HW, int G);
 
 /* ---- GELU (tanh approximation, as GPT-2 / llm.c) ----------------------------------------- */
 
@@ -178,15 +204,15 @@ typedef struct {
 
 /* Activations and backward scratch (one flat buffer, bound by mf_resblock_acts_bind). */
 typedef struct {
-    float *h1;           // (B, Cin, H, W)  GN1(x)
+    float *s1;           // (B, Cin, H, W)  sigmoid(GN1(x)) (mf_gnsilu_forward's cache)
     float *mean1, *rstd1; // (B, G)
-    float *a1;           // (B, Cin, H, W)  SiLU(h1)
+    float *a1;           // (B, Cin, H, W)  SiLU(GN1(x))
     float *tsilu;        // (B, Ct)         SiLU(temb)
     float *tproj;        // (B, Cout)       projection of SiLU(temb)
     float *c1;           // (B, Cout, H, W) conv1(a1) + tproj
-    float *h2;           // (B, Cout, H, W) GN2(c1)
+    float *s2;           // (B, Cout, H, W) sigmoid(GN2(c1))
     float *mean2, *rstd2; // (B, G)
-    float *a2;           // (B, Cout, H, W) SiLU(h2)
+    float *a2;           // (B, Cout, H, W) SiLU(GN2(c1))
     float *col;          // conv scratch, max of mf_conv2d_col_floats of conv1, conv2, skip
     float *gA, *gB;      // (B, max(Cin, Cout), H, W) backward scratch
     float *gt;           // (B, Cout + Ct) backward scratch

@@ -67,14 +67,14 @@ void mf_resblock_acts_bind(MfResBlockActs *a, const MfResBlockDims *d, float *me
     size_t cm = (size_t)(d->Cin > d->Cout ? d->Cin : d->Cout);
     float *p = mem;
 #define TAKE(field, count) (a->field = p, p += (count))
-    TAKE(h1, B * d->Cin * hw);
+    TAKE(s1, B * d->Cin * hw);
     TAKE(mean1, B * d->G);
     TAKE(rstd1, B * d->G);
     TAKE(a1, B * d->Cin * hw);
     TAKE(tsilu, B * d->Ct);
     TAKE(tproj, B * d->Cout);
     TAKE(c1, B * d->Cout * hw);
-    TAKE(h2, B * d->Cout * hw);
+    TAKE(s2, B * d->Cout * hw);
     TAKE(mean2, B * d->G);
     TAKE(rstd2, B * d->G);
     TAKE(a2, B * d->Cout * hw);
@@ -108,73 +108,56 @@ void mf_resblock_init(MfResBlockW *w, const MfResBlockDims *d, unsigned long lon
 void mf_resblock_forward(float *out, MfResBlockActs *a, const float *x, const float *temb,
                          const MfResBlockW *w, const MfResBlockDims *d) {
     int B = d->B, Ci = d->Cin, Co = d->Cout, H = d->H, W = d->W, HW = d->H * d->W;
-    size_t nin = (size_t)B * Ci * HW, nout = (size_t)B * Co * HW;
-    mf_groupnorm_forward(a->h1, a->mean1, a->rstd1, x, w->gn1_w, w->gn1_b, B, Ci, HW, d->G, d->eps);
-    mf_silu_forward(a->a1, a->h1, nin);
-    mf_conv2d_forward(a->c1, a->col, a->a1, w->conv1_w, w->conv1_b, B, Ci, H, W, Co, 3, 1);
+    const float *tproj = NULL;
+    mf_gnsilu_forward(a->a1, a->s1, a->mean1, a->rstd1, x, w->gn1_w, w->gn1_b, B, Ci, HW, d->G, d->eps);
     if (d->Ct > 0 && temb) {
         mf_silu_forward(a->tsilu, temb, (size_t)B * d->Ct);
         mf_linear_forward(a->tproj, a->tsilu, w->temb_w, w->temb_b, B, d->Ct, Co);
-        for (int b = 0; b < B; ++b)
-            for (int c = 0; c < Co; ++c) {
-                float t = a->tproj[(size_t)b * Co + c], *row = a->c1 + ((size_t)b * Co + c) * HW;
-                for (int p = 0; p < HW; ++p) row[p] += t;
-            }
+        tproj = a->tproj;
     }
-    mf_groupnorm_forward(a->h2, a->mean2, a->rstd2, a->c1, w->gn2_w, w->gn2_b, B, Co, HW, d->G, d->eps);
-    mf_silu_forward(a->a2, a->h2, nout);
-    mf_conv2d_forward(out, a->col, a->a2, w->conv2_w, w->conv2_b, B, Co, H, W, Co, 3, 1);
+    /* c1 = conv1(a1) + conv1_b + tproj[b] (broadcast over H, W), in the conv's copy pass */
+    mf_conv2d_forward_ex(a->c1, a->col, a->a1, w->conv1_w, w->conv1_b, tproj, NULL, B, Ci, H, W, Co, 3, 1);
+    mf_gnsilu_forward(a->a2, a->s2, a->mean2, a->rstd2, a->c1, w->gn2_w, w->gn2_b, B, Co, HW, d->G, d->eps);
+    /* out = conv2(a2) + conv2_b + skip(x), the skip added in the conv's copy pass (a 1x1 skip conv is
+     * computed into gA first, which is backward scratch) */
+    const float *skip = x;
     if (w->skip_w) {
-        /* out += skip(x): 1x1 conv into gA, then add */
         mf_conv2d_forward(a->gA, a->col, x, w->skip_w, w->skip_b, B, Ci, H, W, Co, 1, 1);
-        for (size_t i = 0; i < nout; ++i) out[i] += a->gA[i];
-    } else {
-        for (size_t i = 0; i < nout; ++i) out[i] += x[i];
+        skip = a->gA;
     }
+    mf_conv2d_forward_ex(out, a->col, a->a2, w->conv2_w, w->conv2_b, NULL, skip, B, Co, H, W, Co, 3, 1);
 }
 
 void mf_resblock_backward(float *dx, float *dtemb, MfResBlockW *g, MfResBlockActs *a,
                           const float *dout, const float *x, const float *temb, const MfResBlockW *w,
                           const MfResBlockDims *d) {
     int B = d->B, Ci = d->Cin, Co = d->Cout, H = d->H, W = d->W, HW = d->H * d->W;
-    size_t nin = (size_t)B * Ci * HW, nout = (size_t)B * Co * HW;
+    size_t nin = (size_t)B * Ci * HW;
+    int has_t = d->Ct > 0 && temb;
+    float *dtp = a->gt, *dts = a->gt + (size_t)B * Co; /* (B, Co) gradient of tproj, (B, Ct) of tsilu */
     /* skip path */
     if (w->skip_w)
         mf_conv2d_backward(dx, g->skip_w, g->skip_b, a->col, dout, x, w->skip_w, B, Ci, H, W, Co, 1, 1);
     else
         for (size_t i = 0; i < nin; ++i) dx[i] += dout[i];
-    /* conv2: dA2 -> gA */
-    memset(a->gA, 0, nout * sizeof(float));
-    mf_conv2d_backward(a->gA, g->conv2_w, g->conv2_b, a->col, dout, a->a2, w->conv2_w, B, Co, H, W, Co, 3, 1);
-    /* SiLU: dH2 -> gB */
-    memset(a->gB, 0, nout * sizeof(float));
-    mf_silu_backward(a->gB, a->gA, a->h2, nout);
-    /* GN2: dC1 -> gA */
-    memset(a->gA, 0, nout * sizeof(float));
-    mf_groupnorm_backward(a->gA, g->gn2_w, g->gn2_b, a->gB, a->c1, a->mean2, a->rstd2, w->gn2_w, B, Co,
-                          HW, d->G);
-    /* time embedding: dtproj (B, Co) = spatial sums of dC1 */
-    if (d->Ct > 0 && temb) {
-        float *dtp = a->gt, *dts = a->gt + (size_t)B * Co;
-        for (int b = 0; b < B; ++b)
-            for (int c = 0; c < Co; ++c) {
-                const float *row = a->gA + ((size_t)b * Co + c) * HW;
-                double s = 0.0;
-                for (int p = 0; p < HW; ++p) s += row[p];
-                dtp[(size_t)b * Co + c] = (float)s;
-            }
+    /* conv2: dA2 -> gA (written) */
+    mf_conv2d_backward_ex(a->gA, 0, g->conv2_w, g->conv2_b, NULL, a->col, dout, a->a2, w->conv2_w, B, Co, H, W,
+                          Co, 3, 1);
+    /* GN2 + SiLU: dC1 -> gB (written) */
+    mf_gnsilu_backward(a->gB, 0, g->gn2_w, g->gn2_b, a->gA, a->c1, a->s2, a->mean2, a->rstd2, w->gn2_w, w->gn2_b,
+                       B, Co, HW, d->G);
+    /* conv1: dA1 -> gA (written); dtproj (B, Co) = spatial sums of dC1, in the conv's bias pass */
+    if (has_t) memset(dtp, 0, (size_t)B * Co * sizeof(float));
+    mf_conv2d_backward_ex(a->gA, 0, g->conv1_w, g->conv1_b, has_t ? dtp : NULL, a->col, a->gB, a->a1, w->conv1_w,
+                          B, Ci, H, W, Co, 3, 1);
+    if (has_t) {
         memset(dts, 0, (size_t)B * d->Ct * sizeof(float));
         mf_linear_backward(dts, g->temb_w, g->temb_b, dtp, a->tsilu, w->temb_w, B, d->Ct, Co);
         if (dtemb) mf_silu_backward(dtemb, dts, temb, (size_t)B * d->Ct);
     }
-    /* conv1: dA1 -> gB */
-    memset(a->gB, 0, nin * sizeof(float));
-    mf_conv2d_backward(a->gB, g->conv1_w, g->conv1_b, a->col, a->gA, a->a1, w->conv1_w, B, Ci, H, W, Co, 3, 1);
-    /* SiLU: dH1 -> gA */
-    memset(a->gA, 0, nin * sizeof(float));
-    mf_silu_backward(a->gA, a->gB, a->h1, nin);
-    /* GN1 -> dx */
-    mf_groupnorm_backward(dx, g->gn1_w, g->gn1_b, a->gA, x, a->mean1, a->rstd1, w->gn1_w, B, Ci, HW, d->G);
+    /* GN1 + SiLU -> dx (accumulated) */
+    mf_gnsilu_backward(dx, 1, g->gn1_w, g->gn1_b, a->gA, x, a->s1, a->mean1, a->rstd1, w->gn1_w, w->gn1_b, B, Ci,
+                       HW, d->G);
 }
 
 /* ---- spatial self-attention block ---------------------------------------------------------- */

@@ -102,26 +102,21 @@ void mf_knorm_init(const MfKNorm *n, float *params) {
 
 void mf_knorm_acts(MfKNormActs *a, MfArena *ar, int B, int C, int HW, int G) {
     size_t n = (size_t)B * C * HW;
-    a->h = mf_arena_take(ar, n);
+    a->sig = mf_arena_take(ar, n);
     a->mean = mf_arena_take(ar, (size_t)B * G);
     a->rstd = mf_arena_take(ar, (size_t)B * G);
     a->a = mf_arena_take(ar, n);
-    a->g = mf_arena_take(ar, n);
 }
 
 void mf_knorm_forward(const MfKNorm *n, const float *params, MfKNormActs *a, const float *in, int B, int HW) {
-    mf_groupnorm_forward(a->h, a->mean, a->rstd, in, params + n->off, params + n->off + n->C, B, n->C, HW, n->G,
-                         MF_KNORM_EPS);
-    mf_silu_forward(a->a, a->h, (size_t)B * n->C * HW);
+    mf_gnsilu_forward(a->a, a->sig, a->mean, a->rstd, in, params + n->off, params + n->off + n->C, B, n->C, HW, n->G,
+                      MF_KNORM_EPS);
 }
 
 void mf_knorm_backward(const MfKNorm *n, const float *params, float *grads, MfKNormActs *a, float *din,
                        const float *dout, const float *in, int B, int HW) {
-    size_t sz = (size_t)B * n->C * HW;
-    memset(a->g, 0, sz * sizeof(float));
-    mf_silu_backward(a->g, dout, a->h, sz);
-    mf_groupnorm_backward(din, grads ? grads + n->off : NULL, grads ? grads + n->off + n->C : NULL, a->g, in, a->mean, a->rstd,
-                          params + n->off, B, n->C, HW, n->G);
+    mf_gnsilu_backward(din, 1, grads ? grads + n->off : NULL, grads ? grads + n->off + n->C : NULL, dout, in, a->sig,
+                       a->mean, a->rstd, params + n->off, params + n->off + n->C, B, n->C, HW, n->G);
 }
 
 /* ---- linear ---------------------------------------------------------------------------------- */

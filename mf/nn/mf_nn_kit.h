@@ -6,7 +6,7 @@
  *   `params + off` and its gradients `grads + off` (llm.c style: one buffer per model).
  * - MfArena: activations taken in a fixed order from one float buffer. A layout function run
  *   with base == NULL only counts floats; run again with a buffer it binds the same pointers.
- * - MfKConv (conv2d with bias) and MfKNorm (group norm followed by SiLU) with forward/backward
+ * - MfKConv (conv2d with bias) and MfKNorm (group norm followed by SiLU, one fused pass) with forward/backward
  *   pairs; backward accumulates (+=) into every gradient, as everywhere in mf/nn.
  * Layout NCHW float32 throughout. */
 #ifndef MF_NN_KIT_H
@@ -59,10 +59,9 @@ typedef struct {
 } MfKNorm;
 
 typedef struct {
-    float *h;           // (B, C, HW) GN output
+    float *sig;         // (B, C, HW) sigmoid(GN(in)), mf_gnsilu_forward's cache
     float *mean, *rstd; // (B, G)
-    float *a;           // (B, C, HW) SiLU(h), the layer's output
-    float *g;           // (B, C, HW) backward scratch
+    float *a;           // (B, C, HW) SiLU(GN(in)), the layer's output
 } MfKNormActs;
 
 size_t mf_knorm_add(MfKNorm *n, MfSpecTab *t, const char *name, int C, int G);

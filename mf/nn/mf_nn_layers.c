@@ -2,6 +2,7 @@
  * transposes, attention, timestep embedding, MSE) and the parameter-table helpers. */
 #include <cblas.h>
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -61,10 +62,72 @@ static void valid_cols(int W, int Wo, int pad, int kj, int stride, int *lo, int 
     if (*hi < *lo) *hi = *lo;
 }
 
+/* Stride 1 with odd K (Ho = H, Wo = W): tap (ki, kj) reads the input plane shifted by
+ * sh = (ki - pad)*W + (kj - pad), so its col row is ONE contiguous copy of the plane (and col2im
+ * one contiguous add) over the output rows [y0, y1) whose input row exists, clipped to
+ * q + sh in [0, H*W) as [q0, q1); output columns outside [x0, x1) wrap to the neighbouring row and
+ * are fixed up (zeroed) separately. Elements of [y0*W, y1*W) outside [q0, q1) are such columns. */
+typedef struct {
+    int y0, y1, x0, x1, q0, q1, sh;
+} ConvTap;
+
+#define CONV_TAPS_MAX 49 /* the stride-1 paths take K <= 7 */
+
+static void conv_taps_s1(ConvTap *t, int H, int W, int K) {
+    int pad = K / 2, HW = H * W;
+    for (int ki = 0; ki < K; ++ki)
+        for (int kj = 0; kj < K; ++kj, ++t) {
+            int dy = ki - pad, dx = kj - pad;
+            t->y0 = dy < 0 ? (-dy < H ? -dy : H) : 0;
+            t->y1 = dy > 0 ? H - dy : H;
+            if (t->y1 < t->y0) t->y1 = t->y0;
+            t->x0 = dx < 0 ? (-dx < W ? -dx : W) : 0;
+            t->x1 = dx > 0 ? W - dx : W;
+            if (t->x1 < t->x0) t->x1 = t->x0;
+            t->sh = dy * W + dx;
+            t->q0 = t->y0 * W, t->q1 = t->y1 * W;
+            if (t->q0 + t->sh < 0) t->q0 = -t->sh;
+            if (t->q1 + t->sh > HW) t->q1 = HW - t->sh;
+            if (t->q1 < t->q0) t->q1 = t->q0;
+        }
+}
+
+static int conv_s1_fast(int K, int stride, int H, int W, int Ho, int Wo) {
+    return stride == 1 && K <= 7 && Ho == H && Wo == W;
+}
+
+/* Zeroes, in rows [y0, y1) of the plane d (H, W), the columns outside [x0, x1) (column by column:
+ * a 3x3 tap has at most one, and a loop along a row of one element would become a memset call). */
+static inline void zero_edge_cols(float *d, int W, const ConvTap *t) {
+    for (int x = 0; x < t->x0; ++x)
+        for (int y = t->y0; y < t->y1; ++y) d[(size_t)y * W + x] = 0.0f;
+    for (int x = t->x1; x < W; ++x)
+        for (int y = t->y0; y < t->y1; ++y) d[(size_t)y * W + x] = 0.0f;
+}
+
 /* col (Cin*K*K, Ho*Wo; row stride ld) from in (Cin, H, W). */
-static void im2col(float *col, size_t ld, const float *in, int Cin, int H, int W, int K, int stride,
-                   int Ho, int Wo) {
+static void im2col(float *restrict col, size_t ld, const float *restrict in, int Cin, int H, int W, int K,
+                   int stride, int Ho, int Wo) {
     int pad = K / 2;
+    if (conv_s1_fast(K, stride, H, W, Ho, Wo)) {
+        ConvTap taps[CONV_TAPS_MAX];
+        conv_taps_s1(taps, H, W, K);
+        int HW = H * W, KK = K * K;
+        for (int c = 0; c < Cin; ++c) {
+            const float *restrict src = in + (size_t)c * HW;
+            for (int k = 0; k < KK; ++k) {
+                const ConvTap *t = &taps[k];
+                float *restrict d = col + ((size_t)c * KK + k) * ld;
+                int sh = t->sh;
+                for (int q = 0; q < t->y0 * W; ++q) d[q] = 0.0f;
+#pragma omp simd
+                for (int q = t->q0; q < t->q1; ++q) d[q] = src[q + sh];
+                for (int q = t->y1 * W; q < HW; ++q) d[q] = 0.0f;
+                zero_edge_cols(d, W, t);
+            }
+        }
+        return;
+    }
     for (int r = 0; r < Cin * K * K; ++r) {
         int c = r / (K * K), ki = (r / K) % K, kj = r % K, lo, hi;
         valid_cols(W, Wo, pad, kj, stride, &lo, &hi);
@@ -88,10 +151,30 @@ static void im2col(float *col, size_t ld, const float *in, int Cin, int H, int W
     }
 }
 
-/* din (Cin, H, W) += col2im(col (Cin*K*K, Ho*Wo; row stride ld)). */
-static void col2im_add(float *din, const float *col, size_t ld, int Cin, int H, int W, int K,
-                       int stride, int Ho, int Wo) {
+/* din (Cin, H, W) += col2im(col (Cin*K*K, Ho*Wo; row stride ld)), or = when acc is 0. Each input
+ * element receives its taps in (ki, kj) order. col is scratch: the stride-1 path zeroes its
+ * wrapping edge columns. */
+static void col2im(float *restrict din, int acc, float *restrict col, size_t ld, int Cin, int H, int W, int K,
+                   int stride, int Ho, int Wo) {
     int pad = K / 2;
+    if (!acc) memset(din, 0, sizeof(float) * (size_t)Cin * H * W);
+    if (conv_s1_fast(K, stride, H, W, Ho, Wo)) {
+        ConvTap taps[CONV_TAPS_MAX];
+        conv_taps_s1(taps, H, W, K);
+        int HW = H * W, KK = K * K;
+        for (int c = 0; c < Cin; ++c) {
+            float *restrict dst = din + (size_t)c * HW;
+            for (int k = 0; k < KK; ++k) {
+                const ConvTap *t = &taps[k];
+                float *restrict s = col + ((size_t)c * KK + k) * ld;
+                int sh = t->sh;
+                zero_edge_cols(s, W, t); /* they add +0 to the wrapped neighbours */
+#pragma omp simd
+                for (int q = t->q0; q < t->q1; ++q) dst[q + sh] += s[q];
+            }
+        }
+        return;
+    }
     for (int c = 0; c < Cin; ++c) {
         float *dst = din + (size_t)c * H * W;
         for (int ki = 0; ki < K; ++ki)
@@ -113,16 +196,33 @@ static void col2im_add(float *din, const float *col, size_t ld, int Cin, int H, 
     }
 }
 
-static void add_bias_rows(float *out_b, const float *bias, int Cout, int P) {
-    if (!bias) return;
+/* out_b (Cout, P) = g (Cout, P; row stride ldg) + bias[o] + bias_b[o] (+ add_b (Cout, P)), added in
+ * that order; NULL terms are skipped (as +0). out_b may be g (ldg = P). */
+static void conv_out_rows(float *out_b, const float *g, size_t ldg, const float *bias, const float *bias_b,
+                          const float *add_b, int Cout, int P) {
     for (int o = 0; o < Cout; ++o) {
-        float bo = bias[o], *row = out_b + (size_t)o * P;
-        for (int p = 0; p < P; ++p) row[p] += bo;
+        float bo = bias ? bias[o] : 0.0f, bb = bias_b ? bias_b[o] : 0.0f;
+        const float *gr = g + (size_t)o * ldg;
+        float *orow = out_b + (size_t)o * P;
+        if (add_b) {
+            const float *ar = add_b + (size_t)o * P;
+#pragma omp simd
+            for (int p = 0; p < P; ++p) orow[p] = gr[p] + bo + bb + ar[p];
+        } else {
+#pragma omp simd
+            for (int p = 0; p < P; ++p) orow[p] = gr[p] + bo + bb;
+        }
     }
 }
 
 void mf_conv2d_forward(float *out, float *col, const float *in, const float *w, const float *bias,
                        int B, int Cin, int H, int W, int Cout, int K, int stride) {
+    mf_conv2d_forward_ex(out, col, in, w, bias, NULL, NULL, B, Cin, H, W, Cout, K, stride);
+}
+
+void mf_conv2d_forward_ex(float *out, float *col, const float *in, const float *w, const float *bias,
+                          const float *bias_b, const float *add, int B, int Cin, int H, int W, int Cout, int K,
+                          int stride) {
     int Ho = mf_conv2d_out_size(H, K, stride), Wo = mf_conv2d_out_size(W, K, stride);
     int P = Ho * Wo, CKK = Cin * K * K, nb = conv_chunk(B, P);
     size_t in_sz = (size_t)Cin * H * W, out_sz = (size_t)Cout * P;
@@ -136,14 +236,17 @@ void mf_conv2d_forward(float *out, float *col, const float *in, const float *w, 
                 im2col(col, (size_t)P, in_b, Cin, H, W, K, stride, Ho, Wo);
                 colp = col;
             }
-            /* out_b (Cout, P) = w (Cout, CKK) . col (CKK, P) */
+            /* out_b (Cout, P) = w (Cout, CKK) . col (CKK, P), then the bias terms in place */
             nn_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, Cout, P, CKK, 1.0f, w, CKK, colp, P,
                         0.0f, out_b, P);
-            add_bias_rows(out_b, bias, Cout, P);
+            if (bias || bias_b || add)
+                conv_out_rows(out_b, out_b, (size_t)P, bias, bias_b ? bias_b + (size_t)b * Cout : NULL,
+                              add ? add + b * out_sz : NULL, Cout, P);
         }
         return;
     }
-    /* grouped: col (CKK, n*P) holds n items side by side; tmp (Cout, n*P) is the GEMM result */
+    /* grouped: col (CKK, n*P) holds n items side by side; tmp (Cout, n*P) is the GEMM result, copied
+     * to out with the bias terms in the same pass */
     float *tmp = col + (size_t)CKK * nb * P;
     for (int b0 = 0; b0 < B; b0 += nb) {
         int n = B - b0 < nb ? B - b0 : nb, NP = n * P;
@@ -152,27 +255,39 @@ void mf_conv2d_forward(float *out, float *col, const float *in, const float *w, 
         nn_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, Cout, NP, CKK, 1.0f, w, CKK, col, NP, 0.0f,
                     tmp, NP);
         for (int i = 0; i < n; ++i) {
-            float *out_b = out + (b0 + i) * out_sz;
-            for (int o = 0; o < Cout; ++o)
-                memcpy(out_b + (size_t)o * P, tmp + (size_t)o * NP + (size_t)i * P, sizeof(float) * (size_t)P);
-            add_bias_rows(out_b, bias, Cout, P);
+            int b = b0 + i;
+            conv_out_rows(out + b * out_sz, tmp + (size_t)i * P, (size_t)NP, bias,
+                          bias_b ? bias_b + (size_t)b * Cout : NULL, add ? add + b * out_sz : NULL, Cout, P);
         }
     }
 }
 
-static void bias_grad_rows(float *dbias, const float *dout_b, int Cout, int P) {
-    if (!dbias) return;
+/* Row sums of g (Cout, P) (four interleaved partial sums): dbias[o] += and dbias_b[o] += (either
+ * NULL); when t is given, also copies g into t (Cout, P; row stride ldt). */
+static void conv_dout_rows(float *t, size_t ldt, float *dbias, float *dbias_b, const float *g, int Cout, int P) {
     for (int o = 0; o < Cout; ++o) {
-        const float *row = dout_b + (size_t)o * P;
-        float s = 0.0f;
-        for (int p = 0; p < P; ++p) s += row[p];
-        dbias[o] += s;
+        const float *row = g + (size_t)o * P;
+        if (t) memcpy(t + (size_t)o * ldt, row, sizeof(float) * (size_t)P);
+        if (!dbias && !dbias_b) continue;
+        float s0 = 0.0f, s1 = 0.0f, s2 = 0.0f, s3 = 0.0f;
+        int p = 0;
+        for (; p + 4 <= P; p += 4) s0 += row[p], s1 += row[p + 1], s2 += row[p + 2], s3 += row[p + 3];
+        for (; p < P; ++p) s0 += row[p];
+        float s = (s0 + s1) + (s2 + s3);
+        if (dbias) dbias[o] += s;
+        if (dbias_b) dbias_b[o] += s;
     }
 }
 
 void mf_conv2d_backward(float *din, float *dw, float *dbias, float *col, const float *dout,
                         const float *in, const float *w, int B, int Cin, int H, int W, int Cout, int K,
                         int stride) {
+    mf_conv2d_backward_ex(din, 1, dw, dbias, NULL, col, dout, in, w, B, Cin, H, W, Cout, K, stride);
+}
+
+void mf_conv2d_backward_ex(float *din, int din_acc, float *dw, float *dbias, float *dbias_b, float *col,
+                           const float *dout, const float *in, const float *w, int B, int Cin, int H, int W,
+                           int Cout, int K, int stride) {
     int Ho = mf_conv2d_out_size(H, K, stride), Wo = mf_conv2d_out_size(W, K, stride);
     int P = Ho * Wo, CKK = Cin * K * K, nb = conv_chunk(B, P);
     size_t in_sz = (size_t)Cin * H * W, out_sz = (size_t)Cout * P;
@@ -189,18 +304,18 @@ void mf_conv2d_backward(float *din, float *dw, float *dbias, float *col, const f
             if (dw)
                 nn_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, Cout, CKK, P, 1.0f, dout_b, P, colp, P,
                          1.0f, dw, CKK);
-            bias_grad_rows(dbias, dout_b, Cout, P);
+            conv_dout_rows(NULL, 0, dbias, dbias_b ? dbias_b + (size_t)b * Cout : NULL, dout_b, Cout, P);
             if (!din) continue;
             float *din_b = din + b * in_sz;
             if (direct) {
-                /* din_b (Cin, P) += w^T (Cin, Cout) . dout_b (Cout, P) */
+                /* din_b (Cin, P) (+)= w^T (Cin, Cout) . dout_b (Cout, P) */
                 nn_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, Cin, P, Cout, 1.0f, w, Cin, dout_b, P,
-                            1.0f, din_b, P);
+                            din_acc ? 1.0f : 0.0f, din_b, P);
             } else {
                 /* dcol (CKK, P) = w^T (CKK, Cout) . dout_b (Cout, P), then scatter-add */
                 nn_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, CKK, P, Cout, 1.0f, w, CKK, dout_b, P,
                             0.0f, col, P);
-                col2im_add(din_b, col, (size_t)P, Cin, H, W, K, stride, Ho, Wo);
+                col2im(din_b, din_acc, col, (size_t)P, Cin, H, W, K, stride, Ho, Wo);
             }
         }
         return;
@@ -209,11 +324,10 @@ void mf_conv2d_backward(float *din, float *dw, float *dbias, float *col, const f
     for (int b0 = 0; b0 < B; b0 += nb) {
         int n = B - b0 < nb ? B - b0 : nb, NP = n * P;
         for (int i = 0; i < n; ++i) {
-            const float *dout_b = dout + (b0 + i) * out_sz;
-            if (dw) im2col(col + (size_t)i * P, (size_t)NP, in + (b0 + i) * in_sz, Cin, H, W, K, stride, Ho, Wo);
-            for (int o = 0; o < Cout; ++o)
-                memcpy(tmp + (size_t)o * NP + (size_t)i * P, dout_b + (size_t)o * P, sizeof(float) * (size_t)P);
-            bias_grad_rows(dbias, dout_b, Cout, P);
+            int b = b0 + i;
+            if (dw) im2col(col + (size_t)i * P, (size_t)NP, in + b * in_sz, Cin, H, W, K, stride, Ho, Wo);
+            conv_dout_rows(tmp + (size_t)i * P, (size_t)NP, dbias, dbias_b ? dbias_b + (size_t)b * Cout : NULL,
+                           dout + b * out_sz, Cout, P);
         }
         if (dw)
             nn_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, Cout, CKK, NP, 1.0f, tmp, NP, col, NP, 1.0f, dw,
@@ -222,7 +336,7 @@ void mf_conv2d_backward(float *din, float *dw, float *dbias, float *col, const f
         nn_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, CKK, NP, Cout, 1.0f, w, CKK, tmp, NP, 0.0f, col,
                     NP);
         for (int i = 0; i < n; ++i)
-            col2im_add(din + (b0 + i) * in_sz, col + (size_t)i * P, (size_t)NP, Cin, H, W, K, stride, Ho, Wo);
+            col2im(din + (b0 + i) * in_sz, din_acc, col + (size_t)i * P, (size_t)NP, Cin, H, W, K, stride, Ho, Wo);
     }
 }
 
@@ -258,6 +372,29 @@ void mf_upsample2x_backward(float *din, const float *dout, int B, int C, int H, 
 
 /* ---- group norm ------------------------------------------------------------------------------ */
 
+/* Sum of x (n floats) in double, four interleaved partial sums (a latency chain a quarter as long). */
+static double sum_d(const float *x, size_t n) {
+    double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+    size_t i = 0;
+    for (; i + 4 <= n; i += 4) s0 += x[i], s1 += x[i + 1], s2 += x[i + 2], s3 += x[i + 3];
+    for (; i < n; ++i) s0 += x[i];
+    return (s0 + s1) + (s2 + s3);
+}
+
+/* Mean and 1/sqrt(var + eps) (population variance) of a group x (n floats), two passes in double. */
+static void gn_stats(const float *x, size_t n, float eps, float *mean, float *rstd) {
+    double mu = sum_d(x, n) / (double)n, v0 = 0.0, v1 = 0.0, v2 = 0.0, v3 = 0.0;
+    size_t i = 0;
+    for (; i + 4 <= n; i += 4) {
+        double d0 = x[i] - mu, d1 = x[i + 1] - mu, d2 = x[i + 2] - mu, d3 = x[i + 3] - mu;
+        v0 += d0 * d0, v1 += d1 * d1, v2 += d2 * d2, v3 += d3 * d3;
+    }
+    for (; i < n; ++i) v0 += (x[i] - mu) * (x[i] - mu);
+    double v = (v0 + v1) + (v2 + v3);
+    *mean = (float)mu;
+    *rstd = (float)(1.0 / sqrt(v / (double)n + eps));
+}
+
 void mf_groupnorm_forward(float *out, float *mean, float *rstd, const float *in, const float *gamma,
                           const float *beta, int B, int C, int HW, int G, float eps) {
     int cpg = C / G;
@@ -266,14 +403,8 @@ void mf_groupnorm_forward(float *out, float *mean, float *rstd, const float *in,
         int b = bg / G, g = bg % G;
         size_t off = ((size_t)b * C + (size_t)g * cpg) * HW;
         const float *x = in + off;
-        double s = 0.0;
-        for (size_t i = 0; i < n; ++i) s += x[i];
-        double mu = s / (double)n, v = 0.0;
-        for (size_t i = 0; i < n; ++i) {
-            double d = x[i] - mu;
-            v += d * d;
-        }
-        float m = (float)mu, rs = (float)(1.0 / sqrt(v / (double)n + eps));
+        float m, rs;
+        gn_stats(x, n, eps, &m, &rs);
         mean[bg] = m;
         rstd[bg] = rs;
         for (int cc = 0; cc < cpg; ++cc) {
@@ -281,67 +412,215 @@ void mf_groupnorm_forward(float *out, float *mean, float *rstd, const float *in,
             float ga = gamma[c] * rs, be = beta[c];
             const float *xc = x + (size_t)cc * HW;
             float *o = out + off + (size_t)cc * HW;
+#pragma omp simd
             for (int p = 0; p < HW; ++p) o[p] = (xc[p] - m) * ga + be;
         }
     }
+}
+
+/* The double sums of the group norm backward over one channel row: *dgs += sum dy*xh, *dbs += sum dy,
+ * with xh = (x - m)*rs (four interleaved partial sums each). */
+static void gn_row_sums(const float *x, const float *dy, int HW, float m, float rs, double *dgs, double *dbs) {
+    double g0 = 0.0, g1 = 0.0, g2 = 0.0, g3 = 0.0, b0 = 0.0, b1 = 0.0, b2 = 0.0, b3 = 0.0;
+    int p = 0;
+    for (; p + 4 <= HW; p += 4) {
+        float h0 = (x[p] - m) * rs, h1 = (x[p + 1] - m) * rs, h2 = (x[p + 2] - m) * rs, h3 = (x[p + 3] - m) * rs;
+        g0 += (double)dy[p] * h0, g1 += (double)dy[p + 1] * h1, g2 += (double)dy[p + 2] * h2, g3 += (double)dy[p + 3] * h3;
+        b0 += dy[p], b1 += dy[p + 1], b2 += dy[p + 2], b3 += dy[p + 3];
+    }
+    for (; p < HW; ++p) g0 += (double)dy[p] * ((x[p] - m) * rs), b0 += dy[p];
+    *dgs += (g0 + g1) + (g2 + g3);
+    *dbs += (b0 + b1) + (b2 + b3);
+}
+
+/* One group of the group norm backward: dgamma/dbeta of its channels and the two means m1, m2 of
+ * the input gradient dx = rs * (dy*gamma - m1 - xh*m2). */
+static void gn_group_sums(const float *x, const float *dy, int cpg, int HW, int c0, float m, float rs,
+                          const float *gamma, float *dgamma, float *dbeta, float *m1, float *m2) {
+    double s1 = 0.0, s2 = 0.0;
+    for (int cc = 0; cc < cpg; ++cc) {
+        int c = c0 + cc;
+        double dgs = 0.0, dbs = 0.0;
+        gn_row_sums(x + (size_t)cc * HW, dy + (size_t)cc * HW, HW, m, rs, &dgs, &dbs);
+        if (dgamma) dgamma[c] += (float)dgs, dbeta[c] += (float)dbs;
+        s1 += dbs * gamma[c];
+        s2 += dgs * gamma[c];
+    }
+    double n = (double)cpg * HW;
+    *m1 = (float)(s1 / n), *m2 = (float)(s2 / n);
 }
 
 void mf_groupnorm_backward(float *din, float *dgamma, float *dbeta, const float *dout,
                            const float *in, const float *mean, const float *rstd,
                            const float *gamma, int B, int C, int HW, int G) {
     int cpg = C / G;
-    size_t n = (size_t)cpg * HW;
-    /* parallel over groups: each owns its channels of dgamma/dbeta; batch items in order */
-    for (int g = 0; g < G; ++g) {
-        for (int b = 0; b < B; ++b) {
+    /* each group owns its channels of dgamma/dbeta; batch items in order */
+    for (int b = 0; b < B; ++b)
+        for (int g = 0; g < G; ++g) {
             int bg = b * G + g;
             size_t off = ((size_t)b * C + (size_t)g * cpg) * HW;
             const float *x = in + off, *dy = dout + off;
-            float m = mean[bg], rs = rstd[bg];
-            /* mean of dxhat and of dxhat * xhat over the group */
-            double s1 = 0.0, s2 = 0.0;
-            for (int cc = 0; cc < cpg; ++cc) {
-                int c = g * cpg + cc;
-                double dgs = 0.0, dbs = 0.0;
-                for (int p = 0; p < HW; ++p) {
-                    size_t i = (size_t)cc * HW + p;
-                    float xh = (x[i] - m) * rs;
-                    dgs += (double)dy[i] * xh;
-                    dbs += dy[i];
-                }
-                if (dgamma) dgamma[c] += (float)dgs, dbeta[c] += (float)dbs;
-                s1 += dbs * gamma[c];
-                s2 += dgs * gamma[c];
-            }
-            float m1 = (float)(s1 / (double)n), m2 = (float)(s2 / (double)n);
+            float m = mean[bg], rs = rstd[bg], m1, m2;
+            gn_group_sums(x, dy, cpg, HW, g * cpg, m, rs, gamma, dgamma, dbeta, &m1, &m2);
             if (!din) continue;
             float *dx = din + off;
             for (int cc = 0; cc < cpg; ++cc) {
                 float ga = gamma[g * cpg + cc];
+                const float *xc = x + (size_t)cc * HW, *dyc = dy + (size_t)cc * HW;
+                float *dxc = dx + (size_t)cc * HW;
+#pragma omp simd
                 for (int p = 0; p < HW; ++p) {
-                    size_t i = (size_t)cc * HW + p;
-                    float xh = (x[i] - m) * rs;
-                    dx[i] += rs * (dy[i] * ga - m1 - xh * m2);
+                    float xh = (xc[p] - m) * rs;
+                    dxc[p] += rs * (dyc[p] * ga - m1 - xh * m2);
                 }
+            }
+        }
+}
+
+/* ---- SiLU ------------------------------------------------------------------------------------ */
+
+/* e^x for the SiLU family, within about 2 ulp of expf for |x| <= 80: Cody-Waite reduction to r in
+ * [-ln2/2, ln2/2], a degree-7 Taylor polynomial (truncation below 1e-8 relative), 2^n set through
+ * the exponent bits. |x| > 80 (and NaN) gives +inf for positive x and 0 for negative x (expf gives
+ * inf above 88.7 and subnormals below -87: sigmoid and SiLU differ by < 1e-34 there; a NaN input
+ * still makes SiLU and its gradient NaN through their other factor x). Integer selects only, no
+ * float compare and no libm call, so the loops that use it vectorise (gcc -O2 leaves a loop with a
+ * float select scalar: the compare may trap). */
+static inline float nn_expf(float x) {
+    int32_t b, sign, big;
+    memcpy(&b, &x, sizeof b);
+    sign = b & (int32_t)0x80000000u;
+    b &= 0x7fffffff;
+    big = -(b > 0x42A00000); /* all ones where |x| > 80.0f, or NaN */
+    b = (b & ~big) | (0x42A00000 & big);
+    b |= sign;
+    memcpy(&x, &b, sizeof x);
+    float t = x * 1.44269504088896341f + 12582912.0f; /* 1.5*2^23: t's low bits hold round(x/ln2) */
+    float n = t - 12582912.0f;
+    float r = (x - n * 0.693359375f) - n * -2.12194440e-4f; /* ln2 split in two: n*hi is exact */
+    float p = 1.0f / 5040.0f;
+    p = p * r + 1.0f / 720.0f;
+    p = p * r + 1.0f / 120.0f;
+    p = p * r + 1.0f / 24.0f;
+    p = p * r + 1.0f / 6.0f;
+    p = p * r + 0.5f;
+    p = p * r + 1.0f;
+    p = p * r + 1.0f;
+    int32_t ti, e;
+    memcpy(&ti, &t, sizeof ti);
+    e = (ti - 0x4B400000 + 127) * (1 << 23); /* n + 127 in the exponent field */
+    float sc, y;
+    memcpy(&sc, &e, sizeof sc);
+    y = p * sc;
+    memcpy(&e, &y, sizeof e);
+    e = (e & ~big) | (~-(sign != 0) & 0x7F800000 & big); /* 0 (x < 0) or +inf */
+    memcpy(&y, &e, sizeof y);
+    return y;
+}
+
+void mf_silu_forward(float *out, const float *in, size_t n) {
+#pragma omp simd
+    for (size_t i = 0; i < n; ++i) {
+        float x = in[i];
+        out[i] = x / (1.0f + nn_expf(-x));
+    }
+}
+
+void mf_silu_backward(float *din, const float *dout, const float *in, size_t n) {
+#pragma omp simd
+    for (size_t i = 0; i < n; ++i) {
+        float x = in[i], s = 1.0f / (1.0f + nn_expf(-x));
+        din[i] += dout[i] * s * (1.0f + x * (1.0f - s));
+    }
+}
+
+/* ---- group norm + SiLU ------------------------------------------------------------------------- */
+
+void mf_gnsilu_forward(float *out, float *sig, float *mean, float *rstd, const float *in, const float *gamma,
+                       const float *beta, int B, int C, int HW, int G, float eps) {
+    int cpg = C / G;
+    size_t n = (size_t)cpg * HW;
+    for (int bg = 0; bg < B * G; ++bg) {
+        int b = bg / G, g = bg % G;
+        size_t off = ((size_t)b * C + (size_t)g * cpg) * HW;
+        const float *x = in + off;
+        float m, rs;
+        gn_stats(x, n, eps, &m, &rs);
+        mean[bg] = m;
+        rstd[bg] = rs;
+        for (int cc = 0; cc < cpg; ++cc) {
+            int c = g * cpg + cc;
+            float ga = gamma[c] * rs, be = beta[c];
+            const float *xc = x + (size_t)cc * HW;
+            float *o = out + off + (size_t)cc * HW, *sg = sig + off + (size_t)cc * HW;
+#pragma omp simd
+            for (int p = 0; p < HW; ++p) {
+                float h = (xc[p] - m) * ga + be, d = 1.0f + nn_expf(-h);
+                o[p] = h / d;
+                sg[p] = 1.0f / d;
             }
         }
     }
 }
 
-/* ---- SiLU ------------------------------------------------------------------------------------ */
-
-void mf_silu_forward(float *out, const float *in, size_t n) {
-    for (size_t i = 0; i < n; ++i) {
-        float x = in[i];
-        out[i] = x / (1.0f + expf(-x));
+/* dh (n) = da * silu'(h) for one channel row, h = (x - m)*ga + be recomputed as the forward did and
+ * s = sigmoid(h) as the forward stored it. */
+static void gnsilu_dh(float *restrict dh, const float *restrict da, const float *restrict x,
+                      const float *restrict s, int n, float m, float ga, float be) {
+#pragma omp simd
+    for (int p = 0; p < n; ++p) {
+        float h = (x[p] - m) * ga + be, sv = s[p];
+        dh[p] = da[p] * sv * (1.0f + h * (1.0f - sv));
     }
 }
 
-void mf_silu_backward(float *din, const float *dout, const float *in, size_t n) {
-    for (size_t i = 0; i < n; ++i) {
-        float x = in[i], s = 1.0f / (1.0f + expf(-x));
-        din[i] += dout[i] * s * (1.0f + x * (1.0f - s));
-    }
+#define GNSILU_CHUNK 512 /* floats of dh held on the stack at a time */
+
+void mf_gnsilu_backward(float *din, int din_acc, float *dgamma, float *dbeta, const float *da, const float *in,
+                        const float *sig, const float *mean, const float *rstd, const float *gamma,
+                        const float *beta, int B, int C, int HW, int G) {
+    int cpg = C / G;
+    float dh[GNSILU_CHUNK];
+    for (int b = 0; b < B; ++b)
+        for (int g = 0; g < G; ++g) {
+            int bg = b * G + g;
+            size_t off = ((size_t)b * C + (size_t)g * cpg) * HW;
+            float m = mean[bg], rs = rstd[bg];
+            double s1 = 0.0, s2 = 0.0;
+            for (int cc = 0; cc < cpg; ++cc) {
+                int c = g * cpg + cc;
+                size_t o = off + (size_t)cc * HW;
+                double dgs = 0.0, dbs = 0.0;
+                for (int p0 = 0; p0 < HW; p0 += GNSILU_CHUNK) {
+                    int k = HW - p0 < GNSILU_CHUNK ? HW - p0 : GNSILU_CHUNK;
+                    gnsilu_dh(dh, da + o + p0, in + o + p0, sig + o + p0, k, m, gamma[c] * rs, beta[c]);
+                    gn_row_sums(in + o + p0, dh, k, m, rs, &dgs, &dbs);
+                }
+                if (dgamma) dgamma[c] += (float)dgs, dbeta[c] += (float)dbs;
+                s1 += dbs * gamma[c];
+                s2 += dgs * gamma[c];
+            }
+            if (!din) continue;
+            float m1 = (float)(s1 / ((double)cpg * HW)), m2 = (float)(s2 / ((double)cpg * HW));
+            for (int cc = 0; cc < cpg; ++cc) {
+                int c = g * cpg + cc;
+                size_t o = off + (size_t)cc * HW;
+                float ga = gamma[c];
+                for (int p0 = 0; p0 < HW; p0 += GNSILU_CHUNK) {
+                    int k = HW - p0 < GNSILU_CHUNK ? HW - p0 : GNSILU_CHUNK;
+                    const float *xc = in + o + p0;
+                    float *dxc = din + o + p0;
+                    gnsilu_dh(dh, da + o + p0, xc, sig + o + p0, k, m, gamma[c] * rs, beta[c]);
+                    if (din_acc) {
+#pragma omp simd
+                        for (int p = 0; p < k; ++p) dxc[p] += rs * (dh[p] * ga - m1 - (xc[p] - m) * rs * m2);
+                    } else {
+#pragma omp simd
+                        for (int p = 0; p < k; ++p) dxc[p] = rs * (dh[p] * ga - m1 - (xc[p] - m) * rs * m2);
+                    }
+                }
+            }
+        }
 }
 
 /* ---- GELU ------------------------------------------------------------------------------------ */
