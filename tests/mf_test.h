@@ -21,8 +21,13 @@ void mf_test_skip(const char *reason);
 int mf_test_failed_now(void);
 /* A scratch directory for this test run (created on first use, removed at exit when all pass). */
 const char *mf_test_tmpdir(void);
-/* "tmpdir/name" in a static rotating buffer. */
+/* "tmpdir/name" in a static rotating buffer (8 slots: copy it, or use mf_test_path_to, to keep it). */
 const char *mf_test_path(const char *name);
+/* Writes "tmpdir/" followed by the printf-formatted name into dst (cap bytes); a path that does not
+ * fit fails the calling test (at its file and line) and is left cut short. */
+#define mf_test_path_to(dst, cap, ...) mf_test_path_at(__FILE__, __LINE__, (dst), (cap), __VA_ARGS__)
+void mf_test_path_at(const char *file, int line, char *dst, size_t cap, const char *fmt, ...)
+    __attribute__((format(printf, 5, 6)));
 /* Runs `$MF_BIN args` with stdout to stdout_path (NULL: /dev/null) and stderr captured into err
  * (cap bytes); returns the exit code, -1 when killed by a signal (e.g. an abort in a library). */
 int mf_test_run_mf(const char *args, const char *stdout_path, char *err, size_t cap);

@@ -47,7 +47,7 @@ MF_TEST(recon_geometry_vhull_tiny) {
     if (!mf || !mf_file_exists(mf)) MF_SKIP("MF_BIN not set (run through make test)");
     if (!mf_file_exists(DS_DEFAULT_ENV_DIR "/studio.exr")) MF_SKIP("blender-data probes not installed (" DS_DEFAULT_ENV_DIR ")");
     char d[1024], scene[1100], bare[1100], res[1100], other[1100], rep[1100], p[1300], q[1300], err[8192], args[4096];
-    snprintf(d, sizeof d, "%s", mf_test_path("recon_geom"));
+    mf_test_path_to(d, sizeof d, "recon_geom");
     snprintf(scene, sizeof scene, "%s/000_cup", d);
     snprintf(bare, sizeof bare, "%s/bare", d);
     snprintf(res, sizeof res, "%s/results", d);
@@ -160,7 +160,7 @@ MF_TEST(recon_geometry_dmtet_tiny) {
     if (!mf || !mf_file_exists(mf)) MF_SKIP("MF_BIN not set (run through make test)");
     if (!mf_file_exists(DS_DEFAULT_ENV_DIR "/studio.exr")) MF_SKIP("blender-data probes not installed (" DS_DEFAULT_ENV_DIR ")");
     char d[1024], scene[1100], bare[1100], run[1100], p[1300], q[1300], err[8192], args[4096];
-    snprintf(d, sizeof d, "%s", mf_test_path("recon_dmtet"));
+    mf_test_path_to(d, sizeof d, "recon_dmtet");
     snprintf(scene, sizeof scene, "%s/000_cup", d);
     snprintf(bare, sizeof bare, "%s/bare", d);
     snprintf(run, sizeof run, "%s/run", d);

@@ -49,7 +49,7 @@ static const char *k_scene =
 MF_TEST(render_cli_ok) {
     if (!getenv("MF_BIN")) MF_SKIP("MF_BIN not set");
     char dir[512], scene[1024], out[768], buf[4096], args[4096];
-    snprintf(dir, sizeof dir, "%s", mf_test_path("cli_ok"));
+    mf_test_path_to(dir, sizeof dir, "cli_ok");
     CHECK_OK(mf_mkdirs(dir));
     snprintf(scene, sizeof scene, "%s/quad.obj", dir);
     put(scene, k_obj);
@@ -122,7 +122,7 @@ static void expect_failure(const char *scene, const char *outdir, const char *ne
 MF_TEST(render_cli_bad_inputs) {
     if (!getenv("MF_BIN")) MF_SKIP("MF_BIN not set");
     char dir[512], p[1024], buf[4096], out[1024];
-    snprintf(dir, sizeof dir, "%s", mf_test_path("cli_bad"));
+    mf_test_path_to(dir, sizeof dir, "cli_bad");
     CHECK_OK(mf_mkdirs(dir));
     snprintf(out, sizeof out, "%s/out", dir);
     /* missing scene file */
@@ -205,7 +205,7 @@ MF_TEST(hostile_huge_coordinates) {
     CHECK_ERR(mf_camera_init(&cam, 8, 8, 0.6911, c2w, "cams.json: frames[0]"), "camera position x = -2e+19 is out of range");
 
     char dir[512], p[1024];
-    snprintf(dir, sizeof dir, "%s", mf_test_path("hostile_coords"));
+    mf_test_path_to(dir, sizeof dir, "hostile_coords");
     CHECK_OK(mf_mkdirs(dir));
     snprintf(p, sizeof p, "%s/big.obj", dir);
     put(p, "v 0 0 0\nv 1 0 0\nv 0 3e38 0\nf 1 2 3\n");
@@ -234,7 +234,7 @@ MF_TEST(hostile_huge_coordinates) {
  * silently replacing the first; now `mf render` and `mf relight` refuse them before writing. */
 MF_TEST(hostile_duplicate_output_names) {
     char dir[512], out[1024], args[4096], err[4096];
-    snprintf(dir, sizeof dir, "%s", mf_test_path("hostile_dup"));
+    mf_test_path_to(dir, sizeof dir, "hostile_dup");
     CHECK_OK(mf_mkdirs(dir));
     const char *cams =
         "{\"camera_angle_x\": 0.6911, \"frames\": ["

@@ -190,7 +190,7 @@ MF_TEST(fusion_sds_hook_schedule) {
     MfReconHook hook = {mf_sds_hook, s};
     CHECK_OK(mf_recon_run(r, &hook, mf_test_path("mf_run")));
     char p[1024], *log = NULL;
-    snprintf(p, sizeof p, "%s/log.csv", mf_test_path("mf_run"));
+    mf_test_path_to(p, sizeof p, "mf_run/log.csv");
     CHECK_OK(mf_read_file(p, &log, NULL));
     double sds = -1;
     const char *row1 = log ? strchr(log, '\n') : NULL;
@@ -534,8 +534,8 @@ MF_TEST(fusion_resume_is_exact) {
     CHECK_OK(make_recon_n(&mh, &half, 8, 4));
     if (!full || !half || !s1 || !s2 || !s3) return;
     char fd[512], hd[512], ck[600];
-    snprintf(fd, sizeof fd, "%s", mf_test_path("mf_full"));
-    snprintf(hd, sizeof hd, "%s", mf_test_path("mf_half"));
+    mf_test_path_to(fd, sizeof fd, "mf_full");
+    mf_test_path_to(hd, sizeof hd, "mf_half");
     Killed k = {s2, 6};
     MfReconHook h1 = {mf_sds_hook, s1}, h2 = {killed_hook, &k}, h3 = {mf_sds_hook, s3};
     CHECK_OK(mf_recon_run(full, &h1, fd));

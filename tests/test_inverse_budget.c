@@ -119,7 +119,7 @@ MF_TEST(inverse_budget_holdout_not_in_loss_and_stops) {
     int used[NV] = {0};
     MfReconHook hook = {record_hook, used};
     char dir[512];
-    snprintf(dir, sizeof dir, "%s", mf_test_path("es_stop"));
+    mf_test_path_to(dir, sizeof dir, "es_stop");
     CHECK_OK(mf_recon_run(r, &hook, dir));
     CHECK(used[0] == 0 && used[4] == 0);
     for (int i = 0; i < NV; ++i) CHECK_MSG(i % 4 == 0 || used[i] > 0, "training view %d never used", i);
@@ -163,8 +163,8 @@ MF_TEST(inverse_budget_early_stop_resume_is_exact) {
     CHECK_OK(sphere_views(&mesh, 24, 0.0f, v2));
     CHECK_OK(sphere_views(&mesh, 24, 0.0f, v3));
     char fd[512], hd[512], ck[1024];
-    snprintf(fd, sizeof fd, "%s", mf_test_path("es_full"));
-    snprintf(hd, sizeof hd, "%s", mf_test_path("es_half"));
+    mf_test_path_to(fd, sizeof fd, "es_full");
+    mf_test_path_to(hd, sizeof hd, "es_half");
     CHECK_OK(mf_recon_new(&mesh, v1, NV, &o, &full));
     CHECK_OK(mf_recon_run(full, NULL, fd));
     CHECK(mf_recon_iteration(full) == 6);
@@ -224,7 +224,7 @@ static void metal_run(float gt_metal, float init_metal, const char *name, int *s
     MfRecon *r = NULL;
     CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r));
     char dir[512];
-    snprintf(dir, sizeof dir, "%s", mf_test_path(name));
+    mf_test_path_to(dir, sizeof dir, "%s", name);
     CHECK_OK(mf_recon_run(r, NULL, dir));
     *state = mf_recon_metal_state(r, frac);
     const MfParamBlock *orm = mf_recon_block(r, MF_BLOCK_ORM);
@@ -269,7 +269,7 @@ MF_TEST(inverse_budget_metal_frozen_through_recovery) {
     CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r));
     MfReconHook hook = {rising_nan_hook, NULL};
     char dir[512];
-    snprintf(dir, sizeof dir, "%s", mf_test_path("metal_recover"));
+    mf_test_path_to(dir, sizeof dir, "metal_recover");
     CHECK_OK(mf_recon_run(r, &hook, dir));
     int nrec = 0;
     mf_recon_recoveries(r, &nrec);

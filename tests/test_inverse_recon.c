@@ -368,7 +368,7 @@ MF_TEST(inverse_recon_guard_keeps_inf_out_of_checkpoints) {
     CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r));
     if (!r) return;
     char dir[512], ck[1024];
-    snprintf(dir, sizeof dir, "%s", mf_test_path("init1e30"));
+    mf_test_path_to(dir, sizeof dir, "init1e30");
     snprintf(ck, sizeof ck, "%s/checkpoint.mfck", dir);
     MfReconHook huge = {huge_hook, NULL};
     int rc = mf_recon_run(r, &huge, dir);
@@ -407,7 +407,7 @@ MF_TEST(inverse_recon_resume_refuses_nonfinite_checkpoint) {
     CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r));
     if (!r) return;
     char dir[512], ck[1024];
-    snprintf(dir, sizeof dir, "%s", mf_test_path("ckbad"));
+    mf_test_path_to(dir, sizeof dir, "ckbad");
     snprintf(ck, sizeof ck, "%s/checkpoint.mfck", dir);
     CHECK_OK(mf_recon_run(r, NULL, dir));
     /* the checkpoint's table, as mf_recon writes it: per block p, m, v */
@@ -476,7 +476,7 @@ MF_TEST(inverse_recon_exposure_invariant) {
         /* env.exr in the views' units */
         for (int k = 0; k < 3; ++k) {
             char p[1024];
-            snprintf(p, sizeof p, "%s/env.exr", mf_test_path(k == 0 ? "expo0" : k == 1 ? "expo1" : "expo2"));
+            mf_test_path_to(p, sizeof p, "%s/env.exr", k == 0 ? "expo0" : k == 1 ? "expo1" : "expo2");
             MfImage e = {0};
             CHECK_OK(mf_image_read(p, MF_ENC_LINEAR, &e));
             const MfParamBlock *eb = mf_recon_block(r[k], MF_BLOCK_ENV);
