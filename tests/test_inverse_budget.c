@@ -11,6 +11,7 @@
 #include "inverse/mf_budget.h"
 #include "inverse/mf_recon.h"
 #include "mf_test.h"
+#include "mf_test_recon.h"
 #include "render/mf_integrator.h"
 #include "scene/mf_shapes.h"
 
@@ -38,18 +39,7 @@ static int sphere_views(const MfMesh *mesh, int res, float metallic, MfReconView
     for (int v = 0; v < NV && !rc; ++v) {
         float az = 2.0f * MF_PI * v / NV, el = (v % 2 ? 0.6f : -0.6f);
         MfVec3 eye = mf_v3(1.8f * cosf(az) * cosf(el), 1.8f * sinf(az) * cosf(el), 1.8f * sinf(el));
-        MfMat4 c2w = mf_mat4_look_at(eye, mf_v3(0, 0, 0), mf_v3(0, 0, 1));
-        double m[16];
-        for (int i = 0; i < 16; ++i) m[i] = c2w.m[i];
-        if ((rc = mf_camera_init(&views[v].cam, res, res, 0.6911, m, "view"))) break;
-        MfRenderOut out;
-        if ((rc = mf_render(&in, &views[v].cam, &ro, &out, NULL))) break;
-        if ((rc = mf_image_alloc(&views[v].ref, res, res, 4))) break;
-        for (int i = 0; i < res * res; ++i) {
-            for (int c = 0; c < 3; ++c) views[v].ref.data[4 * i + c] = out.rgb[3 * i + c];
-            views[v].ref.data[4 * i + 3] = out.alpha[i];
-        }
-        mf_render_out_free(&out);
+        rc = ref_view(&in, &ro, res, eye, &views[v]);
     }
     mf_env_free(&env);
     mf_rtscene_free(rt);
