@@ -75,6 +75,13 @@ int mf_test_sh(const char *fmt, ...) {
     return system(cmd) == 0 ? 0 : 1;
 }
 
+int mf_test_need_bin(const char *file, int line) {
+    const char *bin = getenv("MF_BIN");
+    if (!bin) mf_test_skip("MF_BIN not set (run through make test)");
+    else if (!mf_file_exists(bin)) mf_test_fail_at(file, line, "MF_BIN=%s: no such file", bin);
+    return bin && mf_file_exists(bin);
+}
+
 int mf_test_run_mf(const char *args, const char *stdout_path, char *err, size_t cap) {
     char cmd[8192], errf[1024];
     mf_test_path_to(errf, sizeof errf, "mf_stderr.txt");

@@ -62,8 +62,7 @@ static double recon_eval(const char *cap, const char *name) {
 }
 
 MF_TEST(cli_capture_ingp_recon_eval) {
-    const char *mf = getenv("MF_BIN");
-    if (!mf || !mf_file_exists(mf)) MF_SKIP("MF_BIN not set (run through make test)");
+    MF_NEED_BIN();
     char cap[1024], res[1024], args[4096], err[16384];
     mf_test_path_to(cap, sizeof cap, "cli_cap/cap");
     mf_test_path_to(res, sizeof res, "cli_cap/results");

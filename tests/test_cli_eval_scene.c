@@ -37,8 +37,7 @@ static int count(const char *s, const char *needle) {
 }
 
 MF_TEST(cli_eval_scene_note_once) {
-    const char *mf = getenv("MF_BIN");
-    if (!mf || !mf_file_exists(mf)) MF_SKIP("MF_BIN not set (run through make test)");
+    MF_NEED_BIN();
     char cap[1024], res[1024], args[4096], err[16384];
     if (!fixture(cap, res)) return;
     snprintf(args, sizeof args, "eval %s --results %s -o %s", cap, res, mf_test_path("cli_eval_scene/rep_note"));
@@ -50,8 +49,7 @@ MF_TEST(cli_eval_scene_note_once) {
 }
 
 MF_TEST(cli_eval_scene_scenes_option) {
-    const char *mf = getenv("MF_BIN");
-    if (!mf || !mf_file_exists(mf)) MF_SKIP("MF_BIN not set (run through make test)");
+    MF_NEED_BIN();
     char cap[1024], res[1024], args[4096], err[16384], p[1100];
     if (!fixture(cap, res)) return;
     /* the single scene is not listed: refused by name, nothing written */
@@ -84,8 +82,7 @@ MF_TEST(cli_eval_scene_scenes_option) {
 /* A split whose --scenes list names a scene that does not exist: refused, naming the unknown
  * scenes and the split folder; nothing written. Scene folders need only exist for this check. */
 MF_TEST(cli_eval_scene_unknown_in_split) {
-    const char *mf = getenv("MF_BIN");
-    if (!mf || !mf_file_exists(mf)) MF_SKIP("MF_BIN not set (run through make test)");
+    MF_NEED_BIN();
     char split[1024], res[1024], args[4096], err[16384];
     mf_test_path_to(split, sizeof split, "cli_eval_scene/unknown/split");
     mf_test_path_to(res, sizeof res, "cli_eval_scene/unknown/results");
@@ -101,8 +98,7 @@ MF_TEST(cli_eval_scene_unknown_in_split) {
 /* A 100-character scene name (a split of the capture and a folder of that name) is scored under
  * its full name: scenes.csv, per_view.csv and the image grid's file name, nothing truncated. */
 MF_TEST(cli_eval_scene_long_name) {
-    const char *mf = getenv("MF_BIN");
-    if (!mf || !mf_file_exists(mf)) MF_SKIP("MF_BIN not set (run through make test)");
+    MF_NEED_BIN();
     char cap[1024], res[1024], args[4096], err[16384], name[101], p[1400];
     if (!fixture(cap, res)) return;
     memset(name, 'n', 100), name[100] = 0;

@@ -18,8 +18,8 @@
 #include "tests/mf_test_prior.h"
 
 MF_TEST(prior_cli_predicts_maps) {
+    MF_NEED_BIN();
     const char *bin = getenv("MF_BIN");
-    if (!bin) MF_SKIP("MF_BIN not set (run through make test)");
     MfPrior *p;
     tp_tiny_prior(&p);
     char w[MF_PATH_MAX], img[MF_PATH_MAX], out[MF_PATH_MAX], cmd[8 * MF_PATH_MAX], f[MF_PATH_MAX];
@@ -73,8 +73,8 @@ MF_TEST(prior_cli_predicts_maps) {
 }
 
 MF_TEST(prior_eval_cli_writes_table) {
+    MF_NEED_BIN();
     const char *bin = getenv("MF_BIN");
-    if (!bin) MF_SKIP("MF_BIN not set (run through make test)");
     MfPrior *p;
     tp_tiny_prior(&p);
     char w[MF_PATH_MAX], dir[MF_PATH_MAX], out[MF_PATH_MAX], f[MF_PATH_MAX], cmd[6 * MF_PATH_MAX];

@@ -64,7 +64,7 @@ MF_TEST(hostile_directory_as_file) {
     CHECK_OK(mf_input_file(mf_test_path("hostile_dirs/empty.txt"), &sz));
     CHECK(sz == 0);
 
-    if (!getenv("MF_BIN")) MF_SKIP("MF_BIN not set");
+    MF_NEED_BIN();
     char args[4096], err[4096], out[1024];
     mf_test_path_to(out, sizeof out, "hostile_dirs/out");
     const char *cmds[][2] = {
@@ -126,7 +126,7 @@ MF_TEST(hostile_stale_temporaries) {
     CHECK_OK(mf_remove_stale_tmp(pj2(dir, "missing"), 3, NULL));
     remove(live), remove(own);
 
-    if (!getenv("MF_BIN")) MF_SKIP("MF_BIN not set");
+    MF_NEED_BIN();
     /* mf recon --resume on a result folder holding a killed run's temporaries */
     char data[1024], out[1024], args[4096], err[4096];
     snprintf(data, sizeof data, "%s/data", dir);

@@ -41,8 +41,8 @@ MF_TEST(stability_checkpoint_scan) {
 }
 
 MF_TEST(stability_quick_grid) {
+    MF_NEED_BIN();
     const char *mf = getenv("MF_BIN");
-    if (!mf || !mf_file_exists(mf)) MF_SKIP("MF_BIN not set (run through make test)");
     if (!mf_file_exists(DS_DEFAULT_ENV_DIR "/studio.exr")) MF_SKIP("blender-data probes not installed (" DS_DEFAULT_ENV_DIR ")");
     char work[1024], out[1100];
     mf_test_path_to(work, sizeof work, "stability");

@@ -517,8 +517,8 @@ MF_TEST(gltf_khronos_validator) {
 
 /* The scene.glb of an `mf recon` result against its mesh.obj: same bounds, rotated to +Y up. */
 MF_TEST(gltf_upright_recon_result) {
+    MF_NEED_BIN();
     const char *bin = getenv("MF_BIN");
-    if (!bin) MF_SKIP("MF_BIN not set");
     char dir[512], cmd[4096];
     mf_test_path_to(dir, sizeof dir, "gltf_recon");
     CHECK_OK(mf_mkdirs(dir));

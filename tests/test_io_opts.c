@@ -167,8 +167,7 @@ MF_TEST(opts_baseline_config_matches_defaults) {
 /* Every flag of `mf CMD --help` is a key of --print-config's JSON, and that JSON is accepted by
  * --config and prints back identically. */
 MF_TEST(opts_cli_every_flag_is_a_config_key) {
-    const char *bin = getenv("MF_BIN");
-    if (!bin || !mf_file_exists(bin)) MF_SKIP("MF_BIN not set (run through make test)");
+    MF_NEED_BIN();
     const char *cmds[] = {"recon", "render", "eval", "gen", "relight", "bench-render", "metrics", "prior", "train-prior",
                           "eval-prior", "bench-nn", "bench-prior", "bench-tets", "bench-stability", "compare"};
     const int min_flags[] = {8, 8, 8, 8, 8, 8, 5, 6, 18, 10, 6, 5, 2, 6, 3};
@@ -220,8 +219,7 @@ MF_TEST(opts_cli_every_flag_is_a_config_key) {
 /* An out-of-range value, on the command line or in a config file, is refused with the option,
  * the value and the range, exit 2, and nothing written. */
 MF_TEST(opts_cli_out_of_range_refused_no_file) {
-    const char *bin = getenv("MF_BIN");
-    if (!bin || !mf_file_exists(bin)) MF_SKIP("MF_BIN not set (run through make test)");
+    MF_NEED_BIN();
     char err[8192], args[4096], out[1024], cfg[1024];
     mf_test_path_to(out, sizeof out, "opts_out");
     mf_test_path_to(cfg, sizeof cfg, "opts_bad.json");
@@ -266,8 +264,7 @@ MF_TEST(opts_cli_out_of_range_refused_no_file) {
 }
 
 MF_TEST(opts_cli_help_shows_defaults_and_ranges) {
-    const char *bin = getenv("MF_BIN");
-    if (!bin || !mf_file_exists(bin)) MF_SKIP("MF_BIN not set (run through make test)");
+    MF_NEED_BIN();
     struct {
         const char *cmd, *needle;
     } cases[] = {
@@ -298,8 +295,7 @@ MF_TEST(opts_cli_help_shows_defaults_and_ranges) {
 
 /* --spp-sqrt and the spp_sqrt config key still work, with a warning naming the new flag. */
 MF_TEST(opts_cli_deprecated_alias_warns_but_works) {
-    const char *bin = getenv("MF_BIN");
-    if (!bin || !mf_file_exists(bin)) MF_SKIP("MF_BIN not set (run through make test)");
+    MF_NEED_BIN();
     char err[4096], outf[1024], cfg[1024], args[2048];
     mf_test_path_to(outf, sizeof outf, "opts_dep.json");
     mf_test_path_to(cfg, sizeof cfg, "opts_dep_in.json");
