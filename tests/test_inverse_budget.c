@@ -17,9 +17,10 @@
 
 enum { NV = 8 };
 
-/* NV views of mesh around the origin at distance 1.8, res px, under a sky/ground env; the
- * material: albedo (0.6, 0.4, 0.2), roughness 0.4, the given metallic. */
+/* NV views (zeroed first) of mesh around the origin at distance 1.8, res px, under a sky/ground
+ * env; the material: albedo (0.6, 0.4, 0.2), roughness 0.4, the given metallic. */
 static int sphere_views(const MfMesh *mesh, int res, float metallic, MfReconView *views) {
+    memset(views, 0, NV * sizeof *views);
     MfRtScene *rt = NULL;
     int rc = mf_rtscene_new(mesh, &rt);
     if (rc) return rc;
@@ -95,7 +96,6 @@ MF_TEST(inverse_budget_holdout_not_in_loss_and_stops) {
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
     MfReconView v[NV];
-    memset(v, 0, sizeof v);
     CHECK_OK(sphere_views(&mesh, 24, 0.0f, v));
     MfReconOpts o = tiny_opts();
     o.iters = 100;
@@ -148,7 +148,6 @@ MF_TEST(inverse_budget_early_stop_resume_is_exact) {
     o.es_min_delta = 100.0f; /* nothing counts as an improvement: stops at 2 * (1 + 2) */
     MfRecon *full = NULL, *half = NULL;
     MfReconView v1[NV], v2[NV], v3[NV];
-    memset(v1, 0, sizeof v1), memset(v2, 0, sizeof v2), memset(v3, 0, sizeof v3);
     CHECK_OK(sphere_views(&mesh, 24, 0.0f, v1));
     CHECK_OK(sphere_views(&mesh, 24, 0.0f, v2));
     CHECK_OK(sphere_views(&mesh, 24, 0.0f, v3));
@@ -176,7 +175,6 @@ MF_TEST(inverse_budget_early_stop_resume_is_exact) {
     /* a stopped run resumed again does no more iterations */
     mf_recon_free(half);
     MfReconView v4[NV];
-    memset(v4, 0, sizeof v4);
     CHECK_OK(sphere_views(&mesh, 24, 0.0f, v4));
     CHECK_OK(mf_recon_new(&mesh, v4, NV, &o, &half));
     CHECK_OK(mf_recon_load_checkpoint(half, ck));
@@ -204,7 +202,6 @@ static void metal_run(float gt_metal, float init_metal, const char *name, int *s
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
     MfReconView v[NV];
-    memset(v, 0, sizeof v);
     CHECK_OK(sphere_views(&mesh, 24, gt_metal, v));
     MfReconOpts o = tiny_opts();
     o.iters = 24;
@@ -248,7 +245,6 @@ MF_TEST(inverse_budget_metal_frozen_through_recovery) {
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
     MfReconView v[NV];
-    memset(v, 0, sizeof v);
     CHECK_OK(sphere_views(&mesh, 24, 0.0f, v));
     MfReconOpts o = tiny_opts();
     o.iters = 5;
@@ -288,7 +284,6 @@ MF_TEST(inverse_budget_texel_side) {
     double side[2];
     for (int k = 0; k < 2; ++k) {
         MfReconView v[NV];
-        memset(v, 0, sizeof v);
         CHECK_OK(sphere_views(&mesh, 32 << k, 0.0f, v));
         long n = 0;
         CHECK_OK(mf_budget_texel_side(rt, &mesh, v, NV, &side[k], &n));

@@ -31,7 +31,9 @@ static void gt_env(MfImage *e) {
         }
 }
 
+/* views (NV,), zeroed first: cameras around mesh and the renders of the GT material under gt_env. */
 static int make_views(const MfMesh *mesh, MfReconView *views) {
+    memset(views, 0, NV * sizeof *views);
     MfRtScene *rt = NULL;
     int rc = mf_rtscene_new(mesh, &rt);
     if (rc) return rc;
@@ -71,7 +73,6 @@ static void check_recovery(int denoise) {
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 24, 12));
     MfReconView views[NV];
-    memset(views, 0, sizeof views);
     CHECK_OK(make_views(&mesh, views));
     MfReconOpts o = small_opts();
     o.denoise = denoise;
@@ -141,8 +142,6 @@ static void check_resume(int denoise) {
     o.normal_map = 1; /* every block, the normal map's included, must resume exactly */
     MfRecon *full = NULL, *half = NULL;
     MfReconView v1[NV], v2[NV];
-    memset(v1, 0, sizeof v1);
-    memset(v2, 0, sizeof v2);
     CHECK_OK(make_views(&mesh, v1));
     CHECK_OK(make_views(&mesh, v2));
     CHECK_OK(mf_recon_new(&mesh, v1, NV, &o, &full));
@@ -159,7 +158,6 @@ static void check_resume(int denoise) {
     half = NULL;
     /* a new process would start here: fresh state, then the checkpoint */
     MfReconView v3[NV];
-    memset(v3, 0, sizeof v3);
     CHECK_OK(make_views(&mesh, v3));
     CHECK_OK(mf_recon_new(&mesh, v3, NV, &o, &half));
     char ck[1024];
@@ -194,7 +192,6 @@ static void check_resume(int denoise) {
     ob.tex_res = 16;
     MfRecon *bad = NULL;
     MfReconView v4[NV];
-    memset(v4, 0, sizeof v4);
     CHECK_OK(make_views(&mesh, v4));
     CHECK_OK(mf_recon_new(&mesh, v4, NV, &ob, &bad));
     CHECK_ERR(mf_recon_load_checkpoint(bad, ck), "shape mismatch");
@@ -219,7 +216,6 @@ MF_TEST(inverse_recon_nan_gradient_stops_cleanly) {
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
     MfReconView v[NV];
-    memset(v, 0, sizeof v);
     CHECK_OK(make_views(&mesh, v));
     MfReconOpts o = small_opts();
     o.iters = 8;
@@ -252,7 +248,6 @@ MF_TEST(inverse_recon_guard_recovers_nan_gradient) {
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
     MfReconView v[NV];
-    memset(v, 0, sizeof v);
     CHECK_OK(make_views(&mesh, v));
     MfReconOpts o = small_opts();
     o.iters = 8;
@@ -300,7 +295,6 @@ MF_TEST(inverse_recon_guard_recovers_lr_blowup) {
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
     MfReconView v[NV];
-    memset(v, 0, sizeof v);
     CHECK_OK(make_views(&mesh, v));
     MfReconOpts o = small_opts();
     o.iters = 60;
@@ -346,8 +340,6 @@ MF_TEST(inverse_recon_guard_keeps_inf_out_of_checkpoints) {
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
     MfReconView v[NV], v2[NV];
-    memset(v, 0, sizeof v);
-    memset(v2, 0, sizeof v2);
     CHECK_OK(make_views(&mesh, v));
     CHECK_OK(make_views(&mesh, v2));
     MfReconOpts o = small_opts();
@@ -385,8 +377,6 @@ MF_TEST(inverse_recon_resume_refuses_nonfinite_checkpoint) {
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
     MfReconView v[NV], v2[NV];
-    memset(v, 0, sizeof v);
-    memset(v2, 0, sizeof v2);
     CHECK_OK(make_views(&mesh, v));
     CHECK_OK(make_views(&mesh, v2));
     MfReconOpts o = small_opts();
@@ -441,7 +431,6 @@ MF_TEST(inverse_recon_exposure_invariant) {
     o.snapshot_every = 0;
     for (int k = 0; k < 3; ++k) {
         MfReconView v[NV];
-        memset(v, 0, sizeof v);
         CHECK_OK(make_views(&mesh, v));
         for (int i = 0; i < NV; ++i)
             for (size_t p = 0; p < (size_t)RES * RES; ++p)
@@ -488,7 +477,6 @@ MF_TEST(inverse_recon_options_named_in_errors) {
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
     MfReconView v[NV];
-    memset(v, 0, sizeof v);
     CHECK_OK(make_views(&mesh, v));
     MfRecon *r = NULL;
     MfReconOpts o = small_opts();
