@@ -21,8 +21,16 @@ void mf_test_skip(const char *reason);
 int mf_test_failed_now(void);
 /* A scratch directory for this test run (created on first use, removed at exit when all pass). */
 const char *mf_test_tmpdir(void);
-/* "tmpdir/name" in a static rotating buffer. */
+/* "tmpdir/name" in a static rotating buffer (8 slots: copy it, or use mf_test_path_to, to keep it). */
 const char *mf_test_path(const char *name);
+/* Writes "tmpdir/" followed by the printf-formatted name into dst (cap bytes); a path that does not
+ * fit fails the calling test (at its file and line) and is left cut short. */
+#define mf_test_path_to(dst, cap, ...) mf_test_path_at(__FILE__, __LINE__, (dst), (cap), __VA_ARGS__)
+void mf_test_path_at(const char *file, int line, char *dst, size_t cap, const char *fmt, ...)
+    __attribute__((format(printf, 5, 6)));
+/* 1 when $MF_BIN (the mf binary, set by make test) names a file; else 0, and the test is marked
+ * skipped (MF_BIN unset) or failed at file:line (MF_BIN names no file). Use MF_NEED_BIN(). */
+int mf_test_need_bin(const char *file, int line);
 /* Runs `$MF_BIN args` with stdout to stdout_path (NULL: /dev/null) and stderr captured into err
  * (cap bytes); returns the exit code, -1 when killed by a signal (e.g. an abort in a library). */
 int mf_test_run_mf(const char *args, const char *stdout_path, char *err, size_t cap);
@@ -69,6 +77,12 @@ int mf_test_sh(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
         if (rc_ == 0) mf_test_fail_at(__FILE__, __LINE__, "%s: expected failure", #expr); \
         else if (!strstr(mf_error(), (needle)))                                        \
             mf_test_fail_at(__FILE__, __LINE__, "%s: message '%s' lacks '%s'", #expr, mf_error(), (needle)); \
+    } while (0)
+
+/* Ends the test unless $MF_BIN names the mf binary (skipped when unset, failed when no file). */
+#define MF_NEED_BIN()                                                                  \
+    do {                                                                               \
+        if (!mf_test_need_bin(__FILE__, __LINE__)) return;                             \
     } while (0)
 
 #define MF_SKIP(reason)                                                                \

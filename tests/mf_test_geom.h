@@ -16,12 +16,13 @@ static inline double signed_volume(const MfMesh *m) {
     return v;
 }
 
-/* cam (hw x hw px, 0.6911 rad) at eye looking at target, z up. */
-static inline void look_cam(MfCamera *cam, int hw, MfVec3 eye, MfVec3 target) {
+/* cam (w x h px, camera_angle_x 0.6911 rad) at eye looking at target, z up; mf_camera_init's
+ * status. */
+static inline int look_cam(MfCamera *cam, int w, int h, MfVec3 eye, MfVec3 target) {
     MfMat4 c2w = mf_mat4_look_at(eye, target, mf_v3(0, 0, 1));
     double m[16];
     for (int i = 0; i < 16; ++i) m[i] = c2w.m[i];
-    mf_camera_init(cam, hw, hw, 0.6911, m, "test");
+    return mf_camera_init(cam, w, h, 0.6911, m, "test");
 }
 
 #endif

@@ -51,8 +51,19 @@ const char *mf_test_path(const char *name) {
     static _Thread_local char bufs[8][1024];
     static _Thread_local int k;
     char *b = bufs[k++ & 7];
-    snprintf(b, 1024, "%s/%s", mf_test_tmpdir(), name);
+    mf_test_path_to(b, sizeof bufs[0], "%s", name);
     return b;
+}
+
+void mf_test_path_at(const char *file, int line, char *dst, size_t cap, const char *fmt, ...) {
+    int n = snprintf(dst, cap, "%s/", mf_test_tmpdir());
+    if (n >= 0 && (size_t)n < cap) {
+        va_list ap;
+        va_start(ap, fmt);
+        n += vsnprintf(dst + n, cap - (size_t)n, fmt, ap);
+        va_end(ap);
+    }
+    if (n < 0 || (size_t)n >= cap) mf_test_fail_at(file, line, "scratch path '%s' (cut short) does not fit in %zu bytes", dst, cap);
 }
 
 int mf_test_sh(const char *fmt, ...) {
@@ -64,9 +75,16 @@ int mf_test_sh(const char *fmt, ...) {
     return system(cmd) == 0 ? 0 : 1;
 }
 
+int mf_test_need_bin(const char *file, int line) {
+    const char *bin = getenv("MF_BIN");
+    if (!bin) mf_test_skip("MF_BIN not set (run through make test)");
+    else if (!mf_file_exists(bin)) mf_test_fail_at(file, line, "MF_BIN=%s: no such file", bin);
+    return bin && mf_file_exists(bin);
+}
+
 int mf_test_run_mf(const char *args, const char *stdout_path, char *err, size_t cap) {
     char cmd[8192], errf[1024];
-    snprintf(errf, sizeof errf, "%s", mf_test_path("mf_stderr.txt"));
+    mf_test_path_to(errf, sizeof errf, "mf_stderr.txt");
     snprintf(cmd, sizeof cmd, "%s %s >%s 2>%s", getenv("MF_BIN"), args, stdout_path ? stdout_path : "/dev/null", errf);
     int st = system(cmd);
     err[0] = 0;

@@ -37,8 +37,8 @@ static void strip_lens(const char *src, const char *dst) {
 /* recon + eval of one capture folder; returns its nv_psnr (-1 on failure). */
 static double recon_eval(const char *cap, const char *name) {
     char args[4096], err[16384], res[1024], rep[1024];
-    snprintf(res, sizeof res, "%s", mf_test_path("cli_cap/results"));
-    snprintf(rep, sizeof rep, "%s/%s", mf_test_path("cli_cap/reports"), name);
+    mf_test_path_to(res, sizeof res, "cli_cap/results");
+    mf_test_path_to(rep, sizeof rep, "cli_cap/reports/%s", name);
     snprintf(args, sizeof args, "recon %s -o %s/nvdiffrecmc/%s --iters 30 --tex-res 32 --env-w 16 --env-h 8", cap, res, name);
     CHECK_MSG(mf_test_run_mf(args, NULL, err, sizeof err) == 0, "mf %s: %s", args, err);
     CHECK_MSG(strstr(err, "14 views 32x24"), "recon did not train on the 14 non-held-out 32x24 frames: %s", err);
@@ -62,16 +62,15 @@ static double recon_eval(const char *cap, const char *name) {
 }
 
 MF_TEST(cli_capture_ingp_recon_eval) {
-    const char *mf = getenv("MF_BIN");
-    if (!mf || !mf_file_exists(mf)) MF_SKIP("MF_BIN not set (run through make test)");
+    MF_NEED_BIN();
     char cap[1024], res[1024], args[4096], err[16384];
-    snprintf(cap, sizeof cap, "%s", mf_test_path("cli_cap/cap"));
-    snprintf(res, sizeof res, "%s", mf_test_path("cli_cap/results"));
+    mf_test_path_to(cap, sizeof cap, "cli_cap/cap");
+    mf_test_path_to(res, sizeof res, "cli_cap/results");
     snprintf(args, sizeof args, "gen -o %s --layout ingp --views 16 --width 32 --tex-res 64 --spp 2 --seed 3", cap);
     CHECK_MSG(mf_test_run_mf(args, NULL, err, sizeof err) == 0, "mf %s: %s", args, err);
     double good = recon_eval(cap, "cap");
     char ax[1024];
-    snprintf(ax, sizeof ax, "%s", mf_test_path("cli_cap/cap_ax"));
+    mf_test_path_to(ax, sizeof ax, "cli_cap/cap_ax");
     strip_lens(cap, ax);
     double bad = recon_eval(ax, "cap_ax");
     printf("    nv_psnr %.2f dB with the capture's lens, %.2f dB with camera_angle_x's\n", good, bad);
@@ -79,7 +78,7 @@ MF_TEST(cli_capture_ingp_recon_eval) {
      * anywhere makes the two runs the same capture (0 dB apart); the margin is about half the gap. */
     CHECK_MSG(good > 22.0 && good > bad + 2.0, "nv_psnr %.2f with the lens, %.2f without", good, bad);
     /* distortion: written by gen, refused by name by recon */
-    snprintf(cap, sizeof cap, "%s", mf_test_path("cli_cap/cap_k1"));
+    mf_test_path_to(cap, sizeof cap, "cli_cap/cap_k1");
     snprintf(args, sizeof args, "gen -o %s --layout ingp --views 2 --width 8 --tex-res 16 --spp 1 --distortion 0.05,0,0,0", cap);
     CHECK_MSG(mf_test_run_mf(args, NULL, err, sizeof err) == 0, "mf %s: %s", args, err);
     snprintf(args, sizeof args, "recon %s -o %s/k1 --iters 1", cap, res);

@@ -17,8 +17,8 @@
 /* A small capture and two methods' results on it (1 iteration each), made once per test run. */
 static int fixture(char cap[1024], char res[1024]) {
     char args[4096], err[16384];
-    snprintf(cap, 1024, "%s", mf_test_path("cli_eval_scene/cap"));
-    snprintf(res, 1024, "%s", mf_test_path("cli_eval_scene/results"));
+    mf_test_path_to(cap, 1024, "cli_eval_scene/cap");
+    mf_test_path_to(res, 1024, "cli_eval_scene/results");
     char done[1100];
     snprintf(done, sizeof done, "%s/m2/cap/mesh.obj", res);
     if (mf_file_exists(done)) return 1;
@@ -37,8 +37,7 @@ static int count(const char *s, const char *needle) {
 }
 
 MF_TEST(cli_eval_scene_note_once) {
-    const char *mf = getenv("MF_BIN");
-    if (!mf || !mf_file_exists(mf)) MF_SKIP("MF_BIN not set (run through make test)");
+    MF_NEED_BIN();
     char cap[1024], res[1024], args[4096], err[16384];
     if (!fixture(cap, res)) return;
     snprintf(args, sizeof args, "eval %s --results %s -o %s", cap, res, mf_test_path("cli_eval_scene/rep_note"));
@@ -50,8 +49,7 @@ MF_TEST(cli_eval_scene_note_once) {
 }
 
 MF_TEST(cli_eval_scene_scenes_option) {
-    const char *mf = getenv("MF_BIN");
-    if (!mf || !mf_file_exists(mf)) MF_SKIP("MF_BIN not set (run through make test)");
+    MF_NEED_BIN();
     char cap[1024], res[1024], args[4096], err[16384], p[1100];
     if (!fixture(cap, res)) return;
     /* the single scene is not listed: refused by name, nothing written */
@@ -84,11 +82,10 @@ MF_TEST(cli_eval_scene_scenes_option) {
 /* A split whose --scenes list names a scene that does not exist: refused, naming the unknown
  * scenes and the split folder; nothing written. Scene folders need only exist for this check. */
 MF_TEST(cli_eval_scene_unknown_in_split) {
-    const char *mf = getenv("MF_BIN");
-    if (!mf || !mf_file_exists(mf)) MF_SKIP("MF_BIN not set (run through make test)");
+    MF_NEED_BIN();
     char split[1024], res[1024], args[4096], err[16384];
-    snprintf(split, sizeof split, "%s", mf_test_path("cli_eval_scene/unknown/split"));
-    snprintf(res, sizeof res, "%s", mf_test_path("cli_eval_scene/unknown/results"));
+    mf_test_path_to(split, sizeof split, "cli_eval_scene/unknown/split");
+    mf_test_path_to(res, sizeof res, "cli_eval_scene/unknown/results");
     CHECK(mf_test_sh("mkdir -p '%s/a' '%s/b' '%s/m1/a' && touch '%s/a/transforms_test.json' '%s/b/transforms_test.json'", split, split,
                      res, split, split) == 0);
     const char *rep = mf_test_path("cli_eval_scene/unknown/rep");
@@ -101,15 +98,14 @@ MF_TEST(cli_eval_scene_unknown_in_split) {
 /* A 100-character scene name (a split of the capture and a folder of that name) is scored under
  * its full name: scenes.csv, per_view.csv and the image grid's file name, nothing truncated. */
 MF_TEST(cli_eval_scene_long_name) {
-    const char *mf = getenv("MF_BIN");
-    if (!mf || !mf_file_exists(mf)) MF_SKIP("MF_BIN not set (run through make test)");
+    MF_NEED_BIN();
     char cap[1024], res[1024], args[4096], err[16384], name[101], p[1400];
     if (!fixture(cap, res)) return;
     memset(name, 'n', 100), name[100] = 0;
     memcpy(name, "long_", 5);
     char split[1024], lres[1024];
-    snprintf(split, sizeof split, "%s", mf_test_path("cli_eval_scene/long/split"));
-    snprintf(lres, sizeof lres, "%s", mf_test_path("cli_eval_scene/long/results"));
+    mf_test_path_to(split, sizeof split, "cli_eval_scene/long/split");
+    mf_test_path_to(lres, sizeof lres, "cli_eval_scene/long/results");
     CHECK(mf_test_sh("rm -rf '%s' '%s' && mkdir -p '%s' '%s/m1' && cp -r '%s' '%s/%s' && cp -r '%s' '%s/short' && cp -r '%s/m1/cap' '%s/m1/%s'",
                      split, lres, split, lres, cap, split, name, cap, split, res, lres, name) == 0);
     const char *rep = mf_test_path("cli_eval_scene/long/rep");

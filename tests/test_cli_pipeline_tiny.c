@@ -19,8 +19,8 @@
 #include "mf_test.h"
 
 MF_TEST(pipeline_tiny_baseline_and_materialfusion) {
+    MF_NEED_BIN();
     const char *mf = getenv("MF_BIN");
-    if (!mf || !mf_file_exists(mf)) MF_SKIP("MF_BIN not set (run through make test)");
     if (!mf_file_exists(DS_DEFAULT_ENV_DIR "/studio.exr")) MF_SKIP("blender-data probes not installed (" DS_DEFAULT_ENV_DIR ")");
     const char *d = mf_test_path("pipeline_tiny");
     CHECK(mf_test_sh("%s gen --split tiny -o %s --no-render 2>/dev/null", mf, d) == 0); /* images via the render JSONs below */

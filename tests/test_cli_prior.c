@@ -18,14 +18,14 @@
 #include "tests/mf_test_prior.h"
 
 MF_TEST(prior_cli_predicts_maps) {
+    MF_NEED_BIN();
     const char *bin = getenv("MF_BIN");
-    if (!bin) MF_SKIP("MF_BIN not set (run through make test)");
     MfPrior *p;
     tp_tiny_prior(&p);
     char w[MF_PATH_MAX], img[MF_PATH_MAX], out[MF_PATH_MAX], cmd[8 * MF_PATH_MAX], f[MF_PATH_MAX];
-    snprintf(w, sizeof w, "%s", mf_test_path("prior_cli.mfck"));
-    snprintf(img, sizeof img, "%s", mf_test_path("prior_cli_in.png"));
-    snprintf(out, sizeof out, "%s", mf_test_path("prior_cli_out"));
+    mf_test_path_to(w, sizeof w, "prior_cli.mfck");
+    mf_test_path_to(img, sizeof img, "prior_cli_in.png");
+    mf_test_path_to(out, sizeof out, "prior_cli_out");
     CHECK_OK(mf_prior_save(p, w, NULL));
     mf_prior_free(p);
     MfImage im = {0};
@@ -54,8 +54,8 @@ MF_TEST(prior_cli_predicts_maps) {
     }
     /* mf train-prior end to end on the tiny model */
     char ck[MF_PATH_MAX], lc[MF_PATH_MAX];
-    snprintf(ck, sizeof ck, "%s", mf_test_path("prior_cli_ck"));
-    snprintf(lc, sizeof lc, "%s", mf_test_path("prior_cli_loss.csv"));
+    mf_test_path_to(ck, sizeof ck, "prior_cli_ck");
+    mf_test_path_to(lc, sizeof lc, "prior_cli_loss.csv");
     snprintf(cmd, sizeof cmd, "'%s' train-prior '%s' -o '%s' --tiny --ae-steps 3 --steps 3 --batch 4 --loss-csv '%s' > /dev/null 2>&1",
              bin, tp_synth_dir(), ck, lc);
     CHECK(system(cmd) == 0);
@@ -73,21 +73,21 @@ MF_TEST(prior_cli_predicts_maps) {
 }
 
 MF_TEST(prior_eval_cli_writes_table) {
+    MF_NEED_BIN();
     const char *bin = getenv("MF_BIN");
-    if (!bin) MF_SKIP("MF_BIN not set (run through make test)");
     MfPrior *p;
     tp_tiny_prior(&p);
     char w[MF_PATH_MAX], dir[MF_PATH_MAX], out[MF_PATH_MAX], f[MF_PATH_MAX], cmd[6 * MF_PATH_MAX];
-    snprintf(w, sizeof w, "%s", mf_test_path("prior_eval.mfck"));
+    mf_test_path_to(w, sizeof w, "prior_eval.mfck");
     CHECK_OK(mf_prior_save(p, w, NULL));
     mf_prior_free(p);
     /* a test-2d-like split: 2 objects x 2 views */
-    snprintf(dir, sizeof dir, "%s", mf_test_path("prior_eval_t2d"));
+    mf_test_path_to(dir, sizeof dir, "prior_eval_t2d");
     tp_write_synth(dir, 4, 16, 9);
     const char *man = "{\"split\":\"test-2d\",\"resolution\":16,\"count\":4,\"seed\":9,\"objects\":2,\"views_per_object\":2}";
     mf_path_join(f, sizeof f, dir, "manifest.json");
     CHECK_OK(mf_write_file(f, man, strlen(man)));
-    snprintf(out, sizeof out, "%s", mf_test_path("prior_eval_out"));
+    mf_test_path_to(out, sizeof out, "prior_eval_out");
     snprintf(cmd, sizeof cmd, "'%s' eval-prior '%s' -o '%s' --weights '%s' --train '%s' --samples 2 --steps 3 > /dev/null 2>&1",
              bin, dir, out, w, tp_synth_dir());
     CHECK(system(cmd) == 0);
@@ -113,7 +113,7 @@ MF_TEST(prior_eval_cli_writes_table) {
     CHECK(a.n == 4 && a.mean > 5);
     ev_table_free(&t);
     /* a wrong resolution is refused with a message */
-    snprintf(dir, sizeof dir, "%s", mf_test_path("prior_eval_t2d_12"));
+    mf_test_path_to(dir, sizeof dir, "prior_eval_t2d_12");
     tp_write_synth(dir, 4, 12, 9);
     mf_path_join(f, sizeof f, dir, "manifest.json");
     CHECK_OK(mf_write_file(f, man, strlen(man)));

@@ -43,11 +43,11 @@ static double geom_result(const char *run_dir, const char *key, char *src, size_
 #define SMALL "--tex-res 64 --env-w 32 --env-h 16 --hull-res 64 --hull-target-tris 5000"
 
 MF_TEST(recon_geometry_vhull_tiny) {
+    MF_NEED_BIN();
     const char *mf = getenv("MF_BIN");
-    if (!mf || !mf_file_exists(mf)) MF_SKIP("MF_BIN not set (run through make test)");
     if (!mf_file_exists(DS_DEFAULT_ENV_DIR "/studio.exr")) MF_SKIP("blender-data probes not installed (" DS_DEFAULT_ENV_DIR ")");
     char d[1024], scene[1100], bare[1100], res[1100], other[1100], rep[1100], p[1300], q[1300], err[8192], args[4096];
-    snprintf(d, sizeof d, "%s", mf_test_path("recon_geom"));
+    mf_test_path_to(d, sizeof d, "recon_geom");
     snprintf(scene, sizeof scene, "%s/000_cup", d);
     snprintf(bare, sizeof bare, "%s/bare", d);
     snprintf(res, sizeof res, "%s/results", d);
@@ -156,11 +156,11 @@ static int read_geom_log(const char *path, double *first, double *last) {
  * fit runs end to end (dmtet.obj with UVs is the mesh optimised on, geom_log.csv's mask loss
  * falls, run.json has the timing); --resume reuses dmtet.obj. */
 MF_TEST(recon_geometry_dmtet_tiny) {
+    MF_NEED_BIN();
     const char *mf = getenv("MF_BIN");
-    if (!mf || !mf_file_exists(mf)) MF_SKIP("MF_BIN not set (run through make test)");
     if (!mf_file_exists(DS_DEFAULT_ENV_DIR "/studio.exr")) MF_SKIP("blender-data probes not installed (" DS_DEFAULT_ENV_DIR ")");
     char d[1024], scene[1100], bare[1100], run[1100], p[1300], q[1300], err[8192], args[4096];
-    snprintf(d, sizeof d, "%s", mf_test_path("recon_dmtet"));
+    mf_test_path_to(d, sizeof d, "recon_dmtet");
     snprintf(scene, sizeof scene, "%s/000_cup", d);
     snprintf(bare, sizeof bare, "%s/bare", d);
     snprintf(run, sizeof run, "%s/run", d);

@@ -30,9 +30,6 @@ static int count_entries(const char *dir) {
     return n;
 }
 
-static const char *k_obj =
-    "v -0.5 -0.5 0\nv 0.5 -0.5 0\nv 0.5 0.5 0\nv -0.5 0.5 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
-    "f 1/1 2/2 3/3\nf 1/1 3/3 4/4\n";
 static const char *k_cams =
     "{\"camera_angle_x\": 0.6911, \"frames\": [{\"file_path\": \"./r_0\", \"transform_matrix\": "
     "[[1,0,0,0],[0,1,0,0],[0,0,1,2.5],[0,0,0,1]]}]}";
@@ -40,24 +37,14 @@ static const char *k_cams_scaled =
     "{\"camera_angle_x\": 0.6911, \"frames\": [{\"file_path\": \"./r_0\", \"transform_matrix\": "
     "[[1,0,0,0],[0,1,0,0],[0,0,1,2.5],[0,0,0,1]]}, {\"file_path\": \"./r_1\", \"transform_matrix\": "
     "[[2,0,0,0],[0,1,0,0],[0,0,1,2.5],[0,0,0,1]]}]}";
-static const char *k_scene =
-    "{\"mesh\": \"%s\", \"material\": {\"kd\": [0.5, 0.4, 0.3], \"orm\": [0, 0.6, 0]},\n"
-    " \"lights\": [{\"type\": \"sun\", \"dir\": [0, 0.3, 1], \"strength\": 2}],\n"
-    " \"env\": null, \"cameras\": \"%s\", \"width\": 16, \"height\": 12,\n"
-    " \"render\": {\"spp_sqrt\": 1, \"pixel_samples\": 2}}\n";
 
 MF_TEST(render_cli_ok) {
-    if (!getenv("MF_BIN")) MF_SKIP("MF_BIN not set");
+    MF_NEED_BIN();
     char dir[512], scene[1024], out[768], buf[4096], args[4096];
-    snprintf(dir, sizeof dir, "%s", mf_test_path("cli_ok"));
+    mf_test_path_to(dir, sizeof dir, "cli_ok");
     CHECK_OK(mf_mkdirs(dir));
-    snprintf(scene, sizeof scene, "%s/quad.obj", dir);
-    put(scene, k_obj);
-    snprintf(scene, sizeof scene, "%s/transforms.json", dir);
-    put(scene, k_cams);
-    snprintf(buf, sizeof buf, k_scene, "quad.obj", "transforms.json");
+    write_render_scene(dir, "scene", k_quad, "2.5"); /* scene.obj, scene_cams.json, scene.json */
     snprintf(scene, sizeof scene, "%s/scene.json", dir);
-    put(scene, buf);
     snprintf(out, sizeof out, "%s/out", dir);
     snprintf(args, sizeof args, "render %s -o %s --png --width 20 --height 10", scene, out);
     int rc = mf_test_run_mf(args, NULL, buf, sizeof buf);
@@ -120,9 +107,9 @@ static void expect_failure(const char *scene, const char *outdir, const char *ne
 }
 
 MF_TEST(render_cli_bad_inputs) {
-    if (!getenv("MF_BIN")) MF_SKIP("MF_BIN not set");
+    MF_NEED_BIN();
     char dir[512], p[1024], buf[4096], out[1024];
-    snprintf(dir, sizeof dir, "%s", mf_test_path("cli_bad"));
+    mf_test_path_to(dir, sizeof dir, "cli_bad");
     CHECK_OK(mf_mkdirs(dir));
     snprintf(out, sizeof out, "%s/out", dir);
     /* missing scene file */
@@ -134,10 +121,10 @@ MF_TEST(render_cli_bad_inputs) {
     expect_failure(p, out, "garbage.json");
     /* non-rigid camera (second frame scaled) */
     snprintf(p, sizeof p, "%s/quad.obj", dir);
-    put(p, k_obj);
+    put(p, k_quad);
     snprintf(p, sizeof p, "%s/scaled.json", dir);
     put(p, k_cams_scaled);
-    snprintf(buf, sizeof buf, k_scene, "quad.obj", "scaled.json");
+    snprintf(buf, sizeof buf, k_scene_fmt, "quad.obj", "scaled.json");
     snprintf(p, sizeof p, "%s/nonrigid.json", dir);
     put(p, buf);
     expect_failure(p, out, "scaled.json: frames[1]");
@@ -147,12 +134,12 @@ MF_TEST(render_cli_bad_inputs) {
     put(p, k_cams);
     snprintf(p, sizeof p, "%s/badidx.obj", dir);
     put(p, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
-    snprintf(buf, sizeof buf, k_scene, "badidx.obj", "transforms.json");
+    snprintf(buf, sizeof buf, k_scene_fmt, "badidx.obj", "transforms.json");
     snprintf(p, sizeof p, "%s/badobj.json", dir);
     put(p, buf);
     expect_failure(p, out, "badidx.obj");
     /* a bad JSON value names the JSON path */
-    snprintf(buf, sizeof buf, k_scene, "quad.obj", "transforms.json");
+    snprintf(buf, sizeof buf, k_scene_fmt, "quad.obj", "transforms.json");
     char *m = strstr(buf, "[0, 0.3, 1]");
     if (m) memcpy(m, "[0, 0.3]   ", 11);
     snprintf(p, sizeof p, "%s/badlight.json", dir);
@@ -162,7 +149,7 @@ MF_TEST(render_cli_bad_inputs) {
     snprintf(p, sizeof p, "%s/widecams.json", dir);
     put(p, "{\"camera_angle_x\": 3.12, \"frames\": [{\"file_path\": \"./r_0\", \"transform_matrix\": "
            "[[1,0,0,0],[0,1,0,0],[0,0,1,2.5],[0,0,0,1]]}]}");
-    snprintf(buf, sizeof buf, k_scene, "quad.obj", "widecams.json");
+    snprintf(buf, sizeof buf, k_scene_fmt, "quad.obj", "widecams.json");
     snprintf(p, sizeof p, "%s/wide.json", dir);
     put(p, buf);
     expect_failure(p, out, "camera_angle_x 3.12 rad is outside (1e-4, 3.1) rad");
@@ -173,7 +160,7 @@ MF_TEST(render_cli_bad_inputs) {
     snprintf(p, sizeof p, "%s/env.exr", dir);
     CHECK_OK(mf_image_write(p, &env, MF_ENC_LINEAR, 32));
     mf_image_free(&env);
-    snprintf(buf, sizeof buf, k_scene, "quad.obj", "transforms.json");
+    snprintf(buf, sizeof buf, k_scene_fmt, "quad.obj", "transforms.json");
     m = strstr(buf, "\"env\": null");
     if (m) {
         char tail[2048];
@@ -205,7 +192,7 @@ MF_TEST(hostile_huge_coordinates) {
     CHECK_ERR(mf_camera_init(&cam, 8, 8, 0.6911, c2w, "cams.json: frames[0]"), "camera position x = -2e+19 is out of range");
 
     char dir[512], p[1024];
-    snprintf(dir, sizeof dir, "%s", mf_test_path("hostile_coords"));
+    mf_test_path_to(dir, sizeof dir, "hostile_coords");
     CHECK_OK(mf_mkdirs(dir));
     snprintf(p, sizeof p, "%s/big.obj", dir);
     put(p, "v 0 0 0\nv 1 0 0\nv 0 3e38 0\nf 1 2 3\n");
@@ -213,7 +200,7 @@ MF_TEST(hostile_huge_coordinates) {
     CHECK_ERR(mf_obj_read(p, &m), "big.obj:3: vertex y = 3e+38 is out of range");
     mf_mesh_free(&m);
 
-    if (!getenv("MF_BIN")) MF_SKIP("MF_BIN not set");
+    MF_NEED_BIN();
     char err[4096], args[4096], out[1024];
     snprintf(out, sizeof out, "%s/out", dir);
     const char *scene = write_render_scene(dir, "farcam", k_quad, "1e39");
@@ -234,7 +221,7 @@ MF_TEST(hostile_huge_coordinates) {
  * silently replacing the first; now `mf render` and `mf relight` refuse them before writing. */
 MF_TEST(hostile_duplicate_output_names) {
     char dir[512], out[1024], args[4096], err[4096];
-    snprintf(dir, sizeof dir, "%s", mf_test_path("hostile_dup"));
+    mf_test_path_to(dir, sizeof dir, "hostile_dup");
     CHECK_OK(mf_mkdirs(dir));
     const char *cams =
         "{\"camera_angle_x\": 0.6911, \"frames\": ["
@@ -256,7 +243,7 @@ MF_TEST(hostile_duplicate_output_names) {
     CHECK(mf_find_duplicate_name(nm[0], sizeof nm[0], 3, &i, &j) && i == 0 && j == 2);
     CHECK(!mf_find_duplicate_name(nm[0], sizeof nm[0], 2, &i, &j));
 
-    if (!getenv("MF_BIN")) MF_SKIP("MF_BIN not set");
+    MF_NEED_BIN();
     snprintf(out, sizeof out, "%s/out", dir);
     snprintf(args, sizeof args, "render %s -o %s --png", pj2(dir, "dup.json"), out);
     int rc = mf_test_run_mf(args, NULL, err, sizeof err);

@@ -44,8 +44,8 @@ static void check_split(const char *dir, const char *key, const char *total, int
 }
 
 MF_TEST(cli_recon_time_split) {
+    MF_NEED_BIN();
     const char *mf = getenv("MF_BIN");
-    if (!mf || !mf_file_exists(mf)) MF_SKIP("MF_BIN not set (run through make test)");
     if (!mf_file_exists(DS_DEFAULT_ENV_DIR "/studio.exr")) MF_SKIP("blender-data probes not installed (" DS_DEFAULT_ENV_DIR ")");
     const char *d = mf_test_path("time_split");
     CHECK(mf_test_sh("%s gen --split tiny --scenes 1 -o %s 2>/dev/null", mf, d) == 0);

@@ -43,7 +43,7 @@ MF_TEST(core_fs_atomic_write) {
  * bytes ("out of memory (9223372036854775807 bytes)"); now every reader refuses it by name. */
 MF_TEST(hostile_directory_as_file) {
     char dir[512];
-    snprintf(dir, sizeof dir, "%s", mf_test_path("hostile_dirs/looks_like.png"));
+    mf_test_path_to(dir, sizeof dir, "hostile_dirs/looks_like.png");
     CHECK_OK(mf_mkdirs(dir));
     char *d = NULL;
     size_t len = 0;
@@ -64,9 +64,9 @@ MF_TEST(hostile_directory_as_file) {
     CHECK_OK(mf_input_file(mf_test_path("hostile_dirs/empty.txt"), &sz));
     CHECK(sz == 0);
 
-    if (!getenv("MF_BIN")) MF_SKIP("MF_BIN not set");
+    MF_NEED_BIN();
     char args[4096], err[4096], out[1024];
-    snprintf(out, sizeof out, "%s", mf_test_path("hostile_dirs/out"));
+    mf_test_path_to(out, sizeof out, "hostile_dirs/out");
     const char *cmds[][2] = {
         {"metrics %s %s", "looks_like.png: is a directory, expected a file"},
         {"render %s -o %s", "looks_like.png: is a directory, expected a file"},
@@ -107,7 +107,7 @@ MF_TEST(hostile_stale_temporaries) {
     CHECK(!mf_is_tmp_name(".notes.txt", NULL));
 
     char dir[512], p[2048];
-    snprintf(dir, sizeof dir, "%s", mf_test_path("hostile_stale"));
+    mf_test_path_to(dir, sizeof dir, "hostile_stale");
     CHECK_OK(mf_mkdirs(pj2(dir, "snapshots/iter_00010")));
     long dead = dead_pid();
     char stale1[2048], stale2[2048], live[1024], own[1024];
@@ -126,7 +126,7 @@ MF_TEST(hostile_stale_temporaries) {
     CHECK_OK(mf_remove_stale_tmp(pj2(dir, "missing"), 3, NULL));
     remove(live), remove(own);
 
-    if (!getenv("MF_BIN")) MF_SKIP("MF_BIN not set");
+    MF_NEED_BIN();
     /* mf recon --resume on a result folder holding a killed run's temporaries */
     char data[1024], out[1024], args[4096], err[4096];
     snprintf(data, sizeof data, "%s/data", dir);

@@ -29,7 +29,7 @@ static const char *write_asset(const char *name) { return write_asset_nrm(name, 
 static const char *write_asset_nrm(const char *name, const unsigned char *nrm) {
     static char glb[MF_PATH_MAX];
     char a[MF_PATH_MAX + 16], o[MF_PATH_MAX + 16];
-    snprintf(glb, sizeof glb, "%s", mf_test_path(name));
+    mf_test_path_to(glb, sizeof glb, "%s", name);
     snprintf(a, sizeof a, "%s.albedo.png", glb);
     snprintf(o, sizeof o, "%s.orm.png", glb);
     MfMesh m = {0};
@@ -197,11 +197,11 @@ MF_TEST(ds_asset_normal_map_gt_renders) {
     render_asset_split(write_asset_nrm("tilt_nm.glb", tilt), mf_test_path("nm_tilt"), probes, &tilted);
     render_asset_split(write_asset_nrm("flat_nm.glb", flat), mf_test_path("nm_flat"), probes, &flatr);
     char p[MF_PATH_MAX];
-    snprintf(p, sizeof p, "%s/000_plain_nm/gt/normal.png", mf_test_path("nm_none"));
+    mf_test_path_to(p, sizeof p, "nm_none/000_plain_nm/gt/normal.png");
     CHECK_MSG(!mf_file_exists(p), "%s written for an asset without normalTexture", p);
     /* the map as written: the asset's texel (our writer's TANGENT are our frames: unchanged) */
     MfImage nm = {0};
-    snprintf(p, sizeof p, "%s/000_tilt_nm/gt/normal.png", mf_test_path("nm_tilt"));
+    mf_test_path_to(p, sizeof p, "nm_tilt/000_tilt_nm/gt/normal.png");
     CHECK_OK(mf_image_read(p, MF_ENC_LINEAR, &nm));
     CHECK(nm.w == 4 && nm.h == 2 && nm.c >= 3);
     for (int i = 0; nm.data && i < nm.w * nm.h; ++i)
@@ -214,12 +214,12 @@ MF_TEST(ds_asset_normal_map_gt_renders) {
     CHECK_MSG(d_flat >= 0 && d_flat < 0.01 * mean, "a flat normal map changes the GT render: mean |diff| %g (mean %g)", d_flat, mean);
     /* the renderer's own normal-map path on the scene's files gives the same bytes */
     cJSON *j = NULL;
-    snprintf(p, sizeof p, "%s/split.json", mf_test_path("nm_tilt"));
+    mf_test_path_to(p, sizeof p, "nm_tilt/split.json");
     CHECK_OK(mf_json_load(p, &j));
     const cJSON *sc = cJSON_GetArrayItem(cJSON_GetObjectItem(j, "scenes"), 0);
     CHECK(cJSON_IsTrue(cJSON_GetObjectItem(sc, "normal_map")));
     cJSON *rj = NULL; /* the scene file for `mf render` names the map too */
-    snprintf(p, sizeof p, "%s/000_tilt_nm/render_test.json", mf_test_path("nm_tilt"));
+    mf_test_path_to(p, sizeof p, "nm_tilt/000_tilt_nm/render_test.json");
     CHECK_OK(mf_json_load(p, &rj));
     const char *rn = cJSON_GetStringValue(cJSON_GetObjectItem(cJSON_GetObjectItem(rj, "material"), "normal"));
     CHECK_MSG(rn && !strcmp(rn, "gt/normal.png"), "render_test.json material.normal: %s", rn ? rn : "(none)");
@@ -227,7 +227,7 @@ MF_TEST(ds_asset_normal_map_gt_renders) {
     const char *env = cJSON_GetStringValue(cJSON_GetArrayItem(cJSON_GetObjectItem(sc, "relight"), 0));
     const char *seeds = cJSON_GetStringValue(cJSON_GetObjectItem(sc, "object_seed"));
     char dir[MF_PATH_MAX];
-    snprintf(dir, sizeof dir, "%s/000_tilt_nm", mf_test_path("nm_tilt"));
+    mf_test_path_to(dir, sizeof dir, "nm_tilt/000_tilt_nm");
     MfMesh m = {0};
     MfImage kd = {0}, orm = {0};
     MfEnvMap e = {0};

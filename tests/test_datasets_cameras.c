@@ -272,8 +272,8 @@ MF_TEST(ds_load_bvault_gt_from_exr_layers) {
 
 /* The `mf gen` command: writes the layout, exit code 2 on usage errors. */
 MF_TEST(ds_cli_gen) {
+    MF_NEED_BIN();
     const char *bin = getenv("MF_BIN");
-    if (!bin || !mf_file_exists(bin)) MF_SKIP("MF_BIN not set (run through make test)");
     const char *out = mf_test_path("cli_gen");
     char cmd[3 * MF_PATH_MAX];
     snprintf(cmd, sizeof cmd, "'%s' gen -o '%s' --family torus --seed 3 --tex-res 32 --train 3 --test 2 2>/dev/null", bin, out);

@@ -337,8 +337,8 @@ MF_TEST(envgen_rotation_matches_sun) {
 
 /* mf gen --envs writes loadable maps that ds_list_probes (every split's --env-dir) finds. */
 MF_TEST(envgen_cli_envs) {
+    MF_NEED_BIN();
     const char *bin = getenv("MF_BIN");
-    if (!bin || !mf_file_exists(bin)) MF_SKIP("MF_BIN not set (run through make test)");
     const char *dir = mf_test_path("envgen_cli");
     char cmd[3 * MF_PATH_MAX];
     snprintf(cmd, sizeof cmd, "'%s' gen --envs '%s' --count 2 --seed 3 --env-width 64 2>/dev/null", bin, dir);

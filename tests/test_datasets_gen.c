@@ -196,8 +196,8 @@ MF_TEST(ds_gen_bad_input) {
     CHECK_ERR(ds_gen_prior_train(&o, mf_test_path("pt_bad"), NULL), "no_such_probes");
     o = tiny_opts(0);
     CHECK_ERR(ds_gen_prior_train(&o, mf_test_path("pt_bad"), NULL), "count or a time budget");
+    MF_NEED_BIN();
     const char *bin = getenv("MF_BIN");
-    if (!bin || !mf_file_exists(bin)) MF_SKIP("MF_BIN not set (run through make test)");
     char cmd[3 * MF_PATH_MAX];
     snprintf(cmd, sizeof cmd, "'%s' gen --split nosuch -o '%s' 2>/dev/null", bin, mf_test_path("pt_cli"));
     int st = system(cmd);

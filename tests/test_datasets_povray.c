@@ -10,6 +10,7 @@
 #include "core/mf_fs.h"
 #include "datasets/ds_povray.h"
 #include "mf_test.h"
+#include "mf_test_geom.h"
 
 /* Loads frame k of a NeRF-synthetic transforms.json into cam (w x h). */
 static int load_fixture_camera(const char *path, int k, int w, int h, MfCamera *cam) {
@@ -31,11 +32,8 @@ static int load_fixture_camera(const char *path, int k, int w, int h, MfCamera *
 
 static MfCamera front_camera(int w, int h) {
     /* at (0, -3, 0.4) looking at the origin, +Z up */
-    MfMat4 c2w = mf_mat4_look_at(mf_v3(0, -3, 0.4f), mf_v3(0, 0, 0), mf_v3(0, 0, 1));
-    double m[16];
-    for (int i = 0; i < 16; ++i) m[i] = c2w.m[i];
     MfCamera cam;
-    mf_camera_init(&cam, w, h, 0.6911, m, "test camera");
+    look_cam(&cam, w, h, mf_v3(0, -3, 0.4f), mf_v3(0, 0, 0));
     return cam;
 }
 

@@ -35,8 +35,8 @@ static void put_mk(const char *path, const char *text) {
  * naming both files, and eval names the relit file and the view image. */
 MF_TEST(hostile_eval_gt_size) {
     char scene[512], res[512];
-    snprintf(scene, sizeof scene, "%s", mf_test_path("hostile_gt/scene"));
-    snprintf(res, sizeof res, "%s", mf_test_path("hostile_gt/result"));
+    mf_test_path_to(scene, sizeof scene, "hostile_gt/scene");
+    mf_test_path_to(res, sizeof res, "hostile_gt/result");
     CHECK_OK(mf_mkdirs(scene));
     CHECK_OK(mf_mkdirs(res));
     put(pj2(scene, "transforms_test.json"),
@@ -144,10 +144,10 @@ static void write_nv_views(const char *scene, const char *good, const EvEvalOpts
 
 MF_TEST(eval_novel_view_without_gt) {
     char scene[MF_PATH_MAX], good[MF_PATH_MAX], bad[MF_PATH_MAX], noenv[MF_PATH_MAX];
-    snprintf(scene, sizeof scene, "%s", mf_test_path("nv/scene"));
-    snprintf(good, sizeof good, "%s", mf_test_path("nv/good"));
-    snprintf(bad, sizeof bad, "%s", mf_test_path("nv/bad"));
-    snprintf(noenv, sizeof noenv, "%s", mf_test_path("nv/noenv"));
+    mf_test_path_to(scene, sizeof scene, "nv/scene");
+    mf_test_path_to(good, sizeof good, "nv/good");
+    mf_test_path_to(bad, sizeof bad, "nv/bad");
+    mf_test_path_to(noenv, sizeof noenv, "nv/noenv");
     write_quad_result(good, 0.5f, 0.5f, 1);
     write_quad_result(bad, 0.1f, 0.9f, 1); /* albedo that no per-channel scale can align */
     write_quad_result(noenv, 0.5f, 0.5f, 0);
@@ -218,10 +218,10 @@ static void write_scene(const char *dir, int with_mesh) {
 
 MF_TEST(eval_geometry_columns) {
     char scene[MF_PATH_MAX], bare[MF_PATH_MAX], given[MF_PATH_MAX], big[MF_PATH_MAX];
-    snprintf(scene, sizeof scene, "%s", mf_test_path("eg/data/scene"));
-    snprintf(bare, sizeof bare, "%s", mf_test_path("eg/bare"));
-    snprintf(given, sizeof given, "%s", mf_test_path("eg/results/given/scene"));
-    snprintf(big, sizeof big, "%s", mf_test_path("eg/results/big/scene"));
+    mf_test_path_to(scene, sizeof scene, "eg/data/scene");
+    mf_test_path_to(bare, sizeof bare, "eg/bare");
+    mf_test_path_to(given, sizeof given, "eg/results/given/scene");
+    mf_test_path_to(big, sizeof big, "eg/results/big/scene");
     write_scene(scene, 1);
     write_scene(bare, 0);
     write_sphere_result(given, 0.4f);  /* the GT mesh itself */

@@ -52,7 +52,7 @@ MF_TEST(geom_chamfer) {
     CHECK_MSG(s.chamfer < 0.1 * ref, "a sphere against itself: Chamfer %g", s.chamfer);
     /* image-space normals and mask IoU: a sphere against itself and a larger one */
     MfCamera cam;
-    look_cam(&cam, HW, mf_v3(0, -2.5f, 0.3f), mf_v3s(0));
+    look_cam(&cam, HW, HW, mf_v3(0, -2.5f, 0.3f), mf_v3s(0));
     EvGeomViews gv;
     CHECK_OK(ev_geom_views(&a, &a, &cam, 1, &gv));
     CHECK_MSG(gv.normal_deg < 0.05 && gv.mask_iou == 1, "sphere vs itself: %g deg, IoU %g", gv.normal_deg, gv.mask_iou);
@@ -158,7 +158,7 @@ MF_TEST(geom_normal_1mcos) {
               "point pairs: 1 - cos %.9g, want %.9g (1 - cos of the mean angle %.9g)", s.normal_1mcos, want,
               1 - cos(s.normal_deg * M_PI / 180));
     MfCamera cam;
-    look_cam(&cam, 48, mf_v3(0.1f, -1.5f, 1.5f), mf_v3s(0));
+    look_cam(&cam, 48, 48, mf_v3(0.1f, -1.5f, 1.5f), mf_v3s(0));
     EvGeomViews gv;
     CHECK_OK(ev_geom_views(&g, &p, &cam, 1, &gv));
     printf("    view: %.6f deg, 1 - cos %.8f over %ld px\n", gv.normal_deg, gv.normal_1mcos, gv.pixels);

@@ -92,6 +92,18 @@ static int write_text(const char *path, const char *text) {
     return fclose(f);
 }
 
+/* Writes the reference script py and the fixtures' manifest into the test folder as
+ * <name>_ref.py and <name>_manifest.txt and starts /usr/bin/python3 on them; their stdout and
+ * stderr come through the pipe returned (NULL when it could not start). */
+static FILE *start_ref_script(const char *name, const char *py, const char *manifest) {
+    char script[1024], man[1024], cmd[4096];
+    mf_test_path_to(script, sizeof script, "%s_ref.py", name);
+    mf_test_path_to(man, sizeof man, "%s_manifest.txt", name);
+    CHECK(write_text(script, py) == 0 && write_text(man, manifest) == 0);
+    snprintf(cmd, sizeof cmd, "/usr/bin/python3 '%s' '%s' 2>&1", script, man);
+    return popen(cmd, "r");
+}
+
 /* ---------------------------------------------------------------- PSNR / L1 basics */
 
 MF_TEST(eval_psnr_l1_basics) {
@@ -190,21 +202,14 @@ MF_TEST(eval_psnr_ssim_vs_skimage) {
     a[6] = img_gradient(64, 64, 3, 0.02f, 22), b[6] = img_perturb(&a[6], 0.01f, 23); /* near-identical */
     char manifest[8192] = "";
     for (int i = 0; i < N; i++) {
-        char na[32], nb[32], pa[1024], pb[1024];
-        snprintf(na, sizeof na, "sk_a%d.f32", i);
-        snprintf(nb, sizeof nb, "sk_b%d.f32", i);
-        snprintf(pa, sizeof pa, "%s", mf_test_path(na));
-        snprintf(pb, sizeof pb, "%s", mf_test_path(nb));
+        char pa[1024], pb[1024];
+        mf_test_path_to(pa, sizeof pa, "sk_a%d.f32", i);
+        mf_test_path_to(pb, sizeof pb, "sk_b%d.f32", i);
         CHECK(write_raw(pa, &a[i]) == 0 && write_raw(pb, &b[i]) == 0);
         size_t len = strlen(manifest);
         snprintf(manifest + len, sizeof manifest - len, "%s %s %d %d %d\n", pa, pb, a[i].h, a[i].w, a[i].c);
     }
-    char script[1024], man[1024], cmd[4096];
-    snprintf(script, sizeof script, "%s", mf_test_path("skimage_ref.py"));
-    snprintf(man, sizeof man, "%s", mf_test_path("skimage_manifest.txt"));
-    CHECK(write_text(script, SKIMAGE_PY) == 0 && write_text(man, manifest) == 0);
-    snprintf(cmd, sizeof cmd, "/usr/bin/python3 '%s' '%s' 2>&1", script, man);
-    FILE *p = popen(cmd, "r");
+    FILE *p = start_ref_script("skimage", SKIMAGE_PY, manifest);
     CHECK(p != NULL);
     if (!p) return;
     char line[512];
@@ -321,24 +326,16 @@ MF_TEST(eval_flip_vs_numpy_reference) {
     mf_image_px(&b[4], 4, 3)[0] = 1.0f, mf_image_px(&b[4], 4, 3)[1] = 1.0f, mf_image_px(&b[4], 4, 3)[2] = 1.0f;
     char manifest[8192] = "", outs[N][1024];
     for (int i = 0; i < N; i++) {
-        char na[32], nb[32], no[32], pa[1024], pb[1024];
-        snprintf(na, sizeof na, "fl_a%d.f32", i);
-        snprintf(nb, sizeof nb, "fl_b%d.f32", i);
-        snprintf(no, sizeof no, "fl_map%d.f64", i);
-        snprintf(pa, sizeof pa, "%s", mf_test_path(na));
-        snprintf(pb, sizeof pb, "%s", mf_test_path(nb));
-        snprintf(outs[i], sizeof outs[i], "%s", mf_test_path(no));
+        char pa[1024], pb[1024];
+        mf_test_path_to(pa, sizeof pa, "fl_a%d.f32", i);
+        mf_test_path_to(pb, sizeof pb, "fl_b%d.f32", i);
+        mf_test_path_to(outs[i], sizeof outs[i], "fl_map%d.f64", i);
         CHECK(write_raw(pa, &a[i]) == 0 && write_raw(pb, &b[i]) == 0);
         size_t len = strlen(manifest);
         snprintf(manifest + len, sizeof manifest - len, "%s %s %d %d %d %s\n", pa, pb, a[i].h, a[i].w, a[i].c,
                  outs[i]);
     }
-    char script[1024], man[1024], cmd[4096];
-    snprintf(script, sizeof script, "%s", mf_test_path("flip_ref.py"));
-    snprintf(man, sizeof man, "%s", mf_test_path("flip_manifest.txt"));
-    CHECK(write_text(script, FLIP_PY) == 0 && write_text(man, manifest) == 0);
-    snprintf(cmd, sizeof cmd, "/usr/bin/python3 '%s' '%s' 2>&1", script, man);
-    FILE *p = popen(cmd, "r");
+    FILE *p = start_ref_script("flip", FLIP_PY, manifest);
     CHECK(p != NULL);
     if (!p) return;
     char line[512];
@@ -635,10 +632,7 @@ static double find_value(const char *out, const char *name) {
 }
 
 MF_TEST(eval_cli_metrics) {
-    const char *bin = getenv("MF_BIN");
-    FILE *f = bin ? fopen(bin, "rb") : NULL;
-    if (!f) MF_SKIP("MF_BIN not set (run through make test)");
-    fclose(f);
+    MF_NEED_BIN();
     MfImage gt = img_gradient(32, 28, 4, 0.1f, 60), pred = img_new(32, 28, 4), mask = img_const(32, 28, 1, 0.0f);
     for (int y = 0; y < 28; y++)
         for (int x = 0; x < 32; x++) {
@@ -650,11 +644,11 @@ MF_TEST(eval_cli_metrics) {
             p[3] = 1.0f;
         }
     char pg[1024], pp[1024], pm[1024], ps[1024], pe[1024], args[4096], out[8192];
-    snprintf(pg, sizeof pg, "%s", mf_test_path("cli_gt.exr"));
-    snprintf(pp, sizeof pp, "%s", mf_test_path("cli_pred.exr"));
-    snprintf(pm, sizeof pm, "%s", mf_test_path("cli_mask.png"));
-    snprintf(ps, sizeof ps, "%s", mf_test_path("cli_small.exr"));
-    snprintf(pe, sizeof pe, "%s", mf_test_path("cli_empty.png"));
+    mf_test_path_to(pg, sizeof pg, "cli_gt.exr");
+    mf_test_path_to(pp, sizeof pp, "cli_pred.exr");
+    mf_test_path_to(pm, sizeof pm, "cli_mask.png");
+    mf_test_path_to(ps, sizeof ps, "cli_small.exr");
+    mf_test_path_to(pe, sizeof pe, "cli_empty.png");
     CHECK_OK(mf_image_write(pg, &gt, MF_ENC_LINEAR, 32));
     CHECK_OK(mf_image_write(pp, &pred, MF_ENC_LINEAR, 32));
     CHECK_OK(mf_image_write(pm, &mask, MF_ENC_LINEAR, 8));
@@ -714,7 +708,7 @@ MF_TEST(eval_cli_metrics) {
     CHECK(run_mf(args, out, sizeof out) == 2);
     /* a NaN pixel in a file (written through the OIIO shim, since mf_image_write refuses NaN) */
     char pn[1024], err[256];
-    snprintf(pn, sizeof pn, "%s", mf_test_path("cli_nan.exr"));
+    mf_test_path_to(pn, sizeof pn, "cli_nan.exr");
     MfImage nanimg = img_const(32, 28, 4, 0.5f);
     nanimg.data[4 * (3 * 32 + 5) + 1] = NAN;
     CHECK(mf_oiio_write(pn, 32, 28, 4, nanimg.data, 32, err, sizeof err) == 0);

@@ -185,8 +185,8 @@ MF_TEST(eval_report_speed_error_all_scenes) {
 /* Paths in the report: relative to the report folder, never absolute. */
 MF_TEST(eval_report_relpath) {
     char rep[1024], data[1024], out[1024];
-    snprintf(rep, sizeof rep, "%s", mf_test_path("rp/reports/run1"));
-    snprintf(data, sizeof data, "%s", mf_test_path("rp/data/tiny"));
+    mf_test_path_to(rep, sizeof rep, "rp/reports/run1");
+    mf_test_path_to(data, sizeof data, "rp/data/tiny");
     CHECK_OK(mf_mkdirs(rep));
     CHECK_OK(mf_mkdirs(data));
     ev_report_relpath(rep, data, out, sizeof out);

@@ -19,7 +19,7 @@
 /* The checkpoint scan reads a checkpoint of any table and counts its NaN/Inf values. */
 MF_TEST(stability_checkpoint_scan) {
     char dir[1024], path[1100];
-    snprintf(dir, sizeof dir, "%s", mf_test_path("stab_ckpt"));
+    mf_test_path_to(dir, sizeof dir, "stab_ckpt");
     snprintf(path, sizeof path, "%s/checkpoint.mfck", dir);
     CHECK_OK(mf_mkdirs(dir));
     MfTensorSpec specs[2];
@@ -41,11 +41,11 @@ MF_TEST(stability_checkpoint_scan) {
 }
 
 MF_TEST(stability_quick_grid) {
+    MF_NEED_BIN();
     const char *mf = getenv("MF_BIN");
-    if (!mf || !mf_file_exists(mf)) MF_SKIP("MF_BIN not set (run through make test)");
     if (!mf_file_exists(DS_DEFAULT_ENV_DIR "/studio.exr")) MF_SKIP("blender-data probes not installed (" DS_DEFAULT_ENV_DIR ")");
     char work[1024], out[1100];
-    snprintf(work, sizeof work, "%s", mf_test_path("stability"));
+    mf_test_path_to(work, sizeof work, "stability");
     snprintf(out, sizeof out, "%s/report", work);
     EvStabResult res[EV_STAB_MAX_CELLS];
     int n = 0, nc, nq = 0, bounded = 0;

@@ -11,6 +11,7 @@
 #include "core/mf_fs.h"
 #include "fusion/mf_sds.h"
 #include "mf_test.h"
+#include "mf_test_recon.h"
 #include "render/mf_diffrender.h"
 #include "render/mf_integrator.h"
 #include "render/mf_rtscene.h"
@@ -35,18 +36,7 @@ static int make_recon_n(MfMesh *mesh, MfRecon **out, int iters, int ckpt_every) 
     MfRenderOpts ro = {2, 2, 3, MF_LOBE_ALL};
     for (int v = 0; v < NV && !rc; ++v) {
         float az = 2.0f * MF_PI * v / NV;
-        MfMat4 c2w = mf_mat4_look_at(mf_v3(1.8f * cosf(az), 1.8f * sinf(az), 0.4f), mf_v3(0, 0, 0), mf_v3(0, 0, 1));
-        double m[16];
-        for (int i = 0; i < 16; ++i) m[i] = c2w.m[i];
-        if ((rc = mf_camera_init(&views[v].cam, RES, RES, 0.6911, m, "view"))) break;
-        MfRenderOut o;
-        if ((rc = mf_render(&in, &views[v].cam, &ro, &o, NULL))) break;
-        mf_image_alloc(&views[v].ref, RES, RES, 4);
-        for (int i = 0; i < RES * RES; ++i) {
-            for (int c = 0; c < 3; ++c) views[v].ref.data[4 * i + c] = o.rgb[3 * i + c];
-            views[v].ref.data[4 * i + 3] = o.alpha[i];
-        }
-        mf_render_out_free(&o);
+        rc = ref_view(&in, &ro, RES, mf_v3(1.8f * cosf(az), 1.8f * sinf(az), 0.4f), &views[v]);
     }
     mf_env_free(&env);
     mf_rtscene_free(rt);
@@ -269,7 +259,7 @@ MF_TEST(fusion_sds_hook_schedule) {
     MfReconHook hook = {mf_sds_hook, s};
     CHECK_OK(mf_recon_run(r, &hook, mf_test_path("mf_run")));
     char p[1024], *log = NULL;
-    snprintf(p, sizeof p, "%s/log.csv", mf_test_path("mf_run"));
+    mf_test_path_to(p, sizeof p, "mf_run/log.csv");
     CHECK_OK(mf_read_file(p, &log, NULL));
     double sds = -1;
     const char *row1 = log ? strchr(log, '\n') : NULL;
@@ -613,8 +603,8 @@ MF_TEST(fusion_resume_is_exact) {
     CHECK_OK(make_recon_n(&mh, &half, 8, 4));
     if (!full || !half || !s1 || !s2 || !s3) return;
     char fd[512], hd[512], ck[600];
-    snprintf(fd, sizeof fd, "%s", mf_test_path("mf_full"));
-    snprintf(hd, sizeof hd, "%s", mf_test_path("mf_half"));
+    mf_test_path_to(fd, sizeof fd, "mf_full");
+    mf_test_path_to(hd, sizeof hd, "mf_half");
     Killed k = {s2, 6};
     MfReconHook h1 = {mf_sds_hook, s1}, h2 = {killed_hook, &k}, h3 = {mf_sds_hook, s3};
     CHECK_OK(mf_recon_run(full, &h1, fd));

@@ -99,7 +99,7 @@ static double check_unwrap(const char *name, const MfMesh *in, const MfUvAtlasOp
         if (r == 0) fprintf(stderr, "  %s: %d triangles, %d charts (%d grown; splits: topology %d, flips %d, overlaps %d; %d forced single), %.2f s\n",
                             name, in->nt, info.charts, info.grown, info.split_topology, info.split_flip, info.split_overlap,
                             info.forced_single, mf_now() - t0);
-        snprintf(path[r], sizeof path[r], "%s", mf_test_path(r ? "uv_b.obj" : "uv_a.obj"));
+        mf_test_path_to(path[r], sizeof path[r], "%s", r ? "uv_b.obj" : "uv_a.obj");
         CHECK_OK(mf_obj_write(path[r], &out[r], NULL));
     }
     omp_set_num_threads(threads);

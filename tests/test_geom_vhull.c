@@ -54,11 +54,11 @@ MF_TEST(geom_vhull_sphere_box_cut) {
     for (int shape = 0; shape < 2; ++shape) {
         for (int v = 0; v < NV; ++v) { /* Fibonacci sphere of directions at distance 2.5 */
             float z = 1 - (2 * (float)v + 1) / NV, r = sqrtf(1 - z * z), phi = (float)v * 2.39996323f;
-            look_cam(&cams[v], HW, mf_scale(mf_v3(r * cosf(phi), r * sinf(phi), z), 2.5f), mf_v3s(0));
+            look_cam(&cams[v], HW, HW, mf_scale(mf_v3(r * cosf(phi), r * sinf(phi), z), 2.5f), mf_v3s(0));
             render_mask(shape, &cams[v], &masks[v]);
         }
         /* a cut view: close up, seeing only the shape's +x part */
-        look_cam(&cams[NV], HW, mf_v3(0.35f, -1.2f, 0.1f), mf_v3(0.35f, 0, 0));
+        look_cam(&cams[NV], HW, HW, mf_v3(0.35f, -1.2f, 0.1f), mf_v3(0.35f, 0, 0));
         render_mask(shape, &cams[NV], &masks[NV]);
         MfTetGrid g = mf_tetgrid_make(48, mf_v3s(0), 1.0f);
         size_t nv = mf_tetgrid_nverts(&g);
@@ -129,7 +129,7 @@ MF_TEST(geom_vhull_border_few_views) {
         for (int v = 0; v < NV; ++v) {
             float az = (-60.0f + 120.0f * (float)(v % 4) / 3) * 0.0174533f, el = (v < 4 ? 20.0f : 50.0f) * 0.0174533f;
             MfVec3 dir = mf_v3(cosf(az) * cosf(el), sinf(az) * cosf(el), sinf(el));
-            look_cam(&cams[v], HW, mf_scale(dir, 1.8f), mf_v3s(0));
+            look_cam(&cams[v], HW, HW, mf_scale(dir, 1.8f), mf_v3s(0));
             render_mask(shape, &cams[v], &masks[v]);
         }
         MfTetGrid g;

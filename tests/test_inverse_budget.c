@@ -11,14 +11,16 @@
 #include "inverse/mf_budget.h"
 #include "inverse/mf_recon.h"
 #include "mf_test.h"
+#include "mf_test_recon.h"
 #include "render/mf_integrator.h"
 #include "scene/mf_shapes.h"
 
 enum { NV = 8 };
 
-/* NV views of mesh around the origin at distance 1.8, res px, under a sky/ground env; the
- * material: albedo (0.6, 0.4, 0.2), roughness 0.4, the given metallic. */
+/* NV views (zeroed first) of mesh around the origin at distance 1.8, res px, under a sky/ground
+ * env; the material: albedo (0.6, 0.4, 0.2), roughness 0.4, the given metallic. */
 static int sphere_views(const MfMesh *mesh, int res, float metallic, MfReconView *views) {
+    memset(views, 0, NV * sizeof *views);
     MfRtScene *rt = NULL;
     int rc = mf_rtscene_new(mesh, &rt);
     if (rc) return rc;
@@ -38,18 +40,7 @@ static int sphere_views(const MfMesh *mesh, int res, float metallic, MfReconView
     for (int v = 0; v < NV && !rc; ++v) {
         float az = 2.0f * MF_PI * v / NV, el = (v % 2 ? 0.6f : -0.6f);
         MfVec3 eye = mf_v3(1.8f * cosf(az) * cosf(el), 1.8f * sinf(az) * cosf(el), 1.8f * sinf(el));
-        MfMat4 c2w = mf_mat4_look_at(eye, mf_v3(0, 0, 0), mf_v3(0, 0, 1));
-        double m[16];
-        for (int i = 0; i < 16; ++i) m[i] = c2w.m[i];
-        if ((rc = mf_camera_init(&views[v].cam, res, res, 0.6911, m, "view"))) break;
-        MfRenderOut out;
-        if ((rc = mf_render(&in, &views[v].cam, &ro, &out, NULL))) break;
-        if ((rc = mf_image_alloc(&views[v].ref, res, res, 4))) break;
-        for (int i = 0; i < res * res; ++i) {
-            for (int c = 0; c < 3; ++c) views[v].ref.data[4 * i + c] = out.rgb[3 * i + c];
-            views[v].ref.data[4 * i + 3] = out.alpha[i];
-        }
-        mf_render_out_free(&out);
+        rc = ref_view(&in, &ro, res, eye, &views[v]);
     }
     mf_env_free(&env);
     mf_rtscene_free(rt);
@@ -105,7 +96,6 @@ MF_TEST(inverse_budget_holdout_not_in_loss_and_stops) {
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
     MfReconView v[NV];
-    memset(v, 0, sizeof v);
     CHECK_OK(sphere_views(&mesh, 24, 0.0f, v));
     MfReconOpts o = tiny_opts();
     o.iters = 100;
@@ -119,7 +109,7 @@ MF_TEST(inverse_budget_holdout_not_in_loss_and_stops) {
     int used[NV] = {0};
     MfReconHook hook = {record_hook, used};
     char dir[512];
-    snprintf(dir, sizeof dir, "%s", mf_test_path("es_stop"));
+    mf_test_path_to(dir, sizeof dir, "es_stop");
     CHECK_OK(mf_recon_run(r, &hook, dir));
     CHECK(used[0] == 0 && used[4] == 0);
     for (int i = 0; i < NV; ++i) CHECK_MSG(i % 4 == 0 || used[i] > 0, "training view %d never used", i);
@@ -158,13 +148,12 @@ MF_TEST(inverse_budget_early_stop_resume_is_exact) {
     o.es_min_delta = 100.0f; /* nothing counts as an improvement: stops at 2 * (1 + 2) */
     MfRecon *full = NULL, *half = NULL;
     MfReconView v1[NV], v2[NV], v3[NV];
-    memset(v1, 0, sizeof v1), memset(v2, 0, sizeof v2), memset(v3, 0, sizeof v3);
     CHECK_OK(sphere_views(&mesh, 24, 0.0f, v1));
     CHECK_OK(sphere_views(&mesh, 24, 0.0f, v2));
     CHECK_OK(sphere_views(&mesh, 24, 0.0f, v3));
     char fd[512], hd[512], ck[1024];
-    snprintf(fd, sizeof fd, "%s", mf_test_path("es_full"));
-    snprintf(hd, sizeof hd, "%s", mf_test_path("es_half"));
+    mf_test_path_to(fd, sizeof fd, "es_full");
+    mf_test_path_to(hd, sizeof hd, "es_half");
     CHECK_OK(mf_recon_new(&mesh, v1, NV, &o, &full));
     CHECK_OK(mf_recon_run(full, NULL, fd));
     CHECK(mf_recon_iteration(full) == 6);
@@ -186,7 +175,6 @@ MF_TEST(inverse_budget_early_stop_resume_is_exact) {
     /* a stopped run resumed again does no more iterations */
     mf_recon_free(half);
     MfReconView v4[NV];
-    memset(v4, 0, sizeof v4);
     CHECK_OK(sphere_views(&mesh, 24, 0.0f, v4));
     CHECK_OK(mf_recon_new(&mesh, v4, NV, &o, &half));
     CHECK_OK(mf_recon_load_checkpoint(half, ck));
@@ -214,7 +202,6 @@ static void metal_run(float gt_metal, float init_metal, const char *name, int *s
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
     MfReconView v[NV];
-    memset(v, 0, sizeof v);
     CHECK_OK(sphere_views(&mesh, 24, gt_metal, v));
     MfReconOpts o = tiny_opts();
     o.iters = 24;
@@ -224,7 +211,7 @@ static void metal_run(float gt_metal, float init_metal, const char *name, int *s
     MfRecon *r = NULL;
     CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r));
     char dir[512];
-    snprintf(dir, sizeof dir, "%s", mf_test_path(name));
+    mf_test_path_to(dir, sizeof dir, "%s", name);
     CHECK_OK(mf_recon_run(r, NULL, dir));
     *state = mf_recon_metal_state(r, frac);
     const MfParamBlock *orm = mf_recon_block(r, MF_BLOCK_ORM);
@@ -258,7 +245,6 @@ MF_TEST(inverse_budget_metal_frozen_through_recovery) {
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
     MfReconView v[NV];
-    memset(v, 0, sizeof v);
     CHECK_OK(sphere_views(&mesh, 24, 0.0f, v));
     MfReconOpts o = tiny_opts();
     o.iters = 5;
@@ -269,7 +255,7 @@ MF_TEST(inverse_budget_metal_frozen_through_recovery) {
     CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r));
     MfReconHook hook = {rising_nan_hook, NULL};
     char dir[512];
-    snprintf(dir, sizeof dir, "%s", mf_test_path("metal_recover"));
+    mf_test_path_to(dir, sizeof dir, "metal_recover");
     CHECK_OK(mf_recon_run(r, &hook, dir));
     int nrec = 0;
     mf_recon_recoveries(r, &nrec);
@@ -298,7 +284,6 @@ MF_TEST(inverse_budget_texel_side) {
     double side[2];
     for (int k = 0; k < 2; ++k) {
         MfReconView v[NV];
-        memset(v, 0, sizeof v);
         CHECK_OK(sphere_views(&mesh, 32 << k, 0.0f, v));
         long n = 0;
         CHECK_OK(mf_budget_texel_side(rt, &mesh, v, NV, &side[k], &n));

@@ -12,6 +12,7 @@
 #include "inverse/mf_denoise.h"
 #include "render/mf_diffrender.h"
 #include "mf_test.h"
+#include "mf_test_geom.h"
 #include "scene/mf_shapes.h"
 
 enum { GW = 27, GH = 21 };
@@ -153,10 +154,7 @@ MF_TEST(inverse_denoise_degenerate_guides_no_nan) {
     mf_bilateral_free(&b);
     /* depth slope: grazing and degenerate normals, background: finite and >= 0 */
     MfCamera cam;
-    MfMat4 c2w = mf_mat4_look_at(mf_v3(0, -2, 0), mf_v3(0, 0, 0), mf_v3(0, 0, 1));
-    double m[16];
-    for (int i = 0; i < 16; ++i) m[i] = c2w.m[i];
-    CHECK_OK(mf_camera_init(&cam, GW, GH, 0.6911, m, "test"));
+    CHECK_OK(look_cam(&cam, GW, GH, mf_v3(0, -2, 0), mf_v3(0, 0, 0)));
     float nrm[GW * GH * 3], dep[GW * GH], al[GW * GH], dz[GW * GH];
     for (int i = 0; i < GW * GH; ++i) {
         int k = i % 4;
@@ -209,10 +207,7 @@ static int scene_init(Scene *s) {
             for (int c = 0; c < 3; ++c)
                 e.data[(y * 32 + x) * 3 + c] = (y < 8 ? 1.0f : 0.2f) + ((x == 5 || x == 6) && y == 4 ? 40.0f : 0.0f);
     if ((rc = mf_env_init(&s->env, &e))) return rc;
-    MfMat4 c2w = mf_mat4_look_at(mf_v3(0.4f, -1.7f, 0.6f), mf_v3(0, 0, 0), mf_v3(0, 0, 1));
-    double m[16];
-    for (int i = 0; i < 16; ++i) m[i] = c2w.m[i];
-    return mf_camera_init(&s->cam, RW, RH, 0.6911, m, "test");
+    return look_cam(&s->cam, RW, RH, mf_v3(0.4f, -1.7f, 0.6f), mf_v3(0, 0, 0));
 }
 
 static void scene_free(Scene *s) {

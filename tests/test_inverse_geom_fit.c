@@ -17,6 +17,7 @@
 #include "render/mf_antialias.h"
 #include "render/mf_rtscene.h"
 #include "mf_test.h"
+#include "mf_test_geom.h"
 
 enum { NVIEW = 8, IMG = 64, RES = 32, ITERS = 100 };
 #define R0 0.45f
@@ -29,10 +30,7 @@ static int make_cams(MfCamera *cams) {
     for (int v = 0; v < NVIEW; ++v) {
         double az = 2.0 * MF_PI * v / NVIEW, el = (v % 2 ? (v % 4 == 1 ? 1 : -1) * MF_PI / 4 : 0);
         MfVec3 eye = mf_v3((float)(3 * cos(el) * cos(az)), (float)(3 * cos(el) * sin(az)), (float)(3 * sin(el)));
-        MfMat4 c2w = mf_mat4_look_at(eye, mf_v3(0, 0, 0), mf_v3(0, 0, 1));
-        double m[16];
-        for (int i = 0; i < 16; ++i) m[i] = c2w.m[i];
-        int rc = mf_camera_init(&cams[v], IMG, IMG, 0.6911, m, "test");
+        int rc = look_cam(&cams[v], IMG, IMG, eye, mf_v3(0, 0, 0));
         if (rc) return rc;
     }
     return 0;

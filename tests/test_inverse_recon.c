@@ -8,6 +8,7 @@
 #include "core/mf_fs.h"
 #include "inverse/mf_recon.h"
 #include "mf_test.h"
+#include "mf_test_recon.h"
 #include "nn/mf_nn.h"
 #include "io/mf_ckpt.h"
 #include "render/mf_rtscene.h"
@@ -30,7 +31,9 @@ static void gt_env(MfImage *e) {
         }
 }
 
+/* views (NV,), zeroed first: cameras around mesh and the renders of the GT material under gt_env. */
 static int make_views(const MfMesh *mesh, MfReconView *views) {
+    memset(views, 0, NV * sizeof *views);
     MfRtScene *rt = NULL;
     int rc = mf_rtscene_new(mesh, &rt);
     if (rc) return rc;
@@ -44,18 +47,7 @@ static int make_views(const MfMesh *mesh, MfReconView *views) {
     for (int v = 0; v < NV && !rc; ++v) {
         float az = 2.0f * MF_PI * v / NV, el = (v % 2 ? 0.6f : -0.6f); /* both hemispheres observed */
         MfVec3 eye = mf_v3(1.8f * cosf(az) * cosf(el), 1.8f * sinf(az) * cosf(el), 1.8f * sinf(el));
-        MfMat4 c2w = mf_mat4_look_at(eye, mf_v3(0, 0, 0), mf_v3(0, 0, 1));
-        double m[16];
-        for (int i = 0; i < 16; ++i) m[i] = c2w.m[i];
-        if ((rc = mf_camera_init(&views[v].cam, RES, RES, 0.6911, m, "view"))) break;
-        MfRenderOut out;
-        if ((rc = mf_render(&in, &views[v].cam, &ro, &out, NULL))) break;
-        mf_image_alloc(&views[v].ref, RES, RES, 4);
-        for (int i = 0; i < RES * RES; ++i) {
-            for (int c = 0; c < 3; ++c) views[v].ref.data[4 * i + c] = out.rgb[3 * i + c];
-            views[v].ref.data[4 * i + 3] = out.alpha[i];
-        }
-        mf_render_out_free(&out);
+        rc = ref_view(&in, &ro, RES, eye, &views[v]);
     }
     mf_env_free(&env);
     mf_rtscene_free(rt);
@@ -81,7 +73,6 @@ static void check_recovery(int denoise) {
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 24, 12));
     MfReconView views[NV];
-    memset(views, 0, sizeof views);
     CHECK_OK(make_views(&mesh, views));
     MfReconOpts o = small_opts();
     o.denoise = denoise;
@@ -151,8 +142,6 @@ static void check_resume(int denoise) {
     o.normal_map = 1; /* every block, the normal map's included, must resume exactly */
     MfRecon *full = NULL, *half = NULL;
     MfReconView v1[NV], v2[NV];
-    memset(v1, 0, sizeof v1);
-    memset(v2, 0, sizeof v2);
     CHECK_OK(make_views(&mesh, v1));
     CHECK_OK(make_views(&mesh, v2));
     CHECK_OK(mf_recon_new(&mesh, v1, NV, &o, &full));
@@ -169,7 +158,6 @@ static void check_resume(int denoise) {
     half = NULL;
     /* a new process would start here: fresh state, then the checkpoint */
     MfReconView v3[NV];
-    memset(v3, 0, sizeof v3);
     CHECK_OK(make_views(&mesh, v3));
     CHECK_OK(mf_recon_new(&mesh, v3, NV, &o, &half));
     char ck[1024];
@@ -204,7 +192,6 @@ static void check_resume(int denoise) {
     ob.tex_res = 16;
     MfRecon *bad = NULL;
     MfReconView v4[NV];
-    memset(v4, 0, sizeof v4);
     CHECK_OK(make_views(&mesh, v4));
     CHECK_OK(mf_recon_new(&mesh, v4, NV, &ob, &bad));
     CHECK_ERR(mf_recon_load_checkpoint(bad, ck), "shape mismatch");
@@ -229,7 +216,6 @@ MF_TEST(inverse_recon_nan_gradient_stops_cleanly) {
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
     MfReconView v[NV];
-    memset(v, 0, sizeof v);
     CHECK_OK(make_views(&mesh, v));
     MfReconOpts o = small_opts();
     o.iters = 8;
@@ -262,7 +248,6 @@ MF_TEST(inverse_recon_guard_recovers_nan_gradient) {
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
     MfReconView v[NV];
-    memset(v, 0, sizeof v);
     CHECK_OK(make_views(&mesh, v));
     MfReconOpts o = small_opts();
     o.iters = 8;
@@ -310,7 +295,6 @@ MF_TEST(inverse_recon_guard_recovers_lr_blowup) {
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
     MfReconView v[NV];
-    memset(v, 0, sizeof v);
     CHECK_OK(make_views(&mesh, v));
     MfReconOpts o = small_opts();
     o.iters = 60;
@@ -356,8 +340,6 @@ MF_TEST(inverse_recon_guard_keeps_inf_out_of_checkpoints) {
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
     MfReconView v[NV], v2[NV];
-    memset(v, 0, sizeof v);
-    memset(v2, 0, sizeof v2);
     CHECK_OK(make_views(&mesh, v));
     CHECK_OK(make_views(&mesh, v2));
     MfReconOpts o = small_opts();
@@ -368,7 +350,7 @@ MF_TEST(inverse_recon_guard_keeps_inf_out_of_checkpoints) {
     CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r));
     if (!r) return;
     char dir[512], ck[1024];
-    snprintf(dir, sizeof dir, "%s", mf_test_path("init1e30"));
+    mf_test_path_to(dir, sizeof dir, "init1e30");
     snprintf(ck, sizeof ck, "%s/checkpoint.mfck", dir);
     MfReconHook huge = {huge_hook, NULL};
     int rc = mf_recon_run(r, &huge, dir);
@@ -395,8 +377,6 @@ MF_TEST(inverse_recon_resume_refuses_nonfinite_checkpoint) {
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
     MfReconView v[NV], v2[NV];
-    memset(v, 0, sizeof v);
-    memset(v2, 0, sizeof v2);
     CHECK_OK(make_views(&mesh, v));
     CHECK_OK(make_views(&mesh, v2));
     MfReconOpts o = small_opts();
@@ -407,7 +387,7 @@ MF_TEST(inverse_recon_resume_refuses_nonfinite_checkpoint) {
     CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r));
     if (!r) return;
     char dir[512], ck[1024];
-    snprintf(dir, sizeof dir, "%s", mf_test_path("ckbad"));
+    mf_test_path_to(dir, sizeof dir, "ckbad");
     snprintf(ck, sizeof ck, "%s/checkpoint.mfck", dir);
     CHECK_OK(mf_recon_run(r, NULL, dir));
     /* the checkpoint's table, as mf_recon writes it: per block p, m, v */
@@ -451,7 +431,6 @@ MF_TEST(inverse_recon_exposure_invariant) {
     o.snapshot_every = 0;
     for (int k = 0; k < 3; ++k) {
         MfReconView v[NV];
-        memset(v, 0, sizeof v);
         CHECK_OK(make_views(&mesh, v));
         for (int i = 0; i < NV; ++i)
             for (size_t p = 0; p < (size_t)RES * RES; ++p)
@@ -476,7 +455,7 @@ MF_TEST(inverse_recon_exposure_invariant) {
         /* env.exr in the views' units */
         for (int k = 0; k < 3; ++k) {
             char p[1024];
-            snprintf(p, sizeof p, "%s/env.exr", mf_test_path(k == 0 ? "expo0" : k == 1 ? "expo1" : "expo2"));
+            mf_test_path_to(p, sizeof p, "%s/env.exr", k == 0 ? "expo0" : k == 1 ? "expo1" : "expo2");
             MfImage e = {0};
             CHECK_OK(mf_image_read(p, MF_ENC_LINEAR, &e));
             const MfParamBlock *eb = mf_recon_block(r[k], MF_BLOCK_ENV);
@@ -498,7 +477,6 @@ MF_TEST(inverse_recon_options_named_in_errors) {
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
     MfReconView v[NV];
-    memset(v, 0, sizeof v);
     CHECK_OK(make_views(&mesh, v));
     MfRecon *r = NULL;
     MfReconOpts o = small_opts();

@@ -368,7 +368,7 @@ static void khronos_validate(const char *path) {
     const char *cmd = getenv("MF_GLTF_VALIDATOR");
     if (!cmd || !cmd[0]) return;
     char line[4096], out[1024];
-    snprintf(out, sizeof out, "%s", mf_test_path("gltf_validator.txt"));
+    mf_test_path_to(out, sizeof out, "gltf_validator.txt");
     snprintf(line, sizeof line, "%s '%s' > '%s' 2>&1", cmd, path, out);
     int st = system(line);
     char *txt = NULL;
@@ -517,10 +517,10 @@ MF_TEST(gltf_khronos_validator) {
 
 /* The scene.glb of an `mf recon` result against its mesh.obj: same bounds, rotated to +Y up. */
 MF_TEST(gltf_upright_recon_result) {
+    MF_NEED_BIN();
     const char *bin = getenv("MF_BIN");
-    if (!bin) MF_SKIP("MF_BIN not set");
     char dir[512], cmd[4096];
-    snprintf(dir, sizeof dir, "%s", mf_test_path("gltf_recon"));
+    mf_test_path_to(dir, sizeof dir, "gltf_recon");
     CHECK_OK(mf_mkdirs(dir));
     /* a tall box (0.4 x 0.4 x 1.6) with UVs, seen from the side */
     char p[1024];

@@ -167,17 +167,16 @@ MF_TEST(opts_baseline_config_matches_defaults) {
 /* Every flag of `mf CMD --help` is a key of --print-config's JSON, and that JSON is accepted by
  * --config and prints back identically. */
 MF_TEST(opts_cli_every_flag_is_a_config_key) {
-    const char *bin = getenv("MF_BIN");
-    if (!bin || !mf_file_exists(bin)) MF_SKIP("MF_BIN not set (run through make test)");
+    MF_NEED_BIN();
     const char *cmds[] = {"recon", "render", "eval", "gen", "relight", "bench-render", "metrics", "prior", "train-prior",
                           "eval-prior", "bench-nn", "bench-prior", "bench-tets", "bench-stability", "compare"};
     const int min_flags[] = {8, 8, 8, 8, 8, 8, 5, 6, 18, 10, 6, 5, 2, 6, 3};
     char err[8192];
     for (int c = 0; c < (int)(sizeof cmds / sizeof cmds[0]); ++c) {
         char help[1024], cfg[1024], again[1024], args[4096];
-        snprintf(help, sizeof help, "%s", mf_test_path("opts_help.txt"));
-        snprintf(cfg, sizeof cfg, "%s", mf_test_path("opts_cfg.json"));
-        snprintf(again, sizeof again, "%s", mf_test_path("opts_cfg2.json"));
+        mf_test_path_to(help, sizeof help, "opts_help.txt");
+        mf_test_path_to(cfg, sizeof cfg, "opts_cfg.json");
+        mf_test_path_to(again, sizeof again, "opts_cfg2.json");
         snprintf(args, sizeof args, "%s --help", cmds[c]);
         CHECK(mf_test_run_mf(args, help, err, sizeof err) == 0);
         snprintf(args, sizeof args, "%s --print-config", cmds[c]);
@@ -220,11 +219,10 @@ MF_TEST(opts_cli_every_flag_is_a_config_key) {
 /* An out-of-range value, on the command line or in a config file, is refused with the option,
  * the value and the range, exit 2, and nothing written. */
 MF_TEST(opts_cli_out_of_range_refused_no_file) {
-    const char *bin = getenv("MF_BIN");
-    if (!bin || !mf_file_exists(bin)) MF_SKIP("MF_BIN not set (run through make test)");
+    MF_NEED_BIN();
     char err[8192], args[4096], out[1024], cfg[1024];
-    snprintf(out, sizeof out, "%s", mf_test_path("opts_out"));
-    snprintf(cfg, sizeof cfg, "%s", mf_test_path("opts_bad.json"));
+    mf_test_path_to(out, sizeof out, "opts_out");
+    mf_test_path_to(cfg, sizeof cfg, "opts_bad.json");
     FILE *f = fopen(cfg, "w");
     if (f) fputs("{\"denoise_sigma\": 100}\n", f), fclose(f);
     struct {
@@ -266,8 +264,7 @@ MF_TEST(opts_cli_out_of_range_refused_no_file) {
 }
 
 MF_TEST(opts_cli_help_shows_defaults_and_ranges) {
-    const char *bin = getenv("MF_BIN");
-    if (!bin || !mf_file_exists(bin)) MF_SKIP("MF_BIN not set (run through make test)");
+    MF_NEED_BIN();
     struct {
         const char *cmd, *needle;
     } cases[] = {
@@ -281,7 +278,7 @@ MF_TEST(opts_cli_help_shows_defaults_and_ranges) {
         {"gen", "--r-min X                camera distance, lower end (2.2 / 2.8 cropped no view of 1500 checked) (default 1.5, range [0.1, 100])"},
     };
     char err[256], outf[1024], args[256];
-    snprintf(outf, sizeof outf, "%s", mf_test_path("opts_help2.txt"));
+    mf_test_path_to(outf, sizeof outf, "opts_help2.txt");
     char *h = NULL;
     for (size_t k = 0; k < sizeof cases / sizeof cases[0]; ++k) {
         if (k == 0 || strcmp(cases[k].cmd, cases[k - 1].cmd)) { /* one --help per command */
@@ -298,11 +295,10 @@ MF_TEST(opts_cli_help_shows_defaults_and_ranges) {
 
 /* --spp-sqrt and the spp_sqrt config key still work, with a warning naming the new flag. */
 MF_TEST(opts_cli_deprecated_alias_warns_but_works) {
-    const char *bin = getenv("MF_BIN");
-    if (!bin || !mf_file_exists(bin)) MF_SKIP("MF_BIN not set (run through make test)");
+    MF_NEED_BIN();
     char err[4096], outf[1024], cfg[1024], args[2048];
-    snprintf(outf, sizeof outf, "%s", mf_test_path("opts_dep.json"));
-    snprintf(cfg, sizeof cfg, "%s", mf_test_path("opts_dep_in.json"));
+    mf_test_path_to(outf, sizeof outf, "opts_dep.json");
+    mf_test_path_to(cfg, sizeof cfg, "opts_dep_in.json");
     CHECK(mf_test_run_mf("recon --spp-sqrt 3 --print-config", outf, err, sizeof err) == 0);
     CHECK_MSG(strstr(err, "--spp-sqrt is deprecated: use --spp"), "no deprecation warning: '%s'", err);
     cJSON *j = NULL;

@@ -816,8 +816,8 @@ MF_TEST(nn_grad_clip_norm) {
 /* ---- mf bench-nn (CLI smoke test: tiny sizes, checks the report is written; no timing asserts) */
 
 MF_TEST(nn_bench_cli_writes_report) {
+    MF_NEED_BIN();
     const char *bin = getenv("MF_BIN");
-    if (!bin) MF_SKIP("MF_BIN not set (run through make test)");
     const char *out = mf_test_path("bench_nn.md");
     char cmd[8192];
     snprintf(cmd, sizeof cmd, "'%s' bench-nn --batch 1 --channels 4 --size 8 --gemm 32 --reps 1 -o '%s' > /dev/null",

@@ -32,7 +32,7 @@ MF_TEST(prior_bad_weights_refused) {
     size_t len = 0;
     CHECK_OK(mf_read_file(good, &d, &len));
     /* truncated */
-    snprintf(path, sizeof path, "%s", mf_test_path("prior_trunc.mfck"));
+    mf_test_path_to(path, sizeof path, "prior_trunc.mfck");
     CHECK_OK(mf_write_file(path, d, len / 2));
     CHECK_ERR(mf_prior_load(path, &q), "truncated");
     CHECK_ERR(mf_prior_load(path, &q), "expected prior weights");

@@ -28,8 +28,8 @@ static int files_equal(const char *a, const char *b) {
 
 MF_TEST(prior_train_tiny_reduces_loss_and_roundtrips) {
     char out[MF_PATH_MAX], csv[MF_PATH_MAX], w[MF_PATH_MAX], w2[MF_PATH_MAX];
-    snprintf(out, sizeof out, "%s", mf_test_path("prior_run_a"));
-    snprintf(csv, sizeof csv, "%s", mf_test_path("prior_run_a.csv"));
+    mf_test_path_to(out, sizeof out, "prior_run_a");
+    mf_test_path_to(csv, sizeof csv, "prior_run_a.csv");
     MfTrainPriorOpts o;
     tp_tiny_opts(&o, out, csv);
     MfTrainPriorResult r;
@@ -46,7 +46,7 @@ MF_TEST(prior_train_tiny_reduces_loss_and_roundtrips) {
     free(txt);
     /* weights: load, save again -> same bytes; outputs bit-exact after a reload */
     mf_path_join(w, sizeof w, out, "prior.mfck");
-    snprintf(w2, sizeof w2, "%s", mf_test_path("prior_copy.mfck"));
+    mf_test_path_to(w2, sizeof w2, "prior_copy.mfck");
     MfPrior *p, *q;
     CHECK_OK(mf_prior_load(w, &p));
     CHECK(p->latent_scale == r.latent_scale && p->data_seed == 11 && p->cfg.ae.res == 16);
@@ -81,10 +81,10 @@ MF_TEST(prior_train_tiny_reduces_loss_and_roundtrips) {
 
 MF_TEST(prior_resume_is_exact) {
     char a[MF_PATH_MAX], b[MF_PATH_MAX], ca[MF_PATH_MAX], cb[MF_PATH_MAX], wa[MF_PATH_MAX], wb[MF_PATH_MAX];
-    snprintf(a, sizeof a, "%s", mf_test_path("prior_res_a"));
-    snprintf(b, sizeof b, "%s", mf_test_path("prior_res_b"));
-    snprintf(ca, sizeof ca, "%s", mf_test_path("prior_res_a.csv"));
-    snprintf(cb, sizeof cb, "%s", mf_test_path("prior_res_b.csv"));
+    mf_test_path_to(a, sizeof a, "prior_res_a");
+    mf_test_path_to(b, sizeof b, "prior_res_b");
+    mf_test_path_to(ca, sizeof ca, "prior_res_a.csv");
+    mf_test_path_to(cb, sizeof cb, "prior_res_b.csv");
     MfTrainPriorOpts o;
     MfTrainPriorResult r;
     tp_tiny_opts(&o, a, ca);
@@ -110,8 +110,8 @@ MF_TEST(prior_resume_is_exact) {
 
 MF_TEST(prior_nan_loss_stops_and_keeps_checkpoint) {
     char a[MF_PATH_MAX], ca[MF_PATH_MAX], st[MF_PATH_MAX];
-    snprintf(a, sizeof a, "%s", mf_test_path("prior_nan"));
-    snprintf(ca, sizeof ca, "%s", mf_test_path("prior_nan.csv"));
+    mf_test_path_to(a, sizeof a, "prior_nan");
+    mf_test_path_to(ca, sizeof ca, "prior_nan.csv");
     MfTrainPriorOpts o;
     MfTrainPriorResult r;
     tp_tiny_opts(&o, a, ca);
@@ -129,13 +129,13 @@ MF_TEST(prior_nan_loss_stops_and_keeps_checkpoint) {
 MF_TEST(prior_train_partial_folder_and_default_weights) {
     /* a folder still being generated: no manifest, samples 0..5 and 7 (6 missing) -> 6 samples */
     char dir[MF_PATH_MAX], out[MF_PATH_MAX], path[MF_PATH_MAX], w[MF_PATH_MAX];
-    snprintf(dir, sizeof dir, "%s", mf_test_path("prior_partial"));
+    mf_test_path_to(dir, sizeof dir, "prior_partial");
     tp_write_synth(dir, 8, 16, 3);
     mf_path_join(path, sizeof path, dir, "manifest.json");
     remove(path);
     mf_path_join(path, sizeof path, dir, "orm/000006.png");
     remove(path);
-    snprintf(out, sizeof out, "%s", mf_test_path("prior_partial_out"));
+    mf_test_path_to(out, sizeof out, "prior_partial_out");
     MfTrainPriorOpts o;
     MfTrainPriorResult r;
     tp_tiny_opts(&o, out, mf_test_path("prior_partial.csv"));

@@ -10,6 +10,7 @@
 #include "core/mf_rng.h"
 #include "render/mf_diffrender.h"
 #include "mf_test.h"
+#include "mf_test_geom.h"
 #include "scene/mf_shapes.h"
 
 enum { W = 10, H = 10, TW = 4, TH = 4, EW = 8, EH = 4 };
@@ -59,10 +60,7 @@ static int fixture_init(Fixture *f) {
     mf_image_alloc(&f->orm_s, TW, TH, 3);
     memcpy(f->kd_s.data, f->kd.data, sizeof(float) * TW * TH * 3);
     memcpy(f->orm_s.data, f->orm.data, sizeof(float) * TW * TH * 3);
-    MfMat4 c2w = mf_mat4_look_at(mf_v3(0.3f, -1.6f, 0.5f), mf_v3(0, 0, 0), mf_v3(0, 0, 1));
-    double m[16];
-    for (int i = 0; i < 16; ++i) m[i] = c2w.m[i];
-    if ((rc = mf_camera_init(&f->cam, W, H, 0.6911, m, "test"))) return rc;
+    if ((rc = look_cam(&f->cam, W, H, mf_v3(0.3f, -1.6f, 0.5f), mf_v3(0, 0, 0)))) return rc;
     for (int i = 0; i < W * H * 3; ++i) {
         f->wr[i] = mf_rng_float(&r) - 0.3f;
         f->wd[i] = 0.5f * (mf_rng_float(&r) - 0.5f);

@@ -12,6 +12,7 @@
 #include "core/mf_rng.h"
 #include "render/mf_diffrender.h"
 #include "mf_test.h"
+#include "mf_test_geom.h"
 
 enum { W = 12, H = 12, N = 9, TW = 8, TH = 8, EW = 16, EH = 8 };
 
@@ -72,10 +73,7 @@ static int fix_init(Fix *f) {
      * primary hit crosses to the next facet) carry no light */
     for (int i = 0; i < EW * EH * 3; ++i) env.data[i] = i < 2 * EW * 3 ? 0.2f + 2.0f * mf_rng_float(&r) : 0.0f;
     if ((rc = mf_env_init(&f->env, &env))) return rc;
-    MfMat4 c2w = mf_mat4_look_at(mf_v3(0.25f, -0.5f, 1.5f), mf_v3(0, 0, 0), mf_v3(0, 0, 1));
-    double m[16];
-    for (int i = 0; i < 16; ++i) m[i] = c2w.m[i];
-    if ((rc = mf_camera_init(&f->cam, W, H, 0.6911, m, "test"))) return rc;
+    if ((rc = look_cam(&f->cam, W, H, mf_v3(0.25f, -0.5f, 1.5f), mf_v3(0, 0, 0)))) return rc;
     for (int i = 0; i < W * H * 3; ++i) {
         f->wr[i] = mf_rng_float(&r) - 0.3f;
         f->wd[i] = 0.5f * (mf_rng_float(&r) - 0.5f);

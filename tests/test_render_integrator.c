@@ -448,7 +448,7 @@ MF_TEST(render_povray_lambert) {
     right = mf_scale(right, span);
     up = mf_scale(up, span);
     char dir[1024], pov[1100];
-    snprintf(dir, sizeof dir, "%s", mf_test_path("povray"));
+    mf_test_path_to(dir, sizeof dir, "povray");
     CHECK_OK(mf_mkdirs(dir));
     snprintf(pov, sizeof pov, "%s/scene.pov", dir);
     FILE *f = fopen(pov, "w");

@@ -17,6 +17,7 @@
 #include "scene/mf_shapes.h"
 #include "scene/mf_tangent.h"
 #include "mf_test.h"
+#include "mf_test_geom.h"
 
 static MfVec3 v3at(const float *a, uint32_t i, int stride) { return mf_v3(a[stride * i], a[stride * i + 1], a[stride * i + 2]); }
 
@@ -131,11 +132,8 @@ MF_TEST(normalmap_flat_map_renders_unchanged) {
     for (int i = 0; i < 64; ++i) flat.data[3 * i] = flat.data[3 * i + 1] = 0.5f, flat.data[3 * i + 2] = 1.0f;
     MfTexMaterial mat = {NULL, NULL, mf_v3(0.6f, 0.5f, 0.4f), mf_v3(1, 0.3f, 0.2f), NULL};
     MfRenderInput in = {rt, &m, &mat, 1, &env, NULL, 0};
-    MfMat4 c2w = mf_mat4_look_at(mf_v3(0.3f, -1.6f, 0.5f), mf_v3(0, 0, 0), mf_v3(0, 0, 1));
-    double cm[16];
-    for (int i = 0; i < 16; ++i) cm[i] = c2w.m[i];
     MfCamera cam;
-    CHECK_OK(mf_camera_init(&cam, 16, 16, 0.6911, cm, "test"));
+    CHECK_OK(look_cam(&cam, 16, 16, mf_v3(0.3f, -1.6f, 0.5f), mf_v3(0, 0, 0)));
     MfRenderOpts o = {2, 1, 3, MF_LOBE_ALL};
     MfRenderOut a, b, c;
     CHECK_OK(mf_render(&in, &cam, &o, &a, NULL));

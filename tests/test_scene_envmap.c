@@ -660,7 +660,7 @@ static int load_rotated_env_scene(const char *dir, const char *name, const char 
 MF_TEST(hostile_env_rotation) {
     enum { W = 16, H = 4 };
     char dir[512], p[1024];
-    snprintf(dir, sizeof dir, "%s", mf_test_path("hostile_env"));
+    mf_test_path_to(dir, sizeof dir, "hostile_env");
     CHECK_OK(mf_mkdirs(dir));
     MfImage img = {0};
     column_env(&img, W, H);

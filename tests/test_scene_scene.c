@@ -28,7 +28,7 @@ static const char *k_obj =
 
 MF_TEST(render_scene_load) {
     char dir[1024], p[1200];
-    snprintf(dir, sizeof dir, "%s", mf_test_path("scene_load"));
+    mf_test_path_to(dir, sizeof dir, "scene_load");
     CHECK_OK(mf_mkdirs(dir));
     put_in(dir, "quad.obj", k_obj);
     /* 2x2 sRGB kd texture: 0.5 sRGB -> 0.214 linear; a 1x1 linear ORM PNG */
@@ -129,7 +129,7 @@ MF_TEST(render_scene_load) {
  * 1e30 in NaN pixels) and far-away point lights are refused by the field that gives them. */
 MF_TEST(hostile_huge_strengths) {
     char dir[512], buf[2048];
-    snprintf(dir, sizeof dir, "%s", mf_test_path("hostile_strength"));
+    mf_test_path_to(dir, sizeof dir, "hostile_strength");
     CHECK_OK(mf_mkdirs(dir));
     write_render_scene(dir, "s", k_quad, "2.5");
     write_flat(pj2(dir, "env.exr"), 8, 4, 3, 2.0f, MF_ENC_LINEAR);
