@@ -135,18 +135,6 @@ static void finish_cell(int st, const struct rusage *ru, const struct timespec *
     r->peak_rss_kb = ru->ru_maxrss;
 }
 
-int ev_stab_run(const char *cmd, const char *stderr_path, EvStabResult *r) {
-    struct timespec t0;
-    pid_t pid;
-    int rc = spawn_cell(cmd, stderr_path, &pid, &t0), st = 0;
-    if (rc) return rc;
-    struct rusage ru;
-    memset(&ru, 0, sizeof ru);
-    if (wait4(pid, &st, 0, &ru) < 0) return mf_fail(MF_EIO, "wait4 failed for: %s", cmd);
-    finish_cell(st, &ru, &t0, r);
-    return MF_OK;
-}
-
 /* Runs the n commands cmds[i] (stderr to errs[i]) at most `jobs` at a time, each result into
  * res[i] (exit code, wall seconds, peak RSS); returns when all have ended. */
 static int run_pool(char (*cmds)[4096], char (*errs)[1100], EvStabResult *const *res, int n, int jobs) {

@@ -49,10 +49,6 @@ typedef struct {
     int ok;             /* 1 when the cell behaved as expected (see EvStabCell) */
 } EvStabResult;
 
-/* Runs `cmd` (a /bin/sh command line, run with exec so the child is the command itself) with
- * stderr to `stderr_path`; fills exit_code, wall_s and peak_rss_kb. */
-int ev_stab_run(const char *cmd, const char *stderr_path, EvStabResult *r);
-
 /* Counts the .exr files under `dir` (recursively) and those that hold a non-finite value. */
 int ev_stab_scan_dir(const char *dir, int *exr_files, int *nonfinite);
 
