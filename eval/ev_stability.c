@@ -393,6 +393,8 @@ int ev_stab_grid(const char *mf, const char *work, const char *out_dir, int iter
     }
     /* threads per cell: the cores shared by the cells that run at once (set in the child's env) */
     long cores = sysconf(_SC_NPROCESSORS_ONLN);
+    if (cores < 1) cores = 1;
+    if (jobs < 1) jobs = (int)cores;
     int threads = jobs > 1 ? (int)(cores > jobs ? cores / jobs : 1) : 0;
     char env[64] = "";
     if (threads > 0) snprintf(env, sizeof env, "OMP_NUM_THREADS=%d ", threads);
@@ -435,7 +437,7 @@ int ev_stab_grid(const char *mf, const char *work, const char *out_dir, int iter
         memset(&mem[i], 0, sizeof mem[i]);
         slot[n + i] = &mem[i];
     }
-    if (!rc) rc = run_pool(cmd, err, slot, n + nmem, jobs > 1 ? jobs : 1);
+    if (!rc) rc = run_pool(cmd, err, slot, n + nmem, jobs);
     /* scoring, in the cells' order: each reference cell comes before the cells compared with it */
     const EvStabResult *ref[2] = {NULL, NULL}; /* baseline, materialfusion reference cells */
     for (int j = 0; j < n && !rc; ++j) {
@@ -466,5 +468,5 @@ int ev_stab_grid(const char *mf, const char *work, const char *out_dir, int iter
     *n_out = n;
     clock_gettime(CLOCK_MONOTONIC, &t1);
     double total = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
-    return write_report(out_dir, ran, results, n, iters, mem, mem_n, nmem, total, jobs > 1 ? jobs : 1, threads);
+    return write_report(out_dir, ran, results, n, iters, mem, mem_n, nmem, total, jobs, threads);
 }

@@ -58,8 +58,8 @@ void ev_stab_scan_ckpt(const char *dir, long *values, long *nonfinite);
 
 /* Runs the grid: builds the variants the cells use under work/scenes/, then every cell of
  * ev_stab_cells() (quick != 0: only those marked quick, and no memory row); recon cells run
- * `iters` iterations (memory row: 50 and `mem_iters`). jobs > 1: that many cells run at once,
- * each with OMP_NUM_THREADS = cores / jobs (at least 1). Results are not bit-identical across
+ * `iters` iterations (memory row: 50 and `mem_iters`). jobs: cells run at once (< 1: one per
+ * core); with jobs > 1 each gets OMP_NUM_THREADS = cores / jobs (at least 1). Results are not bit-identical across
  * thread counts (the renderer's OpenMP sums run in another order), so every cell of a run gets
  * the same count and is compared with its reference cell from the same run; wall times are
  * measured under the load of the cells beside it. results[i] belongs to the i-th

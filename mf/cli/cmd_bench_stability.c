@@ -2,7 +2,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 #include "cli/mf_cli.h"
 #include "core/mf_error.h"
@@ -55,15 +54,13 @@ static int cmd_bench_stability(int argc, char **argv) {
 static int bench_stability_run(const StabArgs *a) {
     const char *mf = a->mf, *work = a->work, *out = a->out;
     int iters = a->iters, mem_iters = a->mem_iters, quick = a->quick;
-    long cores = sysconf(_SC_NPROCESSORS_ONLN);
-    int jobs = a->jobs > 0 ? a->jobs : (int)(cores > 0 ? cores : 1);
     if (!mf || !work || !out) {
         mf_fail(MF_EARG, "--mf, --work and -o are required");
         return MF_EXIT_USAGE;
     }
     EvStabResult res[EV_STAB_MAX_CELLS];
     int n = 0;
-    if (ev_stab_grid(mf, work, out, iters, mem_iters, quick, jobs, res, EV_STAB_MAX_CELLS, &n)) return MF_EXIT_FAIL;
+    if (ev_stab_grid(mf, work, out, iters, mem_iters, quick, a->jobs, res, EV_STAB_MAX_CELLS, &n)) return MF_EXIT_FAIL;
     int bad = 0;
     for (int i = 0; i < n; ++i) bad += !res[i].ok;
     printf("stability grid: %d cells, %d not as expected -> %s/README.md\n", n, bad, out);

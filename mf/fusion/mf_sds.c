@@ -35,9 +35,9 @@ int mf_sds_new(MfPrior *prior, const MfSdsOpts *o, MfSds **out) {
                        o->k_views, MF_SDS_MAX_VIEWS, o->t_min, o->t_max, o->aov_samples, o->every);
     if (o->weight < MF_SDS_WEIGHT_NONE || o->weight > MF_SDS_WEIGHT_SPREAD)
         return mf_fail(MF_EARG, "SDS options: weight %d is not none (0), conflict (1), coverage (2) or spread (3)", o->weight);
-    if (o->draws < 1 || o->draws > 8 || (o->weight == MF_SDS_WEIGHT_SPREAD && o->draws < 2))
-        return mf_fail(MF_EARG, "SDS options: --sds-draws %d (1..8; --sds-weight spread needs >= 2, the spread is over the draws)",
-                       o->draws);
+    if (o->draws < 1 || o->draws > MF_SDS_MAX_DRAWS || (o->weight == MF_SDS_WEIGHT_SPREAD && o->draws < 2))
+        return mf_fail(MF_EARG, "SDS options: --sds-draws %d (1..%d; --sds-weight spread needs >= 2, the spread is over the draws)",
+                       o->draws, MF_SDS_MAX_DRAWS);
     if (!(o->trust_rough >= 0.0f && o->trust_rough <= 1.0f && o->trust_metal >= 0.0f && o->trust_metal <= 1.0f))
         return mf_fail(MF_EARG, "SDS options: channel trust roughness %g, metallic %g (each in [0, 1])", o->trust_rough,
                        o->trust_metal);

@@ -81,6 +81,7 @@ typedef struct {
 enum { MF_SDS_WEIGHT_NONE = 0, MF_SDS_WEIGHT_CONFLICT = 1, MF_SDS_WEIGHT_COVERAGE = 2, MF_SDS_WEIGHT_SPREAD = 3 }; /* "none|conflict|coverage|spread" */
 /* coverage: a texel seen by n training views gets the weight C0 / (C0 + n) (1 where no view sees it) */
 #define MF_SDS_COVERAGE_C0 4.0f
+#define MF_SDS_MAX_DRAWS 8 /* the largest draws */
 
 MfSdsOpts mf_sds_opts_default(void);
 

@@ -31,7 +31,7 @@ static const MfOpt k_opts[] = {
                  "coverage (per texel, times 4 / (4 + training views that see it)); "
                  "spread (per element, less where the prior's draws disagree; needs --sds-draws >= 2)",
                  .choices = "none|conflict|coverage|spread"),
-    MF_OPT_NAMED(S, "sds_draws", draws, MF_OPT_INT, 1, 1, 8,
+    MF_OPT_NAMED(S, "sds_draws", draws, MF_OPT_INT, 1, 1, MF_SDS_MAX_DRAWS,
                  "noise draws per prior target (same t): the target is their mean x0 (1: the paper)"),
     MF_OPT_NAMED(S, "sds_trust_rough", trust_rough, MF_OPT_FLOAT, 1, 0, 1,
                  "scale of the prior's roughness gradient (1: the paper; `mf eval-prior` on a validation split prints the measured reliability)"),
