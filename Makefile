@@ -228,6 +228,8 @@ FLAGS_mf-chtrust      = --method materialfusion $(or $(shell sed -n 's/^Flags[^`
 FLAGS_mf-chtrust-g1   = $(FLAGS_mf-chtrust) --guidance 1
 # and the mean of 2 noise draws per target, each element weighted by the draws' agreement
 FLAGS_mf-spread       = $(FLAGS_mf-chtrust-g1) --sds-draws 2 --sds-weight spread
+# or the prior's mean prediction per view (4 samples from pure noise), held for the run, as the target
+FLAGS_mf-mean         = $(FLAGS_mf-chtrust-g1) --sds-target mean
 FLAGS_mf-gamma-const := --method materialfusion --gamma-const 1
 FLAGS_mf-no-rgb      := --method materialfusion --lambda-rgb 0
 FLAGS_mf-no-latent   := --method materialfusion --lambda-latent 0

@@ -624,3 +624,64 @@ MF_TEST(fusion_resume_is_exact) {
     mf_mesh_free(&mf), mf_mesh_free(&mh), mf_mesh_free(&mr);
 }
 
+
+/* --sds-target mean: a view's targets are the prior's prediction from its image alone, held for the
+ * run: the same bits at another iteration, in another batch and after the textures changed; with 2
+ * samples the mean of the 1-sample target and a second sample, the variance that of the two. */
+MF_TEST(fusion_sds_mean_targets_held) {
+    MfMesh mesh;
+    MfRecon *r = NULL;
+    CHECK_OK(make_recon(&mesh, &r));
+    MfSdsOpts o = mf_sds_opts_default();
+    o.k_views = 2;
+    o.target = MF_SDS_TARGET_MEAN;
+    o.mean_samples = 1;
+    o.mean_steps = 3;
+    MfSds *s1 = tiny_sds_opts(&o);
+    o.mean_samples = 2;
+    o.weight = MF_SDS_WEIGHT_SPREAD;
+    MfSds *s2 = tiny_sds_opts(&o);
+    o.mean_samples = 1;
+    MfSds *bad = NULL;
+    CHECK_ERR(mf_sds_new(NULL, &o, &bad), "--sds-mean-samples 1");
+    if (!r || !s1 || !s2) return;
+    MfPriorConfig cfg;
+    mf_prior_config_tiny(&cfg);
+    size_t h = (size_t)cfg.ae.res / 4, zsz = 2u * cfg.ae.zc * h * h, isz = 3u * cfg.ae.res * cfg.ae.res;
+    MfSdsTargets a, b, c;
+    int va[2] = {0, 3}, vb[2] = {3, 1};
+    CHECK_OK(mf_sds_targets(s1, r, va, 2, 5, &a));
+    MfParamBlock *kd = mf_recon_block(r, MF_BLOCK_KD);
+    for (size_t i = 0; i < kd->n; ++i) kd->p[i] = 0.5f * kd->p[i] + 0.3f; /* other textures */
+    CHECK_OK(mf_sds_targets(s1, r, vb, 2, 9, &b));
+    CHECK_OK(mf_sds_targets(s2, r, vb, 2, 9, &c));
+    if (mf_test_failed_now()) return;
+    CHECK(a.t == 0 && b.t == 0 && a.zvar == NULL && c.zvar != NULL && c.dvar != NULL);
+    if (mf_test_failed_now()) return;
+    /* view 3: item 1 of a, item 0 of b and c; maps (2, n, 3, R, R) */
+    CHECK(memcmp(a.zhat + zsz, b.zhat, zsz * sizeof(float)) == 0);
+    for (int kind = 0; kind < 2; ++kind)
+        CHECK(memcmp(a.dhat + (2 * kind + 1) * isz, b.dhat + 2 * kind * isz, isz * sizeof(float)) == 0);
+    double zerr = 0.0, derr = 0.0, vmax = 0.0;
+    for (size_t i = 0; i < zsz; ++i) {
+        double d = (double)c.zhat[i] - b.zhat[i];
+        zerr = fmax(zerr, fabs(c.zvar[i] - 2.0 * d * d));
+        vmax = fmax(vmax, c.zvar[i]);
+    }
+    for (int kind = 0; kind < 2; ++kind) {
+        double kmax = 0.0; /* the samples differ in both maps */
+        for (size_t i = 0; i < isz; ++i) {
+            size_t j = 2 * kind * isz + i;
+            double d = (double)c.dhat[j] - b.dhat[j];
+            derr = fmax(derr, fabs(c.dvar[j] - 2.0 * d * d));
+            kmax = fmax(kmax, c.dvar[j]);
+        }
+        CHECK_MSG(kmax > 0.0, "maps %d: no variance over the samples", kind);
+    }
+    CHECK(vmax > 0.0);
+    CHECK_MSG(zerr <= 1e-5 * fmax(vmax, 1.0) && derr <= 1e-5, "sample variance off: latent %.3g, maps %.3g", zerr, derr);
+    mf_sds_targets_free(&a), mf_sds_targets_free(&b), mf_sds_targets_free(&c);
+    mf_sds_free(s1), mf_sds_free(s2);
+    mf_recon_free(r);
+    mf_mesh_free(&mesh);
+}

@@ -24,6 +24,11 @@ struct MfSds {
     size_t coverage_n;
     int held_it;     /* iteration of the last refresh, -1: none */
     double held_loss;
+    /* --sds-target mean: the held targets of each training view, filled when a view is first picked */
+    int mean_nv;          /* views of the cache */
+    unsigned char *have;  /* (mean_nv,) 1: the view's targets are computed */
+    float *mz, *md;       /* (mean_nv, 2zc, h, h) latents, (mean_nv, 2, 3, R, R) decoded maps: the means */
+    float *mzv, *mdv;     /* the same shapes: variances over the samples (spread weighting only) */
     double seconds;  /* wall time of the refreshes */
     MfSdsTimes times; /* the same and the applies, by stage */
 };
@@ -35,12 +40,17 @@ int mf_sds_new(MfPrior *prior, const MfSdsOpts *o, MfSds **out) {
                        o->k_views, MF_SDS_MAX_VIEWS, o->t_min, o->t_max, o->aov_samples, o->every);
     if (o->weight < MF_SDS_WEIGHT_NONE || o->weight > MF_SDS_WEIGHT_SPREAD)
         return mf_fail(MF_EARG, "SDS options: weight %d is not none (0), conflict (1), coverage (2) or spread (3)", o->weight);
-    if (o->draws < 1 || o->draws > MF_SDS_MAX_DRAWS || (o->weight == MF_SDS_WEIGHT_SPREAD && o->draws < 2))
+    if (o->draws < 1 || o->draws > MF_SDS_MAX_DRAWS ||
+        (o->weight == MF_SDS_WEIGHT_SPREAD && o->draws < 2 && o->target == MF_SDS_TARGET_DDIM))
         return mf_fail(MF_EARG, "SDS options: --sds-draws %d (1..%d; --sds-weight spread needs >= 2, the spread is over the draws)",
                        o->draws, MF_SDS_MAX_DRAWS);
     if (!(o->trust_rough >= 0.0f && o->trust_rough <= 1.0f && o->trust_metal >= 0.0f && o->trust_metal <= 1.0f))
         return mf_fail(MF_EARG, "SDS options: channel trust roughness %g, metallic %g (each in [0, 1])", o->trust_rough,
                        o->trust_metal);
+    if (o->target < MF_SDS_TARGET_DDIM || o->target > MF_SDS_TARGET_MEAN || o->mean_samples < 1 || o->mean_steps < 1 ||
+        o->mean_steps > MF_DIFF_T || (o->target == MF_SDS_TARGET_MEAN && o->weight == MF_SDS_WEIGHT_SPREAD && o->mean_samples < 2))
+        return mf_fail(MF_EARG, "SDS options: --sds-target %d (ddim 0, mean 1), --sds-mean-samples %d (>= 1; spread weighting "
+                       "needs >= 2), --sds-mean-steps %d (1..%d)", o->target, o->mean_samples, o->mean_steps, MF_DIFF_T);
     MfSds *s = calloc(1, sizeof *s);
     if (!s) return mf_fail(MF_ENOMEM, "out of memory");
     s->prior = prior;
@@ -61,6 +71,7 @@ void mf_sds_free(MfSds *s) {
     if (!s) return;
     mf_prior_free(s->prior);
     free(s->held_kd), free(s->held_orm), free(s->coverage);
+    free(s->have), free(s->mz), free(s->md), free(s->mzv), free(s->mdv);
     free(s);
 }
 
@@ -188,6 +199,80 @@ void mf_sds_spread_weights(const float *var, const float *m, size_t n, float *w)
         if (m[i] > 0.0f) w[i] *= scale;
 }
 
+/* --sds-target mean: computes the held targets of the views of t (n) not yet in the cache, from
+ * their condition images t->cond: mean_samples samples of mean_steps guided DDIM steps from pure
+ * noise (seeded by the view) as one batch, decoded; the means (and with spread the variances) of
+ * the latents and maps. nviews: the reconstruction's views (the cache's size). */
+static int mean_fill(MfSds *s, const MfSdsTargets *t, const int *views, int nviews) {
+    int R = res_of(s), h = lat_of(s), zc = zc_of(s), S = s->o.mean_samples, var = s->o.weight == MF_SDS_WEIGHT_SPREAD;
+    size_t isz = (size_t)3 * R * R, zsz = (size_t)2 * zc * h * h; /* one view's condition image and latents */
+    if (!s->have) {
+        s->mean_nv = nviews;
+        s->have = calloc((size_t)nviews, 1);
+        s->mz = malloc((size_t)nviews * zsz * sizeof(float)), s->md = malloc((size_t)nviews * 2 * isz * sizeof(float));
+        if (var) s->mzv = malloc((size_t)nviews * zsz * sizeof(float)), s->mdv = malloc((size_t)nviews * 2 * isz * sizeof(float));
+        if (!s->have || !s->mz || !s->md || (var && (!s->mzv || !s->mdv))) return mf_fail(MF_ENOMEM, "SDS: out of memory");
+    }
+    int rc = MF_OK;
+    MfStageClock ts = mf_stage_clock();
+    for (int k = 0; k < t->n && !rc; ++k) {
+        int v = views[k];
+        if (v < 0 || v >= s->mean_nv) return mf_fail(MF_EARG, "SDS: view %d of %d views", v, s->mean_nv);
+        if (s->have[v]) continue;
+        /* item j of the batch is sample j of view v (one view at a time: the batch is S items) */
+        float *rgb = malloc((size_t)S * isz * sizeof(float)), *zs = malloc((size_t)S * zsz * sizeof(float));
+        float *dec = malloc(((size_t)S * 2 * isz + 4 * isz + zsz) * sizeof(float)); /* + one sample and m2 */
+        if (!rgb || !zs || !dec) rc = mf_fail(MF_ENOMEM, "SDS: out of memory");
+        for (int j = 0; j < S && !rc; ++j) memcpy(rgb + j * isz, t->cond + k * isz, isz * sizeof(float));
+        if (!rc) rc = mf_prior_sample(s->prior, rgb, S, 1, 0, s->o.mean_steps, s->o.guidance, view_seed(s, -1, v, 5), zs);
+        mf_stage_lap(&s->times.denoise, &ts);
+        if (!rc) rc = mf_prior_decode_materials(s->prior, zs, S, dec, dec + S * isz); /* (2, S, 3, R, R) */
+        mf_stage_lap(&s->times.decode, &ts);
+        float *mz = s->mz + v * zsz, *md = s->md + v * 2 * isz, *x = dec + S * 2 * isz; /* x: (2, 3, R, R) one sample */
+        float *m2 = x + 2 * isz; /* (zsz + 2 isz) the sums of squared deviations: latents, then maps */
+        for (int j = 0; j < S && !rc; ++j) {
+            memcpy(x, dec + j * isz, isz * sizeof(float));
+            memcpy(x + isz, dec + (S + j) * isz, isz * sizeof(float));
+            if (j == 0) {
+                memcpy(mz, zs, zsz * sizeof(float)), memcpy(md, x, 2 * isz * sizeof(float));
+                memset(m2, 0, (zsz + 2 * isz) * sizeof(float));
+            } else {
+                welford(mz, m2, zs + j * zsz, zsz, j + 1);
+                welford(md, m2 + zsz, x, 2 * isz, j + 1);
+            }
+        }
+        for (size_t i = 0; i < zsz && var && !rc; ++i) s->mzv[v * zsz + i] = m2[i] / (float)(S - 1);
+        for (size_t i = 0; i < 2 * isz && var && !rc; ++i) s->mdv[v * 2 * isz + i] = m2[zsz + i] / (float)(S - 1);
+        if (!rc) s->have[v] = 1;
+        free(rgb), free(zs), free(dec);
+    }
+    return rc;
+}
+
+/* t->zhat, t->dhat (and with spread t->zvar, t->dvar) of the views (t->n) from the held mean
+ * targets, computing those not yet held. t->t = 0: no timestep. */
+static int mean_targets(MfSds *s, MfSdsTargets *t, const int *views, int nviews) {
+    int rc = mean_fill(s, t, views, nviews), n = t->n, R = res_of(s), h = lat_of(s);
+    size_t isz = (size_t)3 * R * R, zsz = (size_t)2 * zc_of(s) * h * h, nm = (size_t)n * isz;
+    int var = s->o.weight == MF_SDS_WEIGHT_SPREAD;
+    if (!rc && var) {
+        t->zvar = malloc((size_t)n * zsz * sizeof(float)), t->dvar = malloc(2 * nm * sizeof(float));
+        if (!t->zvar || !t->dvar) rc = mf_fail(MF_ENOMEM, "SDS: out of memory");
+    }
+    for (int k = 0; k < n && !rc; ++k) { /* cache (v, 2, 3, R, R) -> targets (2, n, 3, R, R) */
+        size_t v = (size_t)views[k];
+        memcpy(t->zhat + k * zsz, s->mz + v * zsz, zsz * sizeof(float));
+        for (int kind = 0; kind < 2; ++kind)
+            memcpy(t->dhat + kind * nm + k * isz, s->md + (v * 2 + kind) * isz, isz * sizeof(float));
+        if (!var) continue;
+        memcpy(t->zvar + k * zsz, s->mzv + v * zsz, zsz * sizeof(float));
+        for (int kind = 0; kind < 2; ++kind)
+            memcpy(t->dvar + kind * nm + k * isz, s->mdv + (v * 2 + kind) * isz, isz * sizeof(float));
+    }
+    t->t = 0;
+    return rc;
+}
+
 /* Targets for the batch; keep (may be NULL) receives the current maps that produced them. */
 static int targets(MfSds *s, MfRecon *r, const int *views, int n, int it, MfSdsTargets *t, Maps *keep) {
     if (n < 1 || n > MF_SDS_MAX_VIEWS) return mf_fail(MF_EARG, "SDS: %d views in a batch (1..%d)", n, MF_SDS_MAX_VIEWS);
@@ -237,11 +322,14 @@ static int targets(MfSds *s, MfRecon *r, const int *views, int n, int it, MfSdsT
         T.aov_seed[k] = view_seed(s, it, views[k], 1);
     }
     mf_stage_lap(&s->times.cond, &ts);
+    if (!rc && s->o.target == MF_SDS_TARGET_MEAN) rc = mean_targets(s, &T, views, mf_recon_nviews(r));
     if (rc || (rc = maps_compute(s, r, &T, &cur))) goto done;
-    MfRng rng;
-    mf_rng_seed(&rng, view_seed(s, it, -1, 2), 0);
-    T.t = s->o.t_min + (int)mf_rng_below(&rng, (uint32_t)(s->o.t_max - s->o.t_min + 1));
-    rc = draws(s, &T, cur.z, it, nz, 2 * nm);
+    if (s->o.target == MF_SDS_TARGET_DDIM) {
+        MfRng rng;
+        mf_rng_seed(&rng, view_seed(s, it, -1, 2), 0);
+        T.t = s->o.t_min + (int)mf_rng_below(&rng, (uint32_t)(s->o.t_max - s->o.t_min + 1));
+        rc = draws(s, &T, cur.z, it, nz, 2 * nm);
+    }
 done:
     free(rgba);
     if (rc || !keep) maps_free(&cur);

@@ -42,6 +42,13 @@
  * prior's reliability per channel as measured on a validation split by `mf eval-prior`
  * (ev_prior2d_trust: 1 - its MSE over a constant training-mean predictor's), so a channel the
  * prior predicts no better than a constant gets no pull. Albedo and occlusion are not scaled.
+ * Targets (target): ddim (the paper) as in 3. above; or mean: the prior's own prediction for the
+ * view from pure noise, the mean over mean_samples samples of mean_steps guided DDIM steps (latents
+ * and decoded maps averaged; with spread weighting their variances over the samples replace the
+ * draws'), computed the first time a view is picked and then held for the whole run (seeded by the
+ * view, so --resume stays exact). It does not depend on the current textures: the loss pulls them
+ * toward what the prior predicts from the image alone, the term a 2D evaluation of the prior
+ * (`mf eval-prior`) scores, instead of a denoising of the current estimate.
  * zhat and D(zhat) are held constant (classic SDS): the latent term back-propagates through the
  * encoder into the maps, the RGB term directly into the maps (as the official code), then through
  * the AOV render into the kd / ORM texels. (The official code also lets zhat depend on z through
@@ -76,7 +83,12 @@ typedef struct {
     int prior_threads;   /* OpenBLAS threads set by mf_sds_new (0: left as they are) */
     float trust_rough;   /* channel trust (see above) of the ORM gradient's roughness channel, [0, 1] */
     float trust_metal;   /* ... and of its metallic channel */
+    int target;          /* MF_SDS_TARGET_DDIM (the paper) or _MEAN (see "Targets" above) */
+    int mean_samples;    /* mean targets: samples averaged per view */
+    int mean_steps;      /* mean targets: DDIM steps per sample */
 } MfSdsOpts;
+
+enum { MF_SDS_TARGET_DDIM = 0, MF_SDS_TARGET_MEAN = 1 }; /* "ddim|mean" */
 
 enum { MF_SDS_WEIGHT_NONE = 0, MF_SDS_WEIGHT_CONFLICT = 1, MF_SDS_WEIGHT_COVERAGE = 2, MF_SDS_WEIGHT_SPREAD = 3 }; /* "none|conflict|coverage|spread" */
 /* coverage: a texel seen by n training views gets the weight C0 / (C0 + n) (1 where no view sees it) */

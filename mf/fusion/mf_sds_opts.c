@@ -37,6 +37,12 @@ static const MfOpt k_opts[] = {
                  "scale of the prior's roughness gradient (1: the paper; `mf eval-prior` on a validation split prints the measured reliability)"),
     MF_OPT_NAMED(S, "sds_trust_metal", trust_metal, MF_OPT_FLOAT, 1, 0, 1,
                  "scale of the prior's metallic gradient (as --sds-trust-rough)"),
+    MF_OPT_NAMED(S, "sds_target", target, MF_OPT_ENUM, MF_SDS_TARGET_DDIM, 0, 0,
+                 "the prior's targets: ddim (noise the current maps to t, guided DDIM back; the paper) or mean "
+                 "(the prior's mean prediction for each view from pure noise, held for the run)",
+                 .choices = "ddim|mean"),
+    MF_OPT_NAMED(S, "sds_mean_samples", mean_samples, MF_OPT_INT, 4, 1, 64, "--sds-target mean: samples averaged per view"),
+    MF_OPT_NAMED(S, "sds_mean_steps", mean_steps, MF_OPT_INT, 10, 1, MF_DIFF_T, "--sds-target mean: DDIM steps per sample"),
 };
 #undef S
 const MfOptTable mf_sds_opt_table = MF_OPT_TABLE("MaterialFusion (SDS+ prior term) options", k_opts);
