@@ -1,6 +1,7 @@
 /* End-to-end tests of the inverse loop (mf/inverse/mf_recon): recovery of a known constant
  * albedo and a known environment map on a sphere, checkpoint/resume equivalence, and the
  * result folder's files. Ground truth is rendered by the forward renderer (mf_render). */
+#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -203,6 +204,37 @@ static void check_resume(int denoise) {
 
 MF_TEST(inverse_recon_resume_is_exact) { check_resume(0); }
 MF_TEST(inverse_recon_denoised_resume_is_exact) { check_resume(1); }
+
+/* A reconstruction (denoiser and normal map on) is the same bits at 1 and 3 OpenMP threads, so
+ * results compare across machines with other core counts. */
+MF_TEST(inverse_recon_thread_count_independent) {
+    MfMesh mesh;
+    CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
+    MfReconOpts o = small_opts();
+    o.iters = 8;
+    o.denoise = 1;
+    o.normal_map = 1;
+    o.checkpoint_every = 0;
+    o.snapshot_every = 0;
+    MfRecon *r[2] = {NULL, NULL};
+    int keep = omp_get_max_threads();
+    for (int k = 0; k < 2; ++k) {
+        MfReconView v[NV];
+        char dir[1024];
+        mf_test_path_to(dir, sizeof dir, "threads%d", k);
+        CHECK_OK(make_views(&mesh, v));
+        omp_set_num_threads(k ? 3 : 1);
+        CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r[k]));
+        if (r[k]) CHECK_OK(mf_recon_run(r[k], NULL, dir));
+    }
+    omp_set_num_threads(keep);
+    for (int b = 0; r[0] && r[1] && b < MF_NBLOCKS; ++b) {
+        const MfParamBlock *x = mf_recon_block(r[0], b), *y = mf_recon_block(r[1], b);
+        CHECK_MSG(x->n == y->n && !memcmp(x->p, y->p, x->n * sizeof(float)), "block %s differs between 1 and 3 threads", x->name);
+    }
+    mf_recon_free(r[0]), mf_recon_free(r[1]);
+    mf_mesh_free(&mesh);
+}
 
 /* A hook that poisons one gradient at iteration 4. */
 static int nan_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double *loss) {

@@ -3,6 +3,7 @@
  * parameters frozen (see mf_diffrender.h), against the adjoint, for albedo, roughness,
  * metallic and env-map texels. The loss is a random linear functional of rgb, diffuse and
  * specular, so its adjoint is exactly the functional's weights. */
+#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -146,6 +147,30 @@ MF_TEST(render_diffrender_gradients) {
     free(dkd);
     free(dorm);
     free(denv);
+    fixture_free(&f);
+}
+
+/* The gradients (render and AOV backward) are the same bits at 1, 2 and 3 OpenMP threads: the
+ * reduction's order does not follow the thread count (mf_diffrender.c, gradient lanes). */
+MF_TEST(render_diffrender_gradients_thread_independent) {
+    Fixture f;
+    CHECK_OK(fixture_init(&f));
+    MfDiffOpts o = {.spp_sqrt = 2, .pixel_samples = 2, .seed = 7};
+    MfDiffScene s = scene_of(&f);
+    enum { NT = TW * TH * 3, NE = EW * EH * 3 };
+    float g1[2 * NT + NE + 2 * NT], g[2 * NT + NE + 2 * NT]; /* render: kd, ORM, env; then AOV: kd, ORM */
+    int keep = omp_get_max_threads();
+    for (int nt = 1; nt <= 3; ++nt) {
+        omp_set_num_threads(nt);
+        memset(g, 0, sizeof g);
+        MfDiffAdjoint adj = {.drgb = f.wr, .ddiffuse = f.wd, .dspecular = f.ws};
+        MfDiffGrads dg = {.dkd = g, .dorm = g + NT, .denv = g + 2 * NT}, da = {.dkd = g + 2 * NT + NE, .dorm = g + 3 * NT + NE};
+        CHECK_OK(mf_diff_backward(&s, &f.cam, &o, &adj, &dg));
+        CHECK_OK(mf_diff_aov_backward(&s, &f.cam, &o, f.wr, f.wd, &da));
+        if (nt == 1) memcpy(g1, g, sizeof g);
+        else CHECK_MSG(memcmp(g1, g, sizeof g) == 0, "gradients at %d threads differ from 1 thread's", nt);
+    }
+    omp_set_num_threads(keep);
     fixture_free(&f);
 }
 

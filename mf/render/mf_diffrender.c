@@ -1,5 +1,5 @@
 /* mf_diffrender: the differentiable renderer's API over the shared estimator (mf_estimator.h):
- * argument checks, per-thread gradient buffers and their reduction in thread order. */
+ * argument checks, gradient lanes and their reduction in lane order. */
 #include "render/mf_diffrender.h"
 
 #include <omp.h>
@@ -26,6 +26,11 @@ static void estimator_of(const MfDiffScene *s, const MfDiffOpts *o, const float 
                          .pixel_samples = o->pixel_samples, .lobes = MF_LOBE_ALL, .seed = o->seed,
                          .centre = o->antialias != 0};
 }
+
+/* Gradient lanes: a backward sums image row y into lane y % MF_DIFF_LANES (a lane's rows in
+ * order, a lane on one thread), then adds the lanes in order, so the gradients are the same bits
+ * at every OpenMP thread count (more threads than lanes idle in the backward). */
+#define MF_DIFF_LANES 8
 
 static int check(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o) {
     if (!s || !s->rt || !s->kd || !s->orm || !s->env) return mf_fail(MF_EARG, "diffrender: incomplete scene");
@@ -141,25 +146,22 @@ int mf_diff_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts
         adj = &aa_adj;
     }
     size_t per = nkd + norm + nenv + nnm + 2 * npos;
-    int nt = omp_get_max_threads();
-    float *buf = calloc((size_t)nt * per + 1, sizeof(float));
+    float *buf = calloc((size_t)MF_DIFF_LANES * per + 1, sizeof(float)); /* (lanes, per) */
     if (!buf) {
         free(tan_owned);
         free(aa_bufs);
-        return mf_fail(MF_ENOMEM, "diffrender: out of memory for %d gradient buffers of %zu floats", nt, per);
+        return mf_fail(MF_ENOMEM, "diffrender: out of memory for %d gradient lanes of %zu floats", MF_DIFF_LANES, per);
     }
-#pragma omp parallel num_threads(nt)
-    {
-        float *b = buf + (size_t)omp_get_thread_num() * per;
+#pragma omp parallel for schedule(static, 1)
+    for (int l = 0; l < MF_DIFF_LANES; ++l) {
+        float *b = buf + (size_t)l * per;
         MfEstAdjoint a = {adj->drgb, adj->ddiffuse, adj->dspecular, nkd ? b : NULL, norm ? b + nkd : NULL,
                           nnm ? b + nkd + norm + nenv : NULL, nenv ? b + nkd + norm : NULL,
                           npos ? b + per - 2 * npos : NULL, npos ? b + per - npos : NULL};
-        /* static schedule: the rows a thread handles, and so the summation order, are fixed */
-#pragma omp for schedule(static, 1)
-        for (int y = 0; y < cam->h; ++y)
+        for (int y = l; y < cam->h; y += MF_DIFF_LANES)
             for (int x = 0; x < cam->w; ++x) mf_est_pixel(&est.e, cam, x, y, NULL, &a, NULL);
     }
-    for (int t = 0; t < nt; ++t) {
+    for (int t = 0; t < MF_DIFF_LANES; ++t) {
         const float *b = buf + (size_t)t * per;
         for (size_t i = 0; i < nkd; ++i) g->dkd[i] += b[i];
         for (size_t i = 0; i < norm; ++i) g->dorm[i] += b[nkd + i];
@@ -168,7 +170,7 @@ int mf_diff_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts
         if (t > 0)
             for (size_t i = 0; i < 2 * npos; ++i) buf[per - 2 * npos + i] += b[per - 2 * npos + i];
     }
-    if (npos) { /* thread 0's buffer now holds the sums: positions, then normals */
+    if (npos) { /* lane 0's buffer now holds the sums: positions, then normals */
         float *dp = buf + per - 2 * npos;
         if (mesh->nrm && (rc = mf_mesh_normals_backward(mesh, dp + npos, dp))) {
             free(buf);
@@ -227,20 +229,18 @@ int mf_diff_aov_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiff
     size_t nkd = (g->dkd && dalbedo) ? (size_t)s->kd->w * s->kd->h * 3 : 0;
     size_t norm = (g->dorm && dorm) ? (size_t)s->orm->w * s->orm->h * 3 : 0;
     size_t per = nkd + norm;
-    int nt = omp_get_max_threads();
-    float *buf = calloc((size_t)nt * per + 1, sizeof(float));
-    MfHit *hits_all = malloc((size_t)nt * o->pixel_samples * sizeof(MfHit));
+    float *buf = calloc((size_t)MF_DIFF_LANES * per + 1, sizeof(float)); /* (lanes, per) */
+    MfHit *hits_all = malloc((size_t)MF_DIFF_LANES * o->pixel_samples * sizeof(MfHit));
     if (!buf || !hits_all) {
         free(buf);
         free(hits_all);
-        return mf_fail(MF_ENOMEM, "diffrender: out of memory for AOV gradient buffers");
+        return mf_fail(MF_ENOMEM, "diffrender: out of memory for AOV gradient lanes");
     }
-#pragma omp parallel num_threads(nt)
-    {
-        float *b = buf + (size_t)omp_get_thread_num() * per;
-        MfHit *hits = hits_all + (size_t)omp_get_thread_num() * o->pixel_samples;
-#pragma omp for schedule(static, 1)
-        for (int y = 0; y < cam->h; ++y)
+#pragma omp parallel for schedule(static, 1)
+    for (int l = 0; l < MF_DIFF_LANES; ++l) {
+        float *b = buf + (size_t)l * per;
+        MfHit *hits = hits_all + (size_t)l * o->pixel_samples;
+        for (int y = l; y < cam->h; y += MF_DIFF_LANES)
             for (int x = 0; x < cam->w; ++x) {
                 size_t i = (size_t)y * cam->w + x;
                 int n = mf_est_primary_hits(&est.e, cam, x, y, hits);
@@ -255,7 +255,7 @@ int mf_diff_aov_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiff
                 }
             }
     }
-    for (int t = 0; t < nt; ++t) {
+    for (int t = 0; t < MF_DIFF_LANES; ++t) {
         const float *b = buf + (size_t)t * per;
         for (size_t i = 0; i < nkd; ++i) g->dkd[i] += b[i];
         for (size_t i = 0; i < norm; ++i) g->dorm[i] += b[nkd + i];
