@@ -13,6 +13,7 @@
 #include "render/mf_diffrender.h"
 #include "mf_test.h"
 #include "mf_test_geom.h"
+#include "mf_test_grad.h"
 
 enum { W = 12, H = 12, N = 9, TW = 8, TH = 8, EW = 16, EH = 8 };
 
@@ -114,6 +115,9 @@ static double loss(Fix *f, const MfDiffOpts *o, float *min_alpha) {
     return j;
 }
 
+typedef struct { Fix *f; const MfDiffOpts *o; } LossCtx;
+static double loss_of(void *c) { LossCtx *x = c; return loss(x->f, x->o, NULL); }
+
 MF_TEST(render_hitgrad_dpos) {
     Fix f;
     CHECK_OK(fix_init(&f));
@@ -132,39 +136,20 @@ MF_TEST(render_hitgrad_dpos) {
     CHECK_OK(mf_diff_backward(&s, &f.cam, &o, &adj, &g2));
     CHECK_MSG(!memcmp(dkd, dkd2, sizeof(float) * TW * TH * 3), "dpos changed the texel gradients");
     /* central differences over every coordinate of every vertex */
-    const float h = 2e-4f;
-    double gmax = 0, emax = 0;
-    int worst = -1;
-    double *fd = calloc((size_t)f.mesh.nv * 3, sizeof(double));
-    for (int i = 0; i < f.mesh.nv * 3; ++i) {
-        float p0 = f.mesh.pos[i];
-        f.mesh.pos[i] = p0 + h;
-        double jp = loss(&f, &o, NULL);
-        f.mesh.pos[i] = p0 - h;
-        double jm = loss(&f, &o, NULL);
-        f.mesh.pos[i] = p0;
-        fd[i] = (jp - jm) / (2.0 * (double)h);
-        gmax = fmax(gmax, fabs(fd[i]));
-    }
-    for (int i = 0; i < f.mesh.nv * 3; ++i) {
-        double e = fabs(fd[i] - dpos[i]);
-        if (e > emax) {
-            emax = e;
-            worst = i;
-        }
-    }
-    double rel = emax / gmax;
+    LossCtx lc = {&f, &o};
+    MfGradResult r = mf_test_grad(&(MfGradCheck){.loss = loss_of, .ctx = &lc, .p = f.mesh.pos, .g = dpos,
+                                                 .n = (size_t)f.mesh.nv * 3, .eps = 2e-4f, .atol = 1, .rtol = 0});
+    double gmax = r.fd_max, emax = r.worst, rel = emax / gmax;
     if (getenv("MF_TEST_VERBOSE"))
-        printf("    dpos: max |fd| %.5g, max |adjoint - fd| %.3g (relative %.3g) at coordinate %d (fd %.5g, adjoint %.5g)\n",
-               gmax, emax, rel, worst, worst >= 0 ? fd[worst] : 0.0, worst >= 0 ? dpos[worst] : 0.0f);
+        printf("    dpos: max |fd| %.5g, max |adjoint - fd| %.3g (relative %.3g) at coordinate %ld (fd %.5g, adjoint %.5g)\n",
+               gmax, emax, rel, r.at, r.fd, r.g);
     CHECK(gmax > 0);
-    CHECK_MSG(rel < 2e-3, "dpos: max |adjoint - fd| / max |fd| = %.3g at coordinate %d (fd %.6g, adjoint %.6g)", rel, worst,
-              worst >= 0 ? fd[worst] : 0.0, worst >= 0 ? dpos[worst] : 0.0f);
+    CHECK_MSG(rel < 2e-3, "dpos: max |adjoint - fd| / max |fd| = %.3g at coordinate %ld (fd %.6g, adjoint %.6g)", rel, r.at,
+              r.fd, r.g);
     /* a normal map is refused */
     MfDiffScene sn = s;
     sn.normal = &f.kd;
     CHECK(mf_diff_backward(&sn, &f.cam, &o, &adj, &g) == MF_EARG);
-    free(fd);
     free(dpos);
     free(dkd);
     free(dkd2);
