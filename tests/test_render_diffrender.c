@@ -10,6 +10,7 @@
 #include "core/mf_rng.h"
 #include "render/mf_diffrender.h"
 #include "mf_test.h"
+#include "mf_test_diff.h"
 #include "mf_test_geom.h"
 #include "mf_test_grad.h"
 #include "scene/mf_shapes.h"
@@ -38,12 +39,7 @@ static int fixture_init(Fixture *f) {
     MfImage env = {0};
     if (!rc) rc = mf_image_alloc(&env, EW, EH, 3);
     if (rc) return rc;
-    for (int i = 0; i < TW * TH; ++i) {
-        for (int c = 0; c < 3; ++c) f->kd.data[3 * i + c] = 0.1f + 0.8f * mf_rng_float(&r);
-        f->orm.data[3 * i] = 1.0f;
-        f->orm.data[3 * i + 1] = 0.25f + 0.6f * mf_rng_float(&r);
-        f->orm.data[3 * i + 2] = 0.1f + 0.8f * mf_rng_float(&r);
-    }
+    random_materials(&r, &f->kd, &f->orm, 0.25f);
     for (int i = 0; i < EW * EH * 3; ++i) env.data[i] = 0.2f + 2.0f * mf_rng_float(&r);
     MfImage env2;
     mf_image_alloc(&env2, EW, EH, 3);
@@ -62,11 +58,7 @@ static int fixture_init(Fixture *f) {
     memcpy(f->kd_s.data, f->kd.data, sizeof(float) * TW * TH * 3);
     memcpy(f->orm_s.data, f->orm.data, sizeof(float) * TW * TH * 3);
     if ((rc = look_cam(&f->cam, W, H, mf_v3(0.3f, -1.6f, 0.5f), mf_v3(0, 0, 0)))) return rc;
-    for (int i = 0; i < W * H * 3; ++i) {
-        f->wr[i] = mf_rng_float(&r) - 0.3f;
-        f->wd[i] = 0.5f * (mf_rng_float(&r) - 0.5f);
-        f->ws[i] = 0.5f * (mf_rng_float(&r) - 0.5f);
-    }
+    random_weights(&r, f->wr, f->wd, f->ws, W * H * 3);
     return MF_OK;
 }
 
@@ -94,8 +86,7 @@ static double objective(Fixture *f, const MfDiffOpts *o) {
     MfDiffScene s = scene_of(f);
     if (mf_render_out_alloc(&out, W, H)) return NAN;
     if (mf_diff_forward(&s, &f->cam, o, &out)) return NAN;
-    double j = 0;
-    for (int i = 0; i < W * H * 3; ++i) j += (double)f->wr[i] * out.rgb[i] + (double)f->wd[i] * out.diffuse[i] + (double)f->ws[i] * out.specular[i];
+    double j = weighted_sum(&out, f->wr, f->wd, f->ws, W * H * 3);
     mf_render_out_free(&out);
     return j;
 }

@@ -12,6 +12,7 @@
 #include "core/mf_rng.h"
 #include "render/mf_diffrender.h"
 #include "mf_test.h"
+#include "mf_test_diff.h"
 #include "mf_test_geom.h"
 #include "mf_test_grad.h"
 
@@ -63,23 +64,14 @@ static int fix_init(Fix *f) {
     MfImage env = {0};
     if (!rc) rc = mf_image_alloc(&env, EW, EH, 3);
     if (rc) return rc;
-    for (int i = 0; i < TW * TH; ++i) {
-        for (int c = 0; c < 3; ++c) f->kd.data[3 * i + c] = 0.1f + 0.8f * mf_rng_float(&r);
-        f->orm.data[3 * i] = 1.0f;
-        f->orm.data[3 * i + 1] = 0.3f + 0.6f * mf_rng_float(&r);
-        f->orm.data[3 * i + 2] = 0.1f + 0.8f * mf_rng_float(&r);
-    }
+    random_materials(&r, &f->kd, &f->orm, 0.3f);
     /* a sky: radiance above 45 degrees of elevation only (rows 0-1; bilinear lookups reach zero
      * at 34 degrees), so shadow rays near a facet's horizon (whose visibility jumps when a
      * primary hit crosses to the next facet) carry no light */
     for (int i = 0; i < EW * EH * 3; ++i) env.data[i] = i < 2 * EW * 3 ? 0.2f + 2.0f * mf_rng_float(&r) : 0.0f;
     if ((rc = mf_env_init(&f->env, &env))) return rc;
     if ((rc = look_cam(&f->cam, W, H, mf_v3(0.25f, -0.5f, 1.5f), mf_v3(0, 0, 0)))) return rc;
-    for (int i = 0; i < W * H * 3; ++i) {
-        f->wr[i] = mf_rng_float(&r) - 0.3f;
-        f->wd[i] = 0.5f * (mf_rng_float(&r) - 0.5f);
-        f->ws[i] = 0.5f * (mf_rng_float(&r) - 0.5f);
-    }
+    random_weights(&r, f->wr, f->wd, f->ws, W * H * 3);
     return MF_OK;
 }
 
@@ -102,9 +94,7 @@ static double loss(Fix *f, const MfDiffOpts *o, float *min_alpha) {
     MfDiffScene s = {.rt = rt, .rt_s = f->rt0, .kd = &f->kd, .orm = &f->orm, .env = &f->env};
     double j = NAN;
     if (!mf_diff_forward(&s, &f->cam, o, &out)) {
-        j = 0;
-        for (int i = 0; i < W * H * 3; ++i)
-            j += (double)f->wr[i] * out.rgb[i] + (double)f->wd[i] * out.diffuse[i] + (double)f->ws[i] * out.specular[i];
+        j = weighted_sum(&out, f->wr, f->wd, f->ws, W * H * 3);
         if (min_alpha) {
             *min_alpha = 1.0f;
             for (int i = 0; i < W * H; ++i) *min_alpha = fminf(*min_alpha, out.alpha[i]);
