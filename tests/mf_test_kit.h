@@ -12,7 +12,7 @@
  * write_render_scene: dir/<name>.obj, dir/<name>_cams.json (camera at z = cam_z) and
  *                     dir/<name>.json (the scene); returns the scene path in a static buffer.
  * same3:              bitwise equality of two vectors.
- * grad_check:         central differences of a loss against its analytic gradient. */
+ * (gradient checks: mf_test_grad.h) */
 #ifndef MF_TEST_KIT_H
 #define MF_TEST_KIT_H
 
@@ -102,31 +102,5 @@ static inline const char *pj2(const char *a, const char *b) {
 }
 
 static inline int same3(MfVec3 a, MfVec3 b) { return memcmp(&a, &b, sizeof a) == 0; }
-
-/* Central differences against the analytic gradient grad (n,) of loss(ctx), a function of p (n,):
- * at i = first, first + stride, ... < n, p[i] +- h with h = eps * max(1, |p[i]|) (p[i] restored
- * after), numeric = (loss(+h) - loss(-h)) / 2h; entry i is off when |numeric - grad[i]| > tol *
- * max(1, |numeric|). The first 5 entries off go to stderr, labelled what. Adds the entries probed
- * to *checked; returns how many were off. */
-static inline int grad_check(double (*loss)(void *ctx), void *ctx, float *p, const float *grad, size_t n, size_t first,
-                             size_t stride, double eps, double tol, const char *what, int *checked) {
-    int bad = 0;
-    for (size_t i = first; i < n; i += stride) {
-        float keep = p[i];
-        double h = eps * fmax(1.0, fabs(keep));
-        p[i] = keep + (float)h;
-        double lp = loss(ctx);
-        p[i] = keep - (float)h;
-        double lm = loss(ctx);
-        p[i] = keep;
-        double num = (lp - lm) / (2 * h), an = grad[i];
-        if (fabs(num - an) > tol * fmax(1.0, fabs(num))) {
-            if (bad < 5) fprintf(stderr, "  %s %zu: numeric %.6g analytic %.6g\n", what, i, num, an);
-            ++bad;
-        }
-        ++*checked;
-    }
-    return bad;
-}
 
 #endif

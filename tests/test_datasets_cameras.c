@@ -3,7 +3,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/wait.h>
 
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
@@ -273,18 +272,16 @@ MF_TEST(ds_load_bvault_gt_from_exr_layers) {
 /* The `mf gen` command: writes the layout, exit code 2 on usage errors. */
 MF_TEST(ds_cli_gen) {
     MF_NEED_BIN();
-    const char *bin = getenv("MF_BIN");
     const char *out = mf_test_path("cli_gen");
-    char cmd[3 * MF_PATH_MAX];
-    snprintf(cmd, sizeof cmd, "'%s' gen -o '%s' --family torus --seed 3 --tex-res 32 --train 3 --test 2 2>/dev/null", bin, out);
-    CHECK(system(cmd) == 0);
+    char args[2 * MF_PATH_MAX], err[4096];
+    snprintf(args, sizeof args, "gen -o '%s' --family torus --seed 3 --tex-res 32 --train 3 --test 2", out);
+    CHECK_MSG(mf_test_run_mf(args, NULL, err, sizeof err) == 0, "mf %s: %s", args, err);
     const char *files[] = {"mesh.obj", "gt/kd.png", "gt/orm.png", "transforms_train.json", "transforms_test.json"};
     for (size_t f = 0; f < sizeof files / sizeof files[0]; ++f) {
         char p[MF_PATH_MAX];
         snprintf(p, sizeof p, "%s/%s", out, files[f]);
         CHECK_MSG(mf_file_exists(p), "missing %s", p);
     }
-    snprintf(cmd, sizeof cmd, "'%s' gen -o '%s' --family teapot 2>/dev/null", bin, out);
-    int st = system(cmd);
-    CHECK(WIFEXITED(st) && WEXITSTATUS(st) == 2);
+    snprintf(args, sizeof args, "gen -o '%s' --family teapot", out);
+    CHECK(mf_test_run_mf(args, NULL, err, sizeof err) == 2);
 }

@@ -3,7 +3,6 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/wait.h>
 
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
@@ -338,12 +337,10 @@ MF_TEST(envgen_rotation_matches_sun) {
 /* mf gen --envs writes loadable maps that ds_list_probes (every split's --env-dir) finds. */
 MF_TEST(envgen_cli_envs) {
     MF_NEED_BIN();
-    const char *bin = getenv("MF_BIN");
     const char *dir = mf_test_path("envgen_cli");
-    char cmd[3 * MF_PATH_MAX];
-    snprintf(cmd, sizeof cmd, "'%s' gen --envs '%s' --count 2 --seed 3 --env-width 64 2>/dev/null", bin, dir);
-    int st = system(cmd);
-    CHECK(WIFEXITED(st) && WEXITSTATUS(st) == 0);
+    char args[2 * MF_PATH_MAX], err[4096];
+    snprintf(args, sizeof args, "gen --envs '%s' --count 2 --seed 3 --env-width 64", dir);
+    CHECK_MSG(mf_test_run_mf(args, NULL, err, sizeof err) == 0, "mf %s: %s", args, err);
     char **names = NULL;
     int n = 0;
     CHECK_OK(ds_list_probes(dir, &names, &n));
@@ -366,7 +363,6 @@ MF_TEST(envgen_cli_envs) {
         free(names[i]);
     }
     free(names);
-    snprintf(cmd, sizeof cmd, "'%s' gen --envs '%s' --kind lamp 2>/dev/null", bin, dir);
-    st = system(cmd);
-    CHECK(WIFEXITED(st) && WEXITSTATUS(st) == 2);
+    snprintf(args, sizeof args, "gen --envs '%s' --kind lamp", dir);
+    CHECK(mf_test_run_mf(args, NULL, err, sizeof err) == 2);
 }

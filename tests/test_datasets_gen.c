@@ -4,7 +4,6 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/wait.h>
 
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
@@ -197,15 +196,12 @@ MF_TEST(ds_gen_bad_input) {
     o = tiny_opts(0);
     CHECK_ERR(ds_gen_prior_train(&o, mf_test_path("pt_bad"), NULL), "count or a time budget");
     MF_NEED_BIN();
-    const char *bin = getenv("MF_BIN");
-    char cmd[3 * MF_PATH_MAX];
-    snprintf(cmd, sizeof cmd, "'%s' gen --split nosuch -o '%s' 2>/dev/null", bin, mf_test_path("pt_cli"));
-    int st = system(cmd);
-    CHECK(WIFEXITED(st) && WEXITSTATUS(st) == 2);
-    snprintf(cmd, sizeof cmd, "'%s' gen --split prior-train -o '%s/sub' --count 2 --res 16 --views 2 --tex-res 32 --env-dir '%s' 2>/dev/null", bin, file,
+    char args[3 * MF_PATH_MAX], err[4096];
+    snprintf(args, sizeof args, "gen --split nosuch -o '%s'", mf_test_path("pt_cli"));
+    CHECK(mf_test_run_mf(args, NULL, err, sizeof err) == 2);
+    snprintf(args, sizeof args, "gen --split prior-train -o '%s/sub' --count 2 --res 16 --views 2 --tex-res 32 --env-dir '%s'", file,
              gen_probes());
-    st = system(cmd);
-    CHECK(WIFEXITED(st) && WEXITSTATUS(st) == 1);
+    CHECK(mf_test_run_mf(args, NULL, err, sizeof err) == 1);
 }
 
 /* ---- rendered bvault splits (ds_render_split) ---- */

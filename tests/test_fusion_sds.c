@@ -11,6 +11,7 @@
 #include "core/mf_fs.h"
 #include "fusion/mf_sds.h"
 #include "mf_test.h"
+#include "mf_test_grad.h"
 #include "mf_test_recon.h"
 #include "render/mf_diffrender.h"
 #include "render/mf_integrator.h"
@@ -70,21 +71,61 @@ static MfSds *tiny_sds_opts(const MfSdsOpts *o) {
     return s;
 }
 
-static MfSds *tiny_sds_every(int every) {
+/* The SDS options of most tests: the defaults with 2 views a term. */
+static MfSdsOpts opts2(void) {
     MfSdsOpts o = mf_sds_opts_default();
     o.k_views = 2;
-    o.every = every;
-    return tiny_sds_opts(&o);
+    return o;
 }
 
-static MfSds *tiny_sds(void) { return tiny_sds_every(1); }
+/* A test's reconstruction (make_recon) and its SDS terms; sds_done frees them all. */
+typedef struct {
+    MfMesh mesh;
+    MfRecon *r;
+    MfSds *s[4];
+    int ns;
+} SdsFix;
+
+/* f->r from make_recon (checked); returns it, NULL on failure. */
+static MfRecon *sds_fix(SdsFix *f) {
+    memset(f, 0, sizeof *f);
+    CHECK_OK(make_recon(&f->mesh, &f->r));
+    return f->r;
+}
+
+/* A term with options o (NULL: opts2()), freed by sds_done; NULL on failure. */
+static MfSds *sds_term(SdsFix *f, const MfSdsOpts *o) {
+    MfSdsOpts d = opts2();
+    MfSds *s = tiny_sds_opts(o ? o : &d);
+    if (s && f->ns < 4) f->s[f->ns++] = s;
+    return s;
+}
+
+static void sds_done(SdsFix *f) {
+    for (int i = 0; i < f->ns; ++i) mf_sds_free(f->s[i]);
+    mf_recon_free(f->r);
+    mf_mesh_free(&f->mesh);
+}
+
+typedef struct {
+    MfSds *s;
+    MfRecon *r;
+    const MfSdsTargets *t;
+} SdsLossCtx;
+
+/* the SDS loss against fixed targets, no gradient */
+static double sds_loss_of(void *c) {
+    SdsLossCtx *x = c;
+    double l = NAN;
+    mf_sds_loss(x->s, x->r, x->t, 1.0f, 0, &l);
+    return l;
+}
 
 /* The chain's texel gradients against central differences of the loss, for SDS options o. */
 static void chain_gradient(const MfSdsOpts *o) {
-    MfMesh mesh;
-    MfRecon *r = NULL;
-    CHECK_OK(make_recon(&mesh, &r));
-    MfSds *s = tiny_sds_opts(o);
+    SdsFix f;
+    MfRecon *r = sds_fix(&f);
+    MfSds *s = sds_term(&f, o);
     CHECK(s != NULL);
     if (!r || !s) return;
     /* perturb the textures away from the constant init so every term is active */
@@ -102,20 +143,14 @@ static void chain_gradient(const MfSdsOpts *o) {
     double worst = 0.0, gmax = 0.0;
     int checked = 0;
     MfParamBlock *blocks[2] = {kd, orm};
+    SdsLossCtx lc = {s, r, &t};
     for (int b = 0; b < 2; ++b)
         for (size_t i = 0; i < blocks[b]->n; ++i) {
             if (b == 1 && i % 3 == 0) continue; /* occlusion is not an input */
             float g = blocks[b]->g[i];
             gmax = fmax(gmax, fabs(g));
             if (fabs(g) < 1e-4) continue; /* texels the view does not see */
-            float p0 = blocks[b]->p[i], eps = 2e-3f;
-            double lp, lm;
-            blocks[b]->p[i] = p0 + eps;
-            mf_sds_loss(s, r, &t, 1.0f, 0, &lp);
-            blocks[b]->p[i] = p0 - eps;
-            mf_sds_loss(s, r, &t, 1.0f, 0, &lm);
-            blocks[b]->p[i] = p0;
-            double fd = (lp - lm) / (2.0 * eps);
+            double fd = mf_test_fd(sds_loss_of, &lc, blocks[b]->p, i, 2e-3f);
             worst = fmax(worst, fabs(fd - g) / (fabs(fd) + 0.05 * gmax));
             ++checked;
         }
@@ -124,21 +159,18 @@ static void chain_gradient(const MfSdsOpts *o) {
     /* float forward through an autoencoder: differences carry ~1e-3 relative noise */
     CHECK_MSG(worst < 3e-2, "SDS chain gradient relative error %.3g", worst);
     mf_sds_targets_free(&t);
-    mf_sds_free(s);
-    mf_recon_free(r);
-    mf_mesh_free(&mesh);
+    sds_done(&f);
 }
 
 MF_TEST(fusion_sds_chain_gradient) {
-    MfSdsOpts o = mf_sds_opts_default();
-    o.k_views = 2;
+    MfSdsOpts o = opts2();
     chain_gradient(&o);
 }
 
 /* The same with the spread weights (fixed with the targets) inside the loss. */
 MF_TEST(fusion_sds_chain_gradient_spread) {
-    MfSdsOpts o = mf_sds_opts_default();
-    o.k_views = 2, o.draws = 2, o.weight = MF_SDS_WEIGHT_SPREAD;
+    MfSdsOpts o = opts2();
+    o.draws = 2, o.weight = MF_SDS_WEIGHT_SPREAD;
     chain_gradient(&o);
 }
 
@@ -164,16 +196,14 @@ MF_TEST(fusion_sds_spread_weights) {
 /* With 2 draws the targets are the mean of the single-draw target and a second draw, and the
  * variance is that of the two: var = 2 (mean - first)^2, element by element. */
 MF_TEST(fusion_sds_draws_mean_and_variance) {
-    MfMesh mesh;
-    MfRecon *r = NULL;
-    CHECK_OK(make_recon(&mesh, &r));
-    MfSdsOpts o = mf_sds_opts_default();
-    o.k_views = 2;
-    MfSds *s1 = tiny_sds_opts(&o);
+    SdsFix f;
+    MfRecon *r = sds_fix(&f);
+    MfSdsOpts o = opts2();
+    MfSds *s1 = sds_term(&f, &o);
     o.draws = 2;
-    MfSds *s2 = tiny_sds_opts(&o);
+    MfSds *s2 = sds_term(&f, &o);
     o.weight = MF_SDS_WEIGHT_SPREAD;
-    MfSds *s3 = tiny_sds_opts(&o);
+    MfSds *s3 = sds_term(&f, &o);
     if (!r || !s1 || !s2 || !s3) return;
     MfSdsTargets t1, t2;
     int views[2] = {0, 3};
@@ -202,18 +232,17 @@ MF_TEST(fusion_sds_draws_mean_and_variance) {
     CHECK_OK(mf_sds_loss(s3, r, &t2, 1.0f, 0, &ls));
     CHECK_MSG(ln > 0.0 && ls > 0.0 && fabs(ls - ln) > 1e-3 * ln, "spread-weighted loss %.6g vs unweighted %.6g", ls, ln);
     mf_sds_targets_free(&t1), mf_sds_targets_free(&t2);
-    mf_sds_free(s1), mf_sds_free(s2), mf_sds_free(s3);
-    mf_recon_free(r);
-    mf_mesh_free(&mesh);
+    sds_done(&f);
 }
 
 /* The hook's fused path (one render and encode for targets and loss) equals the public pieces;
  * with every = 3 the term is computed at iterations 0, 3, ... and its gradient held in between. */
 MF_TEST(fusion_sds_hook_every) {
-    MfMesh mesh;
-    MfRecon *r = NULL;
-    CHECK_OK(make_recon(&mesh, &r));
-    MfSds *s = tiny_sds_every(3);
+    SdsFix f;
+    MfRecon *r = sds_fix(&f);
+    MfSdsOpts o = opts2();
+    o.every = 3;
+    MfSds *s = sds_term(&f, &o);
     if (!r || !s) return;
     int batch[2] = {0, 1}, N = mf_recon_opts(r)->iters;
     MfParamBlock *kd = mf_recon_block(r, MF_BLOCK_KD);
@@ -237,16 +266,13 @@ MF_TEST(fusion_sds_hook_every) {
     CHECK(l > 0.0);
     CHECK_NEAR(h3, (1.0 - 3.0 / (double)N) * l, 1e-6 * fabs(h3) + 1e-12);
     free(g0);
-    mf_sds_free(s);
-    mf_recon_free(r);
-    mf_mesh_free(&mesh);
+    sds_done(&f);
 }
 
 MF_TEST(fusion_sds_hook_schedule) {
-    MfMesh mesh;
-    MfRecon *r = NULL;
-    CHECK_OK(make_recon(&mesh, &r));
-    MfSds *s = tiny_sds();
+    SdsFix f;
+    MfRecon *r = sds_fix(&f);
+    MfSds *s = sds_term(&f, NULL);
     if (!r || !s) return;
     int batch[2] = {0, 1};
     double l_first, l_last;
@@ -265,18 +291,15 @@ MF_TEST(fusion_sds_hook_schedule) {
     const char *row1 = log ? strchr(log, '\n') : NULL;
     CHECK(row1 && sscanf(row1 + 1, "%*d,%*f,%*f,%*f,%*f,%lf", &sds) == 1 && sds > 0.0);
     free(log);
-    mf_sds_free(s);
-    mf_recon_free(r);
-    mf_mesh_free(&mesh);
+    sds_done(&f);
 }
 
 /* The term moves the textures toward the prior's targets: plain gradient steps on kd / ORM texels
  * against fixed targets lower the SDS loss; with both lambdas 0 the hook adds no gradient. */
 MF_TEST(fusion_sds_moves_textures_toward_targets) {
-    MfMesh mesh;
-    MfRecon *r = NULL;
-    CHECK_OK(make_recon(&mesh, &r));
-    MfSds *s = tiny_sds();
+    SdsFix f;
+    MfRecon *r = sds_fix(&f);
+    MfSds *s = sds_term(&f, NULL);
     if (!r || !s) return;
     MfParamBlock *kd = mf_recon_block(r, MF_BLOCK_KD), *orm = mf_recon_block(r, MF_BLOCK_ORM);
     MfSdsTargets t;
@@ -296,30 +319,26 @@ MF_TEST(fusion_sds_moves_textures_toward_targets) {
     if (getenv("MF_TEST_VERBOSE")) printf("    SDS loss against fixed targets: %.5f -> %.5f after 30 steps\n", l0, l);
     CHECK_MSG(l < 0.7 * l0, "SDS loss %.5f -> %.5f: the textures did not move toward the targets", l0, l);
     mf_sds_targets_free(&t);
-    mf_sds_free(s);
     /* lambdas 0: nothing is added */
     MfSdsOpts o = mf_sds_opts_default();
     o.lambda_latent = o.lambda_rgb = 0.0f;
-    s = tiny_sds_opts(&o);
+    s = sds_term(&f, &o);
     mf_param_zero_grad(kd);
     double h = -1.0;
     CHECK_OK(mf_sds_hook(s, r, 0, views, 2, &h));
     double gmax = 0.0;
     for (size_t i = 0; i < kd->n; ++i) gmax = fmax(gmax, fabs(kd->g[i]));
     CHECK(h == 0.0 && gmax == 0.0);
-    mf_sds_free(s);
-    mf_recon_free(r);
-    mf_mesh_free(&mesh);
+    sds_done(&f);
 }
 
 /* gamma_i = 1 - (i/N)^p with p = 2, read off the held term's loss between refreshes. */
 MF_TEST(fusion_sds_schedule_values) {
-    MfMesh mesh;
-    MfRecon *r = NULL;
-    CHECK_OK(make_recon(&mesh, &r));
-    MfSdsOpts o = mf_sds_opts_default();
-    o.k_views = 2, o.every = 8, o.gamma_p = 2.0f;
-    MfSds *s = tiny_sds_opts(&o);
+    SdsFix f;
+    MfRecon *r = sds_fix(&f);
+    MfSdsOpts o = opts2();
+    o.every = 8, o.gamma_p = 2.0f;
+    MfSds *s = sds_term(&f, &o);
     if (!r || !s) return;
     int batch[2] = {0, 1}, N = mf_recon_opts(r)->iters; /* 6 */
     double l0, l;
@@ -332,21 +351,18 @@ MF_TEST(fusion_sds_schedule_values) {
     }
     CHECK_OK(mf_sds_hook(s, r, N, batch, 2, &l));
     CHECK(l == 0.0);
-    mf_sds_free(s);
-    mf_recon_free(r);
-    mf_mesh_free(&mesh);
+    sds_done(&f);
 }
 
 /* L_rgb on [0, 1] maps is a quarter of the same term on [-1, 1] maps (targets fixed). */
 MF_TEST(fusion_sds_rgb01_scale) {
-    MfMesh mesh;
-    MfRecon *r = NULL;
-    CHECK_OK(make_recon(&mesh, &r));
-    MfSdsOpts o = mf_sds_opts_default();
-    o.k_views = 2, o.lambda_latent = 0.0f;
-    MfSds *s1 = tiny_sds_opts(&o);
+    SdsFix f;
+    MfRecon *r = sds_fix(&f);
+    MfSdsOpts o = opts2();
+    o.lambda_latent = 0.0f;
+    MfSds *s1 = sds_term(&f, &o);
     o.rgb01 = 0;
-    MfSds *s0 = tiny_sds_opts(&o);
+    MfSds *s0 = sds_term(&f, &o);
     if (!r || !s0 || !s1) return;
     MfSdsTargets t;
     int views[2] = {1, 3};
@@ -357,20 +373,17 @@ MF_TEST(fusion_sds_rgb01_scale) {
     CHECK(l0 > 0.0);
     CHECK_NEAR(l1, 0.25 * l0, 1e-6 * l0);
     mf_sds_targets_free(&t);
-    mf_sds_free(s0), mf_sds_free(s1);
-    mf_recon_free(r);
-    mf_mesh_free(&mesh);
+    sds_done(&f);
 }
 
 /* K views beyond the batch: the batch first, then distinct other views, the same for the same
  * iteration and different across iterations. */
 MF_TEST(fusion_sds_pick_views) {
-    MfMesh mesh;
-    MfRecon *r = NULL;
-    CHECK_OK(make_recon(&mesh, &r));
+    SdsFix f;
+    MfRecon *r = sds_fix(&f);
     MfSdsOpts o = mf_sds_opts_default();
     o.k_views = 3;
-    MfSds *s = tiny_sds_opts(&o);
+    MfSds *s = sds_term(&f, &o);
     if (!r || !s) return;
     int batch[1] = {2}, v[MF_SDS_MAX_VIEWS], w[MF_SDS_MAX_VIEWS], differ = 0;
     for (int it = 0; it < 8; ++it) {
@@ -383,38 +396,31 @@ MF_TEST(fusion_sds_pick_views) {
         differ |= memcmp(v, u, sizeof(int) * 3) != 0;
     }
     CHECK(differ);
-    mf_sds_free(s);
     o.k_views = 8; /* more than the scene's 4 views: all of them, once each */
-    s = tiny_sds_opts(&o);
+    s = sds_term(&f, &o);
     int seen = 0;
     CHECK(mf_sds_pick_views(s, r, 0, batch, 1, v) == NV);
     for (int i = 0; i < NV; ++i) seen |= 1 << v[i];
     CHECK(seen == (1 << NV) - 1);
-    mf_sds_free(s);
-    mf_recon_free(r);
-    mf_mesh_free(&mesh);
+    sds_done(&f);
 }
 
 /* With early_stop the held-out views (here 0 and 2 of 4) never get the prior term either. */
 MF_TEST(fusion_sds_pick_views_skips_holdout) {
-    MfMesh mesh;
-    MfRecon *r = NULL;
+    SdsFix f;
     g_holdout_every = 2;
-    int rc = make_recon(&mesh, &r);
+    MfRecon *r = sds_fix(&f);
     g_holdout_every = 0;
-    CHECK_OK(rc);
     MfSdsOpts o = mf_sds_opts_default();
     o.k_views = 8;
-    MfSds *s = tiny_sds_opts(&o);
+    MfSds *s = sds_term(&f, &o);
     if (!r || !s) return;
     int batch[1] = {3}, v[MF_SDS_MAX_VIEWS];
     for (int it = 0; it < 4; ++it) {
         CHECK(mf_sds_pick_views(s, r, it, batch, 1, v) == 2);
         CHECK(v[0] == 3 && v[1] == 1);
     }
-    mf_sds_free(s);
-    mf_recon_free(r);
-    mf_mesh_free(&mesh);
+    sds_done(&f);
 }
 
 /* The iteration's other gradient g (n,) made from the prior's h (n,): for the conflict test. */
@@ -450,14 +456,12 @@ static void conflict_data(const float *h, float *g, size_t n) {
 /* --sds-weight conflict: where the prior's texel gradient opposes the iteration's other gradient,
  * the opposing part is removed (here: exactly cancelled), elsewhere it is applied in full. */
 MF_TEST(fusion_sds_conflict_weight) {
-    MfMesh mesh;
-    MfRecon *r = NULL;
-    CHECK_OK(make_recon(&mesh, &r));
-    MfSdsOpts o = mf_sds_opts_default();
-    o.k_views = 2;
-    MfSds *s = tiny_sds_opts(&o);
+    SdsFix f;
+    MfRecon *r = sds_fix(&f);
+    MfSdsOpts o = opts2();
+    MfSds *s = sds_term(&f, &o);
     o.weight = MF_SDS_WEIGHT_CONFLICT;
-    MfSds *sc = tiny_sds_opts(&o);
+    MfSds *sc = sds_term(&f, &o);
     if (!r || !s || !sc) return;
     MfParamBlock *kd = mf_recon_block(r, MF_BLOCK_KD);
     float *h = NULL, *ho = NULL;
@@ -475,23 +479,19 @@ MF_TEST(fusion_sds_conflict_weight) {
     CHECK(hmax > 0.0 && conflicts > 0);
     CHECK_MSG(err <= 1e-5 * hmax, "conflict weighting off by %.3g (prior gradient scale %.3g)", err, hmax);
     free(h), free(ho);
-    mf_sds_free(s), mf_sds_free(sc);
-    mf_recon_free(r);
-    mf_mesh_free(&mesh);
+    sds_done(&f);
 }
 
 /* Coverage trust: a texel's count of views that see it equals, view by view, whether changing
  * that texel changes the view's albedo AOV (forward renders, an independent definition); the
  * hook then applies the prior's gradient times C0 / (C0 + count). */
 MF_TEST(fusion_sds_coverage_weight) {
-    MfMesh mesh;
-    MfRecon *r = NULL;
-    CHECK_OK(make_recon(&mesh, &r));
-    MfSdsOpts o = mf_sds_opts_default();
-    o.k_views = 2;
-    MfSds *s = tiny_sds_opts(&o);
+    SdsFix f;
+    MfRecon *r = sds_fix(&f);
+    MfSdsOpts o = opts2();
+    MfSds *s = sds_term(&f, &o);
     o.weight = MF_SDS_WEIGHT_COVERAGE;
-    MfSds *sc = tiny_sds_opts(&o);
+    MfSds *sc = sds_term(&f, &o);
     if (!r || !s || !sc) return;
     float *w = NULL;
     size_t nt = 0;
@@ -536,23 +536,19 @@ MF_TEST(fusion_sds_coverage_weight) {
     CHECK_MSG(err <= 1e-6 * hmax, "coverage weighting off by %.3g (prior gradient scale %.3g)", err, hmax);
     free(h), free(ho), free(w), free(a0), free(a1), free(m);
     mf_image_free(&kd);
-    mf_sds_free(s), mf_sds_free(sc);
-    mf_recon_free(r);
-    mf_mesh_free(&mesh);
+    sds_done(&f);
 }
 
 /* Channel trust: the hook's ORM gradient has its roughness and metallic channels scaled by
  * trust_rough / trust_metal (occlusion and albedo untouched); trust 0 on both leaves only the
  * occlusion channel's pull; out-of-range trust is refused. */
 MF_TEST(fusion_sds_channel_trust) {
-    MfMesh mesh;
-    MfRecon *r = NULL;
-    CHECK_OK(make_recon(&mesh, &r));
-    MfSdsOpts o = mf_sds_opts_default();
-    o.k_views = 2;
-    MfSds *s = tiny_sds_opts(&o);
+    SdsFix f;
+    MfRecon *r = sds_fix(&f);
+    MfSdsOpts o = opts2();
+    MfSds *s = sds_term(&f, &o);
     o.trust_rough = 0.25f, o.trust_metal = 0.0f;
-    MfSds *st = tiny_sds_opts(&o);
+    MfSds *st = sds_term(&f, &o);
     if (!r || !s || !st) return;
     MfParamBlock *kd = mf_recon_block(r, MF_BLOCK_KD), *orm = mf_recon_block(r, MF_BLOCK_ORM);
     float *h = NULL, *hk = NULL;
@@ -569,12 +565,10 @@ MF_TEST(fusion_sds_channel_trust) {
     CHECK_MSG(err <= 1e-6 * fmax(mag[1], mag[2]), "channel trust off by %.3g", err);
     CHECK(kerr == 0.0);
     free(h), free(hk);
-    mf_sds_free(s), mf_sds_free(st);
     o.trust_metal = 1.5f;
     MfSds *bad = NULL;
     CHECK(mf_sds_new(NULL, &o, &bad) == MF_EARG && bad == NULL);
-    mf_recon_free(r);
-    mf_mesh_free(&mesh);
+    sds_done(&f);
 }
 
 /* The SDS hook, killed (an error) when iteration `kill_at` begins: the checkpoint of the

@@ -10,6 +10,7 @@
 #include "geom/mf_tetgrid.h"
 #include "geom/mf_vhull.h"
 #include "mf_test.h"
+#include "mf_test_grad.h"
 #include "mf_test_geom.h"
 
 /* ---- T1: marching tets ---------------------------------------------------------------- */
@@ -88,6 +89,25 @@ static void pos_d(const MfTetGrid *g, const double *f, const double *d, int a, i
     for (int c = 0; c < 3; ++c) p[c] = (1 - t) * (pa[c] + s * tanh(d[3 * a + c])) + t * (pb[c] + s * tanh(d[3 * b + c]));
 }
 
+/* sum_o w_o . p_o over the output vertices of m, in double from the sdf f and deform d */
+typedef struct {
+    const MfTetGrid *g;
+    const double *f, *d;
+    const MfTetMesh *m;
+    const float *w;
+} PosCtx;
+
+static double pos_loss(void *ctx) {
+    const PosCtx *c = ctx;
+    double l = 0;
+    for (int o = 0; o < c->m->mesh.nv; ++o) {
+        double p[3];
+        pos_d(c->g, c->f, c->d, c->m->edge[2 * o], c->m->edge[2 * o + 1], p);
+        for (int k = 0; k < 3; ++k) l += c->w[3 * o + k] * p[k];
+    }
+    return l;
+}
+
 MF_TEST(geom_tetgrid_adjoint) {
     MfTetGrid g = mf_tetgrid_make(6, mf_v3s(0), 1.0f);
     size_t nv = mf_tetgrid_nverts(&g);
@@ -116,23 +136,11 @@ MF_TEST(geom_tetgrid_adjoint) {
     }
     CHECK_MSG(maxd < 1e-5, "forward vs double reference: %g", maxd);
     /* L = sum_o w_o . p_o; central differences in double of every sdf and deform entry */
-    double worst = 0;
-    for (int which = 0; which < 2; ++which)
-        for (size_t i = 0; i < (which ? 3 * nv : nv); ++i) {
-            double *x = which ? dd : fd, x0 = x[i], h = 1e-6, l[2];
-            for (int sgn = 0; sgn < 2; ++sgn) {
-                x[i] = x0 + (sgn ? -h : h);
-                l[sgn] = 0;
-                for (int o = 0; o < no; ++o) {
-                    double p[3];
-                    pos_d(&g, fd, dd, m.edge[2 * o], m.edge[2 * o + 1], p);
-                    for (int c = 0; c < 3; ++c) l[sgn] += w[3 * o + c] * p[c];
-                }
-            }
-            x[i] = x0;
-            double num = (l[0] - l[1]) / (2 * h), ad = which ? gd[i] : gf[i];
-            worst = fmax(worst, fabs(num - ad) / fmax(1.0, fabs(num)));
-        }
+    PosCtx c = {&g, fd, dd, &m, w};
+    MfGradCheck gc = {.loss = pos_loss, .ctx = &c, .pd = fd, .g = gf, .n = nv, .eps = 1e-6, .atol = 1, .rtol = 1, .form = MF_ERR_MAX};
+    double worst = mf_test_grad(&gc).worst;
+    gc.pd = dd, gc.g = gd, gc.n = 3 * nv;
+    worst = fmax(worst, mf_test_grad(&gc).worst);
     CHECK_MSG(worst < 1e-4, "adjoint vs central differences: worst %g", worst);
     free(f), free(dfm), free(fd), free(dd), free(w), free(gf), free(gd);
     mf_tetmesh_free(&m);

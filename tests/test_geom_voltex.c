@@ -8,6 +8,7 @@
 #include "core/mf_rng.h"
 #include "geom/mf_voltex.h"
 #include "mf_test.h"
+#include "mf_test_grad.h"
 
 static const float LO[3] = {-1.0f, 0.0f, -0.5f}, HI[3] = {2.0f, 1.0f, 0.5f};
 
@@ -33,6 +34,25 @@ static void ref_lookup(const MfVoltex *v, const double *g, const double p[3], do
                 size_t vi = ((size_t)(idx[2] + dz) * r + idx[1] + dy) * r + idx[0] + dx;
                 for (int ch = 0; ch < v->c; ++ch) out[ch] += w * g[vi * v->c + ch];
             }
+}
+
+/* sum of dout * the reference lookup (in double) at the n points pp (n x 3) on grid g */
+typedef struct {
+    const MfVoltex *v;
+    const double *g, *pp;
+    const float *dout;
+    int n;
+} RefCtx;
+
+static double ref_loss(void *ctx) {
+    const RefCtx *c = ctx;
+    double l = 0, o[8];
+    for (int i = 0; i < c->n; ++i) {
+        double p[3] = {c->pp[3 * i], c->pp[3 * i + 1], c->pp[3 * i + 2]};
+        ref_lookup(c->v, c->g, p, o);
+        for (int ch = 0; ch < c->v->c; ++ch) l += c->dout[c->v->c * i + ch] * o[ch];
+    }
+    return l;
 }
 
 static void vertex_pos(const MfVoltex *v, int i, int j, int k, float *p) {
@@ -140,38 +160,13 @@ MF_TEST(geom_voltex_adjoint) {
     }
     CHECK_MSG(worst <= 1e-5, "reference differs from the forward by %g", worst);
     /* L = sum dout * out; central differences in double */
-    const double h = 1e-4;
-#define LOSS(res)                                                                                          \
-    do {                                                                                                   \
-        res = 0;                                                                                           \
-        for (int i_ = 0; i_ < N; ++i_) {                                                                   \
-            double p_[3] = {pp[3 * i_], pp[3 * i_ + 1], pp[3 * i_ + 2]}, o_[C];                            \
-            ref_lookup(&v, g, p_, o_);                                                                     \
-            for (int c_ = 0; c_ < C; ++c_) res += dout[C * i_ + c_] * o_[c_];                              \
-        }                                                                                                  \
-    } while (0)
     double pp[N * 3];
     for (int i = 0; i < N * 3; ++i) pp[i] = pts[i];
-    double wg = 0, wp = 0;
-    for (size_t k = 0; k < ng; ++k) {
-        double save = g[k], lp, lm;
-        g[k] = save + h;
-        LOSS(lp);
-        g[k] = save - h;
-        LOSS(lm);
-        g[k] = save;
-        wg = fmax(wg, fabs((lp - lm) / (2 * h) - dgrid[k]));
-    }
-    for (int k = 0; k < N * 3; ++k) {
-        double save = pp[k], lp, lm;
-        pp[k] = save + h;
-        LOSS(lp);
-        pp[k] = save - h;
-        LOSS(lm);
-        pp[k] = save;
-        wp = fmax(wp, fabs((lp - lm) / (2 * h) - dpts[k]));
-    }
-#undef LOSS
+    RefCtx c = {&v, g, pp, dout, N};
+    MfGradCheck gc = {.loss = ref_loss, .ctx = &c, .pd = g, .g = dgrid, .n = ng, .eps = 1e-4, .atol = 1, .rtol = 0};
+    double wg = mf_test_grad(&gc).worst;
+    gc.pd = pp, gc.g = dpts, gc.n = N * 3;
+    double wp = mf_test_grad(&gc).worst;
     printf("    adjoint vs central differences: dgrid worst %.2g, dpts worst %.2g\n", wg, wp);
     CHECK_MSG(wg <= 1e-3, "dgrid vs central differences: worst %g", wg);
     CHECK_MSG(wp <= 1e-3, "dpts vs central differences: worst %g", wp);
@@ -183,6 +178,16 @@ MF_TEST(geom_voltex_adjoint) {
     free(g);
     free(dgrid);
     mf_voltex_free(&v);
+}
+
+typedef struct {
+    MfVoltex *v;
+    float eps, wt;
+} TvCtx;
+
+static double tv_loss(void *ctx) {
+    const TvCtx *c = ctx;
+    return mf_voltex_tv(c->v, c->eps, c->wt, NULL);
 }
 
 MF_TEST(geom_voltex_tv) {
@@ -207,18 +212,10 @@ MF_TEST(geom_voltex_tv) {
     memset(dg, 0, ng * sizeof *dg);
     const float eps = 0.05f, wt = 3.0f;
     mf_voltex_tv(&v, eps, wt, dg);
-    double worst = 0, gmax = 0;
-    for (size_t k = 0; k < ng; ++k) {
-        float save = v.grid[k];
-        v.grid[k] = save + 1e-3f;
-        double hp = (double)v.grid[k] - save, lp = mf_voltex_tv(&v, eps, wt, NULL);
-        v.grid[k] = save - 1e-3f;
-        double hm = save - (double)v.grid[k], lm = mf_voltex_tv(&v, eps, wt, NULL);
-        v.grid[k] = save;
-        double fd = (lp - lm) / (hp + hm);
-        worst = fmax(worst, fabs(fd - dg[k]));
-        gmax = fmax(gmax, fabs(fd));
-    }
+    TvCtx c = {&v, eps, wt};
+    MfGradResult r = mf_test_grad(&(MfGradCheck){.loss = tv_loss, .ctx = &c, .p = v.grid, .g = dg, .n = ng, .eps = 1e-3f,
+                                                 .step = MF_FD_ROUNDED, .atol = 1, .rtol = 0});
+    double worst = r.worst, gmax = r.fd_max;
     printf("    TV gradient vs central differences: worst %.2g (largest gradient %.2g)\n", worst, gmax);
     CHECK_MSG(worst <= 1e-3 * gmax, "TV gradient vs central differences: worst %g (largest %g)", worst, gmax);
     free(dg);

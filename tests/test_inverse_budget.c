@@ -59,6 +59,16 @@ static MfReconOpts tiny_opts(void) {
     return o;
 }
 
+/* A reconstruction of mesh from fresh sphere_views (24 px, GT metallic) with options o (both
+ * checked); NULL on failure. */
+static MfRecon *recon_of(const MfMesh *mesh, float metallic, const MfReconOpts *o) {
+    MfReconView v[NV];
+    MfRecon *r = NULL;
+    CHECK_OK(sphere_views(mesh, 24, metallic, v));
+    CHECK_OK(mf_recon_new(mesh, v, NV, o, &r));
+    return r;
+}
+
 /* ---- early stop ---- */
 
 MF_TEST(inverse_budget_early_stop_rule) {
@@ -146,23 +156,18 @@ MF_TEST(inverse_budget_early_stop_resume_is_exact) {
     o.es_every = 2;
     o.es_patience = 2;
     o.es_min_delta = 100.0f; /* nothing counts as an improvement: stops at 2 * (1 + 2) */
-    MfRecon *full = NULL, *half = NULL;
-    MfReconView v1[NV], v2[NV], v3[NV];
-    CHECK_OK(sphere_views(&mesh, 24, 0.0f, v1));
-    CHECK_OK(sphere_views(&mesh, 24, 0.0f, v2));
-    CHECK_OK(sphere_views(&mesh, 24, 0.0f, v3));
     char fd[512], hd[512], ck[1024];
     mf_test_path_to(fd, sizeof fd, "es_full");
     mf_test_path_to(hd, sizeof hd, "es_half");
-    CHECK_OK(mf_recon_new(&mesh, v1, NV, &o, &full));
+    MfRecon *full = recon_of(&mesh, 0.0f, &o), *half = NULL;
     CHECK_OK(mf_recon_run(full, NULL, fd));
     CHECK(mf_recon_iteration(full) == 6);
     MfReconOpts oh = o;
     oh.iters = 4; /* interrupted after two evaluations (one without improvement) */
-    CHECK_OK(mf_recon_new(&mesh, v2, NV, &oh, &half));
+    half = recon_of(&mesh, 0.0f, &oh);
     CHECK_OK(mf_recon_run(half, NULL, hd));
     mf_recon_free(half);
-    CHECK_OK(mf_recon_new(&mesh, v3, NV, &o, &half));
+    half = recon_of(&mesh, 0.0f, &o);
     snprintf(ck, sizeof ck, "%s/checkpoint.mfck", hd);
     CHECK_OK(mf_recon_load_checkpoint(half, ck));
     CHECK_OK(mf_recon_run(half, NULL, hd));
@@ -174,9 +179,7 @@ MF_TEST(inverse_budget_early_stop_resume_is_exact) {
     }
     /* a stopped run resumed again does no more iterations */
     mf_recon_free(half);
-    MfReconView v4[NV];
-    CHECK_OK(sphere_views(&mesh, 24, 0.0f, v4));
-    CHECK_OK(mf_recon_new(&mesh, v4, NV, &o, &half));
+    half = recon_of(&mesh, 0.0f, &o);
     CHECK_OK(mf_recon_load_checkpoint(half, ck));
     CHECK(mf_recon_iteration(half) == 6); /* the checkpoint was written at the stop */
     CHECK_OK(mf_recon_run(half, NULL, hd));
@@ -201,15 +204,12 @@ MF_TEST(inverse_budget_metal_fraction) {
 static void metal_run(float gt_metal, float init_metal, const char *name, int *state, double *frac, float *max_metal) {
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
-    MfReconView v[NV];
-    CHECK_OK(sphere_views(&mesh, 24, gt_metal, v));
     MfReconOpts o = tiny_opts();
     o.iters = 24;
     o.metal_auto = 1;
     o.metal_warmup = 16;
     o.init_metal = init_metal;
-    MfRecon *r = NULL;
-    CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r));
+    MfRecon *r = recon_of(&mesh, gt_metal, &o);
     char dir[512];
     mf_test_path_to(dir, sizeof dir, "%s", name);
     CHECK_OK(mf_recon_run(r, NULL, dir));
@@ -244,15 +244,12 @@ static int rising_nan_hook(void *ctx, MfRecon *r, int it, const int *batch, int 
 MF_TEST(inverse_budget_metal_frozen_through_recovery) {
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
-    MfReconView v[NV];
-    CHECK_OK(sphere_views(&mesh, 24, 0.0f, v));
     MfReconOpts o = tiny_opts();
     o.iters = 5;
     o.metal_auto = 1;
     o.metal_warmup = 1; /* every texel starts at 0.25: fixed at 0 after the first iteration */
     o.div_patience = 1000;
-    MfRecon *r = NULL;
-    CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r));
+    MfRecon *r = recon_of(&mesh, 0.0f, &o);
     MfReconHook hook = {rising_nan_hook, NULL};
     char dir[512];
     mf_test_path_to(dir, sizeof dir, "metal_recover");

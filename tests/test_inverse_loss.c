@@ -8,30 +8,19 @@
 #include "inverse/mf_loss.h"
 #include "inverse/mf_optim.h"
 #include "mf_test.h"
+#include "mf_test_grad.h"
 
-typedef double (*LossFn)(const float *x, const void *ctx);
-
-/* Central differences of f around x (n,), compared with the analytic gradient g (n,):
+/* Central differences of loss around x (n,) (in the ctx), compared with the analytic gradient g (n,):
  * max |g - fd| / max(|fd|, floor). Differences taken in double on float inputs. */
-static double grad_check(LossFn f, float *x, size_t n, const float *g, const void *ctx, float eps, double floor) {
-    double worst = 0.0;
-    for (size_t i = 0; i < n; ++i) {
-        float x0 = x[i];
-        x[i] = x0 + eps;
-        double fp = f(x, ctx);
-        x[i] = x0 - eps;
-        double fm = f(x, ctx);
-        x[i] = x0;
-        double fd = (fp - fm) / (2.0 * (double)eps);
-        double e = fabs(fd - g[i]) / fmax(fabs(fd), floor);
-        if (e > worst) worst = e;
-    }
-    return worst;
+static double worst_rel(MfTestLoss loss, void *ctx, float *x, size_t n, const float *g, float eps, double floor) {
+    return mf_test_grad(&(MfGradCheck){.loss = loss, .ctx = ctx, .p = x, .g = g, .n = n, .eps = eps, .atol = floor, .rtol = 1,
+                                       .form = MF_ERR_MAX})
+        .worst;
 }
 
-typedef struct { const float *ref; size_t n; } PairCtx;
-static double f_logl1(const float *x, const void *c) { const PairCtx *p = c; return mf_loss_logl1_fwd(x, p->ref, p->n); }
-static double f_mse(const float *x, const void *c) { const PairCtx *p = c; return mf_loss_mse_fwd(x, p->ref, p->n); }
+typedef struct { const float *x, *ref; size_t n; } PairCtx;
+static double f_logl1(void *c) { const PairCtx *p = c; return mf_loss_logl1_fwd(p->x, p->ref, p->n); }
+static double f_mse(void *c) { const PairCtx *p = c; return mf_loss_mse_fwd(p->x, p->ref, p->n); }
 
 MF_TEST(inverse_loss_logl1_and_mse_gradients) {
     enum { N = 60 };
@@ -44,17 +33,13 @@ MF_TEST(inverse_loss_logl1_and_mse_gradients) {
         x[i] = mag;
         ref[i] = mag * (mf_rng_float(&r) < 0.5f ? 0.5f : 1.7f);
     }
-    PairCtx c = {ref, N};
+    PairCtx c = {x, ref, N};
     memset(g, 0, sizeof g);
     mf_loss_logl1_bwd(x, ref, N, 1.0f, g);
     /* relative step: values span 1e-3..1e3 */
     double worst = 0;
     for (int i = 0; i < N; ++i) {
-        float x0 = x[i], eps = 1e-3f * x0;
-        x[i] = x0 + eps; double fp = f_logl1(x, &c);
-        x[i] = x0 - eps; double fm = f_logl1(x, &c);
-        x[i] = x0;
-        double fd = (fp - fm) / (2.0 * eps);
+        double fd = mf_test_fd(f_logl1, &c, x, i, 1e-3f * x[i]);
         worst = fmax(worst, fabs(fd - g[i]) / fmax(fabs(fd), 1e-4));
     }
     CHECK_MSG(worst < 2e-2, "logl1 gradient relative error %g", worst);
@@ -72,13 +57,13 @@ MF_TEST(inverse_loss_logl1_and_mse_gradients) {
     for (int i = 0; i < N; ++i) x[i] = fminf(x[i], 10.0f), ref[i] = fminf(ref[i], 12.0f);
     memset(g, 0, sizeof g);
     mf_loss_mse_bwd(x, ref, N, 1.0f, g);
-    CHECK_MSG(grad_check(f_mse, x, N, g, &c, 1e-2f, 1e-3) < 1e-3, "mse gradient");
+    CHECK_MSG(worst_rel(f_mse, &c, x, N, g, 1e-2f, 1e-3) < 1e-3, "mse gradient");
 }
 
-typedef struct { int w, h, ch, c0, nc; const float *mask; } SmoothCtx;
-static double f_smooth(const float *x, const void *c) {
+typedef struct { const float *x; int w, h, ch, c0, nc; const float *mask; } SmoothCtx;
+static double f_smooth(void *c) {
     const SmoothCtx *s = c;
-    return mf_reg_smooth_fwd(x, s->w, s->h, s->ch, s->c0, s->nc, s->mask);
+    return mf_reg_smooth_fwd(s->x, s->w, s->h, s->ch, s->c0, s->nc, s->mask);
 }
 
 MF_TEST(inverse_reg_smooth_gradient) {
@@ -88,10 +73,10 @@ MF_TEST(inverse_reg_smooth_gradient) {
     mf_rng_seed(&r, 5, 0);
     for (int i = 0; i < W * H * CH; ++i) tex[i] = mf_rng_float(&r);
     for (int i = 0; i < W * H; ++i) mask[i] = (i % 5) ? 1.0f : 0.0f;
-    SmoothCtx c = {W, H, CH, 1, 2, mask};
+    SmoothCtx c = {tex, W, H, CH, 1, 2, mask};
     memset(g, 0, sizeof g);
     mf_reg_smooth_bwd(tex, W, H, CH, 1, 2, mask, 1.0f, g);
-    CHECK_MSG(grad_check(f_smooth, tex, W * H * CH, g, &c, 1e-4f, 1e-2) < 2e-2, "smooth gradient");
+    CHECK_MSG(worst_rel(f_smooth, &c, tex, W * H * CH, g, 1e-4f, 1e-2) < 2e-2, "smooth gradient");
     for (int i = 0; i < W * H; ++i) CHECK(g[i * CH] == 0.0f); /* channel 0 not regularised */
     for (int i = 0; i < W * H; i += 5) CHECK(g[i * CH + 1] == 0.0f); /* masked-out texels untouched */
     /* a constant texture has zero smoothness loss */
@@ -99,16 +84,10 @@ MF_TEST(inverse_reg_smooth_gradient) {
     CHECK(mf_reg_smooth_fwd(tex, W, H, CH, 0, 3, NULL) == 0.0);
 }
 
-typedef struct { const float *spec, *cover; size_t n; float ls; } ShadeCtx;
-static double f_shade_d(const float *x, const void *c) {
+typedef struct { const float *diffuse, *spec, *cover; size_t n; float ls; } ShadeCtx;
+static double f_shade(void *c) {
     const ShadeCtx *s = c;
-    return mf_reg_shading_fwd(x, s->spec, s->cover, s->n, s->ls);
-}
-static double f_shade_s(const float *x, const void *c);
-static const float *g_diffuse;
-static double f_shade_s(const float *x, const void *c) {
-    const ShadeCtx *s = c;
-    return mf_reg_shading_fwd(g_diffuse, x, s->cover, s->n, s->ls);
+    return mf_reg_shading_fwd(s->diffuse, s->spec, s->cover, s->n, s->ls);
 }
 
 MF_TEST(inverse_reg_shading_gradient) {
@@ -118,13 +97,12 @@ MF_TEST(inverse_reg_shading_gradient) {
     mf_rng_seed(&r, 9, 0);
     for (int i = 0; i < 3 * N; ++i) d[i] = 0.2f + mf_rng_float(&r), s[i] = 0.1f * mf_rng_float(&r);
     for (int i = 0; i < N; ++i) cov[i] = (i % 4) ? 1.0f : 0.25f;
-    ShadeCtx c = {s, cov, N, 0.0025f};
+    ShadeCtx c = {d, s, cov, N, 0.0025f};
     memset(gd, 0, sizeof gd);
     memset(gs, 0, sizeof gs);
     mf_reg_shading_bwd(d, s, cov, N, 0.0025f, 1.0f, gd, gs);
-    CHECK_MSG(grad_check(f_shade_d, d, 3 * N, gd, &c, 1e-4f, 1e-3) < 2e-2, "shading d/ddiffuse");
-    g_diffuse = d;
-    CHECK_MSG(grad_check(f_shade_s, s, 3 * N, gs, &c, 1e-4f, 1e-5) < 2e-2, "shading d/dspec");
+    CHECK_MSG(worst_rel(f_shade, &c, d, 3 * N, gd, 1e-4f, 1e-3) < 2e-2, "shading d/ddiffuse");
+    CHECK_MSG(worst_rel(f_shade, &c, s, 3 * N, gs, 1e-4f, 1e-5) < 2e-2, "shading d/dspec");
     /* white light and no specular: zero loss */
     for (int i = 0; i < 3 * N; ++i) d[i] = 0.7f, s[i] = 0.0f;
     CHECK_NEAR(mf_reg_shading_fwd(d, s, cov, N, 0.0025f), 0.0, 1e-7);

@@ -68,6 +68,25 @@ static MfReconOpts small_opts(void) {
     return o;
 }
 
+/* small_opts for `iters` iterations, without checkpoints or snapshots. */
+static MfReconOpts short_opts(int iters) {
+    MfReconOpts o = small_opts();
+    o.iters = iters;
+    o.checkpoint_every = 0;
+    o.snapshot_every = 0;
+    return o;
+}
+
+/* A reconstruction of mesh from fresh make_views views with options o (both checked); NULL on
+ * failure. */
+static MfRecon *recon_of(const MfMesh *mesh, const MfReconOpts *o) {
+    MfReconView v[NV];
+    MfRecon *r = NULL;
+    CHECK_OK(make_views(mesh, v));
+    CHECK_OK(mf_recon_new(mesh, v, NV, o, &r));
+    return r;
+}
+
 /* Recovery of the albedo (up to scale) and the env map's hemispheres; denoise: with the
  * bilateral denoiser of the demodulated light (mf_denoise.h). */
 static void check_recovery(int denoise) {
@@ -135,17 +154,10 @@ MF_TEST(inverse_recon_denoised_recovers_albedo_and_light) { check_recovery(1); }
 static void check_resume(int denoise) {
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
-    MfReconOpts o = small_opts();
-    o.iters = 12;
+    MfReconOpts o = short_opts(12);
     o.denoise = denoise;
-    o.checkpoint_every = 0;
-    o.snapshot_every = 0;
     o.normal_map = 1; /* every block, the normal map's included, must resume exactly */
-    MfRecon *full = NULL, *half = NULL;
-    MfReconView v1[NV], v2[NV];
-    CHECK_OK(make_views(&mesh, v1));
-    CHECK_OK(make_views(&mesh, v2));
-    CHECK_OK(mf_recon_new(&mesh, v1, NV, &o, &full));
+    MfRecon *full = recon_of(&mesh, &o), *half = NULL;
     const char *full_dir = mf_test_path(denoise ? "full_dn" : "full"), *half_dir = mf_test_path(denoise ? "half_dn" : "half");
     char hd[512], fd[512];
     snprintf(hd, sizeof hd, "%s", half_dir);
@@ -153,14 +165,12 @@ static void check_resume(int denoise) {
     CHECK_OK(mf_recon_run(full, NULL, fd));
     MfReconOpts oh = o;
     oh.iters = 5;
-    CHECK_OK(mf_recon_new(&mesh, v2, NV, &oh, &half));
+    half = recon_of(&mesh, &oh);
     CHECK_OK(mf_recon_run(half, NULL, hd));
     mf_recon_free(half);
     half = NULL;
     /* a new process would start here: fresh state, then the checkpoint */
-    MfReconView v3[NV];
-    CHECK_OK(make_views(&mesh, v3));
-    CHECK_OK(mf_recon_new(&mesh, v3, NV, &o, &half));
+    half = recon_of(&mesh, &o);
     char ck[1024];
     snprintf(ck, sizeof ck, "%s/checkpoint.mfck", hd);
     CHECK_OK(mf_recon_load_checkpoint(half, ck));
@@ -191,10 +201,7 @@ static void check_resume(int denoise) {
     /* a checkpoint from other sizes is refused */
     MfReconOpts ob = o;
     ob.tex_res = 16;
-    MfRecon *bad = NULL;
-    MfReconView v4[NV];
-    CHECK_OK(make_views(&mesh, v4));
-    CHECK_OK(mf_recon_new(&mesh, v4, NV, &ob, &bad));
+    MfRecon *bad = recon_of(&mesh, &ob);
     CHECK_ERR(mf_recon_load_checkpoint(bad, ck), "shape mismatch");
     mf_recon_free(bad);
     mf_recon_free(full);
@@ -247,15 +254,10 @@ static int nan_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, dou
 MF_TEST(inverse_recon_nan_gradient_stops_cleanly) {
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
-    MfReconView v[NV];
-    CHECK_OK(make_views(&mesh, v));
-    MfReconOpts o = small_opts();
-    o.iters = 8;
+    MfReconOpts o = short_opts(8);
     o.checkpoint_every = 2;
-    o.snapshot_every = 0;
     o.max_recoveries = 0; /* stop at the first event */
-    MfRecon *r = NULL;
-    CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r));
+    MfRecon *r = recon_of(&mesh, &o);
     if (!r) return;
     const char *dir = mf_test_path("nanrun");
     MfReconHook hook = {nan_hook, NULL};
@@ -279,14 +281,8 @@ MF_TEST(inverse_recon_nan_gradient_stops_cleanly) {
 MF_TEST(inverse_recon_guard_recovers_nan_gradient) {
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
-    MfReconView v[NV];
-    CHECK_OK(make_views(&mesh, v));
-    MfReconOpts o = small_opts();
-    o.iters = 8;
-    o.checkpoint_every = 0;
-    o.snapshot_every = 0;
-    MfRecon *r = NULL;
-    CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r));
+    MfReconOpts o = short_opts(8);
+    MfRecon *r = recon_of(&mesh, &o);
     if (!r) return;
     MfReconHook hook = {nan_hook, NULL};
     CHECK_OK(mf_recon_run(r, &hook, mf_test_path("nanrecover")));
@@ -326,15 +322,9 @@ static int read_losses(const char *dir, double *loss, int cap) {
 MF_TEST(inverse_recon_guard_recovers_lr_blowup) {
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
-    MfReconView v[NV];
-    CHECK_OK(make_views(&mesh, v));
-    MfReconOpts o = small_opts();
-    o.iters = 60;
+    MfReconOpts o = short_opts(60);
     o.lr = 1.0f; /* the top of lr's range */
-    o.checkpoint_every = 0;
-    o.snapshot_every = 0;
-    MfRecon *r = NULL;
-    CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r));
+    MfRecon *r = recon_of(&mesh, &o);
     if (!r) return;
     const char *dir = mf_test_path("lr10");
     CHECK_OK(mf_recon_run(r, NULL, dir));
@@ -371,15 +361,9 @@ static int huge_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, do
 MF_TEST(inverse_recon_guard_keeps_inf_out_of_checkpoints) {
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
-    MfReconView v[NV], v2[NV];
-    CHECK_OK(make_views(&mesh, v));
-    CHECK_OK(make_views(&mesh, v2));
-    MfReconOpts o = small_opts();
-    o.iters = 8;
+    MfReconOpts o = short_opts(8);
     o.checkpoint_every = 1;
-    o.snapshot_every = 0;
-    MfRecon *r = NULL, *r2 = NULL;
-    CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r));
+    MfRecon *r = recon_of(&mesh, &o), *r2 = NULL;
     if (!r) return;
     char dir[512], ck[1024];
     mf_test_path_to(dir, sizeof dir, "init1e30");
@@ -393,7 +377,7 @@ MF_TEST(inverse_recon_guard_keeps_inf_out_of_checkpoints) {
     char bad0[96];
     CHECK_MSG(!mf_params_find_nonfinite(mf_recon_block(r, 0), 3, bad0, sizeof bad0), "in memory: %s", bad0);
     CHECK(mf_file_exists(ck)); /* checkpoints were written between the recoveries */
-    CHECK_OK(mf_recon_new(&mesh, v2, NV, &o, &r2));
+    r2 = recon_of(&mesh, &o);
     if (r2) {
         CHECK_OK(mf_recon_load_checkpoint(r2, ck));
         char bad[96];
@@ -408,15 +392,8 @@ MF_TEST(inverse_recon_guard_keeps_inf_out_of_checkpoints) {
 MF_TEST(inverse_recon_resume_refuses_nonfinite_checkpoint) {
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
-    MfReconView v[NV], v2[NV];
-    CHECK_OK(make_views(&mesh, v));
-    CHECK_OK(make_views(&mesh, v2));
-    MfReconOpts o = small_opts();
-    o.iters = 2;
-    o.checkpoint_every = 0;
-    o.snapshot_every = 0;
-    MfRecon *r = NULL, *r2 = NULL;
-    CHECK_OK(mf_recon_new(&mesh, v, NV, &o, &r));
+    MfReconOpts o = short_opts(2);
+    MfRecon *r = recon_of(&mesh, &o), *r2 = NULL;
     if (!r) return;
     char dir[512], ck[1024];
     mf_test_path_to(dir, sizeof dir, "ckbad");
@@ -437,7 +414,7 @@ MF_TEST(inverse_recon_resume_refuses_nonfinite_checkpoint) {
     size_t nkd = mf_recon_block(r, MF_BLOCK_KD)->n, norm = mf_recon_block(r, MF_BLOCK_ORM)->n;
     buf[3 * nkd + 2 * norm + 7] = NAN; /* orm.v[7] */
     CHECK_OK(mf_ckpt_save(ck, specs, 9, buf, meta));
-    CHECK_OK(mf_recon_new(&mesh, v2, NV, &o, &r2));
+    r2 = recon_of(&mesh, &o);
     if (r2) {
         CHECK_ERR(mf_recon_load_checkpoint(r2, ck), "tensor orm.v element 7 is nan");
         CHECK(mf_recon_iteration(r2) == 0); /* nothing taken from it */
@@ -457,10 +434,7 @@ MF_TEST(inverse_recon_exposure_invariant) {
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
     static const float scales[3] = {1.0f, 16.0f, 1.0f / 16.0f};
     MfRecon *r[3] = {NULL, NULL, NULL};
-    MfReconOpts o = small_opts();
-    o.iters = 6;
-    o.checkpoint_every = 0;
-    o.snapshot_every = 0;
+    MfReconOpts o = short_opts(6);
     for (int k = 0; k < 3; ++k) {
         MfReconView v[NV];
         CHECK_OK(make_views(&mesh, v));

@@ -18,6 +18,7 @@
 #include "nn/mf_nn.h"
 #include "io/mf_ckpt.h"
 #include "mf_test.h"
+#include "mf_test_grad.h"
 
 #define GC_EPS 1e-2f
 #define GC_ATOL 2e-3
@@ -42,25 +43,12 @@ typedef double (*LossFn)(void *ctx);
 /* Compares the analytic gradient g of L w.r.t. x (n floats) with central differences on up to
  * `maxs` elements spread over x; reports failures with `what`. */
 static void gradcheck(const char *what, LossFn f, void *ctx, float *x, const float *g, size_t n, size_t maxs) {
-    size_t step = n > maxs ? n / maxs : 1;
-    int bad = 0;
-    double worst = 0.0;
-    for (size_t i = 0; i < n; i += step) {
-        float v = x[i];
-        float xp = v + GC_EPS, xm = v - GC_EPS;
-        x[i] = xp;
-        double lp = f(ctx);
-        x[i] = xm;
-        double lm = f(ctx);
-        x[i] = v;
-        double num = (lp - lm) / ((double)xp - (double)xm);
-        double err = fabs(num - g[i]), lim = GC_ATOL + GC_RTOL * fmax(fabs(num), fabs(g[i]));
-        if (err / lim > worst) worst = err / lim;
-        if (err > lim && bad++ < 3)
-            mf_test_fail_at(__FILE__, __LINE__, "%s[%zu]: numeric %.6g analytic %.6g", what, i, num, (double)g[i]);
-    }
-    if (getenv("NN_GC_VERBOSE")) fprintf(stderr, "  %-40s worst err/bound %.3f\n", what, worst);
-    CHECK_MSG(bad == 0, "%s: %d elements out of bound (worst err/bound %.3g)", what, bad, worst);
+    MfGradResult r = mf_test_grad(&(MfGradCheck){.loss = f, .ctx = ctx, .p = x, .g = g, .n = n, .stride = n > maxs ? n / maxs : 1,
+                                                 .eps = GC_EPS, .step = MF_FD_ROUNDED, .atol = GC_ATOL, .rtol = GC_RTOL,
+                                                 .sym = 1, .what = what});
+    if (getenv("NN_GC_VERBOSE")) fprintf(stderr, "  %-40s worst err/bound %.3f\n", what, r.worst);
+    CHECK_MSG(r.off == 0, "%s: %d elements out of bound (worst err/bound %.3g at [%ld]: numeric %.6g analytic %.6g)", what, r.off,
+              r.worst, r.at, r.fd, r.g);
 }
 
 /* ---- conv2d ---------------------------------------------------------------------------- */

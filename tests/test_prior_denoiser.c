@@ -15,7 +15,7 @@
 #include "prior/mf_prior.h"
 #include "prior/mf_prior_train.h"
 #include "tests/mf_test.h"
-#include "tests/mf_test_kit.h"
+#include "tests/mf_test_grad.h"
 #include "tests/mf_test_prior.h"
 
 /* ---- gradient checks -------------------------------------------------------------------------------- */

@@ -11,6 +11,7 @@
 #include "render/mf_antialias.h"
 #include "render/mf_diffrender.h"
 #include "mf_test.h"
+#include "mf_test_grad.h"
 
 static int camera(MfCamera *cam, int w, int h, MfVec3 eye, MfVec3 at, MfVec3 up) {
     MfMat4 c2w = mf_mat4_look_at(eye, at, up);
@@ -39,6 +40,21 @@ static double aa_loss(const MfMesh *m, const MfCamera *cam, const MfAa *g, const
 }
 
 enum { AW = 32, AH = 32, AC = 4 };
+
+typedef struct { const MfMesh *m; const MfCamera *cam; const MfAa *a; const float *in, *w; float *tmp; } AaCtx;
+/* aa_loss at the mesh's current positions */
+static double aa_loss_of(void *c) {
+    AaCtx *x = c;
+    return aa_loss(x->m, x->cam, x->a, x->in, x->w, AC, x->tmp);
+}
+/* sum of w * antialiased(in) with the crossings of a */
+static double img_loss_of(void *c) {
+    AaCtx *x = c;
+    mf_aa_forward(x->a, x->in, AC, x->tmp);
+    double j = 0;
+    for (int k = 0; k < x->cam->w * x->cam->h * AC; ++k) j += (double)x->w[k] * x->tmp[k];
+    return j;
+}
 
 MF_TEST(render_antialias_adjoint) {
     /* a quad in front of a quad (inner occlusion edges) and the background (outer silhouettes) */
@@ -100,37 +116,17 @@ MF_TEST(render_antialias_adjoint) {
         }
     CHECK_MSG(kept && diag > 0, "pixels along a quad's diagonal changed (%d pixels there)", diag);
     CHECK_MSG(inner > 0, "the front quad's outline over the back quad was not blended");
-    double gmax = 0, emax = 0;
-    const float h = 1e-4f; /* world units; about 2e-3 pixels */
-    for (int i = 0; i < 8 * 3; ++i) {
-        float p0 = m.pos[i];
-        m.pos[i] = p0 + h;
-        double jp = aa_loss(&m, &cam, a, in, w, AC, tmp);
-        m.pos[i] = p0 - h;
-        double jm = aa_loss(&m, &cam, a, in, w, AC, tmp);
-        m.pos[i] = p0;
-        double fd = (jp - jm) / (2.0 * (double)h);
-        gmax = fmax(gmax, fabs(fd));
-        emax = fmax(emax, fabs(fd - dpos[i]));
-        if (getenv("MF_TEST_VERBOSE")) printf("    v%d.%d fd %.6g adjoint %.6g\n", i / 3, i % 3, fd, dpos[i]);
-    }
+    AaCtx c = {&m, &cam, a, in, w, tmp};
+    MfGradResult rp = mf_test_grad(&(MfGradCheck){.loss = aa_loss_of, .ctx = &c, .p = m.pos, .g = dpos, .n = 8 * 3,
+                                                  .eps = 1e-4f /* world units; about 2e-3 pixels */, .atol = 1, .rtol = 0});
+    double gmax = rp.fd_max, emax = rp.worst;
+    if (getenv("MF_TEST_VERBOSE")) printf("    worst v%ld.%ld fd %.6g adjoint %.6g\n", rp.at / 3, rp.at % 3, rp.fd, rp.g);
     CHECK(gmax > 0);
     CHECK_MSG(emax <= 1e-3 * gmax, "dpos: max |adjoint - fd| %.3g, max |fd| %.3g", emax, gmax);
     /* the image adjoint is exact (the image enters linearly): a few pixels by differences */
-    double eimg = 0;
-    for (int i = 0; i < AW * AH * AC; i += 37) {
-        float v0 = in[i];
-        in[i] = v0 + 0.25f;
-        mf_aa_forward(a, in, AC, tmp);
-        double jp = 0;
-        for (int k = 0; k < AW * AH * AC; ++k) jp += (double)w[k] * tmp[k];
-        in[i] = v0 - 0.25f;
-        mf_aa_forward(a, in, AC, tmp);
-        double jm = 0;
-        for (int k = 0; k < AW * AH * AC; ++k) jm += (double)w[k] * tmp[k];
-        in[i] = v0;
-        eimg = fmax(eimg, fabs((jp - jm) / 0.5 - din[i]));
-    }
+    double eimg = mf_test_grad(&(MfGradCheck){.loss = img_loss_of, .ctx = &c, .p = in, .g = din, .n = AW * AH * AC,
+                                              .stride = 37, .eps = 0.25, .atol = 1, .rtol = 0})
+                      .worst;
     CHECK_MSG(eimg < 1e-5, "image adjoint error %.3g", eimg);
     if (getenv("MF_TEST_VERBOSE")) printf("    %d crossings; dpos max err %.3g of %.3g; image %.3g\n", n, emax, gmax, eimg);
     mf_aa_free(a);

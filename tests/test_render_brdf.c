@@ -8,6 +8,7 @@
 #include "mf_chi2.h"
 #include "mf_test.h"
 #include "mf_test_kit.h"
+#include "mf_test_grad.h"
 #include "render/mf_brdf.h"
 
 static MfVec3 dir_from(float cos_t, float phi) {
@@ -386,6 +387,19 @@ MF_TEST(brdf_hard_cases) {
     CHECK(mf_brdf_sample(&bm, mf_v3(0, 0.6f, -0.8f), 0.5f, 0.3f, 0.3f, MF_LOBE_ALL, &wi, &pdf) == 0);
 }
 
+/* <gd, diffuse> + <gs, specular> of mf_brdf_eval */
+typedef struct {
+    const MfMaterial *m;
+    MfVec3 wo, wi, gd, gs;
+    int lobes;
+} EvalCtx;
+
+static double eval_loss(void *ctx) {
+    const EvalCtx *c = ctx;
+    MfBrdfValue v = mf_brdf_eval(c->m, c->wo, c->wi, c->lobes);
+    return mf_dot(c->gd, v.diffuse) + (double)mf_dot(c->gs, v.specular);
+}
+
 /* mf_brdf_eval_backward against central differences (double-precision steps on float code:
  * step 1e-3, tolerance 2e-3 relative + absolute floor). */
 MF_TEST(brdf_eval_backward) {
@@ -404,16 +418,9 @@ MF_TEST(brdf_eval_backward) {
         mf_brdf_eval_backward(&m, wo, wi, lobes, gd, gs, &g);
         float *params[5] = {&m.kd.x, &m.kd.y, &m.kd.z, &m.roughness, &m.metallic};
         float grads[5] = {g.kd.x, g.kd.y, g.kd.z, g.roughness, g.metallic};
+        EvalCtx c = {&m, wo, wi, gd, gs, lobes};
         for (int k = 0; k < 5; ++k) {
-            float keep = *params[k], eps = 1e-3f;
-            double lv[2];
-            for (int sgn = 0; sgn < 2; ++sgn) {
-                *params[k] = keep + (sgn ? eps : -eps);
-                MfBrdfValue v = mf_brdf_eval(&m, wo, wi, lobes);
-                lv[sgn] = mf_dot(gd, v.diffuse) + (double)mf_dot(gs, v.specular);
-            }
-            *params[k] = keep;
-            double fd = (lv[1] - lv[0]) / (2.0 * eps);
+            double fd = mf_test_fd(eval_loss, &c, params[k], 0, 1e-3f);
             if (!(fabs(fd - grads[k]) <= 2e-3 * fabs(fd) + 2e-3)) {
                 if (bad++ < 5) CHECK_MSG(0, "param %d (lobes %d, r %g): adjoint %g vs finite difference %g", k, lobes, m.roughness, grads[k], fd);
             }

@@ -11,7 +11,9 @@
 #include "core/mf_rng.h"
 #include "render/mf_diffrender.h"
 #include "mf_test.h"
+#include "mf_test_diff.h"
 #include "mf_test_geom.h"
+#include "mf_test_grad.h"
 #include "scene/mf_shapes.h"
 
 enum { W = 10, H = 10, TW = 4, TH = 4, EW = 8, EH = 4 };
@@ -38,12 +40,7 @@ static int fixture_init(Fixture *f) {
     MfImage env = {0};
     if (!rc) rc = mf_image_alloc(&env, EW, EH, 3);
     if (rc) return rc;
-    for (int i = 0; i < TW * TH; ++i) {
-        for (int c = 0; c < 3; ++c) f->kd.data[3 * i + c] = 0.1f + 0.8f * mf_rng_float(&r);
-        f->orm.data[3 * i] = 1.0f;
-        f->orm.data[3 * i + 1] = 0.25f + 0.6f * mf_rng_float(&r);
-        f->orm.data[3 * i + 2] = 0.1f + 0.8f * mf_rng_float(&r);
-    }
+    random_materials(&r, &f->kd, &f->orm, 0.25f);
     for (int i = 0; i < EW * EH * 3; ++i) env.data[i] = 0.2f + 2.0f * mf_rng_float(&r);
     MfImage env2;
     mf_image_alloc(&env2, EW, EH, 3);
@@ -62,11 +59,7 @@ static int fixture_init(Fixture *f) {
     memcpy(f->kd_s.data, f->kd.data, sizeof(float) * TW * TH * 3);
     memcpy(f->orm_s.data, f->orm.data, sizeof(float) * TW * TH * 3);
     if ((rc = look_cam(&f->cam, W, H, mf_v3(0.3f, -1.6f, 0.5f), mf_v3(0, 0, 0)))) return rc;
-    for (int i = 0; i < W * H * 3; ++i) {
-        f->wr[i] = mf_rng_float(&r) - 0.3f;
-        f->wd[i] = 0.5f * (mf_rng_float(&r) - 0.5f);
-        f->ws[i] = 0.5f * (mf_rng_float(&r) - 0.5f);
-    }
+    random_weights(&r, f->wr, f->wd, f->ws, W * H * 3);
     return MF_OK;
 }
 
@@ -94,28 +87,21 @@ static double objective(Fixture *f, const MfDiffOpts *o) {
     MfDiffScene s = scene_of(f);
     if (mf_render_out_alloc(&out, W, H)) return NAN;
     if (mf_diff_forward(&s, &f->cam, o, &out)) return NAN;
-    double j = 0;
-    for (int i = 0; i < W * H * 3; ++i) j += (double)f->wr[i] * out.rgb[i] + (double)f->wd[i] * out.diffuse[i] + (double)f->ws[i] * out.specular[i];
+    double j = weighted_sum(&out, f->wr, f->wd, f->ws, W * H * 3);
     mf_render_out_free(&out);
     return j;
 }
 
-/* max over checked entries of |adjoint - fd| / (|fd| + floor) */
+typedef struct { Fixture *f; const MfDiffOpts *o; } ObjCtx;
+static double objective_of(void *c) { ObjCtx *x = c; return objective(x->f, x->o); }
+
+/* max over checked entries (c0, c0 + stride, ... < n) of |adjoint - fd| / (|fd| + floor) */
 static double check_block(Fixture *f, const MfDiffOpts *o, float *param, const float *grad, int n, int stride, int c0,
                           float eps, double floor_) {
-    double worst = 0;
-    for (int i = c0; i < n; i += stride) {
-        float p0 = param[i];
-        param[i] = p0 + eps;
-        double jp = objective(f, o);
-        param[i] = p0 - eps;
-        double jm = objective(f, o);
-        param[i] = p0;
-        double fd = (jp - jm) / (2.0 * eps);
-        double e = fabs(fd - grad[i]) / (fabs(fd) + floor_);
-        if (e > worst) worst = e;
-    }
-    return worst;
+    ObjCtx c = {f, o};
+    return mf_test_grad(&(MfGradCheck){.loss = objective_of, .ctx = &c, .p = param, .g = grad, .n = (size_t)n,
+                                       .first = (size_t)c0, .stride = (size_t)stride, .eps = eps, .atol = floor_, .rtol = 1})
+        .worst;
 }
 
 MF_TEST(render_diffrender_gradients) {
@@ -174,9 +160,9 @@ MF_TEST(render_diffrender_gradients_thread_independent) {
     fixture_free(&f);
 }
 
-typedef struct { Fixture *f; const MfDiffOpts *o; } AovCtx;
-
-static double aov_objective(Fixture *f, const MfDiffOpts *o) {
+static double aov_objective(void *c) {
+    Fixture *f = ((ObjCtx *)c)->f;
+    const MfDiffOpts *o = ((ObjCtx *)c)->o;
     MfDiffScene s = scene_of(f);
     float alb[W * H * 3], orm[W * H * 3], a[W * H];
     if (mf_diff_aov_forward(&s, &f->cam, o, alb, orm, a)) return NAN;
@@ -197,17 +183,11 @@ MF_TEST(render_diffrender_aov_gradients) {
     double worst = 0;
     float *blocks[2] = {f.kd.data, f.orm.data};
     const float *grads[2] = {dkd, dorm};
+    ObjCtx c = {&f, &o};
     for (int b = 0; b < 2; ++b)
-        for (int i = 0; i < TW * TH * 3; ++i) {
-            float p0 = blocks[b][i];
-            blocks[b][i] = p0 + 0.05f;
-            double jp = aov_objective(&f, &o);
-            blocks[b][i] = p0 - 0.05f;
-            double jm = aov_objective(&f, &o);
-            blocks[b][i] = p0;
-            double fd = (jp - jm) / 0.1;
-            worst = fmax(worst, fabs(fd - grads[b][i]) / (fabs(fd) + 1e-3));
-        }
+        worst = fmax(worst, mf_test_grad(&(MfGradCheck){.loss = aov_objective, .ctx = &c, .p = blocks[b], .g = grads[b],
+                                                        .n = TW * TH * 3, .eps = 0.05, .atol = 1e-3, .rtol = 1})
+                                .worst);
     CHECK_MSG(worst < 1e-3, "AOV gradient relative error %.3g", worst);
     fixture_free(&f);
 }

@@ -12,7 +12,9 @@
 #include "core/mf_rng.h"
 #include "render/mf_diffrender.h"
 #include "mf_test.h"
+#include "mf_test_diff.h"
 #include "mf_test_geom.h"
+#include "mf_test_grad.h"
 
 enum { W = 12, H = 12, N = 9, TW = 8, TH = 8, EW = 16, EH = 8 };
 
@@ -62,23 +64,14 @@ static int fix_init(Fix *f) {
     MfImage env = {0};
     if (!rc) rc = mf_image_alloc(&env, EW, EH, 3);
     if (rc) return rc;
-    for (int i = 0; i < TW * TH; ++i) {
-        for (int c = 0; c < 3; ++c) f->kd.data[3 * i + c] = 0.1f + 0.8f * mf_rng_float(&r);
-        f->orm.data[3 * i] = 1.0f;
-        f->orm.data[3 * i + 1] = 0.3f + 0.6f * mf_rng_float(&r);
-        f->orm.data[3 * i + 2] = 0.1f + 0.8f * mf_rng_float(&r);
-    }
+    random_materials(&r, &f->kd, &f->orm, 0.3f);
     /* a sky: radiance above 45 degrees of elevation only (rows 0-1; bilinear lookups reach zero
      * at 34 degrees), so shadow rays near a facet's horizon (whose visibility jumps when a
      * primary hit crosses to the next facet) carry no light */
     for (int i = 0; i < EW * EH * 3; ++i) env.data[i] = i < 2 * EW * 3 ? 0.2f + 2.0f * mf_rng_float(&r) : 0.0f;
     if ((rc = mf_env_init(&f->env, &env))) return rc;
     if ((rc = look_cam(&f->cam, W, H, mf_v3(0.25f, -0.5f, 1.5f), mf_v3(0, 0, 0)))) return rc;
-    for (int i = 0; i < W * H * 3; ++i) {
-        f->wr[i] = mf_rng_float(&r) - 0.3f;
-        f->wd[i] = 0.5f * (mf_rng_float(&r) - 0.5f);
-        f->ws[i] = 0.5f * (mf_rng_float(&r) - 0.5f);
-    }
+    random_weights(&r, f->wr, f->wd, f->ws, W * H * 3);
     return MF_OK;
 }
 
@@ -101,9 +94,7 @@ static double loss(Fix *f, const MfDiffOpts *o, float *min_alpha) {
     MfDiffScene s = {.rt = rt, .rt_s = f->rt0, .kd = &f->kd, .orm = &f->orm, .env = &f->env};
     double j = NAN;
     if (!mf_diff_forward(&s, &f->cam, o, &out)) {
-        j = 0;
-        for (int i = 0; i < W * H * 3; ++i)
-            j += (double)f->wr[i] * out.rgb[i] + (double)f->wd[i] * out.diffuse[i] + (double)f->ws[i] * out.specular[i];
+        j = weighted_sum(&out, f->wr, f->wd, f->ws, W * H * 3);
         if (min_alpha) {
             *min_alpha = 1.0f;
             for (int i = 0; i < W * H; ++i) *min_alpha = fminf(*min_alpha, out.alpha[i]);
@@ -113,6 +104,9 @@ static double loss(Fix *f, const MfDiffOpts *o, float *min_alpha) {
     mf_rtscene_free(rt);
     return j;
 }
+
+typedef struct { Fix *f; const MfDiffOpts *o; } LossCtx;
+static double loss_of(void *c) { LossCtx *x = c; return loss(x->f, x->o, NULL); }
 
 MF_TEST(render_hitgrad_dpos) {
     Fix f;
@@ -132,39 +126,20 @@ MF_TEST(render_hitgrad_dpos) {
     CHECK_OK(mf_diff_backward(&s, &f.cam, &o, &adj, &g2));
     CHECK_MSG(!memcmp(dkd, dkd2, sizeof(float) * TW * TH * 3), "dpos changed the texel gradients");
     /* central differences over every coordinate of every vertex */
-    const float h = 2e-4f;
-    double gmax = 0, emax = 0;
-    int worst = -1;
-    double *fd = calloc((size_t)f.mesh.nv * 3, sizeof(double));
-    for (int i = 0; i < f.mesh.nv * 3; ++i) {
-        float p0 = f.mesh.pos[i];
-        f.mesh.pos[i] = p0 + h;
-        double jp = loss(&f, &o, NULL);
-        f.mesh.pos[i] = p0 - h;
-        double jm = loss(&f, &o, NULL);
-        f.mesh.pos[i] = p0;
-        fd[i] = (jp - jm) / (2.0 * (double)h);
-        gmax = fmax(gmax, fabs(fd[i]));
-    }
-    for (int i = 0; i < f.mesh.nv * 3; ++i) {
-        double e = fabs(fd[i] - dpos[i]);
-        if (e > emax) {
-            emax = e;
-            worst = i;
-        }
-    }
-    double rel = emax / gmax;
+    LossCtx lc = {&f, &o};
+    MfGradResult r = mf_test_grad(&(MfGradCheck){.loss = loss_of, .ctx = &lc, .p = f.mesh.pos, .g = dpos,
+                                                 .n = (size_t)f.mesh.nv * 3, .eps = 2e-4f, .atol = 1, .rtol = 0});
+    double gmax = r.fd_max, emax = r.worst, rel = emax / gmax;
     if (getenv("MF_TEST_VERBOSE"))
-        printf("    dpos: max |fd| %.5g, max |adjoint - fd| %.3g (relative %.3g) at coordinate %d (fd %.5g, adjoint %.5g)\n",
-               gmax, emax, rel, worst, worst >= 0 ? fd[worst] : 0.0, worst >= 0 ? dpos[worst] : 0.0f);
+        printf("    dpos: max |fd| %.5g, max |adjoint - fd| %.3g (relative %.3g) at coordinate %ld (fd %.5g, adjoint %.5g)\n",
+               gmax, emax, rel, r.at, r.fd, r.g);
     CHECK(gmax > 0);
-    CHECK_MSG(rel < 2e-3, "dpos: max |adjoint - fd| / max |fd| = %.3g at coordinate %d (fd %.6g, adjoint %.6g)", rel, worst,
-              worst >= 0 ? fd[worst] : 0.0, worst >= 0 ? dpos[worst] : 0.0f);
+    CHECK_MSG(rel < 2e-3, "dpos: max |adjoint - fd| / max |fd| = %.3g at coordinate %ld (fd %.6g, adjoint %.6g)", rel, r.at,
+              r.fd, r.g);
     /* a normal map is refused */
     MfDiffScene sn = s;
     sn.normal = &f.kd;
     CHECK(mf_diff_backward(&sn, &f.cam, &o, &adj, &g) == MF_EARG);
-    free(fd);
     free(dpos);
     free(dkd);
     free(dkd2);
