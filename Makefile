@@ -205,6 +205,9 @@ endif
 # ground truth) with 24 training views at 64 px, cheap enough to render on 2 cores (~1 CPU-min
 # per scene) — the cross-renderer check of the prior.
 GEN_ARGS_test-3d-pov64 := --split test-3d-diffuse --train 24 --width 64
+# val-3d: test-3d's recipe with another seed (other objects of the same families, other materials
+# and probes' draws) — the split on which the SDS weights may be chosen, never test-3d itself.
+GEN_ARGS_val-3d := --split test-3d --seed 2
 $(DATA)/%/.rendered: | $(BUILD)/mf
 	$(MF) gen $(or $(GEN_ARGS_$*),--split $*) -o $(DATA)/$* --render
 	touch $@
