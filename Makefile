@@ -7,6 +7,7 @@
 #   make bench-nn      conv / residual block vs OpenBLAS sgemm -> reports/perf/ (bench-nn-onednn: vs oneDNN)
 # BUILD=dir selects the build folder (default build; asan uses build-asan; NATIVE=1 build-native).
 #   make NATIVE=1    compile for this machine's CPU (-march=native) into build-native/ (below)
+#   make DNNL=1      the network's convolutions through oneDNN, into build-dnnl/ (below)
 
 DEB_PACKAGES := build-essential pkg-config libembree-dev libopenimageio-dev libopenexr-dev \
   libgsl-dev libcjson-dev libopenblas-dev povray blender-data python3-skimage python3-numpy \
@@ -18,13 +19,19 @@ DEB_PACKAGES := build-essential pkg-config libembree-dev libopenimageio-dev libo
 # on a machine whose flags differ (a shared checkout, a copied folder) starts from scratch.
 # The default build targets plain x86-64 (-march=x86-64), so its binaries run on any x86-64 CPU.
 NATIVE   ?= 0
+# DNNL=1: the network's convolutions through oneDNN (Debian's libdnnl-dev; mf/nn/mf_nn_dnnl.c),
+# compiled with -DMF_HAVE_DNNL and linked with -ldnnl, in its own folder (build-dnnl, or
+# build-native-dnnl with NATIVE=1) so objects of the two builds never mix. Off by default: make,
+# make test and CI need no oneDNN. MF_NN_BACKEND=blas|dnnl picks the backend at run time.
+DNNL     ?= 0
+DNNL_SUFFIX := $(if $(filter 1,$(DNNL)),-dnnl)
 ifeq ($(NATIVE),1)
-BUILD    ?= build-native
+BUILD    ?= build-native$(DNNL_SUFFIX)
 ARCH     := -march=native
 NATIVE_CPU := $(shell $(CC) -march=native -E -v - </dev/null 2>&1 | grep -m1 cc1 | grep -o -- '-m[a-z0-9=.-]*' | sort | md5sum | cut -c1-32)
 $(shell mkdir -p $(BUILD) && { [ "$$(cat $(BUILD)/cpu 2>/dev/null)" = "$(NATIVE_CPU)" ] || { rm -rf $(BUILD)/obj $(BUILD)/*.a $(BUILD)/mf $(BUILD)/mf_tests; echo "$(NATIVE_CPU)" > $(BUILD)/cpu; }; })
 else
-BUILD    ?= build
+BUILD    ?= build$(DNNL_SUFFIX)
 ARCH     := -march=x86-64
 endif
 # OpenMP threads sleep instead of spinning between parallel regions, so they do not fight
@@ -43,6 +50,13 @@ LDLIBS   := -lembree3 -lOpenImageIO -lOpenImageIO_Util -lOpenEXRCore-3_1 -lImath
             -lcjson -lgsl -lmeshoptimizer -L/usr/lib/x86_64-linux-gnu/openblas-pthread -lopenblas \
             -lstdc++ -lm -lpthread
 LDFLAGS  += -fopenmp $(SAN)
+ifeq ($(DNNL),1)
+ifeq ($(wildcard /usr/include/oneapi/dnnl/dnnl.h),)
+$(error DNNL=1: oneDNN not found (/usr/include/oneapi/dnnl/dnnl.h); install it with apt-get install libdnnl-dev)
+endif
+LDLIBS   += -ldnnl
+$(BUILD)/obj/mf/nn/%.o: CFLAGS += -DMF_HAVE_DNNL
+endif
 
 LIB_C    := $(sort $(filter-out mf/cli/%,$(wildcard mf/*/*.c)) $(wildcard eval/*.c datasets/*.c baselines/*.c))
 LIB_CXX  := $(sort $(wildcard mf/*/*.cpp))

@@ -70,6 +70,26 @@ void mf_conv2d_backward_ex(float *din, int din_acc, float *dw, float *dbias, flo
                            const float *dout, const float *in, const float *w, int B, int Cin, int H, int W,
                            int Cout, int K, int stride);
 
+/* ---- conv backend ---------------------------------------------------------------------------- */
+
+/* The convolutions above run as im2col + OpenBLAS sgemm (MF_NN_BLAS) or through oneDNN's
+ * convolution primitives (MF_NN_DNNL, in builds made with `make DNNL=1` only; nn/mf_nn_dnnl.h), in
+ * the same NCHW / OIHW layout; the fused terms (bias_b, add, dbias, dbias_b) are the same code in
+ * both. oneDNN's results differ from the sgemm path's in the last bits (relative 1e-6). Process-
+ * wide; the default is MF_NN_DNNL where built, else MF_NN_BLAS. If oneDNN fails on a call (no
+ * implementation for a shape, out of memory), that call and every later one run on OpenBLAS and a
+ * warning says why (results stay right). mf_nn_gemm_flops counts a oneDNN convolution as the
+ * FLOPs of the GEMMs it replaces. */
+typedef enum { MF_NN_BLAS, MF_NN_DNNL } MfNnBackend;
+
+/* MF_EARG (backend unchanged) for MF_NN_DNNL in a build without oneDNN. */
+int mf_nn_set_backend(MfNnBackend b);
+MfNnBackend mf_nn_backend(void);
+const char *mf_nn_backend_name(MfNnBackend b); /* "blas" or "dnnl" */
+/* From the environment variable MF_NN_BACKEND: blas or dnnl (unset or empty: unchanged); MF_EARG,
+ * naming the variable, for another value or for dnnl in a build without oneDNN. */
+int mf_nn_backend_from_env(void);
+
 /* ---- nearest upsample x2 ---------------------------------------------------------------- */
 
 /* out (B, C, 2H, 2W) from in (B, C, H, W). */
