@@ -70,7 +70,7 @@ LIB_OBJ  := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
 CLI_OBJ  := $(CLI_C:%.c=$(BUILD)/obj/%.o)
 TEST_OBJ := $(TEST_C:%.c=$(BUILD)/obj/%.o)
 
-.PHONY: FORCE all deps deps-node deps-fuzz bench-asset fuzz fuzz-lib fuzz-seeds test check-deps asan bench-geom bench-hull bench-render bench-nn bench-nn-onednn bench-baseline bench-prior bench-sds-cost bench-quick bench bench-split bench-split-now bench-runs bench-external recon-runs train-prior train-prior-wide eval-prior calibrate-trust sweep-guidance bench-domain bench-matrix bench-stability test-slurm clean
+.PHONY: FORCE all deps deps-node deps-fuzz bench-asset fuzz fuzz-lib fuzz-seeds test check-deps asan bench-geom bench-hull bench-render bench-nn bench-nn-dnnl bench-nn-onednn bench-baseline bench-prior bench-sds-cost bench-quick bench bench-split bench-split-now bench-runs bench-external recon-runs train-prior train-prior-wide eval-prior calibrate-trust sweep-guidance bench-domain bench-matrix bench-stability test-slurm clean
 all: $(BUILD)/mf $(BUILD)/mf_tests
 
 deps:
@@ -195,8 +195,17 @@ NN_1THREAD := OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1
 bench-nn: $(BUILD)/mf
 	$(NN_1THREAD) ./$(BUILD)/mf bench-nn --batch 16 --channels 64 --size 16 --groups 8 --reps 30 -o reports/perf/nn-c64-16x16.md
 	$(NN_1THREAD) ./$(BUILD)/mf bench-nn --batch 16 --channels 128 --size 8 --groups 8 --reps 30 -o reports/perf/nn-c128-8x8.md
+# Both conv backends of a DNNL=1 build (run as make DNNL=1 bench-nn-dnnl): bench-nn's two shapes with
+# blas and dnnl interleaved in one process, then bench-prior at one thread with each backend back to
+# back (MF_NN_BACKEND) -> reports/perf/nn-dnnl-*.md, prior-1thread-{blas,dnnl}.md.
+bench-nn-dnnl: $(BUILD)/mf
+	@[ "$(DNNL)" = 1 ] || { echo "bench-nn-dnnl: needs the oneDNN build: make DNNL=1 bench-nn-dnnl"; exit 1; }
+	$(NN_1THREAD) ./$(BUILD)/mf bench-nn --batch 16 --channels 64 --size 16 --groups 8 --reps 30 -o reports/perf/nn-dnnl-c64-16x16.md
+	$(NN_1THREAD) ./$(BUILD)/mf bench-nn --batch 16 --channels 128 --size 8 --groups 8 --reps 30 -o reports/perf/nn-dnnl-c128-8x8.md
+	$(NN_1THREAD) MF_NN_BACKEND=blas ./$(BUILD)/mf bench-prior -o reports/perf/prior-1thread-blas.md
+	$(NN_1THREAD) MF_NN_BACKEND=dnnl ./$(BUILD)/mf bench-prior -o reports/perf/prior-1thread-dnnl.md
 # oneDNN's convolution against ours (tools/onednn_conv_bench.c). Optional: needs Debian's
-# libdnnl-dev, which make deps does not install and nothing else uses.
+# libdnnl-dev, which make deps does not install and nothing else uses (but make DNNL=1).
 bench-nn-onednn: $(BUILD)/libmf.a
 	@[ -f /usr/include/oneapi/dnnl/dnnl.h ] || { echo "bench-nn-onednn: oneDNN not found (apt-get install libdnnl-dev)"; exit 1; }
 	$(CC) $(CFLAGS) -o $(BUILD)/onednn_conv_bench tools/onednn_conv_bench.c $(BUILD)/libmf.a $(LDLIBS) -ldnnl

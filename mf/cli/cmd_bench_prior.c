@@ -17,6 +17,7 @@
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "core/mf_log.h"
+#include "nn/mf_nn.h"
 #include "prior/mf_prior_bench.h"
 
 typedef struct {
@@ -91,22 +92,27 @@ static int bench_prior_run(const BenchPriorArgs *a) {
     int R = p->cfg.ae.res, zc = p->cfg.ae.zc, h = p->cfg.dn.h;
     mf_log_info("bench-prior: %d rounds (batch %d, sgemm %d^3)", reps, B, N);
     MfPriorBench b;
+    double load[2] = {0.0, 0.0};
+    getloadavg(&load[0], 1);
     int rc = mf_prior_bench(p, B, reps, N, &b);
+    getloadavg(&load[1], 1);
     if (!rc) {
         struct rusage ru;
         getrusage(RUSAGE_SELF, &ru);
         double peak_mib = ru.ru_maxrss / 1024.0;
         double g_sgemm = 2.0 * N * (double)N * N / b.sgemm_s / 1e9, g_dn = b.dn_flops / b.dn_step_s / 1e9,
                g_ae = b.ae_flops / b.ae_step_s / 1e9;
-        const char *threads = getenv("OPENBLAS_NUM_THREADS");
+        const char *threads = getenv("OPENBLAS_NUM_THREADS"), *omp_threads = getenv("OMP_NUM_THREADS");
         char md[4096];
         int l = snprintf(
             md, sizeof md,
             "# Prior performance (`make bench-prior`)\n\n"
             "Measured by `mf bench-prior` in one process (%s; %zu parameters; %d px images, %dx%dx%d latents); "
-            "best of %d interleaved rounds after a warm-up, OPENBLAS_NUM_THREADS=%s. Network GFLOP/s count the "
-            "FLOPs of the network's matrix products (im2col convolutions, linears, attention; element-wise "
-            "layers and AdamW are in the time but not in the count).\n\n"
+            "best of %d interleaved rounds after a warm-up, OPENBLAS_NUM_THREADS=%s, OMP_NUM_THREADS=%s, conv "
+            "backend %s (MF_NN_BACKEND); 1-minute load average %.2f at the start, %.2f at the end. Network "
+            "GFLOP/s count the "
+            "FLOPs of the network's matrix products (convolutions as their im2col GEMMs, linears, attention; "
+            "element-wise layers and AdamW are in the time but not in the count).\n\n"
             "| measurement | value |\n|---|---|\n"
             "| OpenBLAS sgemm %d^3 | %.1f GFLOP/s |\n"
             "| denoiser + image encoder training step, batch %d | %.3f s (%.1f samples/s) |\n"
@@ -116,7 +122,8 @@ static int bench_prior_run(const BenchPriorArgs *a) {
             "| one guided denoising step (CFG 3), batch 4, single-view | %.1f ms |\n"
             "| one guided denoising step (CFG 3), batch 4, 4 views jointly (MV) | %.1f ms |\n"
             "| peak resident memory | %.1f MiB |\n",
-            source, mf_prior_num_params(p), R, h, h, zc, reps, threads ? threads : "(unset: all cores)", N, g_sgemm, B,
+            source, mf_prior_num_params(p), R, h, h, zc, reps, threads ? threads : "(unset: all cores)",
+            omp_threads ? omp_threads : "(unset: all cores)", mf_nn_backend_name(mf_nn_backend()), load[0], load[1], N, g_sgemm, B,
             b.dn_step_s, B / b.dn_step_s, b.dn_flops / 1e9, g_dn, g_dn / g_sgemm, B, b.ae_step_s, B / b.ae_step_s,
             b.ae_flops / 1e9, g_ae, g_ae / g_sgemm, b.guided_sv_s * 1e3, b.guided_mv_s * 1e3, peak_mib);
         fputs(md, stdout);
