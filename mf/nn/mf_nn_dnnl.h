@@ -2,13 +2,15 @@
  * (mf_nn.h; `make DNNL=1` builds it, with -DMF_HAVE_DNNL). Private to mf/nn: the layers call it
  * when mf_nn_backend() is MF_NN_DNNL.
  *
- * Same layout and semantics as the im2col + sgemm path: activations plain NCHW, weights OIHW,
- * K x K, pad K/2 (right/bottom padding whatever gives Ho = mf_conv2d_out_size), stride 1 or 2; no
- * reorders. Primitives are created on a shape's first use and cached per thread (creation costs
- * milliseconds, a call microseconds): one entry per (B, Cin, H, W, Cout, K, stride, bias or not),
- * never evicted (a network uses a few dozen shapes). oneDNN's own threads are OpenMP's
- * (OMP_NUM_THREADS). Results differ from the sgemm path in the last bits (another summation
- * order); for a fixed thread count they are deterministic.
+ * Same arrays and semantics as the im2col + sgemm path: activations plain NCHW, weights OIHW,
+ * K x K, pad K/2 (right/bottom padding whatever gives Ho = mf_conv2d_out_size), stride 1 or 2.
+ * Inside, oneDNN's channel-blocked layouts are used where it picks them (copies in and out, see
+ * mf_nn_dnnl.c: they pay). Primitives are created on a shape's first use and cached per thread
+ * (creation costs milliseconds, a call microseconds): one entry per (B, Cin, H, W, Cout, K,
+ * stride, bias or not), never evicted (a network uses a few dozen shapes); the blocked copies live
+ * in one scratch buffer per thread that grows to the largest call. oneDNN's own threads are
+ * OpenMP's (OMP_NUM_THREADS). Results differ from the sgemm path in the last bits (another
+ * summation order); for a fixed thread count they are deterministic.
  *
  * Each returns MF_OK, or MF_EEXT / MF_ENOMEM with a message (mf_error) and its output untouched
  * when oneDNN fails (e.g. a shape no implementation takes). */
