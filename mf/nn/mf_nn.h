@@ -337,7 +337,8 @@ void mf_nn_gemm_flops_reset(void);
 
 /* Threads of OpenBLAS's matrix products from now on, process-wide (n >= 1; the start value is
  * OPENBLAS_NUM_THREADS, else OMP_NUM_THREADS, else all cores). OpenBLAS splits a product's rows
- * and columns among its threads, not the sums: the results do not depend on it. */
+ * and columns among its threads, not the sums: the results do not depend on it. With the dnnl
+ * backend it also sets oneDNN's threads (else OMP_NUM_THREADS), whose results may depend on them. */
 void mf_nn_set_threads(int n);
 
 #endif

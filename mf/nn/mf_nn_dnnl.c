@@ -13,6 +13,7 @@
 #ifdef MF_HAVE_DNNL
 #include <oneapi/dnnl/dnnl.h>
 #include <oneapi/dnnl/dnnl_debug.h>
+#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -55,6 +56,9 @@ typedef struct {
 
 /* Per thread: memory objects' handles are set per call, so threads must not share them. */
 static _Thread_local DnnlState g_dn;
+static int g_threads; /* 0: OpenMP's default */
+
+void mf_nn_dnnl_set_threads(int n) { g_threads = n > 0 ? n : 1; }
 
 static int dn_fail(dnnl_status_t s, const char *what) {
     return mf_fail(s == dnnl_out_of_memory ? MF_ENOMEM : MF_EEXT, "oneDNN: %s: %s", what, dnnl_status2str(s));
@@ -227,7 +231,7 @@ static unsigned char *scratch(size_t n) {
 /* Runs primitive kind of c on the plain arrays h[i] (args in prim_make's order): inputs copied to
  * their inner layouts first, the output copied back after. extra > 0: the output goes instead to
  * the first `extra` floats of the scratch, returned in *ex, for a caller that adds it to its own. */
-static int conv_exec(DnnlConv *c, int kind, void *const *h, size_t extra, float **ex) {
+static int conv_exec_now(DnnlConv *c, int kind, void *const *h, size_t extra, float **ex) {
     DnPrim *p = &c->p[kind];
     int rc;
     if (!p->prim && (rc = prim_make(c, kind))) return rc;
@@ -258,6 +262,16 @@ static int conv_exec(DnnlConv *c, int kind, void *const *h, size_t extra, float 
     }
     DN_TRY(dnnl_stream_wait(g_dn.st));
     return MF_OK;
+}
+
+/* conv_exec_now with oneDNN's OpenMP threads set to g_threads for the call (the caller's count
+ * restored after, so OpenMP regions elsewhere keep theirs). */
+static int conv_exec(DnnlConv *c, int kind, void *const *h, size_t extra, float **ex) {
+    int was = omp_get_max_threads();
+    if (g_threads && g_threads != was) omp_set_num_threads(g_threads);
+    int rc = conv_exec_now(c, kind, h, extra, ex);
+    if (g_threads && g_threads != was) omp_set_num_threads(was);
+    return rc;
 }
 
 int mf_nn_dnnl_conv_forward(float *out, const float *in, const float *w, const float *bias, int B, int Cin, int H,

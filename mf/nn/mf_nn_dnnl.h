@@ -9,8 +9,8 @@
  * (creation costs milliseconds, a call microseconds): one entry per (B, Cin, H, W, Cout, K,
  * stride, bias or not), never evicted (a network uses a few dozen shapes); the blocked copies live
  * in one scratch buffer per thread that grows to the largest call. oneDNN's own threads are
- * OpenMP's (OMP_NUM_THREADS). Results differ from the sgemm path in the last bits (another
- * summation order); for a fixed thread count they are deterministic.
+ * OpenMP's (see mf_nn_dnnl_set_threads). Results differ from the sgemm path in the last bits
+ * (another summation order); for a fixed thread count they are deterministic.
  *
  * Each returns MF_OK, or MF_EEXT / MF_ENOMEM with a message (mf_error) and its output untouched
  * when oneDNN fails (e.g. a shape no implementation takes). */
@@ -27,6 +27,9 @@ int mf_nn_dnnl_conv_backward_data(float *din, int acc, const float *dout, const 
 /* dw (Cout, Cin, K, K) += the weight gradient from dout (B, Cout, Ho, Wo) and in (B, Cin, H, W). */
 int mf_nn_dnnl_conv_backward_weights(float *dw, const float *dout, const float *in, int B, int Cin, int H, int W,
                                      int Cout, int K, int stride);
+/* Threads of oneDNN's calls from now on, process-wide (n >= 1; before the first call: OpenMP's
+ * default, OMP_NUM_THREADS); mf_nn_set_threads sets it with OpenBLAS's. */
+void mf_nn_dnnl_set_threads(int n);
 /* Frees the calling thread's primitives, engine and scratch (the next call makes them again). */
 void mf_nn_dnnl_release(void);
 #endif

@@ -17,7 +17,12 @@
 /* Every matrix product of this module goes through here, so benchmarks can count FLOPs. */
 static unsigned long long g_gemm_flops;
 unsigned long long mf_nn_gemm_flops(void) { return g_gemm_flops; }
-void mf_nn_set_threads(int n) { openblas_set_num_threads(n > 0 ? n : 1); }
+void mf_nn_set_threads(int n) {
+    openblas_set_num_threads(n > 0 ? n : 1);
+#ifdef MF_HAVE_DNNL
+    mf_nn_dnnl_set_threads(n);
+#endif
+}
 void mf_nn_gemm_flops_reset(void) { g_gemm_flops = 0; }
 static void nn_sgemm(enum CBLAS_ORDER o, enum CBLAS_TRANSPOSE ta, enum CBLAS_TRANSPOSE tb, int M, int N, int K,
                      float alpha, const float *A, int lda, const float *B, int ldb, float beta, float *C, int ldc) {
