@@ -15,6 +15,7 @@
  * OpenBLAS's still-spinning workers (measured: conv2d forward+backward 7 GFLOP/s with OpenMP
  * im2col vs 71 GFLOP/s without). Everything is deterministic for a fixed thread count (no
  * atomics, fixed reduction order; OpenBLAS's sgemm is deterministic for fixed sizes/threads).
+ * Convolutions may instead run on oneDNN (`make DNNL=1`; see "conv backend" below).
  * Scratch buffers are passed in by the caller; sizes come from the *_floats() helpers. */
 #ifndef MF_NN_H
 #define MF_NN_H
