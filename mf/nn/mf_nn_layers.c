@@ -248,9 +248,9 @@ int mf_nn_set_backend(MfNnBackend b) {
 int mf_nn_backend_from_env(void) {
     const char *v = getenv("MF_NN_BACKEND");
     if (!v || !v[0]) return MF_OK;
-    MfNnBackend b = !strcmp(v, "blas") ? MF_NN_BLAS : !strcmp(v, "dnnl") ? MF_NN_DNNL : (MfNnBackend)-1;
-    if ((int)b < 0) return mf_fail(MF_EARG, "MF_NN_BACKEND=%s: expected blas or dnnl", v);
-    int rc = mf_nn_set_backend(b);
+    int b = !strcmp(v, "blas") ? MF_NN_BLAS : !strcmp(v, "dnnl") ? MF_NN_DNNL : -1;
+    if (b < 0) return mf_fail(MF_EARG, "MF_NN_BACKEND=%s: expected blas or dnnl", v);
+    int rc = mf_nn_set_backend((MfNnBackend)b);
     return rc ? mf_fail_prefix(rc, "MF_NN_BACKEND=%s", v) : MF_OK;
 }
 
