@@ -195,15 +195,13 @@ NN_1THREAD := OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1
 bench-nn: $(BUILD)/mf
 	$(NN_1THREAD) ./$(BUILD)/mf bench-nn --batch 16 --channels 64 --size 16 --groups 8 --reps 30 -o reports/perf/nn-c64-16x16.md
 	$(NN_1THREAD) ./$(BUILD)/mf bench-nn --batch 16 --channels 128 --size 8 --groups 8 --reps 30 -o reports/perf/nn-c128-8x8.md
-# Both conv backends of a DNNL=1 build (run as make DNNL=1 bench-nn-dnnl): bench-nn's two shapes with
-# blas and dnnl interleaved in one process, then bench-prior at one thread with each backend back to
-# back (MF_NN_BACKEND) -> reports/perf/nn-dnnl-*.md, prior-1thread-{blas,dnnl}.md.
+# Both conv backends of a DNNL=1 build (run as make DNNL=1 bench-nn-dnnl), interleaved in one process:
+# bench-nn's two shapes, then bench-prior at one thread -> reports/perf/nn-dnnl-*.md, prior-dnnl.md.
 bench-nn-dnnl: $(BUILD)/mf
 	@[ "$(DNNL)" = 1 ] || { echo "bench-nn-dnnl: needs the oneDNN build: make DNNL=1 bench-nn-dnnl"; exit 1; }
 	$(NN_1THREAD) ./$(BUILD)/mf bench-nn --batch 16 --channels 64 --size 16 --groups 8 --reps 30 -o reports/perf/nn-dnnl-c64-16x16.md
 	$(NN_1THREAD) ./$(BUILD)/mf bench-nn --batch 16 --channels 128 --size 8 --groups 8 --reps 30 -o reports/perf/nn-dnnl-c128-8x8.md
-	$(NN_1THREAD) MF_NN_BACKEND=blas ./$(BUILD)/mf bench-prior -o reports/perf/prior-1thread-blas.md
-	$(NN_1THREAD) MF_NN_BACKEND=dnnl ./$(BUILD)/mf bench-prior -o reports/perf/prior-1thread-dnnl.md
+	$(NN_1THREAD) ./$(BUILD)/mf bench-prior -o reports/perf/prior-dnnl.md
 # oneDNN's convolution against ours (tools/onednn_conv_bench.c). Optional: needs Debian's
 # libdnnl-dev, which make deps does not install and nothing else uses (but make DNNL=1).
 bench-nn-onednn: $(BUILD)/libmf.a
