@@ -7,6 +7,7 @@
 #   make bench-nn      conv / residual block vs OpenBLAS sgemm -> reports/perf/ (bench-nn-onednn: vs oneDNN)
 # BUILD=dir selects the build folder (default build; asan uses build-asan; NATIVE=1 build-native).
 #   make NATIVE=1    compile for this machine's CPU (-march=native) into build-native/ (below)
+#   make DNNL=1      the network's convolutions through oneDNN, into build-dnnl/ (below)
 
 DEB_PACKAGES := build-essential pkg-config libembree-dev libopenimageio-dev libopenexr-dev \
   libgsl-dev libcjson-dev libopenblas-dev povray blender-data python3-skimage python3-numpy \
@@ -18,13 +19,19 @@ DEB_PACKAGES := build-essential pkg-config libembree-dev libopenimageio-dev libo
 # on a machine whose flags differ (a shared checkout, a copied folder) starts from scratch.
 # The default build targets plain x86-64 (-march=x86-64), so its binaries run on any x86-64 CPU.
 NATIVE   ?= 0
+# DNNL=1: the network's convolutions through oneDNN (Debian's libdnnl-dev; mf/nn/mf_nn_dnnl.c),
+# compiled with -DMF_HAVE_DNNL and linked with -ldnnl, in its own folder (build-dnnl, or
+# build-native-dnnl with NATIVE=1) so objects of the two builds never mix. Off by default: make,
+# make test and CI need no oneDNN. MF_NN_BACKEND=blas|dnnl picks the backend at run time.
+DNNL     ?= 0
+DNNL_SUFFIX := $(if $(filter 1,$(DNNL)),-dnnl)
 ifeq ($(NATIVE),1)
-BUILD    ?= build-native
+BUILD    ?= build-native$(DNNL_SUFFIX)
 ARCH     := -march=native
 NATIVE_CPU := $(shell $(CC) -march=native -E -v - </dev/null 2>&1 | grep -m1 cc1 | grep -o -- '-m[a-z0-9=.-]*' | sort | md5sum | cut -c1-32)
 $(shell mkdir -p $(BUILD) && { [ "$$(cat $(BUILD)/cpu 2>/dev/null)" = "$(NATIVE_CPU)" ] || { rm -rf $(BUILD)/obj $(BUILD)/*.a $(BUILD)/mf $(BUILD)/mf_tests; echo "$(NATIVE_CPU)" > $(BUILD)/cpu; }; })
 else
-BUILD    ?= build
+BUILD    ?= build$(DNNL_SUFFIX)
 ARCH     := -march=x86-64
 endif
 # OpenMP threads sleep instead of spinning between parallel regions, so they do not fight
@@ -43,6 +50,13 @@ LDLIBS   := -lembree3 -lOpenImageIO -lOpenImageIO_Util -lOpenEXRCore-3_1 -lImath
             -lcjson -lgsl -lmeshoptimizer -L/usr/lib/x86_64-linux-gnu/openblas-pthread -lopenblas \
             -lstdc++ -lm -lpthread
 LDFLAGS  += -fopenmp $(SAN)
+ifeq ($(DNNL),1)
+ifeq ($(wildcard /usr/include/oneapi/dnnl/dnnl.h),)
+$(error DNNL=1: oneDNN not found (/usr/include/oneapi/dnnl/dnnl.h); install it with apt-get install libdnnl-dev)
+endif
+LDLIBS   += -ldnnl
+$(BUILD)/obj/mf/nn/%.o: CFLAGS += -DMF_HAVE_DNNL
+endif
 
 LIB_C    := $(sort $(filter-out mf/cli/%,$(wildcard mf/*/*.c)) $(wildcard eval/*.c datasets/*.c baselines/*.c))
 LIB_CXX  := $(sort $(wildcard mf/*/*.cpp))
@@ -56,7 +70,7 @@ LIB_OBJ  := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
 CLI_OBJ  := $(CLI_C:%.c=$(BUILD)/obj/%.o)
 TEST_OBJ := $(TEST_C:%.c=$(BUILD)/obj/%.o)
 
-.PHONY: FORCE all deps deps-node deps-fuzz bench-asset fuzz fuzz-lib fuzz-seeds test check-deps asan bench-geom bench-hull bench-render bench-nn bench-nn-onednn bench-baseline bench-prior bench-sds-cost bench-quick bench bench-split bench-split-now bench-runs bench-external recon-runs train-prior train-prior-wide eval-prior calibrate-trust sweep-guidance bench-domain bench-matrix bench-stability test-slurm clean
+.PHONY: FORCE all deps deps-node deps-fuzz bench-asset fuzz fuzz-lib fuzz-seeds test check-deps asan bench-geom bench-hull bench-render bench-nn bench-nn-dnnl bench-nn-onednn bench-baseline bench-prior bench-sds-cost bench-quick bench bench-split bench-split-now bench-runs bench-external recon-runs train-prior train-prior-wide eval-prior calibrate-trust sweep-guidance bench-domain bench-matrix bench-stability test-slurm clean
 all: $(BUILD)/mf $(BUILD)/mf_tests
 
 deps:
@@ -169,7 +183,7 @@ check-deps:
 
 asan: export LSAN_OPTIONS = suppressions=$(abspath tests/lsan.supp):print_suppressions=0
 asan:
-	$(MAKE) BUILD=build-asan OPT=-O1 SAN="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined" test
+	$(MAKE) BUILD=build-asan$(DNNL_SUFFIX) OPT=-O1 SAN="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined" test
 
 bench-render: $(BUILD)/mf
 	./$(BUILD)/mf bench-render -o reports/perf/render.md
@@ -181,8 +195,15 @@ NN_1THREAD := OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1
 bench-nn: $(BUILD)/mf
 	$(NN_1THREAD) ./$(BUILD)/mf bench-nn --batch 16 --channels 64 --size 16 --groups 8 --reps 30 -o reports/perf/nn-c64-16x16.md
 	$(NN_1THREAD) ./$(BUILD)/mf bench-nn --batch 16 --channels 128 --size 8 --groups 8 --reps 30 -o reports/perf/nn-c128-8x8.md
+# Both conv backends of a DNNL=1 build (run as make DNNL=1 bench-nn-dnnl), interleaved in one process:
+# bench-nn's two shapes, then bench-prior at one thread -> reports/perf/nn-dnnl-*.md, prior-dnnl.md.
+bench-nn-dnnl: $(BUILD)/mf
+	@[ "$(DNNL)" = 1 ] || { echo "bench-nn-dnnl: needs the oneDNN build: make DNNL=1 bench-nn-dnnl"; exit 1; }
+	$(NN_1THREAD) ./$(BUILD)/mf bench-nn --batch 16 --channels 64 --size 16 --groups 8 --reps 30 -o reports/perf/nn-dnnl-c64-16x16.md
+	$(NN_1THREAD) ./$(BUILD)/mf bench-nn --batch 16 --channels 128 --size 8 --groups 8 --reps 30 -o reports/perf/nn-dnnl-c128-8x8.md
+	$(NN_1THREAD) ./$(BUILD)/mf bench-prior -o reports/perf/prior-dnnl.md
 # oneDNN's convolution against ours (tools/onednn_conv_bench.c). Optional: needs Debian's
-# libdnnl-dev, which make deps does not install and nothing else uses.
+# libdnnl-dev, which make deps does not install and nothing else uses (but make DNNL=1).
 bench-nn-onednn: $(BUILD)/libmf.a
 	@[ -f /usr/include/oneapi/dnnl/dnnl.h ] || { echo "bench-nn-onednn: oneDNN not found (apt-get install libdnnl-dev)"; exit 1; }
 	$(CC) $(CFLAGS) -o $(BUILD)/onednn_conv_bench tools/onednn_conv_bench.c $(BUILD)/libmf.a $(LDLIBS) -ldnnl

@@ -1,13 +1,16 @@
 #define _POSIX_C_SOURCE 200809L
 #include <stdarg.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "core/mf_log.h"
 #include "mf_test.h"
+#include "nn/mf_nn.h"
 
 #define MAX_TESTS 1024
 typedef struct { const char *name; MfTestFn fn; const char *file; } TestEntry;
@@ -112,6 +115,10 @@ static int selected(const char *name, int argc, char **argv) {
 
 int main(int argc, char **argv) {
     if (!getenv("MF_LOG")) mf_log_set_level(MF_LOG_WARN);
+    if (mf_nn_backend_from_env()) { /* MF_NN_BACKEND=blas|dnnl, as for mf (a DNNL=1 build's default: dnnl) */
+        fprintf(stderr, "mf_tests: %s\n", mf_error());
+        return 2;
+    }
     qsort(g_tests, (size_t)g_ntests, sizeof g_tests[0], cmp_entry);
     int passed = 0, failed = 0, skipped = 0;
     for (int i = 0; i < g_ntests; ++i) {

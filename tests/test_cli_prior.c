@@ -12,6 +12,7 @@
 #include "eval/ev_table.h"
 #include "io/mf_image.h"
 #include "io/mf_ckpt.h"
+#include "nn/mf_nn.h"
 #include "prior/mf_prior.h"
 #include "prior/mf_prior_train.h"
 #include "tests/mf_test.h"
@@ -120,4 +121,34 @@ MF_TEST(prior_eval_cli_writes_table) {
     snprintf(cmd, sizeof cmd, "'%s' eval-prior '%s' -o '%s' --weights '%s' --train '%s' 2>&1 | grep -q 'prior works at 16'",
              bin, dir, out, w, tp_synth_dir());
     CHECK(system(cmd) == 0);
+}
+
+/* mf bench-prior (tiny model, one round): one column per conv backend of the build, both measured in
+ * the same rounds in a DNNL build. No timing asserts. */
+MF_TEST(prior_bench_cli_backend_columns) {
+    MF_NEED_BIN();
+    const char *bin = getenv("MF_BIN");
+    MfPrior *p;
+    tp_tiny_prior(&p);
+    char w[MF_PATH_MAX], out[MF_PATH_MAX], cmd[4 * MF_PATH_MAX];
+    mf_test_path_to(w, sizeof w, "bench_prior.mfck");
+    mf_test_path_to(out, sizeof out, "bench_prior.md");
+    CHECK_OK(mf_prior_save(p, w, NULL));
+    mf_prior_free(p);
+    snprintf(cmd, sizeof cmd, "'%s' bench-prior --weights '%s' --batch 2 --reps 1 --gemm 64 -o '%s' > /dev/null 2>&1", bin, w,
+             out);
+    CHECK(system(cmd) == 0);
+    char *md = NULL;
+    size_t len = 0;
+    CHECK_OK(mf_read_file(out, &md, &len));
+    MfNnBackend was = mf_nn_backend();
+    int dnnl = mf_nn_set_backend(MF_NN_DNNL) == MF_OK; /* the test binary is built like mf */
+    mf_nn_set_backend(was);
+    const char *head = dnnl ? "| measurement | blas | dnnl |" : "| measurement | blas |\n";
+    CHECK_MSG(md && strstr(md, head), "bench-prior report lacks '%s'", head);
+    const char *row = md ? strstr(md, "| denoiser + image encoder training step, batch 2 |") : NULL;
+    int cells = 0;
+    for (const char *c = row; c && *c && *c != '\n'; ++c) cells += *c == '|';
+    CHECK_MSG(cells == (dnnl ? 4 : 3), "denoiser row has %d cell borders", cells);
+    free(md);
 }

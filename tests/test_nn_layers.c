@@ -187,6 +187,112 @@ MF_TEST(nn_conv2d_fused_ex) {
     conv_ex_case(3, 1, 4, 5);   /* 1x1 grouped */
 }
 
+/* ---- conv backends: oneDNN against im2col + sgemm ------------------------------------------
+ * In a `make DNNL=1` build the same calls through both backends: forward_ex (bias, bias_b, add)
+ * and backward_ex (din written and accumulated, dw accumulated onto a non-zero start, dbias,
+ * dbias_b) agree within DNNL_RTOL of the largest |value| of each output (measured: at most
+ * ~5e-7 on these shapes, float rounding of sums in another order). Skipped in a build without
+ * oneDNN. */
+#define DNNL_RTOL 1e-5
+
+/* max |a - b| / max |b| over n values */
+static double rel_diff(const float *a, const float *b, size_t n) {
+    double m = 0.0, s = 0.0;
+    for (size_t i = 0; i < n; ++i) m = fmax(m, fabs((double)a[i] - b[i])), s = fmax(s, fabs((double)b[i]));
+    return s > 0.0 ? m / s : m;
+}
+
+typedef struct {
+    float *out, *din, *dw, *db, *dbb;
+} ConvRes;
+
+/* One forward_ex + backward_ex under backend be; din_acc 1 starts din from 0.5 (as dw from 0.25). */
+static void conv_run_backend(ConvRes *r, MfNnBackend be, int din_acc, const float *in, const float *w, const float *b,
+                             const float *bb, const float *add, const float *dout, float *col, int B, int Ci, int H,
+                             int W, int Co, int K, int S) {
+    size_t nin = (size_t)B * Ci * H * W, nw = (size_t)Co * Ci * K * K;
+    CHECK_OK(mf_nn_set_backend(be));
+    for (size_t i = 0; i < nin; ++i) r->din[i] = din_acc ? 0.5f : 7.0f; /* din_acc 0 overwrites */
+    for (size_t i = 0; i < nw; ++i) r->dw[i] = 0.25f;
+    memset(r->db, 0, sizeof(float) * (size_t)Co), memset(r->dbb, 0, sizeof(float) * (size_t)B * Co);
+    mf_conv2d_forward_ex(r->out, col, in, w, b, bb, add, B, Ci, H, W, Co, K, S);
+    mf_conv2d_backward_ex(r->din, din_acc, r->dw, r->db, r->dbb, col, dout, in, w, B, Ci, H, W, Co, K, S);
+    CHECK_MSG(mf_nn_backend() == be, "backend %s fell back to blas: %s", mf_nn_backend_name(be), mf_error());
+}
+
+/* Worst relative difference dnnl vs blas over all outputs of one shape; extras: bias_b and add. */
+static double conv_backend_case(int B, int Ci, int Co, int H, int W, int K, int S, int extras, int din_acc) {
+    int Ho = mf_conv2d_out_size(H, K, S), Wo = mf_conv2d_out_size(W, K, S);
+    size_t nin = (size_t)B * Ci * H * W, nw = (size_t)Co * Ci * K * K, nout = (size_t)B * Co * Ho * Wo;
+    float *in = fal(nin), *w = fal(nw), *b = fal(Co), *bb = fal((size_t)B * Co), *add = fal(nout), *dout = fal(nout);
+    float *col = fal(mf_conv2d_col_floats(B, Ci, H, W, Co, K, S));
+    fill(in, nin, -1, 1, 51), fill(w, nw, -0.5f, 0.5f, 52), fill(b, Co, -0.5f, 0.5f, 53);
+    fill(bb, (size_t)B * Co, -0.5f, 0.5f, 54), fill(add, nout, -1, 1, 55), fill(dout, nout, -1, 1, 56);
+    ConvRes r[2];
+    for (int k = 0; k < 2; ++k)
+        r[k] = (ConvRes){fal(nout), fal(nin), fal(nw), fal(Co), fal((size_t)B * Co)};
+    conv_run_backend(&r[0], MF_NN_BLAS, din_acc, in, w, b, extras ? bb : NULL, extras ? add : NULL, dout, col, B, Ci, H,
+                     W, Co, K, S);
+    conv_run_backend(&r[1], MF_NN_DNNL, din_acc, in, w, b, extras ? bb : NULL, extras ? add : NULL, dout, col, B, Ci, H,
+                     W, Co, K, S);
+    double d[5] = {rel_diff(r[1].out, r[0].out, nout), rel_diff(r[1].din, r[0].din, nin), rel_diff(r[1].dw, r[0].dw, nw),
+                   rel_diff(r[1].db, r[0].db, Co), rel_diff(r[1].dbb, r[0].dbb, (size_t)B * Co)};
+    const char *names[5] = {"out", "din", "dw", "dbias", "dbias_b"};
+    double worst = 0.0;
+    for (int k = 0; k < 5; ++k) {
+        CHECK_MSG(d[k] <= DNNL_RTOL, "conv B=%d %d->%d %dx%d K=%d s%d: dnnl %s differs from blas by %.3g relative", B, Ci,
+                  Co, H, W, K, S, names[k], d[k]);
+        worst = fmax(worst, d[k]);
+    }
+    if (getenv("NN_GC_VERBOSE"))
+        fprintf(stderr, "  dnnl vs blas B=%d %d->%d %dx%d K=%d s%d: %.2e\n", B, Ci, Co, H, W, K, S, worst);
+    for (int k = 0; k < 2; ++k) free(r[k].out), free(r[k].din), free(r[k].dw), free(r[k].db), free(r[k].dbb);
+    free(in), free(w), free(b), free(bb), free(add), free(dout), free(col);
+    return worst;
+}
+
+MF_TEST(nn_conv2d_dnnl_matches_blas) {
+    MfNnBackend was = mf_nn_backend();
+    if (mf_nn_set_backend(MF_NN_DNNL) != MF_OK) MF_SKIP("built without oneDNN (make DNNL=1 builds it)");
+    /* the prior's kinds of conv (3x3 s1, 3x3 s2 down, 1x1 skip) at small sizes, odd sides too */
+    conv_backend_case(2, 3, 4, 5, 6, 3, 1, 1, 0);
+    conv_backend_case(2, 3, 4, 5, 6, 3, 1, 0, 1);
+    conv_backend_case(3, 8, 8, 16, 32, 3, 1, 1, 1);
+    conv_backend_case(2, 4, 8, 8, 8, 3, 2, 0, 1);
+    conv_backend_case(2, 4, 8, 7, 5, 3, 2, 0, 0);
+    conv_backend_case(2, 8, 4, 6, 6, 1, 1, 1, 1);
+    conv_backend_case(1, 8, 4, 6, 4, 1, 2, 0, 1);
+    conv_backend_case(2, 3, 4, 1, 2, 3, 1, 0, 1); /* smaller than the 3x3 reach */
+    /* a denoiser shape (C 64 at 16x16), with the block's fused terms */
+    conv_backend_case(4, 64, 64, 16, 16, 3, 1, 1, 0);
+    /* the cached primitives serve a repeated shape (same results as a first call) */
+    conv_backend_case(2, 3, 4, 5, 6, 3, 1, 1, 0);
+    CHECK_OK(mf_nn_set_backend(was));
+}
+
+/* MF_NN_BACKEND: blas always works; dnnl only where built; anything else is refused by name. */
+MF_TEST(nn_backend_env) {
+    MfNnBackend was = mf_nn_backend();
+    const char *old = getenv("MF_NN_BACKEND");
+    char *saved = old ? strdup(old) : NULL;
+    setenv("MF_NN_BACKEND", "blas", 1);
+    CHECK_OK(mf_nn_backend_from_env());
+    CHECK(mf_nn_backend() == MF_NN_BLAS);
+    setenv("MF_NN_BACKEND", "cuda", 1);
+    CHECK_ERR(mf_nn_backend_from_env(), "MF_NN_BACKEND=cuda");
+    CHECK(mf_nn_backend() == MF_NN_BLAS);
+    setenv("MF_NN_BACKEND", "dnnl", 1);
+    int rc = mf_nn_backend_from_env();
+    if (rc) CHECK(strstr(mf_error(), "MF_NN_BACKEND=dnnl") && strstr(mf_error(), "make DNNL=1") && mf_nn_backend() == MF_NN_BLAS);
+    else CHECK(mf_nn_backend() == MF_NN_DNNL);
+    setenv("MF_NN_BACKEND", "", 1);
+    CHECK_OK(mf_nn_backend_from_env());
+    if (saved) setenv("MF_NN_BACKEND", saved, 1);
+    else unsetenv("MF_NN_BACKEND");
+    free(saved);
+    CHECK_OK(mf_nn_set_backend(was));
+}
+
 /* ---- upsample, SiLU, tokens, MSE ------------------------------------------------------------- */
 
 typedef struct {

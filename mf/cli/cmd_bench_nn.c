@@ -13,6 +13,7 @@
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "core/mf_log.h"
+#include "core/mf_strbuf.h"
 #include "nn/mf_nn.h"
 
 typedef struct {
@@ -154,57 +155,89 @@ static int gemm_alloc(GemmCtx *g, int M, int N, int K) {
 
 static void gemm_free(GemmCtx *g) { free(g->a), free(g->b), free(g->c); }
 
-/* The report (printed, and written to a->out when set) from the round times t (wall), tc (CPU) of
- * the 5 measurements (sgemm, sgemm at one image's shape, the conv's GEMMs, conv, residual block);
- * G: groups, nb: images per conv GEMM, q: scratch (reps,). */
-static int write_report(const BenchNnArgs *a, int G, int nb, const double *t, const double *tc, double *q) {
-    const char *out = a->out;
-    int B = a->batch, C = a->channels, S = a->size, NG = a->gemm, reps = a->reps;
-    int blas_threads = openblas_get_num_threads(), omp_threads = omp_get_max_threads();
-    int P = S * S, CKK = C * 9;
-    double load = 0.0;
-    getloadavg(&load, 1);
-    const double *t_sq = tc, *t_sh = tc + reps, *t_cg = tc + 2 * reps, *t_conv = tc + 3 * reps, *t_res = tc + 4 * reps;
+/* Runs fn under one conv backend (mf_nn_set_backend), so the rounds interleave both backends. */
+typedef struct {
+    MfNnBackend be;
+    BenchFn fn;
+    void *ctx;
+} BackendCtx;
+
+static void run_backend(void *p) {
+    BackendCtx *b = p;
+    mf_nn_set_backend(b->be);
+    b->fn(b->ctx);
+}
+
+/* Round times of the report: t (wall), tc (CPU), (nfn, reps) each, of sgemm, sgemm at one image's
+ * shape, the conv's GEMMs, then conv and residual block for each of the nbe backends be. */
+typedef struct {
+    int G, nb, nbe;
+    const MfNnBackend *be;
+    const double *t, *tc;
+    double load0; /* 1-minute load average at the start */
+} BenchNnTimes;
+
+/* rat = {CPU median, wall median, wall best} of (flops fi / time i) / (flops fj / time j). */
+static void ratios(const BenchNnTimes *m, int reps, int i, double fi, int j, double fj, double *q, double rat[3]) {
+    double unused;
+    rat[0] = median_ratio(m->tc + i * reps, fi, m->tc + j * reps, fj, reps, q, &unused);
+    rat[1] = median_ratio(m->t + i * reps, fi, m->t + j * reps, fj, reps, q, &rat[2]);
+}
+
+/* The report (printed, and written to a->out when set); q: scratch (reps,). */
+static int write_report(const BenchNnArgs *a, const BenchNnTimes *m, double *q) {
+    int B = a->batch, C = a->channels, S = a->size, NG = a->gemm, reps = a->reps, P = S * S, CKK = C * 9;
+    double load1 = 0.0, r[3];
+    getloadavg(&load1, 1);
+    const double *tc = m->tc;
     double f_sq = 2.0 * NG * NG * (double)NG, f_sh = 2.0 * C * (double)P * CKK;
     double f_conv = 3.0 * 2.0 * B * C * (double)P * CKK; /* forward, dW, dX */
     /* resblock FLOPs: its two 3x3 convs and the time projection, forward + both backward GEMMs */
     double f_res = 3.0 * (2.0 * 2.0 * B * C * (double)P * CKK + 2.0 * B * C * 4.0 * C);
-    /* ratios (conv, res block, conv GEMMs to sgemm; conv to its GEMMs): CPU median, wall median, wall best */
-    const int num[4] = {3, 4, 2, 3}, den[4] = {0, 0, 0, 2};
-    const double fl[5] = {f_sq, f_sh, f_conv, f_conv, f_res};
-    double rat[4][3];
-    for (int k = 0; k < 4; ++k) {
-        const int i = num[k], j = den[k];
-        double unused;
-        rat[k][0] = median_ratio(tc + i * reps, fl[i], tc + j * reps, fl[j], reps, q, &unused);
-        rat[k][1] = median_ratio(t + i * reps, fl[i], t + j * reps, fl[j], reps, q, &rat[k][2]);
+    MfStrBuf sb = {0};
+    mf_sb_printf(&sb,
+                 "# mf bench-nn\n\n"
+                 "OpenBLAS threads %d, OpenMP threads %d; %d interleaved rounds after one warm-up; 1-minute load\n"
+                 "average %.2f at the start, %.2f at the end. Backend: the conv layers' (mf_nn.h: blas = im2col +\n"
+                 "OpenBLAS sgemm, dnnl = oneDNN, in builds made with make DNNL=1). GFLOP/s and seconds: the best\n"
+                 "round's CPU seconds; ratios: the median over rounds of each round's ratio of CPU seconds (with\n"
+                 "one thread, not counting the time other processes hold the core; their cache traffic still\n"
+                 "counts), of wall seconds, and the ratio of the best rounds' wall seconds.\n\n"
+                 "| measurement | backend | shape | GFLOP/s |\n|---|---|---|---|\n"
+                 "| sgemm (reference) | - | %d x %d x %d | %.1f |\n"
+                 "| sgemm at one image's GEMM shape | - | M=%d N=%d K=%d | %.1f |\n"
+                 "| the conv's three GEMMs alone (%d images per GEMM) | blas | M=%d N=%d K=%d, then NT and TN | %.1f |\n",
+                 openblas_get_num_threads(), omp_get_max_threads(), reps, m->load0, load1, NG, NG, NG,
+                 f_sq / min_of(tc, reps) * 1e-9, C, P, CKK, f_sh / min_of(tc + reps, reps) * 1e-9, m->nb, C, m->nb * P,
+                 CKK, f_conv / min_of(tc + 2 * reps, reps) * 1e-9);
+    for (int k = 0; k < m->nbe; ++k) {
+        const char *be = mf_nn_backend_name(m->be[k]);
+        double tcv = min_of(tc + (3 + 2 * k) * reps, reps), trs = min_of(tc + (4 + 2 * k) * reps, reps);
+        mf_sb_printf(&sb,
+                     "| conv2d 3x3 s1 forward+backward | %s | B=%d C=%d->%d %dx%d (%.4f s) | %.1f |\n"
+                     "| residual block forward+backward (GEMM FLOPs only) | %s | B=%d C=%d->%d %dx%d Ct=%d G=%d (%.4f s) | %.1f |\n",
+                     be, B, C, C, S, S, tcv, f_conv / tcv * 1e-9, be, B, C, C, S, S, 4 * C, m->G, trs, f_res / trs * 1e-9);
     }
-    char md[4096];
-    snprintf(md, sizeof md,
-             "# mf bench-nn\n\n"
-             "OpenBLAS threads %d, OpenMP threads %d; %d interleaved rounds after one warm-up. GFLOP/s and\n"
-             "seconds: the best round's CPU seconds; ratios: the median over rounds of each round's ratio of\n"
-             "CPU seconds (with one thread, not counting the time other processes hold the core; their cache\n"
-             "traffic still counts), of wall seconds, and the ratio of the best\n"
-             "rounds' wall seconds.\n\n"
-             "| measurement | shape | GFLOP/s |\n|---|---|---|\n"
-             "| sgemm (reference) | %d x %d x %d | %.1f |\n"
-             "| sgemm at one image's GEMM shape | M=%d N=%d K=%d | %.1f |\n"
-             "| the conv's three GEMMs alone (%d images per GEMM) | M=%d N=%d K=%d, then NT and TN | %.1f |\n"
-             "| conv2d 3x3 s1 forward+backward | B=%d C=%d->%d %dx%d (%.4f s) | %.1f |\n"
-             "| residual block forward+backward (GEMM FLOPs only) | B=%d C=%d->%d %dx%d Ct=%d G=%d (%.4f s) | %.1f |\n\n"
-             "| ratio | median, CPU s | median, wall s | best rounds, wall s |\n|---|---|---|---|\n"
-             "| **conv2d / sgemm** | **%.2f** | %.2f | %.2f |\n"
-             "| **residual block / sgemm** (includes group norm, SiLU, bias and copies) | **%.2f** | %.2f | %.2f |\n"
-             "| the conv's GEMMs alone / sgemm (the bound for conv2d with these GEMMs) | %.2f | %.2f | %.2f |\n"
-             "| conv2d / its GEMMs alone (im2col, col2im, copies) | %.2f | %.2f | %.2f |\n",
-             blas_threads, omp_threads, reps, NG, NG, NG, f_sq / min_of(t_sq, reps) * 1e-9, C, P, CKK,
-             f_sh / min_of(t_sh, reps) * 1e-9, nb, C, nb * P, CKK, f_conv / min_of(t_cg, reps) * 1e-9, B, C, C, S, S,
-             min_of(t_conv, reps), f_conv / min_of(t_conv, reps) * 1e-9, B, C, C, S, S, 4 * C, G, min_of(t_res, reps),
-             f_res / min_of(t_res, reps) * 1e-9, rat[0][0], rat[0][1], rat[0][2], rat[1][0], rat[1][1], rat[1][2],
-             rat[2][0], rat[2][1], rat[2][2], rat[3][0], rat[3][1], rat[3][2]);
-    printf("%s", md);
-    return out && (mf_mkdirs_for(out) || mf_write_file(out, md, strlen(md))) ? MF_EXIT_FAIL : MF_EXIT_OK;
+    mf_sb_printf(&sb, "\n| ratio | backend | median, CPU s | median, wall s | best rounds, wall s |\n|---|---|---|---|---|\n");
+    for (int k = 0; k < m->nbe; ++k) {
+        ratios(m, reps, 3 + 2 * k, f_conv, 0, f_sq, q, r);
+        mf_sb_printf(&sb, "| **conv2d / sgemm** | %s | **%.2f** | %.2f | %.2f |\n", mf_nn_backend_name(m->be[k]), r[0], r[1], r[2]);
+    }
+    for (int k = 0; k < m->nbe; ++k) {
+        ratios(m, reps, 4 + 2 * k, f_res, 0, f_sq, q, r);
+        mf_sb_printf(&sb, "| **residual block / sgemm** (includes group norm, SiLU, bias and copies) | %s | **%.2f** | %.2f | %.2f |\n",
+                     mf_nn_backend_name(m->be[k]), r[0], r[1], r[2]);
+    }
+    ratios(m, reps, 2, f_conv, 0, f_sq, q, r);
+    mf_sb_printf(&sb, "| the conv's GEMMs alone / sgemm (the bound for conv2d with these GEMMs) | blas | %.2f | %.2f | %.2f |\n",
+                 r[0], r[1], r[2]);
+    ratios(m, reps, 3, f_conv, 2, f_conv, q, r);
+    mf_sb_printf(&sb, "| conv2d / its GEMMs alone (im2col, col2im, copies) | blas | %.2f | %.2f | %.2f |\n", r[0], r[1], r[2]);
+    if (sb.s && !sb.oom) printf("%s", sb.s);
+    int rc = sb.oom ? mf_fail(MF_ENOMEM, "bench-nn: out of memory") : MF_OK;
+    if (!rc && a->out && !(rc = mf_mkdirs_for(a->out))) return mf_sb_write(&sb, a->out) ? MF_EXIT_FAIL : MF_EXIT_OK;
+    mf_sb_free(&sb);
+    return rc ? MF_EXIT_FAIL : MF_EXIT_OK;
 }
 
 static int bench_nn_run(const BenchNnArgs *a);
@@ -253,7 +286,11 @@ static int bench_nn_run(const BenchNnArgs *a) {
         rs.pm = alloc_fill(np, 0), rs.gm = alloc_fill(np, 0), rs.am = alloc_fill(mf_resblock_acts_floats(&rs.d), 0);
         rs.x = alloc_fill(nact, 1), rs.out = alloc_fill(nact, 0), rs.dx = alloc_fill(nact, 0), rs.dout = alloc_fill(nact, 0.01f);
         rs.temb = alloc_fill((size_t)B * 4 * C, 1), rs.dtemb = alloc_fill((size_t)B * 4 * C, 0);
-        double *t = malloc(11 * (size_t)reps * sizeof *t); /* wall, CPU (5 functions x reps), scratch */
+        /* the conv backends of this build: blas, and dnnl where built */
+        MfNnBackend was = mf_nn_backend(), bes[2] = {MF_NN_BLAS, MF_NN_DNNL};
+        int nbe = mf_nn_set_backend(MF_NN_DNNL) == MF_OK ? 2 : 1, nfn = 3 + 2 * nbe;
+        mf_nn_set_backend(was);
+        double *t = malloc((2 * (size_t)nfn + 1) * (size_t)reps * sizeof *t); /* wall, CPU (nfn x reps), scratch */
         if (!rs.pm || !rs.gm || !rs.am || !rs.x || !rs.out || !rs.dx || !rs.dout || !rs.temb || !rs.dtemb || !cg.col ||
             !cg.out || !cg.dcol || !t) {
             mf_fail(MF_ENOMEM, "bench-nn: out of memory");
@@ -264,11 +301,19 @@ static int bench_nn_run(const BenchNnArgs *a) {
         mf_resblock_bind(&rs.g, &rs.d, rs.gm);
         mf_resblock_acts_bind(&rs.a, &rs.d, rs.am);
         mf_resblock_init(&rs.w, &rs.d, 1);
-        BenchFn fns[5] = {run_gemm, run_gemm, run_conv_gemms, run_conv, run_res};
-        void *ctxs[5] = {&gsq, &gsh, &cg, &c, &rs};
-        double *tc = t + 5 * reps, *q = t + 10 * reps;
-        round_times(5, fns, ctxs, reps, t, tc);
-        rc = write_report(a, G, nb, t, tc, q);
+        BackendCtx bc[4];
+        BenchFn fns[7] = {run_gemm, run_gemm, run_conv_gemms};
+        void *ctxs[7] = {&gsq, &gsh, &cg};
+        for (int k = 0; k < nbe; ++k) {
+            bc[2 * k] = (BackendCtx){bes[k], run_conv, &c}, bc[2 * k + 1] = (BackendCtx){bes[k], run_res, &rs};
+            fns[3 + 2 * k] = fns[4 + 2 * k] = run_backend;
+            ctxs[3 + 2 * k] = &bc[2 * k], ctxs[4 + 2 * k] = &bc[2 * k + 1];
+        }
+        BenchNnTimes m = {G, nb, nbe, bes, t, t + nfn * reps, 0.0};
+        getloadavg(&m.load0, 1);
+        round_times(nfn, fns, ctxs, reps, t, t + nfn * reps);
+        mf_nn_set_backend(was);
+        rc = write_report(a, &m, t + 2 * nfn * reps);
     res_done:
         free(rs.pm), free(rs.gm), free(rs.am), free(rs.x), free(rs.out), free(rs.dx), free(rs.dout);
         free(rs.temb), free(rs.dtemb), free(cg.col), free(cg.out), free(cg.dcol), free(t);

@@ -17,6 +17,8 @@
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "core/mf_log.h"
+#include "core/mf_strbuf.h"
+#include "nn/mf_nn.h"
 #include "prior/mf_prior_bench.h"
 
 typedef struct {
@@ -83,49 +85,71 @@ static int load_prior(const char *weights, MfPrior **p, const char **source) {
     return MF_OK;
 }
 
+/* The report: one column per conv backend measured (b[k] under be[k]). */
+static int write_report(const BenchPriorArgs *a, MfPrior *p, const char *source, int nbe, const MfNnBackend *be,
+                        const MfPriorBench *b, const double load[2]) {
+    int B = a->batch, N = a->gemm, R = p->cfg.ae.res, zc = p->cfg.ae.zc, h = p->cfg.dn.h;
+    struct rusage ru;
+    getrusage(RUSAGE_SELF, &ru);
+    double g_sgemm = 2.0 * N * (double)N * N / b[0].sgemm_s / 1e9;
+    const char *threads = getenv("OPENBLAS_NUM_THREADS"), *omp_threads = getenv("OMP_NUM_THREADS");
+    MfStrBuf sb = {0};
+    mf_sb_printf(&sb,
+                 "# Prior performance (`make bench-prior`)\n\n"
+                 "Measured by `mf bench-prior` in one process (%s; %zu parameters; %d px images, %dx%dx%d latents); "
+                 "best of %d interleaved rounds after a warm-up (each round runs the network's measurements under "
+                 "each conv backend in turn: blas = im2col + OpenBLAS sgemm, dnnl = oneDNN, in builds made with "
+                 "make DNNL=1), OPENBLAS_NUM_THREADS=%s, OMP_NUM_THREADS=%s; 1-minute load average %.2f at the "
+                 "start, %.2f at the end. Network GFLOP/s count the FLOPs of the network's matrix products "
+                 "(convolutions as their im2col GEMMs, linears, attention; element-wise layers and AdamW are in "
+                 "the time but not in the count).\n\n| measurement |",
+                 source, mf_prior_num_params(p), R, h, h, zc, a->reps, threads ? threads : "(unset: all cores)",
+                 omp_threads ? omp_threads : "(unset: all cores)", load[0], load[1]);
+    for (int k = 0; k < nbe; ++k) mf_sb_printf(&sb, " %s |", mf_nn_backend_name(be[k]));
+    mf_sb_printf(&sb, "\n|---|%s\n| OpenBLAS sgemm %d^3 | %.1f GFLOP/s |", nbe > 1 ? "---|---|" : "---|", N, g_sgemm);
+    for (int k = 1; k < nbe; ++k) mf_sb_printf(&sb, " (the same) |");
+    const char *rows[6] = {"denoiser + image encoder training step, batch %d", "denoiser step GEMM FLOPs / GFLOP/s / ratio to sgemm",
+                           "autoencoder training step, batch %d", "autoencoder step GEMM FLOPs / GFLOP/s / ratio to sgemm",
+                           "one guided denoising step (CFG 3), batch 4, single-view",
+                           "one guided denoising step (CFG 3), batch 4, 4 views jointly (MV)"};
+    for (int r = 0; r < 6; ++r) {
+        mf_sb_printf(&sb, "\n| ");
+        mf_sb_printf(&sb, rows[r], B);
+        mf_sb_printf(&sb, " |");
+        for (int k = 0; k < nbe; ++k) {
+            const MfPriorBench *q = &b[k];
+            double s = r < 2 ? q->dn_step_s : q->ae_step_s, fl = (double)(r < 2 ? q->dn_flops : q->ae_flops);
+            if (r == 0 || r == 2) mf_sb_printf(&sb, " %.3f s (%.1f samples/s) |", s, B / s);
+            else if (r == 1 || r == 3) mf_sb_printf(&sb, " %.2f GFLOP / %.1f GFLOP/s / %.2f |", fl / 1e9, fl / s / 1e9, fl / s / 1e9 / g_sgemm);
+            else mf_sb_printf(&sb, " %.1f ms |", (r == 4 ? q->guided_sv_s : q->guided_mv_s) * 1e3);
+        }
+    }
+    mf_sb_printf(&sb, "\n| peak resident memory (the process) | %.1f MiB |\n", ru.ru_maxrss / 1024.0);
+    if (sb.s && !sb.oom) fputs(sb.s, stdout);
+    if (!a->out) {
+        mf_sb_free(&sb);
+        return MF_OK;
+    }
+    int rc = mf_mkdirs_for(a->out);
+    if (rc) mf_sb_free(&sb);
+    else if (!(rc = mf_sb_write(&sb, a->out))) printf("wrote %s\n", a->out);
+    return rc;
+}
+
 static int bench_prior_run(const BenchPriorArgs *a) {
-    int B = a->batch, reps = a->reps, N = a->gemm;
     MfPrior *p = NULL;
     const char *source;
     if (load_prior(a->weights, &p, &source)) return MF_EXIT_FAIL;
-    int R = p->cfg.ae.res, zc = p->cfg.ae.zc, h = p->cfg.dn.h;
-    mf_log_info("bench-prior: %d rounds (batch %d, sgemm %d^3)", reps, B, N);
-    MfPriorBench b;
-    int rc = mf_prior_bench(p, B, reps, N, &b);
-    if (!rc) {
-        struct rusage ru;
-        getrusage(RUSAGE_SELF, &ru);
-        double peak_mib = ru.ru_maxrss / 1024.0;
-        double g_sgemm = 2.0 * N * (double)N * N / b.sgemm_s / 1e9, g_dn = b.dn_flops / b.dn_step_s / 1e9,
-               g_ae = b.ae_flops / b.ae_step_s / 1e9;
-        const char *threads = getenv("OPENBLAS_NUM_THREADS");
-        char md[4096];
-        int l = snprintf(
-            md, sizeof md,
-            "# Prior performance (`make bench-prior`)\n\n"
-            "Measured by `mf bench-prior` in one process (%s; %zu parameters; %d px images, %dx%dx%d latents); "
-            "best of %d interleaved rounds after a warm-up, OPENBLAS_NUM_THREADS=%s. Network GFLOP/s count the "
-            "FLOPs of the network's matrix products (im2col convolutions, linears, attention; element-wise "
-            "layers and AdamW are in the time but not in the count).\n\n"
-            "| measurement | value |\n|---|---|\n"
-            "| OpenBLAS sgemm %d^3 | %.1f GFLOP/s |\n"
-            "| denoiser + image encoder training step, batch %d | %.3f s (%.1f samples/s) |\n"
-            "| denoiser step GEMM FLOPs / GFLOP/s / ratio to sgemm | %.2f GFLOP / %.1f GFLOP/s / %.2f |\n"
-            "| autoencoder training step, batch %d | %.3f s (%.1f samples/s) |\n"
-            "| autoencoder step GEMM FLOPs / GFLOP/s / ratio to sgemm | %.2f GFLOP / %.1f GFLOP/s / %.2f |\n"
-            "| one guided denoising step (CFG 3), batch 4, single-view | %.1f ms |\n"
-            "| one guided denoising step (CFG 3), batch 4, 4 views jointly (MV) | %.1f ms |\n"
-            "| peak resident memory | %.1f MiB |\n",
-            source, mf_prior_num_params(p), R, h, h, zc, reps, threads ? threads : "(unset: all cores)", N, g_sgemm, B,
-            b.dn_step_s, B / b.dn_step_s, b.dn_flops / 1e9, g_dn, g_dn / g_sgemm, B, b.ae_step_s, B / b.ae_step_s,
-            b.ae_flops / 1e9, g_ae, g_ae / g_sgemm, b.guided_sv_s * 1e3, b.guided_mv_s * 1e3, peak_mib);
-        fputs(md, stdout);
-        if (a->out) {
-            rc = mf_mkdirs_for(a->out);
-            if (!rc) rc = mf_write_file(a->out, md, (size_t)l);
-            if (!rc) printf("wrote %s\n", a->out);
-        }
-    }
+    /* the conv backends of this build: blas, and dnnl where built */
+    MfNnBackend was = mf_nn_backend(), be[MF_PRIOR_BENCH_MAXBE] = {MF_NN_BLAS, MF_NN_DNNL};
+    int nbe = mf_nn_set_backend(MF_NN_DNNL) == MF_OK ? 2 : 1;
+    mf_nn_set_backend(was);
+    MfPriorBench b[MF_PRIOR_BENCH_MAXBE];
+    double load[2] = {0.0, 0.0};
+    getloadavg(&load[0], 1);
+    int rc = mf_prior_bench(p, a->batch, a->reps, a->gemm, nbe, be, b);
+    getloadavg(&load[1], 1);
+    if (!rc) rc = write_report(a, p, source, nbe, be, b, load);
     mf_prior_free(p);
     return rc ? MF_EXIT_FAIL : MF_EXIT_OK;
 }

@@ -6,6 +6,7 @@
 
 #include "cli/mf_cli.h"
 #include "core/mf_error.h"
+#include "nn/mf_nn.h"
 
 #define MAX_CMDS 64
 static const MfCommand *g_cmds[MAX_CMDS];
@@ -70,6 +71,10 @@ int main(int argc, char **argv) {
             printf("%s", c->usage);
             return MF_EXIT_OK;
         }
+    if (mf_nn_backend_from_env()) { /* MF_NN_BACKEND=blas|dnnl: the network's conv backend (mf_nn.h) */
+        fprintf(stderr, "mf %s: error: %s\n", name, mf_error());
+        return MF_EXIT_USAGE;
+    }
     mf_error_clear();
     int rc = c->fn(argc - 1, argv + 1);
     if (rc != MF_EXIT_OK) {

@@ -15,6 +15,7 @@
  * OpenBLAS's still-spinning workers (measured: conv2d forward+backward 7 GFLOP/s with OpenMP
  * im2col vs 71 GFLOP/s without). Everything is deterministic for a fixed thread count (no
  * atomics, fixed reduction order; OpenBLAS's sgemm is deterministic for fixed sizes/threads).
+ * Convolutions may instead run on oneDNN (`make DNNL=1`; see "conv backend" below).
  * Scratch buffers are passed in by the caller; sizes come from the *_floats() helpers. */
 #ifndef MF_NN_H
 #define MF_NN_H
@@ -69,6 +70,26 @@ void mf_conv2d_forward_ex(float *out, float *col, const float *in, const float *
 void mf_conv2d_backward_ex(float *din, int din_acc, float *dw, float *dbias, float *dbias_b, float *col,
                            const float *dout, const float *in, const float *w, int B, int Cin, int H, int W,
                            int Cout, int K, int stride);
+
+/* ---- conv backend ---------------------------------------------------------------------------- */
+
+/* The convolutions above run as im2col + OpenBLAS sgemm (MF_NN_BLAS) or through oneDNN's
+ * convolution primitives (MF_NN_DNNL, in builds made with `make DNNL=1` only; nn/mf_nn_dnnl.h), in
+ * the same NCHW / OIHW layout; the fused terms (bias_b, add, dbias, dbias_b) are the same code in
+ * both. oneDNN's results differ from the sgemm path's in the last bits (relative 1e-6). Process-
+ * wide; the default is MF_NN_DNNL where built, else MF_NN_BLAS. If oneDNN fails on a call (no
+ * implementation for a shape, out of memory), that call and every later one run on OpenBLAS and a
+ * warning says why (results stay right). mf_nn_gemm_flops counts a oneDNN convolution as the
+ * FLOPs of the GEMMs it replaces. */
+typedef enum { MF_NN_BLAS, MF_NN_DNNL } MfNnBackend;
+
+/* MF_EARG (backend unchanged) for MF_NN_DNNL in a build without oneDNN. */
+int mf_nn_set_backend(MfNnBackend b);
+MfNnBackend mf_nn_backend(void);
+const char *mf_nn_backend_name(MfNnBackend b); /* "blas" or "dnnl" */
+/* From the environment variable MF_NN_BACKEND: blas or dnnl (unset or empty: unchanged); MF_EARG,
+ * naming the variable, for another value or for dnnl in a build without oneDNN. */
+int mf_nn_backend_from_env(void);
 
 /* ---- nearest upsample x2 ---------------------------------------------------------------- */
 
@@ -317,7 +338,8 @@ void mf_nn_gemm_flops_reset(void);
 
 /* Threads of OpenBLAS's matrix products from now on, process-wide (n >= 1; the start value is
  * OPENBLAS_NUM_THREADS, else OMP_NUM_THREADS, else all cores). OpenBLAS splits a product's rows
- * and columns among its threads, not the sums: the results do not depend on it. */
+ * and columns among its threads, not the sums: the results do not depend on it. With the dnnl
+ * backend it also sets oneDNN's threads (else OMP_NUM_THREADS), whose results may depend on them. */
 void mf_nn_set_threads(int n);
 
 #endif

@@ -1,18 +1,28 @@
 /* mf_nn_layers: the layers of mf_nn.h (conv2d, upsample, group norm, SiLU, linear, token
- * transposes, attention, timestep embedding, MSE) and the parameter-table helpers. */
+ * transposes, attention, timestep embedding, MSE), the conv backend switch and the parameter-table
+ * helpers. */
 #include <cblas.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
+#include "core/mf_error.h"
+#include "core/mf_log.h"
 #include "core/mf_rng.h"
 #include "nn/mf_nn.h"
+#include "nn/mf_nn_dnnl.h"
 
 /* Every matrix product of this module goes through here, so benchmarks can count FLOPs. */
 static unsigned long long g_gemm_flops;
 unsigned long long mf_nn_gemm_flops(void) { return g_gemm_flops; }
-void mf_nn_set_threads(int n) { openblas_set_num_threads(n > 0 ? n : 1); }
+void mf_nn_set_threads(int n) {
+    openblas_set_num_threads(n > 0 ? n : 1);
+#ifdef MF_HAVE_DNNL
+    mf_nn_dnnl_set_threads(n);
+#endif
+}
 void mf_nn_gemm_flops_reset(void) { g_gemm_flops = 0; }
 static void nn_sgemm(enum CBLAS_ORDER o, enum CBLAS_TRANSPOSE ta, enum CBLAS_TRANSPOSE tb, int M, int N, int K,
                      float alpha, const float *A, int lda, const float *B, int ldb, float beta, float *C, int ldc) {
@@ -215,6 +225,66 @@ static void conv_out_rows(float *out_b, const float *g, size_t ldg, const float 
     }
 }
 
+/* ---- conv backend (mf_nn.h) ----------------------------------------------------------------- */
+
+#ifdef MF_HAVE_DNNL
+static MfNnBackend g_backend = MF_NN_DNNL;
+#else
+static MfNnBackend g_backend = MF_NN_BLAS;
+#endif
+
+MfNnBackend mf_nn_backend(void) { return g_backend; }
+const char *mf_nn_backend_name(MfNnBackend b) { return b == MF_NN_DNNL ? "dnnl" : "blas"; }
+
+int mf_nn_set_backend(MfNnBackend b) {
+    if (b != MF_NN_BLAS && b != MF_NN_DNNL) return mf_fail(MF_EARG, "nn backend %d: expected blas or dnnl", (int)b);
+#ifndef MF_HAVE_DNNL
+    if (b == MF_NN_DNNL) return mf_fail(MF_EARG, "nn backend dnnl: this build has no oneDNN (build with make DNNL=1)");
+#endif
+    g_backend = b;
+    return MF_OK;
+}
+
+int mf_nn_backend_from_env(void) {
+    const char *v = getenv("MF_NN_BACKEND");
+    if (!v || !v[0]) return MF_OK;
+    int b = !strcmp(v, "blas") ? MF_NN_BLAS : !strcmp(v, "dnnl") ? MF_NN_DNNL : -1;
+    if (b < 0) return mf_fail(MF_EARG, "MF_NN_BACKEND=%s: expected blas or dnnl", v);
+    int rc = mf_nn_set_backend((MfNnBackend)b);
+    return rc ? mf_fail_prefix(rc, "MF_NN_BACKEND=%s", v) : MF_OK;
+}
+
+#ifdef MF_HAVE_DNNL
+/* oneDNN failed (mf_error says how): this call's remaining work and every later conv run on OpenBLAS. */
+static void dnnl_off(void) {
+    mf_log_warn("conv2d: oneDNN failed (%s); the convolutions use OpenBLAS from now on", mf_error());
+    g_backend = MF_NN_BLAS;
+}
+
+/* The GEMM FLOPs one pass (forward, backward data or weights) of the im2col path would count. */
+static void dnnl_count(int B, int Cin, int Cout, int K, int P) {
+    g_gemm_flops += 2ull * (unsigned long long)B * (unsigned long long)Cout * (unsigned long long)P *
+                    (unsigned long long)Cin * (unsigned long long)(K * K);
+}
+
+/* mf_conv2d_forward_ex through oneDNN (bias fused there when there is no other term); MF_OK or
+ * the error (out then holds no result). */
+static int conv_forward_dnnl(float *out, const float *in, const float *w, const float *bias, const float *bias_b,
+                             const float *add, int B, int Cin, int H, int W, int Cout, int K, int stride) {
+    int Ho = mf_conv2d_out_size(H, K, stride), Wo = mf_conv2d_out_size(W, K, stride), P = Ho * Wo;
+    int extra = bias_b || add;
+    int rc = mf_nn_dnnl_conv_forward(out, in, w, extra ? NULL : bias, B, Cin, H, W, Cout, K, stride);
+    if (rc) return rc;
+    dnnl_count(B, Cin, Cout, K, P);
+    size_t out_sz = (size_t)Cout * P;
+    if (extra)
+        for (int b = 0; b < B; ++b)
+            conv_out_rows(out + b * out_sz, out + b * out_sz, (size_t)P, bias, bias_b ? bias_b + (size_t)b * Cout : NULL,
+                          add ? add + b * out_sz : NULL, Cout, P);
+    return MF_OK;
+}
+#endif
+
 void mf_conv2d_forward(float *out, float *col, const float *in, const float *w, const float *bias,
                        int B, int Cin, int H, int W, int Cout, int K, int stride) {
     mf_conv2d_forward_ex(out, col, in, w, bias, NULL, NULL, B, Cin, H, W, Cout, K, stride);
@@ -223,6 +293,12 @@ void mf_conv2d_forward(float *out, float *col, const float *in, const float *w, 
 void mf_conv2d_forward_ex(float *out, float *col, const float *in, const float *w, const float *bias,
                           const float *bias_b, const float *add, int B, int Cin, int H, int W, int Cout, int K,
                           int stride) {
+#ifdef MF_HAVE_DNNL
+    if (g_backend == MF_NN_DNNL) {
+        if (conv_forward_dnnl(out, in, w, bias, bias_b, add, B, Cin, H, W, Cout, K, stride) == MF_OK) return;
+        dnnl_off();
+    }
+#endif
     int Ho = mf_conv2d_out_size(H, K, stride), Wo = mf_conv2d_out_size(W, K, stride);
     int P = Ho * Wo, CKK = Cin * K * K, nb = conv_chunk(B, P);
     size_t in_sz = (size_t)Cin * H * W, out_sz = (size_t)Cout * P;
@@ -279,6 +355,37 @@ static void conv_dout_rows(float *t, size_t ldt, float *dbias, float *dbias_b, c
     }
 }
 
+#ifdef MF_HAVE_DNNL
+/* mf_conv2d_backward_ex through oneDNN; a part oneDNN fails runs on the im2col path instead (each
+ * part writes only its own gradient, so none is counted twice). The bias sums are the same code. */
+static void conv_backward_dnnl(float *din, int din_acc, float *dw, float *dbias, float *dbias_b, float *col,
+                               const float *dout, const float *in, const float *w, int B, int Cin, int H, int W,
+                               int Cout, int K, int stride) {
+    int Ho = mf_conv2d_out_size(H, K, stride), Wo = mf_conv2d_out_size(W, K, stride), P = Ho * Wo;
+    if (dw) {
+        if (mf_nn_dnnl_conv_backward_weights(dw, dout, in, B, Cin, H, W, Cout, K, stride) == MF_OK)
+            dnnl_count(B, Cin, Cout, K, P);
+        else {
+            dnnl_off();
+            mf_conv2d_backward_ex(NULL, 1, dw, NULL, NULL, col, dout, in, w, B, Cin, H, W, Cout, K, stride);
+        }
+    }
+    if (din) {
+        if (g_backend == MF_NN_DNNL &&
+            mf_nn_dnnl_conv_backward_data(din, din_acc, dout, w, B, Cin, H, W, Cout, K, stride) == MF_OK)
+            dnnl_count(B, Cin, Cout, K, P);
+        else {
+            if (g_backend == MF_NN_DNNL) dnnl_off();
+            mf_conv2d_backward_ex(din, din_acc, NULL, NULL, NULL, col, dout, in, w, B, Cin, H, W, Cout, K, stride);
+        }
+    }
+    size_t out_sz = (size_t)Cout * P;
+    if (dbias || dbias_b)
+        for (int b = 0; b < B; ++b)
+            conv_dout_rows(NULL, 0, dbias, dbias_b ? dbias_b + (size_t)b * Cout : NULL, dout + b * out_sz, Cout, P);
+}
+#endif
+
 void mf_conv2d_backward(float *din, float *dw, float *dbias, float *col, const float *dout,
                         const float *in, const float *w, int B, int Cin, int H, int W, int Cout, int K,
                         int stride) {
@@ -288,6 +395,12 @@ void mf_conv2d_backward(float *din, float *dw, float *dbias, float *col, const f
 void mf_conv2d_backward_ex(float *din, int din_acc, float *dw, float *dbias, float *dbias_b, float *col,
                            const float *dout, const float *in, const float *w, int B, int Cin, int H, int W,
                            int Cout, int K, int stride) {
+#ifdef MF_HAVE_DNNL
+    if (g_backend == MF_NN_DNNL) {
+        conv_backward_dnnl(din, din_acc, dw, dbias, dbias_b, col, dout, in, w, B, Cin, H, W, Cout, K, stride);
+        return;
+    }
+#endif
     int Ho = mf_conv2d_out_size(H, K, stride), Wo = mf_conv2d_out_size(W, K, stride);
     int P = Ho * Wo, CKK = Cin * K * K, nb = conv_chunk(B, P);
     size_t in_sz = (size_t)Cin * H * W, out_sz = (size_t)Cout * P;

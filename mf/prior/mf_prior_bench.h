@@ -5,11 +5,13 @@
  * in the same rounds; one guided denoising step (CFG 3, conditional and unconditional passes) at
  * batch 4, single-view and with the 4 views attending jointly. Each timing is the best of reps
  * interleaved rounds (each round runs every measurement once) after one warm-up round, so a shared
- * machine's load affects them alike. Inputs are seeded noise; the weights are updated (learning
- * rate 1e-6). */
+ * machine's load affects them alike; with several conv backends (mf_nn.h) each round runs the
+ * network measurements under each in turn. Inputs are seeded noise; the weights are updated
+ * (learning rate 1e-6). */
 #ifndef MF_PRIOR_BENCH_H
 #define MF_PRIOR_BENCH_H
 
+#include "nn/mf_nn.h"
 #include "prior/mf_prior.h"
 
 typedef struct {
@@ -19,6 +21,10 @@ typedef struct {
     unsigned long long dn_flops, ae_flops; /* GEMM FLOPs of one training step */
 } MfPriorBench;
 
-int mf_prior_bench(MfPrior *p, int B, int reps, int N, MfPriorBench *r);
+#define MF_PRIOR_BENCH_MAXBE 2
+
+/* r[k] (nbe <= MF_PRIOR_BENCH_MAXBE) under backend be[k]; sgemm_s is the same in each. The
+ * backend in force before the call is restored. */
+int mf_prior_bench(MfPrior *p, int B, int reps, int N, int nbe, const MfNnBackend *be, MfPriorBench *r);
 
 #endif
