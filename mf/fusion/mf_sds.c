@@ -211,41 +211,46 @@ static int mean_fill(MfSds *s, const MfSdsTargets *t, const int *views, int nvie
         s->have = calloc((size_t)nviews, 1);
         s->mz = malloc((size_t)nviews * zsz * sizeof(float)), s->md = malloc((size_t)nviews * 2 * isz * sizeof(float));
         if (var) s->mzv = malloc((size_t)nviews * zsz * sizeof(float)), s->mdv = malloc((size_t)nviews * 2 * isz * sizeof(float));
-        if (!s->have || !s->mz || !s->md || (var && (!s->mzv || !s->mdv))) return mf_fail(MF_ENOMEM, "SDS: out of memory");
+        if (!s->have || !s->mz || !s->md || (var && (!s->mzv || !s->mdv))) {
+            free(s->have), free(s->mz), free(s->md), free(s->mzv), free(s->mdv);
+            s->have = NULL, s->mz = s->md = s->mzv = s->mdv = NULL;
+            return mf_fail(MF_ENOMEM, "SDS: out of memory");
+        }
     }
+    /* work: rgb (S, 3, R, R) the view's condition image per sample, zs (S, 2zc, h, h) the samples,
+     * dec (2, S, 3, R, R) their decoded albedo and ORM maps, m2 (zsz + 2 isz) the sums of squared
+     * deviations (latents, albedo map, ORM map) */
+    float *work = malloc(((size_t)S * (3 * isz + zsz) + zsz + 2 * isz) * sizeof(float));
+    if (!work) return mf_fail(MF_ENOMEM, "SDS: out of memory");
+    float *rgb = work, *zs = rgb + S * isz, *dec = zs + S * zsz, *m2 = dec + 2 * S * isz;
     int rc = MF_OK;
     MfStageClock ts = mf_stage_clock();
     for (int k = 0; k < t->n && !rc; ++k) {
         int v = views[k];
-        if (v < 0 || v >= s->mean_nv) return mf_fail(MF_EARG, "SDS: view %d of %d views", v, s->mean_nv);
-        if (s->have[v]) continue;
-        /* item j of the batch is sample j of view v (one view at a time: the batch is S items) */
-        float *rgb = malloc((size_t)S * isz * sizeof(float)), *zs = malloc((size_t)S * zsz * sizeof(float));
-        float *dec = malloc(((size_t)S * 2 * isz + 4 * isz + zsz) * sizeof(float)); /* + one sample and m2 */
-        if (!rgb || !zs || !dec) rc = mf_fail(MF_ENOMEM, "SDS: out of memory");
-        for (int j = 0; j < S && !rc; ++j) memcpy(rgb + j * isz, t->cond + k * isz, isz * sizeof(float));
-        if (!rc) rc = mf_prior_sample(s->prior, rgb, S, 1, 0, s->o.mean_steps, s->o.guidance, view_seed(s, -1, v, 5), zs);
-        mf_stage_lap(&s->times.denoise, &ts);
-        if (!rc) rc = mf_prior_decode_materials(s->prior, zs, S, dec, dec + S * isz); /* (2, S, 3, R, R) */
-        mf_stage_lap(&s->times.decode, &ts);
-        float *mz = s->mz + v * zsz, *md = s->md + v * 2 * isz, *x = dec + S * 2 * isz; /* x: (2, 3, R, R) one sample */
-        float *m2 = x + 2 * isz; /* (zsz + 2 isz) the sums of squared deviations: latents, then maps */
-        for (int j = 0; j < S && !rc; ++j) {
-            memcpy(x, dec + j * isz, isz * sizeof(float));
-            memcpy(x + isz, dec + (S + j) * isz, isz * sizeof(float));
-            if (j == 0) {
-                memcpy(mz, zs, zsz * sizeof(float)), memcpy(md, x, 2 * isz * sizeof(float));
-                memset(m2, 0, (zsz + 2 * isz) * sizeof(float));
-            } else {
-                welford(mz, m2, zs + j * zsz, zsz, j + 1);
-                welford(md, m2 + zsz, x, 2 * isz, j + 1);
-            }
+        if (v < 0 || v >= s->mean_nv) {
+            rc = mf_fail(MF_EARG, "SDS: view %d of %d views", v, s->mean_nv);
+            break;
         }
+        if (s->have[v]) continue;
+        for (int j = 0; j < S; ++j) memcpy(rgb + j * isz, t->cond + k * isz, isz * sizeof(float));
+        rc = mf_prior_sample(s->prior, rgb, S, 1, 0, s->o.mean_steps, s->o.guidance, view_seed(s, -1, v, 5), zs);
+        mf_stage_lap(&s->times.denoise, &ts);
+        if (!rc) rc = mf_prior_decode_materials(s->prior, zs, S, dec, dec + S * isz);
+        mf_stage_lap(&s->times.decode, &ts);
+        float *mz = s->mz + v * zsz, *md = s->md + v * 2 * isz; /* the view's means: latents; albedo, ORM maps */
+        for (int j = 0; j < S && !rc; ++j)
+            for (int part = 0; part < 3; ++part) { /* latents, albedo map, ORM map */
+                size_t n = part ? isz : zsz;
+                float *mean = part ? md + (part - 1) * isz : mz, *dev = part ? m2 + zsz + (part - 1) * isz : m2;
+                const float *x = part ? dec + ((size_t)(part - 1) * S + j) * isz : zs + j * zsz;
+                if (j == 0) memcpy(mean, x, n * sizeof(float)), memset(dev, 0, n * sizeof(float));
+                else welford(mean, dev, x, n, j + 1);
+            }
         for (size_t i = 0; i < zsz && var && !rc; ++i) s->mzv[v * zsz + i] = m2[i] / (float)(S - 1);
         for (size_t i = 0; i < 2 * isz && var && !rc; ++i) s->mdv[v * 2 * isz + i] = m2[zsz + i] / (float)(S - 1);
         if (!rc) s->have[v] = 1;
-        free(rgb), free(zs), free(dec);
     }
+    free(work);
     return rc;
 }
 
