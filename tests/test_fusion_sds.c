@@ -56,13 +56,16 @@ static int make_recon_n(MfMesh *mesh, MfRecon **out, int iters, int ckpt_every) 
 
 static int make_recon(MfMesh *mesh, MfRecon **out) { return make_recon_n(mesh, out, 0, 0); }
 
-static MfSds *tiny_sds_opts(const MfSdsOpts *o) {
+/* live: the denoiser's output conv re-drawn (it starts at zero, so the targets would not depend on
+ * the condition images) */
+static MfSds *tiny_sds_prior(const MfSdsOpts *o, int live) {
     MfPriorConfig cfg;
     mf_prior_config_tiny(&cfg);
     MfPrior *p = NULL;
     if (mf_prior_new(&p, &cfg)) return NULL;
     mf_ae_init_weights(p->ae, 11);
     mf_denoiser_init_weights(p->dn, 12);
+    if (live) mf_kconv_init(&p->dn->cout, p->dn->params, 13, 0);
     MfSds *s = NULL;
     if (mf_sds_new(p, o, &s)) {
         mf_prior_free(p);
@@ -70,6 +73,8 @@ static MfSds *tiny_sds_opts(const MfSdsOpts *o) {
     }
     return s;
 }
+
+static MfSds *tiny_sds_opts(const MfSdsOpts *o) { return tiny_sds_prior(o, 0); }
 
 /* The SDS options of most tests: the defaults with 2 views a term. */
 static MfSdsOpts opts2(void) {
@@ -677,3 +682,62 @@ MF_TEST(fusion_sds_mean_targets_held) {
     mf_recon_free(r);
     mf_mesh_free(&mesh);
 }
+
+/* --sds-mv groups: consecutive training views in fours; the last four own only the remainder. */
+MF_TEST(fusion_sds_mv_groups) {
+    int start, size, own;
+    mf_sds_mv_group(8, 5, &start, &size, &own);
+    CHECK(start == 4 && size == 4 && own == 4);
+    mf_sds_mv_group(6, 3, &start, &size, &own);
+    CHECK(start == 0 && size == 4 && own == 0);
+    mf_sds_mv_group(6, 5, &start, &size, &own); /* views 2..5 denoised together, 4 and 5 keep theirs */
+    CHECK(start == 2 && size == 4 && own == 4);
+    mf_sds_mv_group(3, 2, &start, &size, &own);
+    CHECK(start == 0 && size == 3 && own == 0);
+}
+
+/* --sds-mv with mean targets: a view's target comes from its group's joint prediction, so it is the
+ * same bits whichever member is picked first (--resume stays exact), and it depends on the other
+ * members' images (the views attend to each other), while a single-view target does not. */
+MF_TEST(fusion_sds_mv_mean_targets) {
+    MfMesh mesh;
+    MfRecon *r = NULL;
+    CHECK_OK(make_recon(&mesh, &r));
+    MfSdsOpts o = mf_sds_opts_default();
+    o.k_views = 1;
+    o.target = MF_SDS_TARGET_MEAN;
+    o.mean_samples = 2;
+    o.mean_steps = 3;
+    MfSds *alone = tiny_sds_prior(&o, 1);
+    o.mv = 1;
+    MfSds *s1 = tiny_sds_prior(&o, 1), *s2 = tiny_sds_prior(&o, 1), *s3 = tiny_sds_prior(&o, 1);
+    o.mv = 0;
+    MfSds *alone2 = tiny_sds_prior(&o, 1);
+    if (!r || !alone || !alone2 || !s1 || !s2 || !s3) return;
+    MfPriorConfig cfg;
+    mf_prior_config_tiny(&cfg);
+    size_t h = (size_t)cfg.ae.res / 4, zsz = 2u * cfg.ae.zc * h * h, isz = 3u * cfg.ae.res * cfg.ae.res;
+    MfSdsTargets a, b, c, d, e, f;
+    int v0 = 0, v3 = 3;
+    CHECK_OK(mf_sds_targets(s1, r, &v0, 1, 1, &a)); /* group {0..3} made for view 0 */
+    CHECK_OK(mf_sds_targets(s1, r, &v3, 1, 2, &b)); /* view 3 from the held group */
+    CHECK_OK(mf_sds_targets(s2, r, &v3, 1, 1, &c)); /* view 3 first in a fresh term */
+    CHECK_OK(mf_sds_targets(alone, r, &v3, 1, 1, &d));
+    /* view 0's image darkened (a test-only write through the view's pixels) */
+    MfImage *ref0 = (MfImage *)&mf_recon_view(r, 0)->ref;
+    for (size_t p = 0; p < (size_t)ref0->w * ref0->h; ++p)
+        for (int ch = 0; ch < 3; ++ch) ref0->data[4 * p + ch] *= 0.25f;
+    CHECK_OK(mf_sds_targets(s3, r, &v3, 1, 1, &e));
+    CHECK_OK(mf_sds_targets(alone2, r, &v3, 1, 1, &f));
+    if (mf_test_failed_now()) return;
+    CHECK(memcmp(b.zhat, c.zhat, zsz * sizeof(float)) == 0 && memcmp(b.dhat, c.dhat, 2 * isz * sizeof(float)) == 0);
+    CHECK_MSG(memcmp(a.zhat, b.zhat, zsz * sizeof(float)) != 0, "views 0 and 3 got the same target");
+    CHECK_MSG(memcmp(c.zhat, e.zhat, zsz * sizeof(float)) != 0, "view 3's joint target ignores view 0's image");
+    CHECK(memcmp(d.zhat, f.zhat, zsz * sizeof(float)) == 0); /* alone: view 0 does not matter */
+    mf_sds_targets_free(&a), mf_sds_targets_free(&b), mf_sds_targets_free(&c), mf_sds_targets_free(&d);
+    mf_sds_targets_free(&e), mf_sds_targets_free(&f);
+    mf_sds_free(alone), mf_sds_free(alone2), mf_sds_free(s1), mf_sds_free(s2), mf_sds_free(s3);
+    mf_recon_free(r);
+    mf_mesh_free(&mesh);
+}
+

@@ -173,7 +173,7 @@ static int draws(MfSds *s, MfSdsTargets *t, const float *z, int it, size_t nz, s
         MfStageClock ts = mf_stage_clock();
         float *zo = d ? zd : t->zhat, *dout = d ? dd : t->dhat;
         uint64_t seed = view_seed(s, it, -1, d ? 0x100u + (uint64_t)d : 3);
-        rc = mf_prior_sds_denoise(s->prior, z, t->cond, n, 1, 0, t->t, s->o.guidance, seed, zo);
+        rc = mf_prior_sds_denoise(s->prior, z, t->cond, n, s->o.mv ? n : 1, s->o.mv, t->t, s->o.guidance, seed, zo);
         mf_stage_lap(&s->times.denoise, &ts);
         if (!rc) rc = mf_prior_decode_materials(s->prior, zo, n, dout, dout + nd / 2);
         mf_stage_lap(&s->times.decode, &ts);
@@ -199,13 +199,81 @@ void mf_sds_spread_weights(const float *var, const float *m, size_t n, float *w)
         if (m[i] > 0.0f) w[i] *= scale;
 }
 
-/* --sds-target mean: computes the held targets of the views of t (n) not yet in the cache, from
- * their condition images t->cond: mean_samples samples of mean_steps guided DDIM steps from pure
- * noise (seeded by the view) as one batch, decoded; the means (and with spread the variances) of
- * the latents and maps. nviews: the reconstruction's views (the cache's size). */
-static int mean_fill(MfSds *s, const MfSdsTargets *t, const int *views, int nviews) {
-    int R = res_of(s), h = lat_of(s), zc = zc_of(s), S = s->o.mean_samples, var = s->o.weight == MF_SDS_WEIGHT_SPREAD;
+/* The prior's condition image cond (3, R, R) and mask (R, R) of training view `view`: its reference
+ * image as straight-alpha sRGB in [0, 1], box-filtered to R (mf_prior_prepare_image). *rgba: a work
+ * buffer, grown here (the caller frees it). */
+static int view_cond(MfSds *s, MfRecon *r, int view, float **rgba, float *cond, float *mask) {
+    const MfReconView *v = mf_recon_view(r, view);
+    int w = v->ref.w, H = v->ref.h;
+    if (w != H) return mf_fail(MF_EARG, "SDS: view %d is %dx%d; the prior term needs square views", view, w, H);
+    size_t npx = (size_t)w * H;
+    float *nr = realloc(*rgba, npx * 4 * sizeof(float));
+    if (!nr) return mf_fail(MF_ENOMEM, "SDS: out of memory");
+    *rgba = nr;
+    for (size_t p = 0; p < npx; ++p) {
+        float a = v->ref.data[4 * p + 3];
+        for (int c = 0; c < 3; ++c)
+            nr[4 * p + c] = a > 0.0f ? mf_clampf(mf_linear_to_srgb(v->ref.data[4 * p + c] / a), 0.0f, 1.0f) : 0.0f;
+        nr[4 * p + 3] = a;
+    }
+    mf_prior_prepare_image(nr, w, H, res_of(s), cond, mask);
+    return MF_OK;
+}
+
+void mf_sds_mv_group(int ntrain, int p, int *start, int *size, int *own_from) {
+    int V = ntrain < MF_SDS_MV_VIEWS ? ntrain : MF_SDS_MV_VIEWS, full = V > 0 ? ntrain / V * V : 0;
+    *size = V;
+    if (p < full) *start = *own_from = p / V * V;
+    else *start = ntrain - V, *own_from = full;
+}
+
+/* The held mean targets of the group of training views mem (G,), of which mem[own..] get them:
+ * mean_samples samples of mean_steps guided DDIM steps from pure noise, the G views of a sample
+ * denoised jointly (joint) or each alone, decoded; the means over the samples of the latents and
+ * maps (and with spread their variances) go to the cache. */
+static int mean_group(MfSds *s, MfRecon *r, const int *mem, int G, int own, int joint, uint64_t seed, float **rgba) {
+    int R = res_of(s), h = lat_of(s), zc = zc_of(s), S = s->o.mean_samples, SG = S * G, var = s->o.weight == MF_SDS_WEIGHT_SPREAD;
     size_t isz = (size_t)3 * R * R, zsz = (size_t)2 * zc * h * h; /* one view's condition image and latents */
+    /* work: rgb (S, G, 3, R, R) the condition images, sample-major; zs (S, G, 2zc, h, h) the samples;
+     * dec (2, S, G, 3, R, R) their decoded albedo and ORM maps; m2 (zsz + 2 isz) the sums of squared
+     * deviations (latents, albedo map, ORM map); mask (R, R) */
+    float *work = malloc(((size_t)SG * (3 * isz + zsz) + zsz + 2 * isz + isz / 3) * sizeof(float));
+    if (!work) return mf_fail(MF_ENOMEM, "SDS: out of memory");
+    float *rgb = work, *zs = rgb + SG * isz, *dec = zs + SG * zsz, *m2 = dec + 2 * SG * isz, *mask = m2 + zsz + 2 * isz;
+    int rc = MF_OK;
+    MfStageClock ts = mf_stage_clock();
+    for (int g = 0; g < G && !rc; ++g) rc = view_cond(s, r, mem[g], rgba, rgb + g * isz, mask);
+    for (int j = 1; j < S && !rc; ++j) memcpy(rgb + (size_t)j * G * isz, rgb, G * isz * sizeof(float));
+    mf_stage_lap(&s->times.cond, &ts);
+    if (!rc) rc = mf_prior_sample(s->prior, rgb, SG, joint ? G : 1, joint, s->o.mean_steps, s->o.guidance, seed, zs);
+    mf_stage_lap(&s->times.denoise, &ts);
+    if (!rc) rc = mf_prior_decode_materials(s->prior, zs, SG, dec, dec + SG * isz);
+    mf_stage_lap(&s->times.decode, &ts);
+    for (int g = own; g < G && !rc; ++g) {
+        size_t v = (size_t)mem[g];
+        float *mz = s->mz + v * zsz, *md = s->md + v * 2 * isz; /* the view's means: latents; albedo, ORM maps */
+        for (int j = 0; j < S; ++j)
+            for (int part = 0; part < 3; ++part) { /* latents, albedo map, ORM map */
+                size_t n = part ? isz : zsz, item = (size_t)j * G + g;
+                float *mean = part ? md + (part - 1) * isz : mz, *dev = part ? m2 + zsz + (part - 1) * isz : m2;
+                const float *x = part ? dec + ((size_t)(part - 1) * SG + item) * isz : zs + item * zsz;
+                if (j == 0) memcpy(mean, x, n * sizeof(float)), memset(dev, 0, n * sizeof(float));
+                else welford(mean, dev, x, n, j + 1);
+            }
+        for (size_t i = 0; i < zsz && var; ++i) s->mzv[v * zsz + i] = m2[i] / (float)(S - 1);
+        for (size_t i = 0; i < 2 * isz && var; ++i) s->mdv[v * 2 * isz + i] = m2[zsz + i] / (float)(S - 1);
+        s->have[v] = 1;
+    }
+    free(work);
+    return rc;
+}
+
+/* --sds-target mean: computes the held targets of the views (n) not yet in the cache, each alone
+ * (seeded by the view) or with --sds-mv in its group of training views (mf_sds_mv_group, seeded by
+ * the group's first view: the same bits whichever member is picked first, so --resume stays exact). */
+static int mean_fill(MfSds *s, MfRecon *r, const int *views, int n) {
+    int R = res_of(s), h = lat_of(s), nviews = mf_recon_nviews(r), var = s->o.weight == MF_SDS_WEIGHT_SPREAD;
+    size_t isz = (size_t)3 * R * R, zsz = (size_t)2 * zc_of(s) * h * h;
     if (!s->have) {
         s->mean_nv = nviews;
         s->have = calloc((size_t)nviews, 1);
@@ -217,47 +285,39 @@ static int mean_fill(MfSds *s, const MfSdsTargets *t, const int *views, int nvie
             return mf_fail(MF_ENOMEM, "SDS: out of memory");
         }
     }
-    /* work: rgb (S, 3, R, R) the view's condition image per sample, zs (S, 2zc, h, h) the samples,
-     * dec (2, S, 3, R, R) their decoded albedo and ORM maps, m2 (zsz + 2 isz) the sums of squared
-     * deviations (latents, albedo map, ORM map) */
-    float *work = malloc(((size_t)S * (3 * isz + zsz) + zsz + 2 * isz) * sizeof(float));
-    if (!work) return mf_fail(MF_ENOMEM, "SDS: out of memory");
-    float *rgb = work, *zs = rgb + S * isz, *dec = zs + S * zsz, *m2 = dec + 2 * S * isz;
-    int rc = MF_OK;
-    MfStageClock ts = mf_stage_clock();
-    for (int k = 0; k < t->n && !rc; ++k) {
+    int rc = MF_OK, *train = s->o.mv ? malloc((size_t)nviews * sizeof(int)) : NULL, ntrain = 0;
+    if (s->o.mv && !train) return mf_fail(MF_ENOMEM, "SDS: out of memory");
+    for (int v = 0; v < nviews && train; ++v) /* early stopping's held-out views never enter */
+        if (!mf_recon_is_holdout(r, v)) train[ntrain++] = v;
+    float *rgba = NULL;
+    for (int k = 0; k < n && !rc; ++k) {
         int v = views[k];
         if (v < 0 || v >= s->mean_nv) {
             rc = mf_fail(MF_EARG, "SDS: view %d of %d views", v, s->mean_nv);
             break;
         }
         if (s->have[v]) continue;
-        for (int j = 0; j < S; ++j) memcpy(rgb + j * isz, t->cond + k * isz, isz * sizeof(float));
-        rc = mf_prior_sample(s->prior, rgb, S, 1, 0, s->o.mean_steps, s->o.guidance, view_seed(s, -1, v, 5), zs);
-        mf_stage_lap(&s->times.denoise, &ts);
-        if (!rc) rc = mf_prior_decode_materials(s->prior, zs, S, dec, dec + S * isz);
-        mf_stage_lap(&s->times.decode, &ts);
-        float *mz = s->mz + v * zsz, *md = s->md + v * 2 * isz; /* the view's means: latents; albedo, ORM maps */
-        for (int j = 0; j < S && !rc; ++j)
-            for (int part = 0; part < 3; ++part) { /* latents, albedo map, ORM map */
-                size_t n = part ? isz : zsz;
-                float *mean = part ? md + (part - 1) * isz : mz, *dev = part ? m2 + zsz + (part - 1) * isz : m2;
-                const float *x = part ? dec + ((size_t)(part - 1) * S + j) * isz : zs + j * zsz;
-                if (j == 0) memcpy(mean, x, n * sizeof(float)), memset(dev, 0, n * sizeof(float));
-                else welford(mean, dev, x, n, j + 1);
-            }
-        for (size_t i = 0; i < zsz && var && !rc; ++i) s->mzv[v * zsz + i] = m2[i] / (float)(S - 1);
-        for (size_t i = 0; i < 2 * isz && var && !rc; ++i) s->mdv[v * 2 * isz + i] = m2[zsz + i] / (float)(S - 1);
-        if (!rc) s->have[v] = 1;
+        if (!s->o.mv) {
+            rc = mean_group(s, r, &v, 1, 0, 0, view_seed(s, -1, v, 5), &rgba);
+            continue;
+        }
+        int p = 0, start, G, own;
+        while (p < ntrain && train[p] != v) ++p;
+        if (p == ntrain) {
+            rc = mf_fail(MF_EARG, "SDS: view %d is held out", v);
+            break;
+        }
+        mf_sds_mv_group(ntrain, p, &start, &G, &own);
+        rc = mean_group(s, r, train + start, G, own - start, 1, view_seed(s, -1, train[start], 6), &rgba);
     }
-    free(work);
+    free(rgba), free(train);
     return rc;
 }
 
 /* t->zhat, t->dhat (and with spread t->zvar, t->dvar) of the views (t->n) from the held mean
  * targets, computing those not yet held. t->t = 0: no timestep. */
-static int mean_targets(MfSds *s, MfSdsTargets *t, const int *views, int nviews) {
-    int rc = mean_fill(s, t, views, nviews), n = t->n, R = res_of(s), h = lat_of(s);
+static int mean_targets(MfSds *s, MfRecon *r, MfSdsTargets *t, const int *views) {
+    int rc = mean_fill(s, r, views, t->n), n = t->n, R = res_of(s), h = lat_of(s);
     size_t isz = (size_t)3 * R * R, zsz = (size_t)2 * zc_of(s) * h * h, nm = (size_t)n * isz;
     int var = s->o.weight == MF_SDS_WEIGHT_SPREAD;
     if (!rc && var) {
@@ -300,26 +360,7 @@ static int targets(MfSds *s, MfRecon *r, const int *views, int n, int it, MfSdsT
     }
     for (int k = 0; k < n && !rc; ++k) {
         const MfReconView *v = mf_recon_view(r, views[k]);
-        int w = v->ref.w, H = v->ref.h;
-        if (w != H) {
-            rc = mf_fail(MF_EARG, "SDS: view %d is %dx%d; the prior term needs square views", views[k], w, H);
-            break;
-        }
-        size_t npx = (size_t)w * H;
-        float *nr = realloc(rgba, npx * 4 * sizeof(float));
-        if (!nr) {
-            rc = mf_fail(MF_ENOMEM, "SDS: out of memory");
-            break;
-        }
-        rgba = nr;
-        /* condition: the reference view as straight-alpha sRGB in [0, 1] */
-        for (size_t p = 0; p < npx; ++p) {
-            float a = v->ref.data[4 * p + 3];
-            for (int c = 0; c < 3; ++c)
-                rgba[4 * p + c] = a > 0.0f ? mf_clampf(mf_linear_to_srgb(v->ref.data[4 * p + c] / a), 0.0f, 1.0f) : 0.0f;
-            rgba[4 * p + 3] = a;
-        }
-        mf_prior_prepare_image(rgba, w, H, R, T.cond + k * 3 * rr, T.mask + k * rr);
+        if ((rc = view_cond(s, r, views[k], &rgba, T.cond + k * 3 * rr, T.mask + k * rr))) break;
         /* the view's camera at R x R (same field of view) */
         double ax = 2.0 * atan((double)v->cam.w / (2.0 * (double)v->cam.fx)), m[16];
         for (int i = 0; i < 16; ++i) m[i] = v->cam.c2w.m[i];
@@ -327,7 +368,7 @@ static int targets(MfSds *s, MfRecon *r, const int *views, int n, int it, MfSdsT
         T.aov_seed[k] = view_seed(s, it, views[k], 1);
     }
     mf_stage_lap(&s->times.cond, &ts);
-    if (!rc && s->o.target == MF_SDS_TARGET_MEAN) rc = mean_targets(s, &T, views, mf_recon_nviews(r));
+    if (!rc && s->o.target == MF_SDS_TARGET_MEAN) rc = mean_targets(s, r, &T, views);
     if (rc || (rc = maps_compute(s, r, &T, &cur))) goto done;
     if (s->o.target == MF_SDS_TARGET_DDIM) {
         MfRng rng;

@@ -49,6 +49,10 @@
  * view, so --resume stays exact). It does not depend on the current textures: the loss pulls them
  * toward what the prior predicts from the image alone, the term a 2D evaluation of the prior
  * (`mf eval-prior`) scores, instead of a denoising of the current estimate.
+ * Multi-view (mv): the prior's views attend jointly, as StableMaterialMV (`mf eval-prior`'s MV row):
+ * with ddim targets the K views of a step are denoised as one object; with mean targets each view's
+ * prediction is made jointly with the other views of its group — the training views in order, in
+ * groups of MF_SDS_MV_VIEWS (mf_sds_mv_group) — and the whole group is held at once.
  * zhat and D(zhat) are held constant (classic SDS): the latent term back-propagates through the
  * encoder into the maps, the RGB term directly into the maps (as the official code), then through
  * the AOV render into the kd / ORM texels. (The official code also lets zhat depend on z through
@@ -86,6 +90,7 @@ typedef struct {
     int target;          /* MF_SDS_TARGET_DDIM (the paper) or _MEAN (see "Targets" above) */
     int mean_samples;    /* mean targets: samples averaged per view */
     int mean_steps;      /* mean targets: DDIM steps per sample */
+    int mv;              /* 1: the prior's views attend jointly (StableMaterialMV; see "Multi-view" above) */
 } MfSdsOpts;
 
 enum { MF_SDS_TARGET_DDIM = 0, MF_SDS_TARGET_MEAN = 1 }; /* "ddim|mean" */
@@ -94,6 +99,7 @@ enum { MF_SDS_WEIGHT_NONE = 0, MF_SDS_WEIGHT_CONFLICT = 1, MF_SDS_WEIGHT_COVERAG
 /* coverage: a texel seen by n training views gets the weight C0 / (C0 + n) (1 where no view sees it) */
 #define MF_SDS_COVERAGE_C0 4.0f
 #define MF_SDS_MAX_DRAWS 8 /* the largest draws */
+#define MF_SDS_MV_VIEWS 4  /* views per object of a multi-view group (the prior's StableMaterialMV) */
 
 MfSdsOpts mf_sds_opts_default(void);
 
@@ -123,6 +129,12 @@ void mf_sds_times(const MfSds *s, MfSdsTimes *t);
 int mf_sds_coverage(MfRecon *r, float **out, size_t *ntex);
 /* The hook for mf_recon_run: ctx is an MfSds. */
 int mf_sds_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double *loss);
+
+/* --sds-mv with mean targets: the group of the p-th of ntrain training views (in view order):
+ * views [start, start + size) are denoised together (size = min(ntrain, MF_SDS_MV_VIEWS)), and those
+ * from own_from on take their targets from it. Groups of size consecutive views; when ntrain is
+ * not a multiple of size, the last size views form a group that owns only the remainder. */
+void mf_sds_mv_group(int ntrain, int p, int *start, int *size, int *own_from);
 
 /* Pieces, exposed for the chain's gradient check. The K views of an iteration are processed as one
  * batch through the prior (one timestep t per batch, drawn from U{t_min..t_max}). Targets: zhat

@@ -43,6 +43,8 @@ static const MfOpt k_opts[] = {
                  .choices = "ddim|mean"),
     MF_OPT_NAMED(S, "sds_mean_samples", mean_samples, MF_OPT_INT, 4, 1, 64, "--sds-target mean: samples averaged per view"),
     MF_OPT_NAMED(S, "sds_mean_steps", mean_steps, MF_OPT_INT, 10, 1, MF_DIFF_T, "--sds-target mean: DDIM steps per sample"),
+    MF_OPT_NAMED(S, "sds_mv", mv, MF_OPT_INT, 0, 0, 1,
+                 "1: the prior's views attend jointly (StableMaterialMV): ddim, the K views of a step; mean, groups of 4 training views"),
 };
 #undef S
 const MfOptTable mf_sds_opt_table = MF_OPT_TABLE("MaterialFusion (SDS+ prior term) options", k_opts);
