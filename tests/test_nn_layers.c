@@ -16,6 +16,7 @@
 #include "core/mf_fs.h"
 #include "core/mf_rng.h"
 #include "nn/mf_nn.h"
+#include "nn/mf_nn_dnnl.h"
 #include "io/mf_ckpt.h"
 #include "mf_test.h"
 #include "mf_test_grad.h"
@@ -254,6 +255,11 @@ static double conv_backend_case(int B, int Ci, int Co, int H, int W, int K, int 
 MF_TEST(nn_conv2d_dnnl_matches_blas) {
     MfNnBackend was = mf_nn_backend();
     if (mf_nn_set_backend(MF_NN_DNNL) != MF_OK) MF_SKIP("built without oneDNN (make DNNL=1 builds it)");
+    /* a biased layer's forward and both backward passes share one cached shape (the thread's
+     * cache may hold other tests' shapes) */
+    int before = mf_nn_dnnl_entries();
+    conv_backend_case(2, 3, 4, 5, 7, 3, 1, 0, 1);
+    CHECK_MSG(mf_nn_dnnl_entries() == before + 1, "%d cached shapes for one layer", mf_nn_dnnl_entries() - before);
     /* the prior's kinds of conv (3x3 s1, 3x3 s2 down, 1x1 skip) at small sizes, odd sides too */
     conv_backend_case(2, 3, 4, 5, 6, 3, 1, 1, 0);
     conv_backend_case(2, 3, 4, 5, 6, 3, 1, 0, 1);

@@ -190,14 +190,22 @@ static int prim_make(DnnlConv *c, int kind) {
     return rc;
 }
 
-/* The entry of a shape (moved to the front of the list), made on first use. */
+int mf_nn_dnnl_entries(void) {
+    int n = 0;
+    for (const DnnlConv *c = g_dn.head; c; c = c->next) ++n;
+    return n;
+}
+
+/* The entry of a shape (moved to the front of the list), made on first use. bias: 1 or 0 for a
+ * forward with or without one; -1 (the backward passes, which take no bias) for an entry with
+ * either, so a biased layer's backward shares its forward's entry. */
 static int conv_get(DnnlConv **out, int B, int Cin, int H, int W, int Cout, int K, int stride, int bias) {
     int rc = dn_engine();
     if (rc) return rc;
     for (DnnlConv **pp = &g_dn.head; *pp; pp = &(*pp)->next) {
         DnnlConv *c = *pp;
         if (c->B == B && c->Cin == Cin && c->H == H && c->W == W && c->Cout == Cout && c->K == K && c->stride == stride &&
-            c->bias == bias) {
+            (bias < 0 || c->bias == bias)) {
             *pp = c->next, c->next = g_dn.head, g_dn.head = c;
             *out = c;
             return MF_OK;
@@ -205,7 +213,7 @@ static int conv_get(DnnlConv **out, int B, int Cin, int H, int W, int Cout, int 
     }
     DnnlConv *c = calloc(1, sizeof *c);
     if (!c) return mf_fail(MF_ENOMEM, "oneDNN conv: out of memory");
-    *c = (DnnlConv){.B = B, .Cin = Cin, .H = H, .W = W, .Cout = Cout, .K = K, .stride = stride, .bias = bias};
+    *c = (DnnlConv){.B = B, .Cin = Cin, .H = H, .W = W, .Cout = Cout, .K = K, .stride = stride, .bias = bias > 0};
     dnnl_convolution_desc_t fd;
     dnnl_status_t s = dnnl_success;
     if ((rc = conv_desc(&fd, c, 0)) || (s = dnnl_primitive_desc_create(&c->fwd_pd, &fd, NULL, g_dn.eng, NULL))) {
@@ -286,7 +294,7 @@ int mf_nn_dnnl_conv_backward_data(float *din, int acc, const float *dout, const 
                                   int W, int Cout, int K, int stride) {
     DnnlConv *c;
     size_t n = (size_t)B * Cin * H * W;
-    int rc = conv_get(&c, B, Cin, H, W, Cout, K, stride, 0);
+    int rc = conv_get(&c, B, Cin, H, W, Cout, K, stride, -1);
     if (rc) return rc;
     if (!acc) {
         void *h[3] = {(void *)dout, (void *)w, din};
@@ -305,7 +313,7 @@ int mf_nn_dnnl_conv_backward_weights(float *dw, const float *dout, const float *
     DnnlConv *c;
     size_t n = (size_t)Cout * Cin * K * K;
     float *d = NULL;
-    int rc = conv_get(&c, B, Cin, H, W, Cout, K, stride, 0);
+    int rc = conv_get(&c, B, Cin, H, W, Cout, K, stride, -1);
     void *h[3] = {(void *)in, (void *)dout, NULL};
     if (rc || (rc = conv_exec(c, 2, h, n, &d))) return rc;
 #pragma omp simd
@@ -314,5 +322,5 @@ int mf_nn_dnnl_conv_backward_weights(float *dw, const float *dout, const float *
 }
 
 #else
-typedef int mf_nn_dnnl_unused; /* ISO C wants a translation unit to declare something */
+int mf_nn_dnnl_entries(void) { return 0; }
 #endif

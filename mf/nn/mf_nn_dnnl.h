@@ -7,7 +7,7 @@
  * Inside, oneDNN's channel-blocked layouts are used where it picks them (copies in and out, see
  * mf_nn_dnnl.c: they pay). Primitives are created on a shape's first use and cached per thread
  * (creation costs milliseconds, a call microseconds): one entry per (B, Cin, H, W, Cout, K,
- * stride, bias or not), never evicted (a network uses a few dozen shapes); the blocked copies live
+ * stride, bias or not; the backward passes use the shape's forward entry), never evicted (a network uses a few dozen shapes); the blocked copies live
  * in one scratch buffer per thread that grows to the largest call. oneDNN's own threads are
  * OpenMP's (see mf_nn_dnnl_set_threads). Results differ from the sgemm path in the last bits
  * (another summation order); for a fixed thread count they are deterministic.
@@ -33,5 +33,7 @@ void mf_nn_dnnl_set_threads(int n);
 /* Frees the calling thread's primitives, engine and scratch (the next call makes them again). */
 void mf_nn_dnnl_release(void);
 #endif
+/* The calling thread's cached shapes (entries above; 0 in a build without oneDNN). */
+int mf_nn_dnnl_entries(void);
 
 #endif
