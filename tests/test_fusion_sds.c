@@ -741,3 +741,61 @@ MF_TEST(fusion_sds_mv_mean_targets) {
     mf_mesh_free(&mesh);
 }
 
+
+/* Views weights: a texel's variance over the views' means, 1 / (1 + var / mean var), scaled to mean 1
+ * over the texels two or more views see; a texel one view sees keeps 1; channels outside [c0, c1)
+ * are ignored. Texel 1: views 0.2 and 0.4 (var 0.01); texel 2: 0.3 twice (var 0); channel 0 of both
+ * disagrees wildly but is outside [1, 3). */
+MF_TEST(fusion_sds_agreement_weights) {
+    double sum[9] = {0.5, 0.5, 0.5, 9.0, 0.6, 0.6, -9.0, 0.6, 0.6};
+    double sum2[9] = {0.25, 0.25, 0.25, 90.0, 0.2, 0.2, 90.0, 0.18, 0.18};
+    float nv[3] = {1, 2, 2}, w[3];
+    double mv = 0.0;
+    mf_sds_agreement_weights(sum, sum2, nv, 3, 1, 3, w, &mv);
+    CHECK_NEAR(mv, 0.005, 1e-9);
+    CHECK_NEAR(w[0], 1.0, 1e-6);
+    CHECK_NEAR(w[1], 0.5, 1e-6); /* (1/3) * 1.5 */
+    CHECK_NEAR(w[2], 1.5, 1e-6); /* 1 * 1.5 */
+    MfSdsOpts o = mf_sds_opts_default();
+    o.weight = MF_SDS_WEIGHT_VIEWS;
+    MfSds *bad = NULL;
+    CHECK_ERR(mf_sds_new(NULL, &o, &bad), "--sds-weight views needs --sds-target mean");
+}
+
+/* --sds-weight views in the hook: the prior's kd and ORM gradients are scaled texel by texel (one
+ * factor per texel over its channels, >= 0), by factors that differ between texels (the 4 views'
+ * held targets disagree more at some texels than at others). */
+MF_TEST(fusion_sds_views_weight) {
+    SdsFix f;
+    MfRecon *r = sds_fix(&f);
+    MfSdsOpts o = opts2();
+    o.target = MF_SDS_TARGET_MEAN;
+    o.mean_samples = 2;
+    o.mean_steps = 3;
+    MfSds *s = sds_term(&f, &o);
+    o.weight = MF_SDS_WEIGHT_VIEWS;
+    MfSds *sv = sds_term(&f, &o);
+    if (!r || !s || !sv) return;
+    MfParamBlock *blocks[2] = {mf_recon_block(r, MF_BLOCK_KD), mf_recon_block(r, MF_BLOCK_ORM)};
+    float *h[2] = {NULL, NULL};
+    CHECK_OK(hook_then_variant(s, sv, r, NULL, &h[0], &h[1]));
+    if (mf_test_failed_now()) return;
+    for (int b = 0; b < 2; ++b) {
+        const float *g = blocks[b]->g;
+        double wmin = INFINITY, wmax = 0.0;
+        int bad = 0, used = 0;
+        for (size_t t = 0; t + 2 < blocks[b]->n; t += 3) {
+            int c0 = b ? 1 : 0, c = c0; /* ORM: roughness and metallic (occlusion's pull may be 0) */
+            while (c < 3 && fabs(h[b][t + c]) < 1e-12) ++c;
+            if (c == 3) continue;
+            double w = g[t + c] / h[b][t + c];
+            for (int k = c0; k < 3; ++k) bad += !(fabs(g[t + k] - w * h[b][t + k]) <= 1e-5 * fabs(h[b][t + k]) + 1e-12);
+            bad += !(w >= 0.0) || !isfinite(w);
+            wmin = fmin(wmin, w), wmax = fmax(wmax, w), ++used;
+        }
+        CHECK_MSG(bad == 0, "block %d: %d texel channels not scaled by one non-negative factor", b, bad);
+        CHECK_MSG(used > 0 && wmax > 1.5 * wmin, "block %d: weights %g..%g over %d texels", b, wmin, wmax, used);
+    }
+    free(h[0]), free(h[1]);
+    sds_done(&f);
+}

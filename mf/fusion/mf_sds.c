@@ -20,7 +20,9 @@ struct MfSds {
     float *held_kd;  /* (tex kd n,) owned */
     float *held_orm; /* (tex ORM n,) owned */
     size_t held_n;
-    float *coverage; /* (texels,) owned; with MF_SDS_WEIGHT_COVERAGE: the trust weight of each texel */
+    float *coverage; /* (texels,) owned; with MF_SDS_WEIGHT_COVERAGE or _VIEWS: the trust weight of each
+                        texel (of the kd texture; with _VIEWS that of the ORM texture in cov_orm) */
+    float *cov_orm;  /* (texels,) owned; MF_SDS_WEIGHT_VIEWS only */
     size_t coverage_n;
     int held_it;     /* iteration of the last refresh, -1: none */
     double held_loss;
@@ -38,8 +40,11 @@ int mf_sds_new(MfPrior *prior, const MfSdsOpts *o, MfSds **out) {
         o->aov_samples < 1 || o->every < 1)
         return mf_fail(MF_EARG, "SDS options: k_views %d (1..%d), t in [%d, %d] (1..999), aov_samples %d, every %d (>= 1) are invalid",
                        o->k_views, MF_SDS_MAX_VIEWS, o->t_min, o->t_max, o->aov_samples, o->every);
-    if (o->weight < MF_SDS_WEIGHT_NONE || o->weight > MF_SDS_WEIGHT_SPREAD)
-        return mf_fail(MF_EARG, "SDS options: weight %d is not none (0), conflict (1), coverage (2) or spread (3)", o->weight);
+    if (o->weight < MF_SDS_WEIGHT_NONE || o->weight > MF_SDS_WEIGHT_VIEWS)
+        return mf_fail(MF_EARG, "SDS options: weight %d is not none (0), conflict (1), coverage (2), spread (3) or views (4)",
+                       o->weight);
+    if (o->weight == MF_SDS_WEIGHT_VIEWS && o->target != MF_SDS_TARGET_MEAN)
+        return mf_fail(MF_EARG, "SDS options: --sds-weight views needs --sds-target mean (the views' held targets)");
     if (o->draws < 1 || o->draws > MF_SDS_MAX_DRAWS ||
         (o->weight == MF_SDS_WEIGHT_SPREAD && o->draws < 2 && o->target == MF_SDS_TARGET_DDIM))
         return mf_fail(MF_EARG, "SDS options: --sds-draws %d (1..%d; --sds-weight spread needs >= 2, the spread is over the draws)",
@@ -70,7 +75,7 @@ void mf_sds_times(const MfSds *s, MfSdsTimes *t) {
 void mf_sds_free(MfSds *s) {
     if (!s) return;
     mf_prior_free(s->prior);
-    free(s->held_kd), free(s->held_orm), free(s->coverage);
+    free(s->held_kd), free(s->held_orm), free(s->coverage), free(s->cov_orm);
     free(s->have), free(s->mz), free(s->md), free(s->mzv), free(s->mdv);
     free(s);
 }
@@ -197,6 +202,13 @@ void mf_sds_spread_weights(const float *var, const float *m, size_t n, float *w)
     float scale = ws > 0.0 ? (float)(cnt / ws) : 1.0f; /* mean 1 over the masked elements */
     for (size_t i = 0; i < n; ++i)
         if (m[i] > 0.0f) w[i] *= scale;
+}
+
+/* The view's camera at R x R (the same field of view). */
+static int prior_camera(const MfCamera *cam, int R, MfCamera *out) {
+    double ax = 2.0 * atan((double)cam->w / (2.0 * (double)cam->fx)), m[16];
+    for (int i = 0; i < 16; ++i) m[i] = cam->c2w.m[i];
+    return mf_camera_init(out, R, R, ax, m, "SDS camera");
 }
 
 /* The prior's condition image cond (3, R, R) and mask (R, R) of training view `view`: its reference
@@ -361,10 +373,7 @@ static int targets(MfSds *s, MfRecon *r, const int *views, int n, int it, MfSdsT
     for (int k = 0; k < n && !rc; ++k) {
         const MfReconView *v = mf_recon_view(r, views[k]);
         if ((rc = view_cond(s, r, views[k], &rgba, T.cond + k * 3 * rr, T.mask + k * rr))) break;
-        /* the view's camera at R x R (same field of view) */
-        double ax = 2.0 * atan((double)v->cam.w / (2.0 * (double)v->cam.fx)), m[16];
-        for (int i = 0; i < 16; ++i) m[i] = v->cam.c2w.m[i];
-        rc = mf_camera_init(&T.cam[k], R, R, ax, m, "SDS camera");
+        rc = prior_camera(&v->cam, R, &T.cam[k]);
         T.aov_seed[k] = view_seed(s, it, views[k], 1);
     }
     mf_stage_lap(&s->times.cond, &ts);
@@ -534,13 +543,103 @@ int mf_sds_coverage(MfRecon *r, float **out, size_t *ntex) {
     return MF_OK;
 }
 
+void mf_sds_agreement_weights(const double *sum, const double *sum2, const float *nv, size_t nt, int c0, int c1,
+                              float *w, double *mean_var) {
+    double vs = 0.0, cnt = 0.0;
+    for (size_t t = 0; t < nt; ++t) {
+        w[t] = 1.0f;
+        if (nv[t] < 2.0f) continue;
+        double var = 0.0;
+        for (int c = c0; c < c1; ++c) {
+            double m = sum[3 * t + c] / nv[t];
+            var += fmax(0.0, sum2[3 * t + c] / nv[t] - m * m);
+        }
+        w[t] = (float)(var / (c1 - c0)); /* the variance for now */
+        vs += w[t], cnt += 1.0;
+    }
+    double vref = cnt > 0.0 ? vs / cnt : 0.0, ws = 0.0;
+    *mean_var = vref;
+    for (size_t t = 0; t < nt; ++t)
+        if (nv[t] >= 2.0f) w[t] = vref > 0.0 ? (float)(1.0 / (1.0 + w[t] / vref)) : 1.0f, ws += w[t];
+    float scale = ws > 0.0 ? (float)(cnt / ws) : 1.0f; /* mean 1 over the texels two views see */
+    for (size_t t = 0; t < nt; ++t)
+        if (nv[t] >= 2.0f) w[t] *= scale;
+}
+
+/* --sds-weight views: the kd and ORM texel weights from the training views' held mean targets (see
+ * MF_SDS_WEIGHT_VIEWS); logs the mean cross-view variances. */
+static int views_weights(MfSds *s, MfRecon *r) {
+    int R = res_of(s), nviews = mf_recon_nviews(r), rc = MF_OK;
+    size_t rr = (size_t)R * R, isz = 3 * rr, nkd = mf_recon_block(r, MF_BLOCK_KD)->n, nt = nkd / 3;
+    if (mf_recon_block(r, MF_BLOCK_ORM)->n != nkd) return mf_fail(MF_EARG, "SDS views: the kd and ORM textures differ in size");
+    int *train = malloc((size_t)nviews * sizeof(int)), ntrain = 0;
+    /* per texel over the views: sum and sum of squares of the view's mean target there (albedo 3,
+     * ORM 3), views that see it; per view: the splat of the targets (g1) and of ones (g0) */
+    double *sum = calloc(2 * nkd, sizeof(double)), *sum2 = calloc(2 * nkd, sizeof(double));
+    float *nv = calloc(nt, sizeof(float)), *g0 = malloc(nkd * sizeof(float)), *g1 = malloc(2 * nkd * sizeof(float));
+    float *img = malloc(3 * isz * sizeof(float)); /* (3, R, R, 3): ones, albedo target, ORM target */
+    float *wkd = malloc(nt * sizeof(float)), *worm = malloc(nt * sizeof(float));
+    if (!train || !sum || !sum2 || !nv || !g0 || !g1 || !img || !wkd || !worm) rc = mf_fail(MF_ENOMEM, "SDS views: out of memory");
+    for (int v = 0; v < nviews && !rc; ++v)
+        if (!mf_recon_is_holdout(r, v)) train[ntrain++] = v;
+    if (!rc) rc = mean_fill(s, r, train, ntrain);
+    MfImage kdi = mf_recon_kd_image(r), ormi = mf_recon_orm_image(r);
+    MfDiffScene ds = {.rt = mf_recon_rtscene(r), .kd = &kdi, .orm = &ormi, .env = mf_recon_env(r)};
+    float *mask = NULL, *cond = malloc(isz * sizeof(float)), *rgba = NULL;
+    if (!rc && (!cond || !(mask = malloc(rr * sizeof(float))))) rc = mf_fail(MF_ENOMEM, "SDS views: out of memory");
+    for (int k = 0; k < ntrain && !rc; ++k) {
+        int v = train[k];
+        MfCamera cam;
+        if ((rc = view_cond(s, r, v, &rgba, cond, mask)) || (rc = prior_camera(&mf_recon_view(r, v)->cam, R, &cam))) break;
+        const float *md = s->md + (size_t)v * 2 * isz; /* (2, 3, R, R) in [-1, 1] */
+        for (size_t p = 0; p < rr; ++p)
+            for (int c = 0; c < 3; ++c) {
+                float m = mask[p] > 0.5f ? 1.0f : 0.0f; /* the object's pixels */
+                img[3 * p + c] = m;
+                img[isz + 3 * p + c] = m * 0.5f * (md[c * rr + p] + 1.0f);
+                img[2 * isz + 3 * p + c] = m * 0.5f * (md[isz + c * rr + p] + 1.0f);
+            }
+        MfDiffOpts o = {.spp_sqrt = 1, .pixel_samples = 1, .seed = 0x5eedu + (uint64_t)v};
+        memset(g0, 0, nkd * sizeof(float)), memset(g1, 0, 2 * nkd * sizeof(float));
+        MfDiffGrads d0 = {.dkd = g0}, d1 = {.dkd = g1, .dorm = g1 + nkd};
+        if ((rc = mf_diff_aov_backward(&ds, &cam, &o, img, NULL, &d0)) ||
+            (rc = mf_diff_aov_backward(&ds, &cam, &o, img + isz, img + 2 * isz, &d1)))
+            break;
+        for (size_t t = 0; t < nt; ++t) {
+            float wt = g0[3 * t];
+            if (!(wt > 1e-3f)) continue; /* the view hardly sees the texel */
+            nv[t] += 1.0f;
+            for (int part = 0; part < 2; ++part)
+                for (int c = 0; c < 3; ++c) {
+                    double m = g1[part * nkd + 3 * t + c] / wt;
+                    sum[part * nkd + 3 * t + c] += m, sum2[part * nkd + 3 * t + c] += m * m;
+                }
+        }
+    }
+    double var[2] = {0.0, 0.0};
+    size_t seen2 = 0;
+    if (!rc) {
+        mf_sds_agreement_weights(sum, sum2, nv, nt, 0, 3, wkd, &var[0]);             /* albedo: 3 channels */
+        mf_sds_agreement_weights(sum + nkd, sum2 + nkd, nv, nt, 1, 3, worm, &var[1]); /* roughness, metallic */
+        for (size_t t = 0; t < nt; ++t) seen2 += nv[t] >= 2.0f;
+        mf_log(MF_LOG_INFO, "SDS views: %zu texels seen by >= 2 of %d views; mean cross-view variance of the targets: "
+               "albedo (sRGB) %.4g, roughness/metallic %.4g", seen2, ntrain, var[0], var[1]);
+        free(s->coverage), free(s->cov_orm);
+        s->coverage = wkd, s->cov_orm = worm, s->coverage_n = nt;
+        wkd = worm = NULL;
+    }
+    free(train), free(sum), free(sum2), free(nv), free(g0), free(g1), free(img), free(wkd), free(worm), free(mask),
+        free(cond), free(rgba);
+    return rc;
+}
+
 /* g (n,) += gamma * h, texel by texel over its 3 channels, channel c of h scaled by ch[c] first;
  * with MF_SDS_WEIGHT_CONFLICT the part of h that opposes g (the iteration's image and regulariser
- * gradient) is removed; with MF_SDS_WEIGHT_COVERAGE h is scaled by the texel's weight cov (n / 3,). */
+ * gradient) is removed; with a texel weight cov (n / 3,; coverage or views, else NULL) h is scaled by it. */
 static void apply_held(float *g, const float *h, size_t n, float gamma, const float ch[3], int weight, const float *cov) {
     for (size_t i = 0; i + 2 < n; i += 3) {
         float hv[3] = {h[i] * ch[0], h[i + 1] * ch[1], h[i + 2] * ch[2]};
-        if (weight == MF_SDS_WEIGHT_COVERAGE)
+        if (cov)
             for (int c = 0; c < 3; ++c) hv[c] *= cov[i / 3];
         if (weight == MF_SDS_WEIGHT_CONFLICT) {
             double dot = 0.0, gg = 0.0;
@@ -587,6 +686,10 @@ int mf_sds_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double 
         }
         s->held_it = it;
     }
+    if (s->o.weight == MF_SDS_WEIGHT_VIEWS && (!s->coverage || s->coverage_n * 3 != kd->n)) {
+        int rc = views_weights(s, r);
+        if (rc) return mf_fail_prefix(rc, "iteration %d: prior term", it);
+    }
     if (s->o.weight == MF_SDS_WEIGHT_COVERAGE && (!s->coverage || s->coverage_n * 3 != kd->n)) {
         free(s->coverage);
         s->coverage = NULL;
@@ -596,8 +699,9 @@ int mf_sds_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double 
     }
     MfStageClock ts = mf_stage_clock();
     const float ch_kd[3] = {1.0f, 1.0f, 1.0f}, ch_orm[3] = {1.0f, s->o.trust_rough, s->o.trust_metal};
+    int by_views = s->o.weight == MF_SDS_WEIGHT_VIEWS;
     apply_held(kd->g, s->held_kd, kd->n, (float)gamma, ch_kd, s->o.weight, s->coverage);
-    apply_held(orm->g, s->held_orm, orm->n, (float)gamma, ch_orm, s->o.weight, s->coverage);
+    apply_held(orm->g, s->held_orm, orm->n, (float)gamma, ch_orm, s->o.weight, by_views ? s->cov_orm : s->coverage);
     mf_stage_lap(&s->times.apply, &ts);
     *loss = gamma * s->held_loss;
     return MF_OK;

@@ -37,6 +37,15 @@
  * mean variance over the masked elements of its group (latents, albedo maps, ORM maps), then w is
  * scaled to mean 1 over those elements (mf_sds_spread_weights): the term keeps its strength and
  * moves it to the pixels where the prior is sure. With draws > 1 the targets are the draws' mean.
+ * Or (views, needs target mean) each texel's gradient is weighted by how much the training views'
+ * held targets agree there: every view's target maps (albedo as sRGB, ORM; in [0, 1]) are spread onto
+ * the texels its pixel-centre rays at R hit (the AOV adjoint over the object's pixels), normalised
+ * to the view's mean value per texel; over the n >= 2 views that see a texel the variance of those
+ * means, averaged over the channels (albedo: 3; ORM: roughness and metallic), gives
+ * w = 1 / (1 + var / var_ref), var_ref = the mean variance over such texels, then w is scaled to mean
+ * 1 over them (mf_sds_agreement_weights); texels fewer than 2 views see keep 1. Computed once,
+ * when the term is first applied (all training views' targets are made then); the log states the
+ * mean cross-view variances, a measure of how consistent the prior is on this object.
  * Channel trust (trust_rough, trust_metal, in [0, 1], default 1 = the paper): the held ORM gradient's
  * roughness and metallic channels are scaled by these factors before the weighting above — the
  * prior's reliability per channel as measured on a validation split by `mf eval-prior`
@@ -82,7 +91,7 @@ typedef struct {
                             multiples; its texel gradient is held and applied (times gamma_i) at
                             every iteration in between (measured default: mf_sds_opts.c). */
     int rgb01;           /* 1: L_rgb on [0, 1] maps (official code); 0: on the prior's [-1, 1] maps (4x) */
-    int weight;          /* MF_SDS_WEIGHT_NONE, _CONFLICT, _COVERAGE or _SPREAD (trust, see above) */
+    int weight;          /* MF_SDS_WEIGHT_NONE, _CONFLICT, _COVERAGE, _SPREAD or _VIEWS (trust, see above) */
     int draws;           /* noise draws per target at the batch's t: the target is their mean (1: the paper) */
     int prior_threads;   /* OpenBLAS threads set by mf_sds_new (0: left as they are) */
     float trust_rough;   /* channel trust (see above) of the ORM gradient's roughness channel, [0, 1] */
@@ -95,7 +104,13 @@ typedef struct {
 
 enum { MF_SDS_TARGET_DDIM = 0, MF_SDS_TARGET_MEAN = 1 }; /* "ddim|mean" */
 
-enum { MF_SDS_WEIGHT_NONE = 0, MF_SDS_WEIGHT_CONFLICT = 1, MF_SDS_WEIGHT_COVERAGE = 2, MF_SDS_WEIGHT_SPREAD = 3 }; /* "none|conflict|coverage|spread" */
+enum {
+    MF_SDS_WEIGHT_NONE = 0,
+    MF_SDS_WEIGHT_CONFLICT = 1,
+    MF_SDS_WEIGHT_COVERAGE = 2,
+    MF_SDS_WEIGHT_SPREAD = 3,
+    MF_SDS_WEIGHT_VIEWS = 4
+}; /* "none|conflict|coverage|spread|views" */
 /* coverage: a texel seen by n training views gets the weight C0 / (C0 + n) (1 where no view sees it) */
 #define MF_SDS_COVERAGE_C0 4.0f
 #define MF_SDS_MAX_DRAWS 8 /* the largest draws */
@@ -153,6 +168,11 @@ typedef struct {
     uint64_t aov_seed[MF_SDS_MAX_VIEWS]; /* seeds of the AOV renders (the loss re-renders the same hits) */
 } MfSdsTargets;
 
+/* Views weights (see "views" above): w (nt,) from the per-texel sums over the views of the view
+ * means, sum and sum2 (nt, 3), the views that see each texel nv (nt,), channels [c0, c1);
+ * *mean_var = var_ref. */
+void mf_sds_agreement_weights(const double *sum, const double *sum2, const float *nv, size_t nt, int c0, int c1,
+                              float *w, double *mean_var);
 /* Spread weights (see "spread" above): w (n,) from the variances var (n,) and the elements' masks
  * m (n,) in [0, 1] (weight only where m > 0; w = 1 elsewhere, and everywhere when no masked
  * element varies). */

@@ -29,8 +29,9 @@ static const MfOpt k_opts[] = {
     MF_OPT_NAMED(S, "sds_weight", weight, MF_OPT_ENUM, MF_SDS_WEIGHT_NONE, 0, 0,
                  "trust in the prior: none; conflict (per texel, drop the part opposing the images' gradient); "
                  "coverage (per texel, times 4 / (4 + training views that see it)); "
-                 "spread (per element, less where the prior's draws disagree; needs --sds-draws >= 2)",
-                 .choices = "none|conflict|coverage|spread"),
+                 "spread (per element, less where the prior's draws disagree; needs --sds-draws >= 2); "
+                 "views (per texel, less where the training views' held targets disagree; needs --sds-target mean)",
+                 .choices = "none|conflict|coverage|spread|views"),
     MF_OPT_NAMED(S, "sds_draws", draws, MF_OPT_INT, 1, 1, MF_SDS_MAX_DRAWS,
                  "noise draws per prior target (same t): the target is their mean x0 (1: the paper)"),
     MF_OPT_NAMED(S, "sds_trust_rough", trust_rough, MF_OPT_FLOAT, 1, 0, 1,
