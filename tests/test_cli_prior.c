@@ -20,10 +20,9 @@
 
 MF_TEST(prior_cli_predicts_maps) {
     MF_NEED_BIN();
-    const char *bin = getenv("MF_BIN");
     MfPrior *p;
     tp_tiny_prior(&p);
-    char w[MF_PATH_MAX], img[MF_PATH_MAX], out[MF_PATH_MAX], cmd[8 * MF_PATH_MAX], f[MF_PATH_MAX];
+    char w[MF_PATH_MAX], img[MF_PATH_MAX], out[MF_PATH_MAX], args[8 * MF_PATH_MAX], f[MF_PATH_MAX], err[16384];
     mf_test_path_to(w, sizeof w, "prior_cli.mfck");
     mf_test_path_to(img, sizeof img, "prior_cli_in.png");
     mf_test_path_to(out, sizeof out, "prior_cli_out");
@@ -38,9 +37,9 @@ MF_TEST(prior_cli_predicts_maps) {
         }
     CHECK_OK(mf_image_write(img, &im, MF_ENC_SRGB, 8));
     mf_image_free(&im);
-    snprintf(cmd, sizeof cmd, "'%s' prior '%s' -o '%s' --weights '%s' --samples 2 --steps 4 --mv '%s' '%s' '%s' > /dev/null",
-             bin, img, out, w, img, img, img);
-    CHECK(system(cmd) == 0);
+    snprintf(args, sizeof args, "prior '%s' -o '%s' --weights '%s' --samples 2 --steps 4 --mv '%s' '%s' '%s'", img, out, w, img, img,
+             img);
+    CHECK_MSG(mf_test_run_mf(args, NULL, err, sizeof err) == 0, "mf %s: %s", args, err);
     const char *names[4] = {"albedo.png", "orm.png", "albedo_3.png", "orm_3.png"};
     for (int k = 0; k < 4; ++k) {
         mf_path_join(f, sizeof f, out, names[k]);
@@ -57,28 +56,28 @@ MF_TEST(prior_cli_predicts_maps) {
     char ck[MF_PATH_MAX], lc[MF_PATH_MAX];
     mf_test_path_to(ck, sizeof ck, "prior_cli_ck");
     mf_test_path_to(lc, sizeof lc, "prior_cli_loss.csv");
-    snprintf(cmd, sizeof cmd, "'%s' train-prior '%s' -o '%s' --tiny --ae-steps 3 --steps 3 --batch 4 --loss-csv '%s' > /dev/null 2>&1",
-             bin, tp_synth_dir(), ck, lc);
-    CHECK(system(cmd) == 0);
+    snprintf(args, sizeof args, "train-prior '%s' -o '%s' --tiny --ae-steps 3 --steps 3 --batch 4 --loss-csv '%s'", tp_synth_dir(), ck,
+             lc);
+    CHECK_MSG(mf_test_run_mf(args, NULL, err, sizeof err) == 0, "mf %s: %s", args, err);
     mf_path_join(f, sizeof f, ck, "prior.mfck");
     MfPrior *t = NULL;
     CHECK_OK(mf_prior_load(f, &t));
     mf_prior_free(t);
     CHECK(mf_file_exists(lc));
-    snprintf(cmd, sizeof cmd, "'%s' train-prior '%s' > /dev/null 2>&1", bin, tp_synth_dir());
-    CHECK(system(cmd) != 0); /* no -o */
+    snprintf(args, sizeof args, "train-prior '%s'", tp_synth_dir());
+    CHECK(mf_test_run_mf(args, NULL, err, sizeof err) != 0); /* no -o */
     /* missing weights: a clear message naming the file and the expected version */
-    snprintf(cmd, sizeof cmd, "'%s' prior '%s' -o '%s' --weights '%s/nope.mfck' 2>&1 | grep -q 'nope.mfck.*MFCK version 1'",
-             bin, img, out, out);
-    CHECK(system(cmd) == 0);
+    snprintf(args, sizeof args, "prior '%s' -o '%s' --weights '%s/nope.mfck'", img, out, out);
+    CHECK(mf_test_run_mf(args, NULL, err, sizeof err) != 0);
+    const char *named = strstr(err, "nope.mfck");
+    CHECK_MSG(named && strstr(named, "MFCK version 1"), "missing weights: %s", err);
 }
 
 MF_TEST(prior_eval_cli_writes_table) {
     MF_NEED_BIN();
-    const char *bin = getenv("MF_BIN");
     MfPrior *p;
     tp_tiny_prior(&p);
-    char w[MF_PATH_MAX], dir[MF_PATH_MAX], out[MF_PATH_MAX], f[MF_PATH_MAX], cmd[6 * MF_PATH_MAX];
+    char w[MF_PATH_MAX], dir[MF_PATH_MAX], out[MF_PATH_MAX], f[MF_PATH_MAX], args[6 * MF_PATH_MAX], err[16384];
     mf_test_path_to(w, sizeof w, "prior_eval.mfck");
     CHECK_OK(mf_prior_save(p, w, NULL));
     mf_prior_free(p);
@@ -89,9 +88,8 @@ MF_TEST(prior_eval_cli_writes_table) {
     mf_path_join(f, sizeof f, dir, "manifest.json");
     CHECK_OK(mf_write_file(f, man, strlen(man)));
     mf_test_path_to(out, sizeof out, "prior_eval_out");
-    snprintf(cmd, sizeof cmd, "'%s' eval-prior '%s' -o '%s' --weights '%s' --train '%s' --samples 2 --steps 3 > /dev/null 2>&1",
-             bin, dir, out, w, tp_synth_dir());
-    CHECK(system(cmd) == 0);
+    snprintf(args, sizeof args, "eval-prior '%s' -o '%s' --weights '%s' --train '%s' --samples 2 --steps 3", dir, out, w, tp_synth_dir());
+    CHECK_MSG(mf_test_run_mf(args, NULL, err, sizeof err) == 0, "mf %s: %s", args, err);
     mf_path_join(f, sizeof f, out, "table2d.md");
     char *txt = NULL;
     size_t len = 0;
@@ -118,26 +116,24 @@ MF_TEST(prior_eval_cli_writes_table) {
     tp_write_synth(dir, 4, 12, 9);
     mf_path_join(f, sizeof f, dir, "manifest.json");
     CHECK_OK(mf_write_file(f, man, strlen(man)));
-    snprintf(cmd, sizeof cmd, "'%s' eval-prior '%s' -o '%s' --weights '%s' --train '%s' 2>&1 | grep -q 'prior works at 16'",
-             bin, dir, out, w, tp_synth_dir());
-    CHECK(system(cmd) == 0);
+    snprintf(args, sizeof args, "eval-prior '%s' -o '%s' --weights '%s' --train '%s'", dir, out, w, tp_synth_dir());
+    CHECK(mf_test_run_mf(args, NULL, err, sizeof err) != 0);
+    CHECK_MSG(strstr(err, "prior works at 16"), "wrong resolution: %s", err);
 }
 
 /* mf bench-prior (tiny model, one round): one column per conv backend of the build, both measured in
  * the same rounds in a DNNL build. No timing asserts. */
 MF_TEST(prior_bench_cli_backend_columns) {
     MF_NEED_BIN();
-    const char *bin = getenv("MF_BIN");
     MfPrior *p;
     tp_tiny_prior(&p);
-    char w[MF_PATH_MAX], out[MF_PATH_MAX], cmd[4 * MF_PATH_MAX];
+    char w[MF_PATH_MAX], out[MF_PATH_MAX], args[4 * MF_PATH_MAX], err[16384];
     mf_test_path_to(w, sizeof w, "bench_prior.mfck");
     mf_test_path_to(out, sizeof out, "bench_prior.md");
     CHECK_OK(mf_prior_save(p, w, NULL));
     mf_prior_free(p);
-    snprintf(cmd, sizeof cmd, "'%s' bench-prior --weights '%s' --batch 2 --reps 1 --gemm 64 -o '%s' > /dev/null 2>&1", bin, w,
-             out);
-    CHECK(system(cmd) == 0);
+    snprintf(args, sizeof args, "bench-prior --weights '%s' --batch 2 --reps 1 --gemm 64 -o '%s'", w, out);
+    CHECK_MSG(mf_test_run_mf(args, NULL, err, sizeof err) == 0, "mf %s: %s", args, err);
     char *md = NULL;
     size_t len = 0;
     CHECK_OK(mf_read_file(out, &md, &len));

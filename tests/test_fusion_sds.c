@@ -2,7 +2,8 @@
  * through the AOV render, the prior's input preparation and the encoder, checked against central
  * differences with the targets (zhat, D(zhat)) held fixed as the method does; the gamma schedule;
  * and the hook's effect inside a short reconstruction. Uses the tiny prior configuration with
- * random weights (the chain, not the prior's quality, is under test). */
+ * random weights, its denoiser's output conv re-drawn so that targets depend on the condition
+ * images and the guidance (tiny_sds; the chain, not the prior's quality, is under test). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -56,16 +57,19 @@ static int make_recon_n(MfMesh *mesh, MfRecon **out, int iters, int ckpt_every) 
 
 static int make_recon(MfMesh *mesh, MfRecon **out) { return make_recon_n(mesh, out, 0, 0); }
 
-/* live: the denoiser's output conv re-drawn (it starts at zero, so the targets would not depend on
- * the condition images) */
-static MfSds *tiny_sds_prior(const MfSdsOpts *o, int live) {
+/* A tiny prior with deterministic random weights, as a term with options o. The denoiser's output
+ * conv starts at zero (mf_denoiser_init_weights, as training starts), so its v-prediction would be 0
+ * and every target a function of the noise alone, blind to the condition images and the guidance;
+ * it is re-drawn here (as tests/mf_test_prior.c's tp_tiny_prior does) so that the targets come from
+ * a prior that reads its inputs, if an untrained one. */
+static MfSds *tiny_sds(const MfSdsOpts *o) {
     MfPriorConfig cfg;
     mf_prior_config_tiny(&cfg);
     MfPrior *p = NULL;
     if (mf_prior_new(&p, &cfg)) return NULL;
     mf_ae_init_weights(p->ae, 11);
     mf_denoiser_init_weights(p->dn, 12);
-    if (live) mf_kconv_init(&p->dn->cout, p->dn->params, 13, 0);
+    mf_kconv_init(&p->dn->cout, p->dn->params, 13, 0);
     MfSds *s = NULL;
     if (mf_sds_new(p, o, &s)) {
         mf_prior_free(p);
@@ -73,8 +77,6 @@ static MfSds *tiny_sds_prior(const MfSdsOpts *o, int live) {
     }
     return s;
 }
-
-static MfSds *tiny_sds_opts(const MfSdsOpts *o) { return tiny_sds_prior(o, 0); }
 
 /* The SDS options of most tests: the defaults with 2 views a term. */
 static MfSdsOpts opts2(void) {
@@ -101,7 +103,7 @@ static MfRecon *sds_fix(SdsFix *f) {
 /* A term with options o (NULL: opts2()), freed by sds_done; NULL on failure. */
 static MfSds *sds_term(SdsFix *f, const MfSdsOpts *o) {
     MfSdsOpts d = opts2();
-    MfSds *s = tiny_sds_opts(o ? o : &d);
+    MfSds *s = tiny_sds(o ? o : &d);
     if (s && f->ns < 4) f->s[f->ns++] = s;
     return s;
 }
@@ -237,6 +239,56 @@ MF_TEST(fusion_sds_draws_mean_and_variance) {
     CHECK_OK(mf_sds_loss(s3, r, &t2, 1.0f, 0, &ls));
     CHECK_MSG(ln > 0.0 && ls > 0.0 && fabs(ls - ln) > 1e-3 * ln, "spread-weighted loss %.6g vs unweighted %.6g", ls, ln);
     mf_sds_targets_free(&t1), mf_sds_targets_free(&t2);
+    sds_done(&f);
+}
+
+/* max |a - b| over n floats */
+static double max_diff(const float *a, const float *b, size_t n) {
+    double d = 0.0;
+    for (size_t i = 0; i < n; ++i) d = fmax(d, fabs((double)a[i] - b[i]));
+    return d;
+}
+
+/* DDIM targets come from the condition images through the guidance: darkening view 0's image
+ * changes its targets at guidance 3 and leaves them the same bits at guidance 0 (the unconditional
+ * prediction alone: zero image latent and embedding); guidance 1 and 3 give different targets. */
+MF_TEST(fusion_sds_targets_follow_images_and_guidance) {
+    SdsFix f;
+    MfRecon *r = sds_fix(&f);
+    MfSdsOpts o = opts2();
+    MfSds *s3 = sds_term(&f, &o); /* guidance 3, the default */
+    o.guidance = 1.0f;
+    MfSds *s1 = sds_term(&f, &o);
+    o.guidance = 0.0f;
+    MfSds *s0 = sds_term(&f, &o);
+    if (!r || !s3 || !s1 || !s0) return;
+    MfPriorConfig cfg;
+    mf_prior_config_tiny(&cfg);
+    size_t h = (size_t)cfg.ae.res / 4, zsz = 2u * cfg.ae.zc * h * h, isz = 3u * cfg.ae.res * cfg.ae.res;
+    int views[2] = {0, 3};
+    MfSdsTargets a3, a1, a0, b3, b0;
+    CHECK_OK(mf_sds_targets(s3, r, views, 2, 5, &a3));
+    CHECK_OK(mf_sds_targets(s1, r, views, 2, 5, &a1));
+    CHECK_OK(mf_sds_targets(s0, r, views, 2, 5, &a0));
+    MfImage *ref0 = (MfImage *)&mf_recon_view(r, 0)->ref; /* a test-only write through the view's pixels */
+    for (size_t p = 0; p < (size_t)ref0->w * ref0->h; ++p)
+        for (int ch = 0; ch < 3; ++ch) ref0->data[4 * p + ch] *= 0.25f;
+    CHECK_OK(mf_sds_targets(s3, r, views, 2, 5, &b3));
+    CHECK_OK(mf_sds_targets(s0, r, views, 2, 5, &b0));
+    if (mf_test_failed_now()) return;
+    CHECK(a3.t == a1.t && a3.t == b3.t && a3.t == a0.t);
+    double scale = 0.0; /* view 0's latent target */
+    for (size_t i = 0; i < zsz; ++i) scale = fmax(scale, fabs(a3.zhat[i]));
+    double dimg = max_diff(a3.zhat, b3.zhat, zsz), dmap = max_diff(a3.dhat, b3.dhat, isz), dgui = max_diff(a3.zhat, a1.zhat, zsz);
+    if (getenv("MF_TEST_VERBOSE"))
+        printf("    view 0's latent target: max |zhat| %.4g; changed by %.4g (image darkened), %.4g (guidance 3 vs 1); albedo map by %.4g\n",
+               scale, dimg, dgui, dmap);
+    CHECK_MSG(dimg > 5e-2 * scale && dmap > 5e-2, "view 0's targets ignore its image (latent %.3g, map %.3g)", dimg, dmap);
+    CHECK_MSG(dgui > 5e-2 * scale, "guidance 3 and 1 give the same targets (%.3g)", dgui);
+    CHECK_MSG(memcmp(a0.zhat, b0.zhat, 2 * zsz * sizeof(float)) == 0 && memcmp(a0.dhat, b0.dhat, 4 * isz * sizeof(float)) == 0,
+              "unconditional targets (guidance 0) depend on the image");
+    mf_sds_targets_free(&a3), mf_sds_targets_free(&a1), mf_sds_targets_free(&a0);
+    mf_sds_targets_free(&b3), mf_sds_targets_free(&b0);
     sds_done(&f);
 }
 
@@ -597,7 +649,7 @@ MF_TEST(fusion_resume_is_exact) {
     o.k_views = 3, o.every = 3;
     MfMesh mf, mh, mr;
     MfRecon *full = NULL, *half = NULL, *res = NULL;
-    MfSds *s1 = tiny_sds_opts(&o), *s2 = tiny_sds_opts(&o), *s3 = tiny_sds_opts(&o);
+    MfSds *s1 = tiny_sds(&o), *s2 = tiny_sds(&o), *s3 = tiny_sds(&o);
     CHECK_OK(make_recon_n(&mf, &full, 8, 4));
     CHECK_OK(make_recon_n(&mh, &half, 8, 4));
     if (!full || !half || !s1 || !s2 || !s3) return;
@@ -624,7 +676,8 @@ MF_TEST(fusion_resume_is_exact) {
 
 /* --sds-target mean: a view's targets are the prior's prediction from its image alone, held for the
  * run: the same bits at another iteration, in another batch and after the textures changed; with 2
- * samples the mean of the 1-sample target and a second sample, the variance that of the two. */
+ * samples the mean of the 1-sample target and a second sample, the variance that of the two; a
+ * darker image gives another target. */
 MF_TEST(fusion_sds_mean_targets_held) {
     MfMesh mesh;
     MfRecon *r = NULL;
@@ -634,14 +687,16 @@ MF_TEST(fusion_sds_mean_targets_held) {
     o.target = MF_SDS_TARGET_MEAN;
     o.mean_samples = 1;
     o.mean_steps = 3;
-    MfSds *s1 = tiny_sds_opts(&o);
+    MfSds *s1 = tiny_sds(&o);
     o.mean_samples = 2;
     o.weight = MF_SDS_WEIGHT_SPREAD;
-    MfSds *s2 = tiny_sds_opts(&o);
+    MfSds *s2 = tiny_sds(&o);
     o.mean_samples = 1;
     MfSds *bad = NULL;
     CHECK_ERR(mf_sds_new(NULL, &o, &bad), "--sds-mean-samples 1");
-    if (!r || !s1 || !s2) return;
+    o.weight = MF_SDS_WEIGHT_NONE;
+    MfSds *s3 = tiny_sds(&o); /* as s1, for view 3 once its image is darkened */
+    if (!r || !s1 || !s2 || !s3) return;
     MfPriorConfig cfg;
     mf_prior_config_tiny(&cfg);
     size_t h = (size_t)cfg.ae.res / 4, zsz = 2u * cfg.ae.zc * h * h, isz = 3u * cfg.ae.res * cfg.ae.res;
@@ -677,8 +732,20 @@ MF_TEST(fusion_sds_mean_targets_held) {
     }
     CHECK(vmax > 0.0);
     CHECK_MSG(zerr <= 1e-5 * fmax(vmax, 1.0) && derr <= 1e-5, "sample variance off: latent %.3g, maps %.3g", zerr, derr);
-    mf_sds_targets_free(&a), mf_sds_targets_free(&b), mf_sds_targets_free(&c);
-    mf_sds_free(s1), mf_sds_free(s2);
+    /* from the view's image: view 3 darkened, a fresh term's target for it moves */
+    MfImage *ref3 = (MfImage *)&mf_recon_view(r, 3)->ref; /* a test-only write through the view's pixels */
+    for (size_t p = 0; p < (size_t)ref3->w * ref3->h; ++p)
+        for (int ch = 0; ch < 3; ++ch) ref3->data[4 * p + ch] *= 0.25f;
+    MfSdsTargets e;
+    CHECK_OK(mf_sds_targets(s3, r, vb, 2, 9, &e));
+    if (mf_test_failed_now()) return;
+    double scale = 0.0, dz = 0.0, dm = 0.0;
+    for (size_t i = 0; i < zsz; ++i) scale = fmax(scale, fabs(b.zhat[i])), dz = fmax(dz, fabs(e.zhat[i] - b.zhat[i]));
+    for (size_t i = 0; i < isz; ++i) dm = fmax(dm, fabs(e.dhat[i] - b.dhat[i]));
+    if (getenv("MF_TEST_VERBOSE")) printf("    view 3's mean target: max |zhat| %.4g; image darkened: latent moves %.4g, albedo map %.4g\n", scale, dz, dm);
+    CHECK_MSG(dz > 5e-2 * scale && dm > 5e-2, "view 3's mean target ignores its image (latent %.3g, map %.3g)", dz, dm);
+    mf_sds_targets_free(&a), mf_sds_targets_free(&b), mf_sds_targets_free(&c), mf_sds_targets_free(&e);
+    mf_sds_free(s1), mf_sds_free(s2), mf_sds_free(s3);
     mf_recon_free(r);
     mf_mesh_free(&mesh);
 }
@@ -708,11 +775,11 @@ MF_TEST(fusion_sds_mv_mean_targets) {
     o.target = MF_SDS_TARGET_MEAN;
     o.mean_samples = 2;
     o.mean_steps = 3;
-    MfSds *alone = tiny_sds_prior(&o, 1);
+    MfSds *alone = tiny_sds(&o);
     o.mv = 1;
-    MfSds *s1 = tiny_sds_prior(&o, 1), *s2 = tiny_sds_prior(&o, 1), *s3 = tiny_sds_prior(&o, 1);
+    MfSds *s1 = tiny_sds(&o), *s2 = tiny_sds(&o), *s3 = tiny_sds(&o);
     o.mv = 0;
-    MfSds *alone2 = tiny_sds_prior(&o, 1);
+    MfSds *alone2 = tiny_sds(&o);
     if (!r || !alone || !alone2 || !s1 || !s2 || !s3) return;
     MfPriorConfig cfg;
     mf_prior_config_tiny(&cfg);

@@ -917,21 +917,19 @@ MF_TEST(nn_grad_clip_norm) {
 
 MF_TEST(nn_bench_cli_writes_report) {
     MF_NEED_BIN();
-    const char *bin = getenv("MF_BIN");
     const char *out = mf_test_path("bench_nn.md");
-    char cmd[8192];
-    snprintf(cmd, sizeof cmd, "'%s' bench-nn --batch 1 --channels 4 --size 8 --gemm 32 --reps 1 -o '%s' > /dev/null",
-             bin, out);
-    CHECK(system(cmd) == 0);
+    char args[4096], err[4096];
+    snprintf(args, sizeof args, "bench-nn --batch 1 --channels 4 --size 8 --gemm 32 --reps 1 -o '%s'", out);
+    CHECK_MSG(mf_test_run_mf(args, NULL, err, sizeof err) == 0, "mf %s: %s", args, err);
     char *md = NULL;
     size_t len = 0;
     CHECK_OK(mf_read_file(out, &md, &len));
     CHECK(md && strstr(md, "**conv2d / sgemm**") && strstr(md, "B=1 C=4->4 8x8") && strstr(md, "the conv's GEMMs alone"));
     free(md);
-    snprintf(cmd, sizeof cmd, "'%s' bench-nn --size 0 2> /dev/null", bin);
-    CHECK(system(cmd) != 0);
-    snprintf(cmd, sizeof cmd, "'%s' bench-nn --batch 1 --channels 4 --size 8 --gemm 32 --reps 1 --groups 3 2> /dev/null", bin);
-    CHECK(system(cmd) != 0); /* 3 groups do not divide 4 channels */
+    CHECK(mf_test_run_mf("bench-nn --size 0", NULL, err, sizeof err) == 2);
+    CHECK_MSG(strstr(err, "--size 0: outside the allowed range"), "bench-nn --size 0: %s", err);
+    CHECK(mf_test_run_mf("bench-nn --batch 1 --channels 4 --size 8 --gemm 32 --reps 1 --groups 3", NULL, err, sizeof err) == 2);
+    CHECK_MSG(strstr(err, "--groups 3 does not divide --channels 4"), "bench-nn --groups 3: %s", err);
 }
 
 /* ---- integration: a tiny network trained with AdamW, saved and reloaded ---------------------- */

@@ -11,10 +11,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
+#include "datasets/ds_povray.h"
 #include "io/mf_image.h"
 #include "io/mf_json.h"
 #include "render/mf_integrator.h"
@@ -423,7 +423,7 @@ MF_TEST(render_blender_spheres_sunset) {
  * 0.3) under one parallel light, no environment, no specular, 64 x 64.
  * Units: POV-Ray's diffuse term is  pigment * diffuse * light_colour * (n.l)  (brilliance 1,
  * no 1/pi), ours  kd / pi * E * (n.l); a light_colour of E / pi makes them equal. POV-Ray
- * writes linear 16-bit PNG with assumed_gamma 1 and File_Gamma 1 (quantisation 1.5e-5).
+ * runs through ds_povray_run (the POV-Ray data sets' runner) and writes linear float EXR.
  * Cameras: POV-Ray spans its image plane by the explicit direction/right/up vectors, so our
  * camera basis (forward, 2 tan(fov/2) right, 2 tan(fov/2) up) gives the same rays; POV-Ray
  * traces pixel centres (-A: no anti-aliasing), we average 16 jittered samples per pixel (box filter), so we
@@ -431,7 +431,7 @@ MF_TEST(render_blender_spheres_sunset) {
  * is below 0.5% of the peak, the 256 x 128 tessellation's normal error below 0.1%.
  * Tolerance: 2% of kd E / pi per pixel (plus 1e-3 absolute). */
 MF_TEST(render_povray_lambert) {
-    if (access("/usr/bin/povray", X_OK) != 0) MF_SKIP("povray not installed");
+    if (!ds_povray_available()) MF_SKIP("povray not installed");
     const int W = 64;
     const float E = 2.0f, fov = 0.6911f;
     const MfVec3 kd = {0.7f, 0.5f, 0.3f};
@@ -465,16 +465,8 @@ MF_TEST(render_povray_lambert) {
             eye.x, eye.y, eye.z, fwd.x, fwd.y, fwd.z, right.x, right.y, right.z, up.x, up.y, up.z, lp.x, lp.y, lp.z,
             E / MF_PI, kd.x, kd.y, kd.z);
     fclose(f);
-    char cmd[4096];
-    snprintf(cmd, sizeof cmd,
-             "cd '%s' && /usr/bin/povray +Iscene.pov +Oref.png +W%d +H%d -A -D +FN16 File_Gamma=1.0 -GA >povray.log 2>&1", dir,
-             W, W);
-    int st = system(cmd);
-    CHECK_MSG(st == 0, "povray failed (status %d), see %s/povray.log", st, dir);
-    char png[1100];
-    snprintf(png, sizeof png, "%s/ref.png", dir);
     MfImage ref = {0};
-    CHECK_OK(mf_image_read(png, MF_ENC_LINEAR, &ref));
+    CHECK_OK(ds_povray_run(dir, "scene", W, W, 0, &ref));
     if (!ref.data) return;
     CHECK(ref.w == W && ref.h == W);
 
