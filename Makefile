@@ -257,6 +257,10 @@ FLAGS_mf-mean         = $(FLAGS_mf-chtrust-g1) --sds-target mean
 # and with the channel trust measured at guidance 1 (make sweep-guidance's g1 cells, the smaller value per channel)
 TRUST_G1 = $(shell jq -s '"--sds-trust-rough \(map(.trust_roughness) | min * 100 | floor / 100) --sds-trust-metal \(map(.trust_metallic) | min * 100 | floor / 100)"' -r $(wildcard $(GUIDANCE_REPORT)/g1/*/table2d.json) 2>/dev/null)
 FLAGS_mf-mean-g1trust = --method materialfusion --guidance 1 --sds-target mean $(or $(TRUST_G1),$(error mf-mean-g1trust: no $(GUIDANCE_REPORT)/g1/*/table2d.json (make sweep-guidance writes them)))
+# and with the multi-view prior (StableMaterialMV) making each view's target jointly with 3 other views
+FLAGS_mf-mean-g1trust-mv = $(FLAGS_mf-mean-g1trust) --sds-mv 1
+# and the channel trust measured at the mean targets' own sampling (reports/prior/mean-targets: 0 / 0)
+FLAGS_mf-mean-cal    := --method materialfusion --guidance 1 --sds-target mean --sds-trust-rough 0 --sds-trust-metal 0
 FLAGS_mf-gamma-const := --method materialfusion --gamma-const 1
 FLAGS_mf-no-rgb      := --method materialfusion --lambda-rgb 0
 FLAGS_mf-no-latent   := --method materialfusion --lambda-latent 0

@@ -93,6 +93,13 @@ typedef struct {
     int ns;
 } SdsFix;
 
+/* View v's reference image darkened 4x (a test-only write through the view's pixels). */
+static void darken_view(MfRecon *r, int v) {
+    MfImage *ref = (MfImage *)&mf_recon_view(r, v)->ref;
+    for (size_t p = 0; p < (size_t)ref->w * ref->h; ++p)
+        for (int ch = 0; ch < 3; ++ch) ref->data[4 * p + ch] *= 0.25f;
+}
+
 /* f->r from make_recon (checked); returns it, NULL on failure. */
 static MfRecon *sds_fix(SdsFix *f) {
     memset(f, 0, sizeof *f);
@@ -270,9 +277,7 @@ MF_TEST(fusion_sds_targets_follow_images_and_guidance) {
     CHECK_OK(mf_sds_targets(s3, r, views, 2, 5, &a3));
     CHECK_OK(mf_sds_targets(s1, r, views, 2, 5, &a1));
     CHECK_OK(mf_sds_targets(s0, r, views, 2, 5, &a0));
-    MfImage *ref0 = (MfImage *)&mf_recon_view(r, 0)->ref; /* a test-only write through the view's pixels */
-    for (size_t p = 0; p < (size_t)ref0->w * ref0->h; ++p)
-        for (int ch = 0; ch < 3; ++ch) ref0->data[4 * p + ch] *= 0.25f;
+    darken_view(r, 0);
     CHECK_OK(mf_sds_targets(s3, r, views, 2, 5, &b3));
     CHECK_OK(mf_sds_targets(s0, r, views, 2, 5, &b0));
     if (mf_test_failed_now()) return;
@@ -733,9 +738,7 @@ MF_TEST(fusion_sds_mean_targets_held) {
     CHECK(vmax > 0.0);
     CHECK_MSG(zerr <= 1e-5 * fmax(vmax, 1.0) && derr <= 1e-5, "sample variance off: latent %.3g, maps %.3g", zerr, derr);
     /* from the view's image: view 3 darkened, a fresh term's target for it moves */
-    MfImage *ref3 = (MfImage *)&mf_recon_view(r, 3)->ref; /* a test-only write through the view's pixels */
-    for (size_t p = 0; p < (size_t)ref3->w * ref3->h; ++p)
-        for (int ch = 0; ch < 3; ++ch) ref3->data[4 * p + ch] *= 0.25f;
+    darken_view(r, 3);
     MfSdsTargets e;
     CHECK_OK(mf_sds_targets(s3, r, vb, 2, 9, &e));
     if (mf_test_failed_now()) return;
@@ -790,10 +793,7 @@ MF_TEST(fusion_sds_mv_mean_targets) {
     CHECK_OK(mf_sds_targets(s1, r, &v3, 1, 2, &b)); /* view 3 from the held group */
     CHECK_OK(mf_sds_targets(s2, r, &v3, 1, 1, &c)); /* view 3 first in a fresh term */
     CHECK_OK(mf_sds_targets(alone, r, &v3, 1, 1, &d));
-    /* view 0's image darkened (a test-only write through the view's pixels) */
-    MfImage *ref0 = (MfImage *)&mf_recon_view(r, 0)->ref;
-    for (size_t p = 0; p < (size_t)ref0->w * ref0->h; ++p)
-        for (int ch = 0; ch < 3; ++ch) ref0->data[4 * p + ch] *= 0.25f;
+    darken_view(r, 0);
     CHECK_OK(mf_sds_targets(s3, r, &v3, 1, 1, &e));
     CHECK_OK(mf_sds_targets(alone2, r, &v3, 1, 1, &f));
     if (mf_test_failed_now()) return;
