@@ -1,8 +1,8 @@
 /* mf recon --geometry (mf/inverse/mf_recon_geom.h) through the `mf` command (MF_BIN) on the tiny
  * split: a NeRF-Synthetic-layout copy of one scene without its mesh (transforms, train/ and test/
- * PNGs) is reconstructed on its visual hull — the default without a mesh, and --geometry vhull —
- * and mf eval scores the hull's geometry against the original scene's GT mesh; --resume reuses
- * geometry/vhull.obj and reaches the uninterrupted run's bytes. --geometry dmtet (DMTet's mask term
+ * PNGs) is reconstructed on its visual hull — the default without a mesh, and --geometry vhull;
+ * --resume reuses geometry/vhull.obj and reaches the uninterrupted run's bytes. The geometry's
+ * quality is T8's (test_cli_recon_geom_ci.c, a fixture whose views carve). --geometry dmtet (DMTet's mask term
  * from the hull) on the same copy: recon_geometry_dmtet_tiny. */
 #include <math.h>
 #include <stdarg.h>
@@ -13,7 +13,6 @@
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "datasets/ds_split.h"
-#include "eval/ev_table.h"
 #include "io/mf_json.h"
 #include "io/mf_obj.h"
 #include "mf_test.h"
@@ -46,13 +45,12 @@ MF_TEST(recon_geometry_vhull_tiny) {
     MF_NEED_BIN();
     const char *mf = getenv("MF_BIN");
     if (!mf_file_exists(DS_DEFAULT_ENV_DIR "/studio.exr")) MF_SKIP("blender-data probes not installed (" DS_DEFAULT_ENV_DIR ")");
-    char d[1024], scene[1100], bare[1100], res[1100], other[1100], rep[1100], p[1300], q[1300], err[8192], args[4096];
+    char d[1024], scene[1100], bare[1100], res[1100], other[1100], p[1300], q[1300], err[8192], args[4096];
     mf_test_path_to(d, sizeof d, "recon_geom");
     snprintf(scene, sizeof scene, "%s/000_cup", d);
     snprintf(bare, sizeof bare, "%s/bare", d);
     snprintf(res, sizeof res, "%s/results", d);
     snprintf(other, sizeof other, "%s/other", d);
-    snprintf(rep, sizeof rep, "%s/report", d);
     CHECK(mf_test_sh("%s gen --split tiny --scenes 1 -o %s 2>/dev/null", mf, d) == 0);
     /* the NeRF-Synthetic layout of the same views, without mesh.obj (or any ground truth) */
     CHECK(mf_test_sh("mkdir -p %s && cp -r %s/transforms_train.json %s/transforms_test.json %s/train %s/test %s/", bare, scene, scene, scene,
@@ -113,25 +111,9 @@ MF_TEST(recon_geometry_vhull_tiny) {
         CHECK_MSG(same_file(p, q), "resumed %s differs from the uninterrupted run's", outs[k]);
     }
 
-    /* mf eval scores the hull run against the original scene's GT mesh and relit views */
-    CHECK(mf_test_sh("%s eval %s --results %s -o %s --dataset tiny --no-curves 2>/dev/null", mf, scene, res, rep) == 0);
-    snprintf(p, sizeof p, "%s/scenes.csv", rep);
-    EvTable t;
-    ev_table_init(&t);
-    CHECK_OK(ev_table_read_csv(&t, p));
-    EvStat ch = ev_table_stat(&t, "nvdiffrecmc", "tiny", "geom_chamfer"), iou = ev_table_stat(&t, "nvdiffrecmc", "tiny", "geom_mask_iou");
-    EvStat nd = ev_table_stat(&t, "nvdiffrecmc", "tiny", "geom_view_normal_deg"), rl = ev_table_stat(&t, "nvdiffrecmc", "tiny", "relit_psnr");
-    if (getenv("MF_TEST_VERBOSE"))
-        printf("    tiny hull: Chamfer x1e3 %.2f, mask IoU %.3f, view normal %.1f deg, relit PSNR %.2f\n", ch.mean, iou.mean, nd.mean, rl.mean);
-    CHECK(ch.n == 1 && iou.n == 1 && nd.n == 1 && rl.n == 1);
-    /* Measured on this scene (8 training views at 32 px, 64^3 grid, 5000 triangles, 20
-     * iterations): Chamfer x1e3 115, mask IoU 0.654, view normals 44.5 deg, relit PSNR 13.4 dB
-     * (8 views carve a coarse hull that touches the grid; a given mesh scores 0.1 / 1). The
-     * thresholds only catch a mesh that is not this object's hull. */
-    CHECK_MSG(isfinite(ch.mean) && ch.mean > 0 && ch.mean < 250, "Chamfer x1e3 %g", ch.mean);
-    CHECK_MSG(iou.mean > 0.5 && iou.mean < 1, "mask IoU %g", iou.mean);
-    CHECK_MSG(isfinite(rl.mean) && rl.mean > 8, "relit PSNR %g", rl.mean);
-    ev_table_free(&t);
+    /* Scores against the GT mesh: recon_geometry_carve_ci (T8; test_cli_recon_geom_ci.c). Its
+     * fixture's views carve; this split's 8 views at 32 px from 1.5-2 units do not (Chamfer x1e3
+     * 115, mask IoU 0.654 here), so thresholds on this run would test nothing. */
 }
 
 /* run.json's geometry_result; geom_log.csv's first and last mask loss and its row count. */
