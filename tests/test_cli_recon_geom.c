@@ -16,6 +16,7 @@
 #include "io/mf_json.h"
 #include "io/mf_obj.h"
 #include "mf_test.h"
+#include "mf_test_cli_geom.h"
 
 static int same_file(const char *a, const char *b) {
     char *x = NULL, *y = NULL;
@@ -23,20 +24,6 @@ static int same_file(const char *a, const char *b) {
     int same = !mf_read_file(a, &x, &nx) && !mf_read_file(b, &y, &ny) && nx == ny && !memcmp(x, y, nx);
     free(x), free(y);
     return same;
-}
-
-/* run.json's geometry_result.<key> as a number (NAN when absent) and its source into src. */
-static double geom_result(const char *run_dir, const char *key, char *src, size_t cap) {
-    char p[1200];
-    snprintf(p, sizeof p, "%s/run.json", run_dir);
-    cJSON *j = NULL;
-    if (mf_json_load(p, &j)) return NAN;
-    const cJSON *g = cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(j, "options"), "geometry_result");
-    const cJSON *s = cJSON_GetObjectItemCaseSensitive(g, "source"), *v = cJSON_GetObjectItemCaseSensitive(g, key);
-    if (src) snprintf(src, cap, "%s", cJSON_IsString(s) ? s->valuestring : "");
-    double r = cJSON_IsNumber(v) ? v->valuedouble : NAN;
-    cJSON_Delete(j);
-    return r;
 }
 
 #define SMALL "--tex-res 64 --env-w 32 --env-h 16 --hull-res 64 --hull-target-tris 5000"
@@ -53,8 +40,7 @@ MF_TEST(recon_geometry_vhull_tiny) {
     snprintf(other, sizeof other, "%s/other", d);
     CHECK(mf_test_sh("%s gen --split tiny --scenes 1 -o %s 2>/dev/null", mf, d) == 0);
     /* the NeRF-Synthetic layout of the same views, without mesh.obj (or any ground truth) */
-    CHECK(mf_test_sh("mkdir -p %s && cp -r %s/transforms_train.json %s/transforms_test.json %s/train %s/test %s/", bare, scene, scene, scene,
-             scene, bare) == 0);
+    CHECK(bare_copy(scene, bare) == 0);
 
     /* refused combinations: nothing written */
     snprintf(p, sizeof p, "%s/dmtet", other);
@@ -147,8 +133,7 @@ MF_TEST(recon_geometry_dmtet_tiny) {
     snprintf(bare, sizeof bare, "%s/bare", d);
     snprintf(run, sizeof run, "%s/run", d);
     CHECK(mf_test_sh("%s gen --split tiny --scenes 1 -o %s 2>/dev/null", mf, d) == 0);
-    CHECK(mf_test_sh("mkdir -p %s && cp -r %s/transforms_train.json %s/transforms_test.json %s/train %s/test %s/", bare, scene, scene, scene,
-             scene, bare) == 0);
+    CHECK(bare_copy(scene, bare) == 0);
 
     const char *bad[] = {"--dmtet-res 3", "--geom-iters -1"}, *name[] = {"dmtet-res", "geom-iters"};
     for (int k = 0; k < 2; ++k) {

@@ -20,6 +20,7 @@
 #include "eval/ev_table.h"
 #include "io/mf_json.h"
 #include "mf_test.h"
+#include "mf_test_cli_geom.h"
 
 /* The settings the thresholds were measured with (tests/test_cli_recon_geom_ci.c, README
  * "Geometry"): generation, the recon budget shared by all three runs, and each mode's own. */
@@ -57,19 +58,6 @@ static const CiMeasured k_measured[] = {
  * the field has no zero crossing), DMTet's Adam step skipped (mask loss x1.000; its geometry then
  * scores better than with the steps: the mask term roughens the surface, README "Geometry"). */
 
-/* run.json's options.geometry_result.<key> (NAN when absent). */
-static double geom_result(const char *run_dir, const char *key) {
-    char p[1200];
-    snprintf(p, sizeof p, "%s/run.json", run_dir);
-    cJSON *j = NULL;
-    if (mf_json_load(p, &j)) return NAN;
-    const cJSON *g = cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(j, "options"), "geometry_result");
-    const cJSON *v = cJSON_GetObjectItemCaseSensitive(g, key);
-    double r = cJSON_IsNumber(v) ? v->valuedouble : NAN;
-    cJSON_Delete(j);
-    return r;
-}
-
 static double metric(const EvTable *t, const char *method, const char *scene, const char *name) {
     double v = NAN;
     return ev_table_find(t, method, "tiny", scene, name, &v) ? v : NAN;
@@ -90,8 +78,8 @@ MF_TEST(recon_geometry_carve_ci) {
     for (int s = 0; s < ns; ++s) {
         const char *sc = k_measured[s].scene;
         snprintf(bare, sizeof bare, "%s/bare_%s", d, sc);
-        CHECK(mf_test_sh("mkdir -p %s && cp -r %s/%s/transforms_train.json %s/%s/transforms_test.json %s/%s/train %s/%s/test %s/", bare, data,
-                 sc, data, sc, data, sc, data, sc, bare) == 0);
+        snprintf(p, sizeof p, "%s/%s", data, sc);
+        CHECK(bare_copy(p, bare) == 0);
         snprintf(args, sizeof args, "recon %s/%s -o %s/given/%s " CI_RECON, data, sc, res, sc);
         int rc = mf_test_run_mf(args, NULL, err, sizeof err);
         CHECK_MSG(rc == 0, "%s given: exit %d, '%s'", sc, rc, err);
@@ -103,10 +91,10 @@ MF_TEST(recon_geometry_carve_ci) {
         rc = mf_test_run_mf(args, NULL, err, sizeof err);
         CHECK_MSG(rc == 0, "%s dmtet: exit %d, '%s'", sc, rc, err);
         /* the SDF step did its job on the training masks (same views first and last: --geom-views 0) */
-        double first = geom_result(run, "mask_loss_first"), last = geom_result(run, "mask_loss_last");
+        double first = geom_result(run, "mask_loss_first", NULL, 0), last = geom_result(run, "mask_loss_last", NULL, 0);
         if (getenv("MF_TEST_VERBOSE")) printf("    %s dmtet: mask loss %.5f -> %.5f (x%.3f)\n", sc, first, last, last / first);
-        CHECK_MSG(geom_result(run, "steps") == CI_STEPS && first > 0 && last <= CI_LOSS_RATIO * first,
-                  "%s dmtet: %g steps, mask loss %g -> %g (must fall to <= %.2fx)", sc, geom_result(run, "steps"), first, last,
+        CHECK_MSG(geom_result(run, "steps", NULL, 0) == CI_STEPS && first > 0 && last <= CI_LOSS_RATIO * first,
+                  "%s dmtet: %g steps, mask loss %g -> %g (must fall to <= %.2fx)", sc, geom_result(run, "steps", NULL, 0), first, last,
                   CI_LOSS_RATIO);
     }
 
