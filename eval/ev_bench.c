@@ -41,8 +41,6 @@ static int is_scene(const char *dir) {
            (!mf_path_join(p, sizeof p, dir, "transforms.json") && mf_file_exists(p));
 }
 
-typedef char EvName[EV_NAME_MAX];
-
 /* 1 when name is one of the comma-separated items of list. */
 static int in_list(const char *list, const char *name) {
     size_t n = strlen(name);
@@ -104,6 +102,8 @@ static int list_dirs(const char *dir, int need_scene, const char *keep, EvName *
     *n = cnt;
     return MF_OK;
 }
+
+int ev_scene_dirs(const char *dir, EvName **names, int *n) { return list_dirs(dir, 1, NULL, names, n); }
 
 /* Wall seconds, peak RSS and the prior's seconds (MaterialFusion: options.prior_s) of a result
  * folder's run.json (0 when absent; prior may be NULL). With prov, appends the run's provenance as

@@ -36,4 +36,8 @@ typedef struct {
  * (message in mf_error(), naming the folder). */
 int ev_bench_run(const EvBench *b, const EvEvalOpts *o);
 
+/* The scene folders of dir (those holding transforms_test.json or transforms.json), sorted, into
+ * *names (malloc'ed, (*n,)); MF_EIO naming dir when it cannot be read. */
+int ev_scene_dirs(const char *dir, EvName **names, int *n);
+
 #endif

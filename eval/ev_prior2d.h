@@ -12,7 +12,13 @@
  * roughness and metallic (ev_protocol_prepare_orm), PSNR / L1 inside the mask, and each channel's
  * mean squared error inside the mask (rough_mse, metal_mse; not in the table, used for the trust
  * below). Records go to an
- * EvTable under data set "test-2d", scene = the sample number "NNNNNN". */
+ * EvTable under data set "test-2d", scene = the sample number "NNNNNN".
+ *
+ * The same table on the objects of a 3D split (ev_prior2d_load_scenes): each scene folder is one
+ * object, its first views of the test split (held-out views under the training light, with their
+ * per-view GT albedo and ORM) box-filtered to the prior's resolution; records under the split
+ * folder's base name, scene = "<scene>/<view>". This measures the prior's own accuracy on the
+ * objects a reconstruction is run on. */
 #ifndef EV_PRIOR2D_H
 #define EV_PRIOR2D_H
 
@@ -28,10 +34,17 @@ extern const char *const ev_prior2d_metrics[EV_PRIOR2D_NK];
 typedef struct {
     int n, V, R;                            /* samples (whole objects), views per object, image size */
     MfImage *rgb_raw, *rgb, *albedo, *orm;  /* owned; (n,) each, RGBA (R, R, 4): raw codes / linear / linear / linear */
+    char dataset[EV_NAME_MAX];              /* the records' data set: "test-2d", or a 3D split's folder name */
+    EvName *names;                          /* owned; (n,) "<scene>/<view>" (3D split), NULL: "NNNNNN" */
 } EvPrior2dSplit;
 
 /* Reads the first max_objects objects (0: all) of a split; every image must be R x R. */
 int ev_prior2d_load(const char *dir, int max_objects, EvPrior2dSplit *s);
+/* Reads the first max_objects scene folders (0: all) of the 3D split dir (any format ds_load
+ * reads), V = views test views each at R x R (the images' width a multiple of R); rgb_raw is
+ * the view's straight-alpha colour sRGB-encoded, as SDS gives the prior its views. A scene with
+ * fewer than V test views, or a view without GT albedo and ORM, is refused by name. */
+int ev_prior2d_load_scenes(const char *dir, int R, int views, int max_objects, EvPrior2dSplit *s);
 void ev_prior2d_free(EvPrior2dSplit *s);
 
 /* Predictions per method: albedo[m], orm[m] owned, (n,) each, NULL where method m predicts no
@@ -53,7 +66,7 @@ int ev_prior2d_score(const EvPrior2dSplit *s, const EvPrior2dPreds *p, EvTable *
  * constant predictor's squared error that method m removes, over all views (means of the per-view
  * rough_mse / metal_mse records), clamped to [0, 1]; 0 when either method has no record. k: 0
  * roughness, 1 metallic. */
-void ev_prior2d_trust(const EvTable *t, int m, double trust[2]);
+void ev_prior2d_trust(const EvTable *t, const char *dataset, int m, double trust[2]);
 
 /* The settings the table's caption and table2d.json state. */
 typedef struct {
@@ -66,7 +79,9 @@ typedef struct {
 
 /* Writes OUT/table2d.md (paper layout), table2d.csv (every record), table2d.json (settings,
  * timings and StableMaterial's channel trust) and examples2d.png (rows: the first views, up to 4; columns: input, GT albedo, SM, MV,
- * Retinex, GT ORM, SM ORM, MV ORM; a failure to write the picture is only logged). */
+ * Retinex, GT ORM, SM ORM, MV ORM; a failure to write the picture is only logged). A 3D split adds
+ * objects.csv (every method's per-object means over its views, scene = the scene folder) and
+ * objects.md (the table over objects: the CI is over objects, not views). */
 int ev_prior2d_write(const char *out, const EvTable *t, const EvPrior2dSplit *s, const EvPrior2dPreds *p,
                      const EvPrior2dInfo *info);
 

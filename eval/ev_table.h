@@ -16,6 +16,7 @@
 /* Bytes of a method, dataset or scene name with its NUL: 255 characters, a file name's limit
  * (NAME_MAX), so every folder name fits; longer names are refused, never truncated. */
 #define EV_NAME_MAX 256
+typedef char EvName[EV_NAME_MAX];
 
 typedef struct {
     char method[EV_NAME_MAX], dataset[EV_NAME_MAX], scene[EV_NAME_MAX], metric[32];

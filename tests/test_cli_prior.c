@@ -121,6 +121,45 @@ MF_TEST(prior_eval_cli_writes_table) {
     CHECK_MSG(strstr(err, "prior works at 16"), "wrong resolution: %s", err);
 }
 
+/* eval-prior on the objects of a 3D split (mf gen --split tiny, 32 px, at the tiny prior's 16 px):
+ * records per view "<scene>/<view>" under the split folder's name, objects.csv holds each object's
+ * mean over its views, and asking for more views than a scene has is refused naming the scene. */
+MF_TEST(prior_eval_cli_scenes) {
+    MF_NEED_BIN();
+    MfPrior *p;
+    tp_tiny_prior(&p);
+    char w[MF_PATH_MAX], dir[MF_PATH_MAX], out[MF_PATH_MAX], f[MF_PATH_MAX], args[6 * MF_PATH_MAX], err[16384];
+    mf_test_path_to(w, sizeof w, "prior_eval3d.mfck");
+    CHECK_OK(mf_prior_save(p, w, NULL));
+    mf_prior_free(p);
+    mf_test_path_to(dir, sizeof dir, "prior_eval3d");
+    snprintf(args, sizeof args, "gen --split tiny --scenes 2 -o '%s'", dir);
+    CHECK_MSG(mf_test_run_mf(args, NULL, err, sizeof err) == 0, "mf %s: %s", args, err);
+    mf_test_path_to(out, sizeof out, "prior_eval3d_out");
+    snprintf(args, sizeof args, "eval-prior '%s' -o '%s' --weights '%s' --train '%s' --views 2 --samples 1 --steps 2 --no-mv",
+             dir, out, w, tp_synth_dir());
+    CHECK_MSG(mf_test_run_mf(args, NULL, err, sizeof err) == 0, "mf %s: %s", args, err);
+    EvTable t, o;
+    ev_table_init(&t), ev_table_init(&o);
+    mf_path_join(f, sizeof f, out, "table2d.csv");
+    CHECK_OK(ev_table_read_csv(&t, f));
+    mf_path_join(f, sizeof f, out, "objects.csv");
+    CHECK_OK(ev_table_read_csv(&o, f));
+    CHECK(ev_table_stat(&t, "Retinex", "prior_eval3d", "albedo_psnr").n == 4);
+    CHECK(ev_table_stat(&o, "Retinex", "prior_eval3d", "albedo_psnr").n == 2);
+    double v0 = 0, v1 = 0, ob = 0;
+    CHECK(ev_table_find(&t, "StableMaterial", "prior_eval3d", "001_vase/r_000", "orm_psnr", &v0));
+    CHECK(ev_table_find(&t, "StableMaterial", "prior_eval3d", "001_vase/r_001", "orm_psnr", &v1));
+    CHECK(ev_table_find(&o, "StableMaterial", "prior_eval3d", "001_vase", "orm_psnr", &ob));
+    CHECK_NEAR(ob, 0.5 * (v0 + v1), 1e-6 * (1 + fabs(ob)));
+    CHECK(v0 != v1); /* two different views */
+    ev_table_free(&t), ev_table_free(&o);
+    snprintf(args, sizeof args, "eval-prior '%s' -o '%s' --weights '%s' --train '%s' --views 50 --samples 1 --steps 2 --no-mv",
+             dir, out, w, tp_synth_dir());
+    CHECK(mf_test_run_mf(args, NULL, err, sizeof err) != 0);
+    CHECK_MSG(strstr(err, "000_cup") && strstr(err, "--views asks for 50"), "too many views: %s", err);
+}
+
 /* mf bench-prior (tiny model, one round): one column per conv backend of the build, both measured in
  * the same rounds in a DNNL build. No timing asserts. */
 MF_TEST(prior_bench_cli_backend_columns) {

@@ -19,10 +19,10 @@ MF_TEST(eval_prior2d_trust) {
     add2(&t, EV_P2_SM, "000000", 0.01, 0.30);
     add2(&t, EV_P2_SM, "000001", 0.02, 0.20);
     double tr[2] = {-1, -1}, none[2] = {-1, -1};
-    ev_prior2d_trust(&t, EV_P2_SM, tr);
+    ev_prior2d_trust(&t, "test-2d", EV_P2_SM, tr);
     CHECK_NEAR(tr[0], 0.75, 1e-12);
     CHECK(tr[1] == 0.0);
-    ev_prior2d_trust(&t, EV_P2_MV, none);
+    ev_prior2d_trust(&t, "test-2d", EV_P2_MV, none);
     CHECK(none[0] == 0.0 && none[1] == 0.0);
     ev_table_free(&t);
 }

@@ -16,7 +16,7 @@
 
 typedef struct {
     const char *dir, *out, *weights, *train;
-    int samples, steps, seed, max_objects, no_mv;
+    int samples, steps, seed, max_objects, views, no_mv;
     float guidance, retinex_sigma;
 } EvalPriorArgs;
 
@@ -31,6 +31,7 @@ static const MfOpt k_args[] = {
     MF_OPT_FLOAT(A, guidance, MF_PRIOR_GUIDANCE, 0, 100, "classifier-free guidance"),
     MF_OPT_INT(A, seed, 0, 0, 2147483647, "random seed (object o uses seed + o)"),
     MF_OPT_INT(A, max_objects, 0, 0, 1000000, "score only the first K objects (0: all)"),
+    MF_OPT_INT(A, views, 4, 1, 1000, "3D split: test views per object (the first N of each scene)"),
     MF_OPT_FLOAT(A, retinex_sigma, 0, 0.01, 10000, "Retinex blur (std, pixels)", .meta = "PX", .unset = "R/8"),
     MF_OPT_BOOL(A, no_mv, 0, "skip StableMaterialMV (the multi-view pass)"),
 };
@@ -41,10 +42,13 @@ static char usage[8192];
 __attribute__((constructor)) static void eval_prior_usage(void) {
     const MfOptTable *t[] = {&k_args_table};
     mf_opts_usage_text(usage, sizeof usage,
-                       "usage: mf eval-prior TEST2D_DIR -o OUT_DIR [--weights CKPT] [--train DIR] [--samples N] [--steps S]\n"
-                       "                     [--guidance G] [--seed S] [--max-objects K] [--retinex-sigma PX] [--no-mv]\n"
+                       "usage: mf eval-prior TEST2D_DIR|SPLIT_3D -o OUT_DIR [--weights CKPT] [--train DIR] [--samples N] [--steps S]\n"
+                       "                     [--guidance G] [--seed S] [--max-objects K] [--views N] [--retinex-sigma PX] [--no-mv]\n"
                        "  2D evaluation of the prior (paper Table 3) on a test-2d split (prior-train layout, views of an\n"
-                       "  object consecutive, manifest \"views_per_object\"). StableMaterial = each view alone, mean of N\n"
+                       "  object consecutive, manifest \"views_per_object\"), or on the objects of a 3D split (a folder of\n"
+                       "  scene folders, no rgb/000000.png: each object's first --views test views with their GT albedo\n"
+                       "  and ORM, box-filtered to the prior's resolution; adds objects.{md,csv}, per-object means).\n"
+                       "  StableMaterial = each view alone, mean of N\n"
                        "  samples of S DDIM steps with guidance G; StableMaterialMV = the views of each object jointly.\n"
                        "  Baselines: input image as albedo, Retinex (rgb / Gaussian-blurred luminance), mean\n"
                        "  roughness/metallic of the --train split. Writes OUT_DIR/table2d.{md,csv,json} and examples2d.png.\n",
@@ -108,9 +112,12 @@ static int eval_prior_run(EvalPriorArgs *a) {
     MfPrior *p = NULL;
     EvTable t;
     ev_table_init(&t);
-    int rc = ev_prior2d_load(a->dir, a->max_objects, &s);
+    char first[MF_PATH_MAX]; /* a 2D split's first input image */
+    int rc = ds_prior2d_path(a->dir, "rgb", 0, first, sizeof first);
     if (!rc) rc = train_orm_mean(a->train, &info.train_roughness, &info.train_metallic);
     if (!rc) rc = mf_prior_load_path(a->weights, &p);
+    if (!rc) rc = mf_file_exists(first) ? ev_prior2d_load(a->dir, a->max_objects, &s)
+                                      : ev_prior2d_load_scenes(a->dir, p->cfg.ae.res, a->views, a->max_objects, &s);
     if (!rc && p->cfg.ae.res != s.R)
         rc = mf_fail(MF_EARG, "%s: images are %d px, the prior works at %d px (generate test-2d at --res %d)", a->dir, s.R,
                      p->cfg.ae.res, p->cfg.ae.res);
@@ -127,12 +134,12 @@ static int eval_prior_run(EvalPriorArgs *a) {
             !(rc = bl_albedo_retinex(&s.rgb[i], info.retinex_sigma, &pr.albedo[EV_P2_RETINEX][i])))
             rc = bl_orm_constant(&s.rgb[i], info.train_roughness, info.train_metallic, &pr.orm[EV_P2_MEAN_ORM][i]);
     if (!rc) rc = ev_prior2d_score(&s, &pr, &t);
-    if (!rc) ev_prior2d_trust(&t, EV_P2_SM, info.trust);
+    if (!rc) ev_prior2d_trust(&t, s.dataset, EV_P2_SM, info.trust);
     if (!rc) rc = ev_prior2d_write(a->out, &t, &s, &pr, &info);
     for (int m = 0; m < EV_PRIOR2D_NM && !rc; ++m) {
         printf("%-18s", ev_prior2d_methods[m]);
         for (int k = 0; k < EV_PRIOR2D_NK; ++k) {
-            EvStat st = ev_table_stat(&t, ev_prior2d_methods[m], "test-2d", ev_prior2d_metrics[k]);
+            EvStat st = ev_table_stat(&t, ev_prior2d_methods[m], s.dataset, ev_prior2d_metrics[k]);
             if (st.n) printf("  %s %.4f", ev_prior2d_metrics[k], st.mean);
         }
         printf("\n");
