@@ -333,7 +333,7 @@ bench-asset: $(ASSET) $(BUILD)/mf
 STAB_WORK ?= $(RESULTS)/stability
 bench-stability: $(BUILD)/mf
 	rm -rf $(STAB_WORK)
-	$(MF) bench-stability --mf $(MF) --work $(STAB_WORK) -o reports/stability --iters 200 --mem-iters 10000
+	$(MF) bench-stability --mf $(MF) --work $(STAB_WORK) -o reports/stability --iters 200 --mem-iters 10000 --seeds 5
 
 # Geometry recovery (issue 14): the visual hull of every test-3d scene (64 masks at 128 px,
 # 128^3 grid), scored against the GT mesh (Stanford-ORB Chamfer x1e3, normal error), beside the

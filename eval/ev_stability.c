@@ -18,6 +18,7 @@
 #include "core/mf_strbuf.h"
 #include "eval/ev_eval.h"
 #include "eval/ev_metrics.h"
+#include "eval/ev_paired.h"
 #include "eval/ev_table.h"
 #include "io/mf_exr.h"
 #include "io/mf_image.h"
@@ -138,8 +139,8 @@ static void finish_cell(int st, const struct rusage *ru, const struct timespec *
 /* Runs the n commands cmds[i] (stderr to errs[i]) at most `jobs` at a time, each result into
  * res[i] (exit code, wall seconds, peak RSS); returns when all have ended. */
 static int run_pool(char (*cmds)[4096], char (*errs)[1100], EvStabResult *const *res, int n, int jobs) {
-    pid_t pid[EV_STAB_MAX_CELLS + 2];
-    struct timespec t0[EV_STAB_MAX_CELLS + 2];
+    pid_t pid[EV_STAB_MAX_RUNS];
+    struct timespec t0[EV_STAB_MAX_RUNS];
     int next = 0, running = 0, rc = MF_OK;
     while (next < n || running > 0) {
         while (!rc && running < jobs && next < n) {
@@ -285,8 +286,53 @@ static void fmt_db(char *buf, size_t cap, double v, int sign) {
     else snprintf(buf, cap, sign ? "%+.2f" : "%.2f", v);
 }
 
+static const char *const k_seed_kind[2] = {"baseline", "materialfusion"};
+static const char *const k_seed_metric[3] = {"relit_psnr", "albedo_psnr", "orm_psnr"};
+
+void ev_stab_seed_row(const EvTable *t, EvStabSeedRow *row) {
+    memset(row, 0, sizeof *row);
+    row->ok = 1;
+    for (int m = 0; m < 2; ++m)
+        for (int k = 0; k < 3; ++k) {
+            char ref[64], var[64];
+            snprintf(ref, sizeof ref, "%s reference", k_seed_kind[m]);
+            snprintf(var, sizeof var, "%s png_-4", k_seed_kind[m]);
+            EvPaired p;
+            ev_paired(t, var, ref, "seeds", k_seed_metric[k], &p);
+            double lo = INFINITY, hi = -INFINITY;
+            for (size_t i = 0; i < t->n; ++i) {
+                const EvRecord *r = &t->rec[i];
+                if (strcmp(r->method, ref) || strcmp(r->dataset, "seeds") || strcmp(r->metric, k_seed_metric[k])) continue;
+                lo = fmin(lo, r->value), hi = fmax(hi, r->value);
+            }
+            row->n = m == 0 && k == 0 ? p.n : (p.n < row->n ? p.n : row->n);
+            row->mean[m][k] = p.n ? p.mean : NAN, row->lo[m][k] = p.lo, row->hi[m][k] = p.hi;
+            row->spread[m][k] = hi >= lo ? hi - lo : NAN;
+            if (!p.n || !(fabs(p.mean) <= EV_STAB_SEED_DB)) row->ok = 0;
+        }
+}
+
+/* The seed row's section of the report (Markdown into m) and its CSV (c: seeds.csv). */
+static void write_seed_row(MfStrBuf *m, MfStrBuf *c, const EvStabSeedRow *s) {
+    mf_sb_printf(m, "\nSeed row: the 8-bit -4 stops variant (png_-4) against the reference, both reconstructed at recon "
+                    "seeds 1..%d (paired over seeds: mean difference png_-4 - reference with its 95%% CI, Student t); "
+                    "beside it the reference's own spread over the seeds (max - min). Expected: |mean| <= %.1f dB "
+                    "(issue 18's exposure target): %s.\n\n| method | metric | seeds | mean diff dB | 95%% CI | "
+                    "reference spread dB |\n|---|---|---|---|---|---|\n",
+                 s->n, EV_STAB_SEED_DB, s->ok ? "yes" : "**NO**");
+    mf_sb_printf(c, "method,metric,seeds,mean_diff,ci_lo,ci_hi,reference_spread,expected\n");
+    for (int mi = 0; mi < 2; ++mi)
+        for (int k = 0; k < 3; ++k) {
+            mf_sb_printf(m, "| %s | %s | %d | %+.2f | [%+.2f, %+.2f] | %.2f |\n", k_seed_kind[mi], k_seed_metric[k], s->n,
+                         s->mean[mi][k], s->lo[mi][k], s->hi[mi][k], s->spread[mi][k]);
+            mf_sb_printf(c, "%s,%s,%d,%.4f,%.4f,%.4f,%.4f,%d\n", k_seed_kind[mi], k_seed_metric[k], s->n, s->mean[mi][k],
+                         s->lo[mi][k], s->hi[mi][k], s->spread[mi][k], s->ok);
+        }
+}
+
 static int write_report(const char *out_dir, const EvStabCell *const *cells, const EvStabResult *res, int n, int iters,
-                        const EvStabResult *mem, const int *mem_iters, int nmem, double total_s, int jobs, int threads) {
+                        const EvStabResult *mem, const int *mem_iters, int nmem, const EvStabSeedRow *seeds, double total_s,
+                        int jobs, int threads) {
     char md[1024], csv[1024];
     snprintf(md, sizeof md, "%s/README.md", out_dir);
     snprintf(csv, sizeof csv, "%s/grid.csv", out_dir);
@@ -345,9 +391,17 @@ static int write_report(const char *out_dir, const EvStabCell *const *cells, con
                          mem_iters[i], mem[i].exit_code, mem[i].exit_code == 0, mem[i].wall_s, mem[i].peak_rss_kb / 1024.0);
         }
     }
+    int rc3 = MF_OK;
+    if (seeds->n) {
+        MfStrBuf sc = {0};
+        char scsv[1024];
+        snprintf(scsv, sizeof scsv, "%s/seeds.csv", out_dir);
+        write_seed_row(&m, &sc, seeds);
+        rc3 = mf_sb_write(&sc, scsv);
+    }
     int rc = mf_sb_write(&m, md);
     int rc2 = mf_sb_write(&c, csv);
-    return rc ? rc : rc2;
+    return rc ? rc : rc2 ? rc2 : rc3;
 }
 
 /* Variants whose renders should equal the reference's (to float precision): render dB is
@@ -371,8 +425,43 @@ static int cell_ok(const EvStabCell *c, const EvStabResult *r, const char *err_p
     return !(c->min_render_db > 0) || (!isnan(r->render_db) && r->render_db >= c->min_render_db);
 }
 
-int ev_stab_grid(const char *mf, const char *work, const char *out_dir, int iters, int mem_iters, int quick, int jobs,
-                 EvStabResult *results, int cap, int *n_out) {
+/* Recon commands of the seed row: for seeds 2..o->seeds, each method's reference and png_-4 cells
+ * with --seed, appended to cmd/err/slot from index n; their results go to sres (4 per seed). */
+static int seed_cmds(const char *mf, const char *work, const char *env, const EvStabOpts *o, int n, char (*cmd)[4096],
+                     char (*err)[1100], EvStabResult **slot, EvStabResult *sres) {
+    int j = 0;
+    for (int s = 2; s <= o->seeds; ++s)
+        for (int m = 0; m < 2; ++m)
+            for (int v = 0; v < 2; ++v, ++j) {
+                char args[32], scene[1200], out[1090];
+                snprintf(args, sizeof args, "--seed %d", s);
+                EvStabCell c = {"seed", k_seed_kind[m], v ? "png_-4" : "reference", args, NULL, 0, 0, 0};
+                snprintf(scene, sizeof scene, "%s/scenes/%s/000_cup", work, c.variant);
+                snprintf(out, sizeof out, "%s/seed%d-%s-%s", work, s, c.kind, c.variant);
+                snprintf(err[n + j], sizeof err[n + j], "%s.err", out);
+                size_t e = (size_t)snprintf(cmd[n + j], sizeof cmd[n + j], "%s", env);
+                cell_cmd(cmd[n + j] + e, sizeof cmd[n + j] - e, mf, scene, out, &c, o->iters);
+                memset(&sres[j], 0, sizeof sres[j]);
+                for (int k = 0; k < 3; ++k) sres[j].db[k] = NAN;
+                slot[n + j] = &sres[j];
+            }
+    return j;
+}
+
+/* Adds a recon result's three PSNRs to the seed table t (method "<kind> <variant>"). */
+static int seed_record(EvTable *t, const char *kind, const char *variant, int seed, const EvStabResult *r) {
+    char method[64], scene[16];
+    snprintf(method, sizeof method, "%s %s", kind, variant);
+    snprintf(scene, sizeof scene, "seed %d", seed);
+    int rc = MF_OK;
+    for (int k = 0; k < 3 && !rc; ++k)
+        if (r->exit_code == 0 && !isnan(r->db[k])) rc = ev_table_add(t, method, "seeds", scene, k_seed_metric[k], r->db[k]);
+    return rc;
+}
+
+int ev_stab_grid(const char *mf, const char *work, const char *out_dir, const EvStabOpts *o, EvStabResult *results,
+                 int cap, int *n_out, EvStabSeedRow *seed_row) {
+    int iters = o->iters, quick = o->quick, jobs = o->jobs;
     char layout[1024], scene[1200], vdir[1100], ref_render[1100] = "";
     struct timespec t0, t1;
     clock_gettime(CLOCK_MONOTONIC, &t0);
@@ -384,9 +473,11 @@ int ev_stab_grid(const char *mf, const char *work, const char *out_dir, int iter
     const EvStabCell *cells = ev_stab_cells(&nc);
     const EvStabCell *ran[EV_STAB_MAX_CELLS];
     int idx[EV_STAB_MAX_CELLS];
-    /* one pool of commands: the cells, then the memory row's two runs */
-    char(*cmd)[4096] = malloc((EV_STAB_MAX_CELLS + 2) * sizeof *cmd), (*err)[1100] = malloc((EV_STAB_MAX_CELLS + 2) * sizeof *err);
-    EvStabResult mem[2], *slot[EV_STAB_MAX_CELLS + 2];
+    if (o->seeds < 1 || o->seeds > EV_STAB_MAX_SEEDS)
+        return mf_fail(MF_EARG, "stability grid: --seeds %d outside [1, %d]", o->seeds, EV_STAB_MAX_SEEDS);
+    /* one pool of commands: the cells, the memory row's two runs, the seed row's */
+    char(*cmd)[4096] = malloc(EV_STAB_MAX_RUNS * sizeof *cmd), (*err)[1100] = malloc(EV_STAB_MAX_RUNS * sizeof *err);
+    EvStabResult mem[2], sres[4 * (EV_STAB_MAX_SEEDS - 1)], *slot[EV_STAB_MAX_RUNS];
     if (!cmd || !err) {
         free(cmd), free(err);
         return mf_fail(MF_ENOMEM, "stability grid: out of memory");
@@ -425,7 +516,7 @@ int ev_stab_grid(const char *mf, const char *work, const char *out_dir, int iter
         r->rough[0] = r->rough[1] = r->metal[0] = r->metal[1] = NAN;
         slot[n] = r, ran[n] = c, idx[n] = i, ++n;
     }
-    int mem_n[2] = {50, mem_iters}, nmem = quick ? 0 : 2;
+    int mem_n[2] = {50, o->mem_iters}, nmem = quick ? 0 : 2;
     for (int i = 0; i < nmem && !rc; ++i) {
         static const EvStabCell base = {"memory", "baseline", "reference", "", NULL, 0, 0, 0};
         char out[1100];
@@ -437,7 +528,8 @@ int ev_stab_grid(const char *mf, const char *work, const char *out_dir, int iter
         memset(&mem[i], 0, sizeof mem[i]);
         slot[n + i] = &mem[i];
     }
-    if (!rc) rc = run_pool(cmd, err, slot, n + nmem, jobs);
+    int nseed = quick || rc ? 0 : seed_cmds(mf, work, env, o, n + nmem, cmd, err, slot, sres);
+    if (!rc) rc = run_pool(cmd, err, slot, n + nmem + nseed, jobs);
     /* scoring, in the cells' order: each reference cell comes before the cells compared with it */
     const EvStabResult *ref[2] = {NULL, NULL}; /* baseline, materialfusion reference cells */
     for (int j = 0; j < n && !rc; ++j) {
@@ -463,10 +555,33 @@ int ev_stab_grid(const char *mf, const char *work, const char *out_dir, int iter
         }
         r->ok = cell_ok(c, r, err[j]);
     }
+    /* the seed row: seed 1 from the grid's own cells, then the extra seeds' runs */
+    EvStabSeedRow row = {0};
+    if (nseed && !rc) {
+        EvTable st;
+        ev_table_init(&st);
+        for (int j = 0; j < n && !rc; ++j) {
+            const EvStabCell *c = ran[j];
+            int is_png = !strcmp(c->variant, "png_-4") && !c->args[0];
+            if (strcmp(c->kind, "render") && (is_reference(c, c->kind) || is_png))
+                rc = seed_record(&st, c->kind, c->variant, 1, &results[j]);
+        }
+        for (int j = 0; j < nseed && !rc; ++j) {
+            const char *kind = k_seed_kind[(j / 2) % 2], *variant = j % 2 ? "png_-4" : "reference";
+            char out[1100], scene[1200];
+            snprintf(out, sizeof out, "%s/seed%d-%s-%s", work, 2 + j / 4, kind, variant);
+            snprintf(scene, sizeof scene, "%s/scenes/%s/000_cup", work, variant);
+            if (sres[j].exit_code == 0) score_recon(scene, out, &sres[j]);
+            rc = seed_record(&st, kind, variant, 2 + j / 4, &sres[j]);
+        }
+        if (!rc) ev_stab_seed_row(&st, &row);
+        ev_table_free(&st);
+    }
+    if (seed_row) *seed_row = row;
     free(cmd), free(err);
     if (rc) return rc;
     *n_out = n;
     clock_gettime(CLOCK_MONOTONIC, &t1);
     double total = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
-    return write_report(out_dir, ran, results, n, iters, mem, mem_n, nmem, total, jobs, threads);
+    return write_report(out_dir, ran, results, n, iters, mem, mem_n, nmem, &row, total, jobs, threads);
 }

@@ -19,8 +19,12 @@
 #include <stddef.h>
 
 #include "eval/ev_stab_scene.h"
+#include "eval/ev_table.h"
 
 #define EV_STAB_MAX_CELLS 128
+#define EV_STAB_MAX_SEEDS 9
+/* Child runs of one grid: the cells, the memory row's two, the seed row's 4 per extra seed. */
+#define EV_STAB_MAX_RUNS (EV_STAB_MAX_CELLS + 2 + 4 * (EV_STAB_MAX_SEEDS - 1))
 
 typedef struct {
     const char *name;    /* cell label, e.g. "lr at its maximum (1)" */
@@ -49,6 +53,28 @@ typedef struct {
     int ok;             /* 1 when the cell behaved as expected (see EvStabCell) */
 } EvStabResult;
 
+/* The grid's settings (mf bench-stability's options). */
+typedef struct {
+    int iters;     /* iterations of each recon cell */
+    int mem_iters; /* the memory row's long run (its short run: 50) */
+    int quick;     /* 1: only the cells marked quick; no memory or seed row */
+    int jobs;      /* cells run at once (< 1: one per core) */
+    int seeds;     /* 1..EV_STAB_MAX_SEEDS: the seed row repeats the 8-bit -4 stops cells and their
+                      references at recon seeds 2..seeds (1: no seed row) */
+} EvStabOpts;
+
+/* The seed row: the effect of darkening the 8-bit training images 4 stops (variant png_-4) on
+ * each method ([0] baseline, [1] MaterialFusion) and metric (relit, albedo, ORM PSNR), paired
+ * over recon seeds 1..n (ev_paired: mean difference png_-4 - reference and its 95% CI), beside
+ * the reference's own seed-to-seed spread (max - min over the seeds). ok: every |mean| <=
+ * EV_STAB_SEED_DB, issue 18's exposure target. */
+#define EV_STAB_SEED_DB 0.3
+typedef struct {
+    int n;
+    double mean[2][3], lo[2][3], hi[2][3], spread[2][3];
+    int ok;
+} EvStabSeedRow;
+
 /* Counts the .exr files under `dir` (recursively) and those that hold a non-finite value. */
 int ev_stab_scan_dir(const char *dir, int *exr_files, int *nonfinite);
 
@@ -57,16 +83,19 @@ int ev_stab_scan_dir(const char *dir, int *exr_files, int *nonfinite);
 void ev_stab_scan_ckpt(const char *dir, long *values, long *nonfinite);
 
 /* Runs the grid: builds the variants the cells use under work/scenes/, then every cell of
- * ev_stab_cells() (quick != 0: only those marked quick, and no memory row); recon cells run
- * `iters` iterations (memory row: 50 and `mem_iters`). jobs: cells run at once (< 1: one per
+ * ev_stab_cells() (o->quick: only those marked quick, and no memory or seed row); recon cells run
+ * o->iters iterations (memory row: 50 and o->mem_iters). o->jobs: cells run at once (< 1: one per
  * core); with jobs > 1 each gets OMP_NUM_THREADS = cores / jobs (at least 1). Results are not bit-identical across
  * thread counts (the renderer's OpenMP sums run in another order), so every cell of a run gets
  * the same count and is compared with its reference cell from the same run; wall times are
  * measured under the load of the cells beside it. results[i] belongs to the i-th
- * cell run (ev_stab_cells order, skipping the others). Writes out_dir/README.md and
- * out_dir/grid.csv atomically. */
-int ev_stab_grid(const char *mf_bin, const char *work, const char *out_dir, int iters, int mem_iters, int quick, int jobs,
-                 EvStabResult *results, int cap, int *n_out);
+ * cell run (ev_stab_cells order, skipping the others); *seed_row (may be NULL) gets the seed row
+ * (n = 0 without one). Writes out_dir/README.md and out_dir/grid.csv atomically. */
+int ev_stab_grid(const char *mf_bin, const char *work, const char *out_dir, const EvStabOpts *o, EvStabResult *results,
+                 int cap, int *n_out, EvStabSeedRow *seed_row);
+/* The seed row from t's records (method "<kind> reference" / "<kind> png_-4" for kind baseline and
+ * materialfusion, dataset "seeds", scene = the seed, metrics relit_psnr, albedo_psnr, orm_psnr). */
+void ev_stab_seed_row(const EvTable *t, EvStabSeedRow *row);
 
 /* The grid's cells; *n gets their count. */
 const EvStabCell *ev_stab_cells(int *n);

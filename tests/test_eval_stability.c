@@ -49,7 +49,8 @@ MF_TEST(stability_quick_grid) {
     snprintf(out, sizeof out, "%s/report", work);
     EvStabResult res[EV_STAB_MAX_CELLS];
     int n = 0, nc, nq = 0, bounded = 0;
-    CHECK_OK(ev_stab_grid(mf, work, out, 20, 50, 1, 2, res, EV_STAB_MAX_CELLS, &n));
+    EvStabOpts o = {.iters = 20, .mem_iters = 50, .quick = 1, .jobs = 2, .seeds = 1};
+    CHECK_OK(ev_stab_grid(mf, work, out, &o, res, EV_STAB_MAX_CELLS, &n, NULL));
     const EvStabCell *cells = ev_stab_cells(&nc);
     for (int i = 0; i < nc; ++i) nq += cells[i].quick;
     CHECK(n == nq && n >= 10);
@@ -76,4 +77,46 @@ MF_TEST(stability_quick_grid) {
     char md[1200];
     snprintf(md, sizeof md, "%s/README.md", out);
     CHECK(mf_file_exists(md));
+}
+
+/* The seed row: per method and metric the paired mean of png_-4 - reference over seeds with its CI
+ * (ev_paired), the reference's spread (max - min), ok only when every |mean| <= 0.3 dB. */
+MF_TEST(stability_seed_row) {
+    static const char *kind[2] = {"baseline", "materialfusion"}, *metric[3] = {"relit_psnr", "albedo_psnr", "orm_psnr"};
+    static const double ref[3] = {20.0, 20.4, 19.8}, diff[3] = {0.1, 0.2, 0.3};
+    EvTable t;
+    ev_table_init(&t);
+    for (int m = 0; m < 2; ++m)
+        for (int s = 0; s < 3; ++s)
+            for (int k = 0; k < 3; ++k) {
+                char rm[64], vm[64], sc[16];
+                snprintf(rm, sizeof rm, "%s reference", kind[m]);
+                snprintf(vm, sizeof vm, "%s png_-4", kind[m]);
+                snprintf(sc, sizeof sc, "seed %d", s + 1);
+                CHECK_OK(ev_table_add(&t, rm, "seeds", sc, metric[k], ref[s] + k));
+                CHECK_OK(ev_table_add(&t, vm, "seeds", sc, metric[k], ref[s] + k + diff[s] * (m ? 3.0 : 1.0)));
+            }
+    EvStabSeedRow row;
+    ev_stab_seed_row(&t, &row);
+    CHECK(row.n == 3);
+    CHECK_NEAR(row.mean[0][1], 0.2, 1e-9);
+    CHECK_NEAR(row.spread[0][2], 0.6, 1e-9);
+    CHECK(row.lo[0][0] < 0.2 && row.hi[0][0] > 0.2);
+    CHECK_NEAR(row.mean[1][0], 0.6, 1e-9);
+    CHECK(!row.ok); /* MaterialFusion's mean 0.6 dB > 0.3 */
+    ev_table_free(&t);
+    ev_table_init(&t);
+    for (int m = 0; m < 2; ++m)
+        for (int s = 0; s < 2; ++s)
+            for (int k = 0; k < 3; ++k) {
+                char rm[64], vm[64], sc[16];
+                snprintf(rm, sizeof rm, "%s reference", kind[m]);
+                snprintf(vm, sizeof vm, "%s png_-4", kind[m]);
+                snprintf(sc, sizeof sc, "seed %d", s + 1);
+                CHECK_OK(ev_table_add(&t, rm, "seeds", sc, metric[k], ref[s]));
+                CHECK_OK(ev_table_add(&t, vm, "seeds", sc, metric[k], ref[s] + (s ? 0.25 : -0.25)));
+            }
+    ev_stab_seed_row(&t, &row);
+    CHECK(row.n == 2 && row.ok && fabs(row.mean[1][2]) < 1e-12); /* +-0.25 cancels */
+    ev_table_free(&t);
 }

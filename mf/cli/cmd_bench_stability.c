@@ -9,7 +9,7 @@
 
 typedef struct {
     const char *mf, *work, *out;
-    int iters, mem_iters, quick, jobs;
+    EvStabOpts o;
 } StabArgs;
 
 #define A StabArgs
@@ -17,10 +17,13 @@ static const MfOpt k_args[] = {
     MF_OPT_STR(A, mf, NULL, "the mf binary run as child processes (required)", .meta = "MF_BINARY"),
     MF_OPT_STR(A, work, NULL, "work folder (required)", .meta = "DIR"),
     MF_OPT_STR(A, out, NULL, "report folder (required)", .alias = "-o", .meta = "OUT_DIR"),
-    MF_OPT_INT(A, iters, 200, 1, 10000000, "iterations of each reconstruction cell"),
-    MF_OPT_INT(A, mem_iters, 2000, 1, 10000000, "iterations of the memory row's long run (its short run: 50)"),
-    MF_OPT_BOOL(A, quick, 0, "the subset make test runs (no MaterialFusion cells, no memory row)"),
-    MF_OPT_INT(A, jobs, 0, 0, 64, "cells run at once, each with OMP_NUM_THREADS = cores / jobs (0: one per core)"),
+    MF_OPT_NAMED(A, "iters", o.iters, MF_OPT_INT, 200, 1, 10000000, "iterations of each reconstruction cell"),
+    MF_OPT_NAMED(A, "mem_iters", o.mem_iters, MF_OPT_INT, 2000, 1, 10000000, "iterations of the memory row's long run (its short run: 50)"),
+    MF_OPT_NAMED(A, "quick", o.quick, MF_OPT_BOOL, 0, 0, 1, "the subset make test runs (no MaterialFusion cells, no memory or seed row)"),
+    MF_OPT_NAMED(A, "jobs", o.jobs, MF_OPT_INT, 0, 0, 64, "cells run at once, each with OMP_NUM_THREADS = cores / jobs (0: one per core)"),
+    MF_OPT_NAMED(A, "seeds", o.seeds, MF_OPT_INT, 1, 1, EV_STAB_MAX_SEEDS,
+               "recon seeds of the seed row: the 8-bit -4 stops cells and their references again at seeds 2..N, "
+               "their paired difference must be within 0.3 dB (1: no seed row)"),
 };
 #undef A
 static const MfOptTable k_args_table = MF_OPT_TABLE("Options", k_args);
@@ -30,9 +33,11 @@ __attribute__((constructor)) static void bench_stability_usage(void) {
     const MfOptTable *t[] = {&k_args_table};
     mf_opts_usage_text(usage, sizeof usage,
                        "usage: mf bench-stability --mf MF_BINARY --work DIR -o OUT_DIR [--iters N] [--mem-iters N] [--quick] [--jobs N]\n"
+                       "                          [--seeds N]\n"
                        "  Runs the stability grid on the tiny split (cells: eval/ev_stability.c) with MF_BINARY as child\n"
-                       "  processes in DIR; writes OUT_DIR/README.md and OUT_DIR/grid.csv. Exit 1 when a cell is not as\n"
-                       "  expected (non-finite output, a failed run, or a refusal that does not name its option).\n",
+                       "  processes in DIR; writes OUT_DIR/README.md, OUT_DIR/grid.csv (and seeds.csv). Exit 1 when a cell is not\n"
+                       "  as expected (non-finite output, a failed run, a refusal that does not name its option, a bound\n"
+                       "  not met) or the seed row's mean difference exceeds 0.3 dB.\n",
                        t, 1, NULL);
 }
 
@@ -53,19 +58,19 @@ static int cmd_bench_stability(int argc, char **argv) {
 
 static int bench_stability_run(const StabArgs *a) {
     const char *mf = a->mf, *work = a->work, *out = a->out;
-    int iters = a->iters, mem_iters = a->mem_iters, quick = a->quick;
     if (!mf || !work || !out) {
         mf_fail(MF_EARG, "--mf, --work and -o are required");
         return MF_EXIT_USAGE;
     }
     EvStabResult res[EV_STAB_MAX_CELLS];
+    EvStabSeedRow seeds;
     int n = 0;
-    if (ev_stab_grid(mf, work, out, iters, mem_iters, quick, a->jobs, res, EV_STAB_MAX_CELLS, &n)) return MF_EXIT_FAIL;
-    int bad = 0;
+    if (ev_stab_grid(mf, work, out, &a->o, res, EV_STAB_MAX_CELLS, &n, &seeds)) return MF_EXIT_FAIL;
+    int bad = seeds.n && !seeds.ok;
     for (int i = 0; i < n; ++i) bad += !res[i].ok;
-    printf("stability grid: %d cells, %d not as expected -> %s/README.md\n", n, bad, out);
+    printf("stability grid: %d cells%s, %d not as expected -> %s/README.md\n", n, seeds.n ? " and the seed row" : "", bad, out);
     if (bad) {
-        mf_fail(MF_EFORMAT, "%d stability cells not as expected (see %s/README.md)", bad, out);
+        mf_fail(MF_EFORMAT, "%d stability cells (or the seed row) not as expected (see %s/README.md)", bad, out);
         return MF_EXIT_FAIL;
     }
     return MF_EXIT_OK;
