@@ -306,7 +306,7 @@ void ev_stab_seed_row(const EvTable *t, EvStabSeedRow *row) {
                 if (strcmp(r->method, ref) || strcmp(r->dataset, "seeds") || strcmp(r->metric, k_seed_metric[k])) continue;
                 lo = fmin(lo, r->value), hi = fmax(hi, r->value);
             }
-            row->n = m == 0 && k == 0 ? p.n : (p.n < row->n ? p.n : row->n);
+            if ((m == 0 && k == 0) || p.n < row->n) row->n = p.n;
             row->mean[m][k] = p.n ? p.mean : NAN, row->lo[m][k] = p.lo, row->hi[m][k] = p.hi;
             row->spread[m][k] = hi >= lo ? hi - lo : NAN;
             if (!p.n || !(fabs(p.mean) <= EV_STAB_SEED_DB)) row->ok = 0;
@@ -426,27 +426,39 @@ static int cell_ok(const EvStabCell *c, const EvStabResult *r, const char *err_p
     return !(c->min_render_db > 0) || (!isnan(r->render_db) && r->render_db >= c->min_render_db);
 }
 
-/* Recon commands of the seed row: for seeds 2..o->seeds, each method's reference and png_-4 cells
- * with --seed, appended to cmd/err/slot from index n; their results go to sres (4 per seed). */
+/* The j-th run of the seed row (seeds 2.., then method, then reference / png_-4): its seed, kind,
+ * variant, scene folder and output folder. */
+typedef struct {
+    int seed;
+    const char *kind, *variant;
+    char scene[1200], out[1090];
+} SeedRun;
+
+static void seed_run(const char *work, int j, SeedRun *r) {
+    r->seed = 2 + j / 4, r->kind = k_seed_kind[(j / 2) % 2], r->variant = j % 2 ? "png_-4" : "reference";
+    snprintf(r->scene, sizeof r->scene, "%s/scenes/%s/000_cup", work, r->variant);
+    snprintf(r->out, sizeof r->out, "%s/seed%d-%s-%s", work, r->seed, r->kind, r->variant);
+}
+
+/* Recon commands of the seed row (4 per seed 2..o->seeds, seed_run), appended to cmd/err/slot
+ * from index n; their results go to sres. Returns their count. */
 static int seed_cmds(const char *mf, const char *work, const char *env, const EvStabOpts *o, int n, char (*cmd)[4096],
                      char (*err)[1100], EvStabResult **slot, EvStabResult *sres) {
-    int j = 0;
-    for (int s = 2; s <= o->seeds; ++s)
-        for (int m = 0; m < 2; ++m)
-            for (int v = 0; v < 2; ++v, ++j) {
-                char args[32], scene[1200], out[1090];
-                snprintf(args, sizeof args, "--seed %d", s);
-                EvStabCell c = {"seed", k_seed_kind[m], v ? "png_-4" : "reference", args, NULL, 0, 0, 0};
-                snprintf(scene, sizeof scene, "%s/scenes/%s/000_cup", work, c.variant);
-                snprintf(out, sizeof out, "%s/seed%d-%s-%s", work, s, c.kind, c.variant);
-                snprintf(err[n + j], sizeof err[n + j], "%s.err", out);
-                size_t e = (size_t)snprintf(cmd[n + j], sizeof cmd[n + j], "%s", env);
-                cell_cmd(cmd[n + j] + e, sizeof cmd[n + j] - e, mf, scene, out, &c, o->iters);
-                memset(&sres[j], 0, sizeof sres[j]);
-                for (int k = 0; k < 3; ++k) sres[j].db[k] = NAN;
-                slot[n + j] = &sres[j];
-            }
-    return j;
+    int runs = 4 * (o->seeds - 1);
+    for (int j = 0; j < runs; ++j) {
+        SeedRun r;
+        char args[32];
+        seed_run(work, j, &r);
+        snprintf(args, sizeof args, "--seed %d", r.seed);
+        EvStabCell c = {"seed", r.kind, r.variant, args, NULL, 0, 0, 0};
+        snprintf(err[n + j], sizeof err[n + j], "%s.err", r.out);
+        size_t e = (size_t)snprintf(cmd[n + j], sizeof cmd[n + j], "%s", env);
+        cell_cmd(cmd[n + j] + e, sizeof cmd[n + j] - e, mf, r.scene, r.out, &c, o->iters);
+        memset(&sres[j], 0, sizeof sres[j]);
+        for (int k = 0; k < 3; ++k) sres[j].db[k] = NAN;
+        slot[n + j] = &sres[j];
+    }
+    return runs;
 }
 
 /* Adds a recon result's three PSNRs to the seed table t (method "<kind> <variant>"). */
@@ -568,12 +580,10 @@ int ev_stab_grid(const char *mf, const char *work, const char *out_dir, const Ev
                 rc = seed_record(&st, c->kind, c->variant, 1, &results[j]);
         }
         for (int j = 0; j < nseed && !rc; ++j) {
-            const char *kind = k_seed_kind[(j / 2) % 2], *variant = j % 2 ? "png_-4" : "reference";
-            char out[1100], scene[1200];
-            snprintf(out, sizeof out, "%s/seed%d-%s-%s", work, 2 + j / 4, kind, variant);
-            snprintf(scene, sizeof scene, "%s/scenes/%s/000_cup", work, variant);
-            if (sres[j].exit_code == 0) score_recon(scene, out, &sres[j]);
-            rc = seed_record(&st, kind, variant, 2 + j / 4, &sres[j]);
+            SeedRun sr;
+            seed_run(work, j, &sr);
+            if (sres[j].exit_code == 0) score_recon(sr.scene, sr.out, &sres[j]);
+            rc = seed_record(&st, sr.kind, sr.variant, sr.seed, &sres[j]);
         }
         if (!rc) ev_stab_seed_row(&st, &row);
         ev_table_free(&st);
