@@ -479,15 +479,19 @@ bench-prior: $(BUILD)/mf
 	$(MF) bench-prior -o reports/perf/prior.md
 
 # The prior's own accuracy on the objects of the 3D splits (issue 12): eval-prior on each object's
-# 4 held-out test views of test-3d and val-3d, at the mean targets' setting (4 samples x 10 DDIM
-# steps, guidance 1) -> reports/prior/objects/<split>/; then against the 3D gain of those targets on
-# the same objects (the committed reports/bench/val-3d-mv and views8-mv) -> reports/prior/objects/README.md.
+# 4 held-out test views of val-3d, test-3d and test-3d-ambig, at the mean targets' setting (4
+# samples x 10 DDIM steps, guidance 1) -> reports/prior/objects/<split>/; then against the 3D gain of
+# those targets on the same objects (the committed reports/bench/val-3d-mv, views8-mv and
+# test-3d-ambig-mv) -> reports/prior/objects/README.md.
 PRIOR_OBJ_ARGS := --train $(PRIOR_DATA) --views 4 --samples 4 --steps 10 --guidance 1
-prior-objects: $(BUILD)/mf $(DATA)/test-3d/.rendered $(DATA)/val-3d/.rendered $(PRIOR_DATA)/manifest.json
-	for s in test-3d val-3d; do $(MF) eval-prior $(DATA)/$$s -o reports/prior/objects/$$s $(PRIOR_OBJ_ARGS) || exit 1; done
+prior-objects: $(BUILD)/mf $(DATA)/test-3d/.rendered $(DATA)/val-3d/.rendered $(DATA)/test-3d-ambig/.rendered \
+  $(PRIOR_DATA)/manifest.json
+	for s in val-3d test-3d test-3d-ambig; do $(MF) eval-prior $(DATA)/$$s -o reports/prior/objects/$$s $(PRIOR_OBJ_ARGS) || exit 1; done
 	python3 eval/prior_vs_gain.py -o reports/prior/objects/README.md \
 	  --pair val-3d reports/prior/objects/val-3d/objects.csv reports/bench/val-3d-mv/scenes.csv mf-mean-g1trust-mv nvdiffrecmc \
-	  --pair test-3d reports/prior/objects/test-3d/objects.csv reports/bench/views8-mv/scenes.csv mf-mean-g1trust-mv nvdiffrecmc
+	  --pair test-3d reports/prior/objects/test-3d/objects.csv reports/bench/views8-mv/scenes.csv mf-mean-g1trust-mv nvdiffrecmc \
+	  --pair test-3d-ambig reports/prior/objects/test-3d-ambig/objects.csv reports/bench/test-3d-ambig-mv/scenes.csv \
+	  mf-mean-g1trust-mv nvdiffrecmc
 
 # The prior term's cost (issue 12 item 7; tools/sds_cost.sh): the baseline and MaterialFusion back
 # to back on test-3d/000_cup (made in $(SDS_COST_DATA) when missing), $(SDS_COST_ITERS) iterations,
