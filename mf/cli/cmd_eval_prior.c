@@ -114,10 +114,10 @@ static int eval_prior_run(EvalPriorArgs *a) {
     ev_table_init(&t);
     char first[MF_PATH_MAX]; /* a 2D split's first input image */
     int rc = ds_prior2d_path(a->dir, "rgb", 0, first, sizeof first);
-    if (!rc) rc = train_orm_mean(a->train, &info.train_roughness, &info.train_metallic);
     if (!rc) rc = mf_prior_load_path(a->weights, &p);
     if (!rc) rc = mf_file_exists(first) ? ev_prior2d_load(a->dir, a->max_objects, &s)
                                       : ev_prior2d_load_scenes(a->dir, p->cfg.ae.res, a->views, a->max_objects, &s);
+    if (!rc) rc = train_orm_mean(a->train, &info.train_roughness, &info.train_metallic);
     if (!rc && p->cfg.ae.res != s.R)
         rc = mf_fail(MF_EARG, "%s: images are %d px, the prior works at %d px (generate test-2d at --res %d)", a->dir, s.R,
                      p->cfg.ae.res, p->cfg.ae.res);
