@@ -76,8 +76,9 @@ int mf_prior_bench(MfPrior *p, int B, int reps, int N, int nbe, const MfNnBacken
     int R = p->cfg.ae.res, zc = p->cfg.ae.zc, h = p->cfg.dn.h, rc = MF_OK;
     if (nbe < 1 || nbe > MF_PRIOR_BENCH_MAXBE) return mf_fail(MF_EARG, "mf_prior_bench: %d backends (1..%d)", nbe, MF_PRIOR_BENCH_MAXBE);
     size_t isz = (size_t)3 * R * R, zsz = (size_t)zc * h * h;
+    int nb = B > 4 ? B : 4; /* x and rgb serve the training batch and the guided step's 4 views */
     BenchCtx c = {.p = p, .B = B};
-    c.x = malloc((size_t)B * 3 * zsz * sizeof(float)), c.rgb = malloc((size_t)B * isz * sizeof(float));
+    c.x = malloc((size_t)nb * 3 * zsz * sizeof(float)), c.rgb = malloc((size_t)nb * isz * sizeof(float));
     c.dv = malloc((size_t)B * 2 * zsz * sizeof(float)), c.tt = malloc((size_t)B * sizeof(float));
     c.keep = malloc((size_t)B * sizeof(float)), c.dy = malloc((size_t)B * isz * sizeof(float));
     c.dz = malloc((size_t)B * zsz * sizeof(float));
@@ -89,7 +90,7 @@ int mf_prior_bench(MfPrior *p, int B, int reps, int N, int nbe, const MfNnBacken
     if (!rc) rc = mf_adamw_init(&c.odn, p->dn->tab.numel, 1e-6f, 0.9f, 0.999f, 1e-8f, 0.0f);
     if (!rc) rc = mf_adamw_init(&c.oae, p->ae->tab.numel, 1e-6f, 0.9f, 0.999f, 1e-8f, 0.0f);
     if (!rc) {
-        fill(c.x, (size_t)B * 3 * zsz, 1, 1.0f), fill(c.rgb, (size_t)B * isz, 2, 0.5f);
+        fill(c.x, (size_t)nb * 3 * zsz, 1, 1.0f), fill(c.rgb, (size_t)nb * isz, 2, 0.5f);
         fill(c.dv, (size_t)B * 2 * zsz, 3, 1e-3f), fill(c.dy, (size_t)B * isz, 4, 1e-4f);
         fill(ga, (size_t)N * N, 5, 1.0f), fill(gb, (size_t)N * N, 6, 1.0f);
         for (int b = 0; b < B; ++b) c.tt[b] = (float)(37 * b % 1000), c.keep[b] = 1.0f;
