@@ -79,6 +79,16 @@ MF_TEST(stability_quick_grid) {
     CHECK(mf_file_exists(md));
 }
 
+/* One seed of the seed row's table: method kind's reference and png_-4 values of metric k. */
+static void add_seed(EvTable *t, const char *kind, const char *metric, int seed, double ref, double var) {
+    char rm[64], vm[64], sc[16];
+    snprintf(rm, sizeof rm, "%s reference", kind);
+    snprintf(vm, sizeof vm, "%s png_-4", kind);
+    snprintf(sc, sizeof sc, "seed %d", seed);
+    CHECK_OK(ev_table_add(t, rm, "seeds", sc, metric, ref));
+    CHECK_OK(ev_table_add(t, vm, "seeds", sc, metric, var));
+}
+
 /* The seed row: per method and metric the paired mean of png_-4 - reference over seeds with its CI
  * (ev_paired), the reference's spread (max - min), ok only when every |mean| <= 0.3 dB. */
 MF_TEST(stability_seed_row) {
@@ -88,14 +98,8 @@ MF_TEST(stability_seed_row) {
     ev_table_init(&t);
     for (int m = 0; m < 2; ++m)
         for (int s = 0; s < 3; ++s)
-            for (int k = 0; k < 3; ++k) {
-                char rm[64], vm[64], sc[16];
-                snprintf(rm, sizeof rm, "%s reference", kind[m]);
-                snprintf(vm, sizeof vm, "%s png_-4", kind[m]);
-                snprintf(sc, sizeof sc, "seed %d", s + 1);
-                CHECK_OK(ev_table_add(&t, rm, "seeds", sc, metric[k], ref[s] + k));
-                CHECK_OK(ev_table_add(&t, vm, "seeds", sc, metric[k], ref[s] + k + diff[s] * (m ? 3.0 : 1.0)));
-            }
+            for (int k = 0; k < 3; ++k)
+                add_seed(&t, kind[m], metric[k], s + 1, ref[s] + k, ref[s] + k + diff[s] * (m ? 3.0 : 1.0));
     EvStabSeedRow row;
     ev_stab_seed_row(&t, &row);
     CHECK(row.n == 3);
@@ -108,14 +112,7 @@ MF_TEST(stability_seed_row) {
     ev_table_init(&t);
     for (int m = 0; m < 2; ++m)
         for (int s = 0; s < 2; ++s)
-            for (int k = 0; k < 3; ++k) {
-                char rm[64], vm[64], sc[16];
-                snprintf(rm, sizeof rm, "%s reference", kind[m]);
-                snprintf(vm, sizeof vm, "%s png_-4", kind[m]);
-                snprintf(sc, sizeof sc, "seed %d", s + 1);
-                CHECK_OK(ev_table_add(&t, rm, "seeds", sc, metric[k], ref[s]));
-                CHECK_OK(ev_table_add(&t, vm, "seeds", sc, metric[k], ref[s] + (s ? 0.25 : -0.25)));
-            }
+            for (int k = 0; k < 3; ++k) add_seed(&t, kind[m], metric[k], s + 1, ref[s], ref[s] + (s ? 0.25 : -0.25));
     ev_stab_seed_row(&t, &row);
     CHECK(row.n == 2 && row.ok && fabs(row.mean[1][2]) < 1e-12); /* +-0.25 cancels */
     ev_table_free(&t);
