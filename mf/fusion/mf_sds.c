@@ -190,19 +190,25 @@ static int draws(MfSds *s, MfSdsTargets *t, const float *z, int it, size_t nz, s
     return rc;
 }
 
-void mf_sds_spread_weights(const float *var, const float *m, size_t n, float *w) {
+/* The trust weights of the spread and views weightings: over the elements with m[i] > thr,
+ * w = 1 / (1 + var / var_ref) (var_ref their mean variance), scaled to mean 1 over them; w = 1
+ * elsewhere, and everywhere when none of them varies. w may be var (in place). Returns var_ref. */
+static double variance_weights(const float *var, const float *m, float thr, size_t n, float *w) {
     double vs = 0.0, cnt = 0.0;
     for (size_t i = 0; i < n; ++i)
-        if (m[i] > 0.0f) vs += var[i], cnt += 1.0;
+        if (m[i] > thr) vs += var[i], cnt += 1.0;
     double vref = cnt > 0.0 ? vs / cnt : 0.0, ws = 0.0;
     for (size_t i = 0; i < n; ++i) {
-        w[i] = vref > 0.0 && m[i] > 0.0f ? (float)(1.0 / (1.0 + var[i] / vref)) : 1.0f;
-        if (m[i] > 0.0f) ws += w[i];
+        w[i] = vref > 0.0 && m[i] > thr ? (float)(1.0 / (1.0 + var[i] / vref)) : 1.0f;
+        if (m[i] > thr) ws += w[i];
     }
-    float scale = ws > 0.0 ? (float)(cnt / ws) : 1.0f; /* mean 1 over the masked elements */
+    float scale = ws > 0.0 ? (float)(cnt / ws) : 1.0f; /* mean 1 over the weighted elements */
     for (size_t i = 0; i < n; ++i)
-        if (m[i] > 0.0f) w[i] *= scale;
+        if (m[i] > thr) w[i] *= scale;
+    return vref;
 }
+
+void mf_sds_spread_weights(const float *var, const float *m, size_t n, float *w) { variance_weights(var, m, 0.0f, n, w); }
 
 /* The view's camera at R x R (the same field of view). */
 static int prior_camera(const MfCamera *cam, int R, MfCamera *out) {
@@ -545,25 +551,17 @@ int mf_sds_coverage(MfRecon *r, float **out, size_t *ntex) {
 
 void mf_sds_agreement_weights(const double *sum, const double *sum2, const float *nv, size_t nt, int c0, int c1,
                               float *w, double *mean_var) {
-    double vs = 0.0, cnt = 0.0;
     for (size_t t = 0; t < nt; ++t) {
-        w[t] = 1.0f;
+        w[t] = 0.0f;
         if (nv[t] < 2.0f) continue;
         double var = 0.0;
         for (int c = c0; c < c1; ++c) {
             double m = sum[3 * t + c] / nv[t];
             var += fmax(0.0, sum2[3 * t + c] / nv[t] - m * m);
         }
-        w[t] = (float)(var / (c1 - c0)); /* the variance for now */
-        vs += w[t], cnt += 1.0;
+        w[t] = (float)(var / (c1 - c0)); /* the variance, turned into the weight in place below */
     }
-    double vref = cnt > 0.0 ? vs / cnt : 0.0, ws = 0.0;
-    *mean_var = vref;
-    for (size_t t = 0; t < nt; ++t)
-        if (nv[t] >= 2.0f) w[t] = vref > 0.0 ? (float)(1.0 / (1.0 + w[t] / vref)) : 1.0f, ws += w[t];
-    float scale = ws > 0.0 ? (float)(cnt / ws) : 1.0f; /* mean 1 over the texels two views see */
-    for (size_t t = 0; t < nt; ++t)
-        if (nv[t] >= 2.0f) w[t] *= scale;
+    *mean_var = variance_weights(w, nv, 1.5f, nt, w); /* the texels at least two views see (nv counts views) */
 }
 
 /* --sds-weight views: the kd and ORM texel weights from the training views' held mean targets (see
