@@ -34,6 +34,8 @@ int mf_test_need_bin(const char *file, int line);
 /* Runs `$MF_BIN args` with stdout to stdout_path (NULL: /dev/null) and stderr captured into err
  * (cap bytes); returns the exit code, -1 when killed by a signal (e.g. an abort in a library). */
 int mf_test_run_mf(const char *args, const char *stdout_path, char *err, size_t cap);
+/* max |a[i] - b[i]| over n floats (in double). */
+double mf_test_max_abs_diff(const float *a, const float *b, size_t n);
 /* Runs the printf-formatted shell command; 0 when it exits 0, else 1. */
 int mf_test_sh(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 

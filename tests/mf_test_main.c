@@ -1,4 +1,5 @@
 #define _POSIX_C_SOURCE 200809L
+#include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -67,6 +68,12 @@ void mf_test_path_at(const char *file, int line, char *dst, size_t cap, const ch
         va_end(ap);
     }
     if (n < 0 || (size_t)n >= cap) mf_test_fail_at(file, line, "scratch path '%s' (cut short) does not fit in %zu bytes", dst, cap);
+}
+
+double mf_test_max_abs_diff(const float *a, const float *b, size_t n) {
+    double d = 0.0;
+    for (size_t i = 0; i < n; ++i) d = fmax(d, fabs((double)a[i] - b[i]));
+    return d;
 }
 
 int mf_test_sh(const char *fmt, ...) {

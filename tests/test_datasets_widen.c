@@ -27,12 +27,6 @@ MF_TEST(ds_widen_content_partition) {
     CHECK_MSG(ntrain >= 10 && nheld >= 10, "train %d heldout %d of 40", ntrain, nheld);
 }
 
-static float max_abs_diff(const float *a, const float *b, size_t n) {
-    float m = 0;
-    for (size_t i = 0; i < n; ++i) m = fmaxf(m, fabsf(a[i] - b[i]));
-    return m;
-}
-
 MF_TEST(ds_widen_view_transform) {
     enum { R = 8, N = R * R };
     float rgb[N * 3], ref[N * 3], alpha[N];
@@ -44,7 +38,7 @@ MF_TEST(ds_widen_view_transform) {
     DsWidenView id = {1.0f, 0, 4.0f, 1.0f, 0, 0.0f, 1};
     memcpy(rgb, ref, sizeof rgb);
     CHECK_OK(ds_widen_apply(&id, rgb, 3, alpha, 1, R));
-    CHECK_MSG(max_abs_diff(rgb, ref, N * 3) < 1e-5f, "identity changed the image by %g", max_abs_diff(rgb, ref, N * 3));
+    CHECK_MSG(mf_test_max_abs_diff(rgb, ref, N * 3) < 1e-5f, "identity changed the image by %g", mf_test_max_abs_diff(rgb, ref, N * 3));
     /* exposure x2 doubles values that stay below 1 */
     DsWidenView ex = id;
     ex.exposure = 2.0f;

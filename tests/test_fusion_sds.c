@@ -249,13 +249,6 @@ MF_TEST(fusion_sds_draws_mean_and_variance) {
     sds_done(&f);
 }
 
-/* max |a - b| over n floats */
-static double max_diff(const float *a, const float *b, size_t n) {
-    double d = 0.0;
-    for (size_t i = 0; i < n; ++i) d = fmax(d, fabs((double)a[i] - b[i]));
-    return d;
-}
-
 /* DDIM targets come from the condition images through the guidance: darkening view 0's image
  * changes its targets at guidance 3 and leaves them the same bits at guidance 0 (the unconditional
  * prediction alone: zero image latent and embedding); guidance 1 and 3 give different targets. */
@@ -284,7 +277,8 @@ MF_TEST(fusion_sds_targets_follow_images_and_guidance) {
     CHECK(a3.t == a1.t && a3.t == b3.t && a3.t == a0.t);
     double scale = 0.0; /* view 0's latent target */
     for (size_t i = 0; i < zsz; ++i) scale = fmax(scale, fabs(a3.zhat[i]));
-    double dimg = max_diff(a3.zhat, b3.zhat, zsz), dmap = max_diff(a3.dhat, b3.dhat, isz), dgui = max_diff(a3.zhat, a1.zhat, zsz);
+    double dimg = mf_test_max_abs_diff(a3.zhat, b3.zhat, zsz), dmap = mf_test_max_abs_diff(a3.dhat, b3.dhat, isz);
+    double dgui = mf_test_max_abs_diff(a3.zhat, a1.zhat, zsz);
     if (getenv("MF_TEST_VERBOSE"))
         printf("    view 0's latent target: max |zhat| %.4g; changed by %.4g (image darkened), %.4g (guidance 3 vs 1); albedo map by %.4g\n",
                scale, dimg, dgui, dmap);
