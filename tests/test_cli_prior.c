@@ -18,16 +18,21 @@
 #include "tests/mf_test.h"
 #include "tests/mf_test_prior.h"
 
-MF_TEST(prior_cli_predicts_maps) {
-    MF_NEED_BIN();
+/* A tiny prior (tp_tiny_prior) saved as the test file `name`, its path into w (MF_PATH_MAX). */
+static void save_tiny_prior(char *w, const char *name) {
     MfPrior *p;
     tp_tiny_prior(&p);
-    char w[MF_PATH_MAX], img[MF_PATH_MAX], out[MF_PATH_MAX], args[8 * MF_PATH_MAX], f[MF_PATH_MAX], err[16384];
-    mf_test_path_to(w, sizeof w, "prior_cli.mfck");
-    mf_test_path_to(img, sizeof img, "prior_cli_in.png");
-    mf_test_path_to(out, sizeof out, "prior_cli_out");
+    mf_test_path_to(w, MF_PATH_MAX, name);
     CHECK_OK(mf_prior_save(p, w, NULL));
     mf_prior_free(p);
+}
+
+MF_TEST(prior_cli_predicts_maps) {
+    MF_NEED_BIN();
+    char w[MF_PATH_MAX], img[MF_PATH_MAX], out[MF_PATH_MAX], args[8 * MF_PATH_MAX], f[MF_PATH_MAX], err[16384];
+    save_tiny_prior(w, "prior_cli.mfck");
+    mf_test_path_to(img, sizeof img, "prior_cli_in.png");
+    mf_test_path_to(out, sizeof out, "prior_cli_out");
     MfImage im = {0};
     mf_image_alloc(&im, 32, 32, 4);
     for (int y = 8; y < 24; ++y)
@@ -75,12 +80,8 @@ MF_TEST(prior_cli_predicts_maps) {
 
 MF_TEST(prior_eval_cli_writes_table) {
     MF_NEED_BIN();
-    MfPrior *p;
-    tp_tiny_prior(&p);
     char w[MF_PATH_MAX], dir[MF_PATH_MAX], out[MF_PATH_MAX], f[MF_PATH_MAX], args[6 * MF_PATH_MAX], err[16384];
-    mf_test_path_to(w, sizeof w, "prior_eval.mfck");
-    CHECK_OK(mf_prior_save(p, w, NULL));
-    mf_prior_free(p);
+    save_tiny_prior(w, "prior_eval.mfck");
     /* a test-2d-like split: 2 objects x 2 views */
     mf_test_path_to(dir, sizeof dir, "prior_eval_t2d");
     tp_write_synth(dir, 4, 16, 9);
@@ -126,12 +127,8 @@ MF_TEST(prior_eval_cli_writes_table) {
  * mean over its views, and asking for more views than a scene has is refused naming the scene. */
 MF_TEST(prior_eval_cli_scenes) {
     MF_NEED_BIN();
-    MfPrior *p;
-    tp_tiny_prior(&p);
     char w[MF_PATH_MAX], dir[MF_PATH_MAX], out[MF_PATH_MAX], f[MF_PATH_MAX], args[6 * MF_PATH_MAX], err[16384];
-    mf_test_path_to(w, sizeof w, "prior_eval3d.mfck");
-    CHECK_OK(mf_prior_save(p, w, NULL));
-    mf_prior_free(p);
+    save_tiny_prior(w, "prior_eval3d.mfck");
     mf_test_path_to(dir, sizeof dir, "prior_eval3d");
     snprintf(args, sizeof args, "gen --split tiny --scenes 2 -o '%s'", dir);
     CHECK_MSG(mf_test_run_mf(args, NULL, err, sizeof err) == 0, "mf %s: %s", args, err);
@@ -164,13 +161,9 @@ MF_TEST(prior_eval_cli_scenes) {
  * the same rounds in a DNNL build. No timing asserts. */
 MF_TEST(prior_bench_cli_backend_columns) {
     MF_NEED_BIN();
-    MfPrior *p;
-    tp_tiny_prior(&p);
     char w[MF_PATH_MAX], out[MF_PATH_MAX], args[4 * MF_PATH_MAX], err[16384];
-    mf_test_path_to(w, sizeof w, "bench_prior.mfck");
+    save_tiny_prior(w, "bench_prior.mfck");
     mf_test_path_to(out, sizeof out, "bench_prior.md");
-    CHECK_OK(mf_prior_save(p, w, NULL));
-    mf_prior_free(p);
     snprintf(args, sizeof args, "bench-prior --weights '%s' --batch 2 --reps 1 --gemm 64 -o '%s'", w, out);
     CHECK_MSG(mf_test_run_mf(args, NULL, err, sizeof err) == 0, "mf %s: %s", args, err);
     char *md = NULL;
