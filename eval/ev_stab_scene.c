@@ -195,8 +195,9 @@ static int rewrite_mesh(const char *sdir, double scale, int sliver) {
 
 /* ---- rewrites of the rendered training images ---- */
 
-/* Linear RGB x gain (clipped by the 8-bit write unless exr), or the few-pixel mask. */
-static int rewrite_train_view(const char *png, double gain, int exr, int mask) {
+/* Linear RGB x gain, or the few-pixel mask, written as an sRGB PNG of `bits` 8 or 16 (clipped
+ * at 1) or, with bits 32, as a float EXR beside it (the PNG removed). */
+static int rewrite_train_view(const char *png, double gain, int bits, int mask) {
     MfImage im;
     int rc = mf_image_read(png, MF_ENC_SRGB, &im);
     if (rc) return rc;
@@ -218,26 +219,26 @@ static int rewrite_train_view(const char *png, double gain, int exr, int mask) {
     }
     for (int i = 0; i < im.w * im.h; ++i)
         for (int c = 0; c < 3; ++c) im.data[4 * i + c] = (float)(im.data[4 * i + c] * gain);
-    if (exr) {
+    if (bits == 32) {
         char p[MF_PATH_MAX];
         size_t n = strlen(png);
         snprintf(p, sizeof p, "%.*s.exr", (int)(n - 4), png);
         if (!(rc = mf_image_write(p, &im, MF_ENC_LINEAR, 32))) remove(png);
     } else {
-        rc = mf_image_write(png, &im, MF_ENC_SRGB, 8);
+        rc = mf_image_write(png, &im, MF_ENC_SRGB, bits);
     }
     mf_image_free(&im);
     return rc;
 }
 
-static int rewrite_train(const char *sdir, int n, double gain, int exr, int mask) {
+static int rewrite_train(const char *sdir, int n, double gain, int bits, int mask) {
     int rc = MF_OK;
     for (int i = 0; i < n && !rc; ++i) {
         char rel[32], p[MF_PATH_MAX];
         snprintf(rel, sizeof rel, "train/r_%03d.png", i);
-        if (!(rc = mf_path_join(p, sizeof p, sdir, rel))) rc = rewrite_train_view(p, gain, exr, mask);
+        if (!(rc = mf_path_join(p, sizeof p, sdir, rel))) rc = rewrite_train_view(p, gain, bits, mask);
     }
-    if (!rc && exr) rc = rewrite_cams(sdir, "train", 1.0, 0, 0, 1);
+    if (!rc && bits == 32) rc = rewrite_cams(sdir, "train", 1.0, 0, 0, 1);
     return rc;
 }
 
@@ -272,10 +273,14 @@ int ev_stab_variant_build(const char *layout_dir, const EvStabVariant *v, const 
     if (v->kind == EV_VAR_ONE_VIEW) s.n_train = 1;
     if (!rc) rc = ds_render_split(&s, out_dir, NULL);
     switch (v->kind) { /* after rendering */
-    case EV_VAR_EXPOSURE_EXR: if (!rc) rc = rewrite_train(sdir, s.n_train, pow(2.0, v->p), 1, 0); break;
+    case EV_VAR_EXPOSURE_EXR: if (!rc) rc = rewrite_train(sdir, s.n_train, pow(2.0, v->p), 32, 0); break;
     case EV_VAR_EXPOSURE_PNG:
-    case EV_VAR_SATURATE: if (!rc) rc = rewrite_train(sdir, s.n_train, pow(2.0, v->p), 0, 0); break;
-    case EV_VAR_MASK: if (!rc) rc = rewrite_train(sdir, s.n_train, 1.0, 0, 1); break;
+    case EV_VAR_SATURATE: if (!rc) rc = rewrite_train(sdir, s.n_train, pow(2.0, v->p), 8, 0); break;
+    case EV_VAR_EXPOSURE_PNG_BACK: /* the 8-bit darkened values, brightened back in 16 bits */
+        if (!rc && !(rc = rewrite_train(sdir, s.n_train, pow(2.0, v->p), 8, 0)))
+            rc = rewrite_train(sdir, s.n_train, pow(2.0, -v->p), 16, 0);
+        break;
+    case EV_VAR_MASK: if (!rc) rc = rewrite_train(sdir, s.n_train, 1.0, 8, 1); break;
     default: break;
     }
     if (!rc) rc = mf_write_file(done, v->id, strlen(v->id));

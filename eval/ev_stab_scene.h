@@ -12,6 +12,9 @@
  *   env_stops        gt/env.exr x 2^p before rendering (8-bit training images: clipped or quantised)
  *   exposure_exr     training images as float EXR (straight alpha): the PNGs' linear values x 2^p
  *   exposure_png     training PNGs' linear values x 2^p, written back as 8-bit sRGB
+ *   exposure_png_back  exposure_png's 8-bit values brought back x 2^-p into 16-bit sRGB PNGs:
+ *                    the darkened images' information at the reference's exposure (it separates
+ *                    what the exposure changes from what the lost bits change)
  *   saturate         as exposure_png with p > 0: clipped highlights
  *   scale            mesh.obj vertices and camera positions (train and test) x p
  *   sliver           every triangle (a, b, c) replaced by a sliver (a, b, m) and (a, m, c),
@@ -32,6 +35,7 @@ typedef enum {
     EV_VAR_ENV_STOPS,
     EV_VAR_EXPOSURE_EXR,
     EV_VAR_EXPOSURE_PNG,
+    EV_VAR_EXPOSURE_PNG_BACK,
     EV_VAR_SATURATE,
     EV_VAR_SCALE,
     EV_VAR_SLIVER,

@@ -79,41 +79,62 @@ MF_TEST(stability_quick_grid) {
     CHECK(mf_file_exists(md));
 }
 
-/* One seed of the seed row's table: method kind's reference and png_-4 values of metric k. */
-static void add_seed(EvTable *t, const char *kind, const char *metric, int seed, double ref, double var) {
-    char rm[64], vm[64], sc[16];
-    snprintf(rm, sizeof rm, "%s reference", kind);
-    snprintf(vm, sizeof vm, "%s png_-4", kind);
+/* One seed of the seed row's table: method kind's reference, png_-4_x1 and png_-4 values of metric k. */
+static void add_seed(EvTable *t, const char *kind, const char *metric, int seed, double ref, double x1, double var) {
+    static const char *variant[3] = {"reference", "png_-4_x1", "png_-4"};
+    const double v[3] = {ref, x1, var};
+    char sc[16];
     snprintf(sc, sizeof sc, "seed %d", seed);
-    CHECK_OK(ev_table_add(t, rm, "seeds", sc, metric, ref));
-    CHECK_OK(ev_table_add(t, vm, "seeds", sc, metric, var));
+    for (int i = 0; i < 3; ++i) {
+        char m[64];
+        snprintf(m, sizeof m, "%s %s", kind, variant[i]);
+        CHECK_OK(ev_table_add(t, m, "seeds", sc, metric, v[i]));
+    }
 }
 
-/* The seed row: per method and metric the paired mean of png_-4 - reference over seeds with its CI
- * (ev_paired), the reference's spread (max - min), ok only when every |mean| <= 0.3 dB. */
+/* The seed row: per method and metric the paired means over seeds (with CI, ev_paired) of total =
+ * png_-4 - reference, exposure = png_-4 - png_-4_x1 and bits = png_-4_x1 - reference, the
+ * reference's spread (max - min); ok only when every exposure |mean| <= 0.3 dB (the total is not
+ * bounded). */
 MF_TEST(stability_seed_row) {
     static const char *kind[2] = {"baseline", "materialfusion"}, *metric[3] = {"relit_psnr", "albedo_psnr", "orm_psnr"};
-    static const double ref[3] = {20.0, 20.4, 19.8}, diff[3] = {0.1, 0.2, 0.3};
+    static const double ref[3] = {20.0, 20.4, 19.8}, expo[3] = {0.1, 0.2, 0.3}, bits[3] = {0.5, 0.5, 0.8};
     EvTable t;
     ev_table_init(&t);
     for (int m = 0; m < 2; ++m)
         for (int s = 0; s < 3; ++s)
-            for (int k = 0; k < 3; ++k)
-                add_seed(&t, kind[m], metric[k], s + 1, ref[s] + k, ref[s] + k + diff[s] * (m ? 3.0 : 1.0));
+            for (int k = 0; k < 3; ++k) {
+                double x1 = ref[s] + k + bits[s], var = x1 + expo[s] * (m ? 3.0 : 1.0);
+                add_seed(&t, kind[m], metric[k], s + 1, ref[s] + k, x1, var);
+            }
     EvStabSeedRow row;
     ev_stab_seed_row(&t, &row);
     CHECK(row.n == 3);
-    CHECK_NEAR(row.mean[0][1], 0.2, 1e-9);
+    CHECK_NEAR(row.mean[EV_SEED_EXPOSURE][0][1], 0.2, 1e-9);
+    CHECK_NEAR(row.mean[EV_SEED_BITS][0][1], 0.6, 1e-9);
+    CHECK_NEAR(row.mean[EV_SEED_TOTAL][0][1], 0.8, 1e-9);
     CHECK_NEAR(row.spread[0][2], 0.6, 1e-9);
-    CHECK(row.lo[0][0] < 0.2 && row.hi[0][0] > 0.2);
-    CHECK_NEAR(row.mean[1][0], 0.6, 1e-9);
-    CHECK(!row.ok); /* MaterialFusion's mean 0.6 dB > 0.3 */
+    CHECK(row.lo[EV_SEED_EXPOSURE][0][0] < 0.2 && row.hi[EV_SEED_EXPOSURE][0][0] > 0.2);
+    CHECK_NEAR(row.mean[EV_SEED_EXPOSURE][1][0], 0.6, 1e-9);
+    CHECK(!row.ok); /* MaterialFusion's exposure mean 0.6 dB > 0.3 */
     ev_table_free(&t);
     ev_table_init(&t);
     for (int m = 0; m < 2; ++m)
         for (int s = 0; s < 2; ++s)
-            for (int k = 0; k < 3; ++k) add_seed(&t, kind[m], metric[k], s + 1, ref[s], ref[s] + (s ? 0.25 : -0.25));
+            for (int k = 0; k < 3; ++k) add_seed(&t, kind[m], metric[k], s + 1, ref[s], ref[s] + 1.0, ref[s] + 1.0 + (s ? 0.25 : -0.25));
     ev_stab_seed_row(&t, &row);
-    CHECK(row.n == 2 && row.ok && fabs(row.mean[1][2]) < 1e-12); /* +-0.25 cancels */
+    CHECK(row.n == 2 && row.ok && fabs(row.mean[EV_SEED_EXPOSURE][1][2]) < 1e-12); /* +-0.25 cancels */
+    CHECK_NEAR(row.mean[EV_SEED_TOTAL][1][2], 1.0, 1e-9); /* a 1 dB total from the bits alone is not bounded */
+    ev_table_free(&t);
+    ev_table_init(&t); /* no png_-4_x1 runs: no exposure comparison, not ok */
+    for (int s = 0; s < 2; ++s)
+        for (int k = 0; k < 3; ++k) {
+            char sc[16];
+            snprintf(sc, sizeof sc, "seed %d", s + 1);
+            CHECK_OK(ev_table_add(&t, "baseline reference", "seeds", sc, metric[k], ref[s]));
+            CHECK_OK(ev_table_add(&t, "baseline png_-4", "seeds", sc, metric[k], ref[s]));
+        }
+    ev_stab_seed_row(&t, &row);
+    CHECK(row.n == 0 && !row.ok);
     ev_table_free(&t);
 }
