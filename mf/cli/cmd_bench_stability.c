@@ -22,8 +22,8 @@ static const MfOpt k_args[] = {
     MF_OPT_NAMED(A, "quick", o.quick, MF_OPT_BOOL, 0, 0, 1, "the subset make test runs (no MaterialFusion cells, no memory or seed row)"),
     MF_OPT_NAMED(A, "jobs", o.jobs, MF_OPT_INT, 0, 0, 64, "cells run at once, each with OMP_NUM_THREADS = cores / jobs (0: one per core)"),
     MF_OPT_NAMED(A, "seeds", o.seeds, MF_OPT_INT, 1, 1, EV_STAB_MAX_SEEDS,
-               "recon seeds of the seed row: the 8-bit -4 stops cells and their references again at seeds 2..N, "
-               "their paired difference must be within 0.3 dB (1: no seed row)"),
+               "recon seeds of the seed row: the 8-bit -4 stops cells (png_-4, png_-4_x1) and their references again "
+               "at seeds 2..N; the paired exposure difference png_-4 - png_-4_x1 must be within 0.3 dB (1: no seed row)"),
 };
 #undef A
 static const MfOptTable k_args_table = MF_OPT_TABLE("Options", k_args);
@@ -37,7 +37,7 @@ __attribute__((constructor)) static void bench_stability_usage(void) {
                        "  Runs the stability grid on the tiny split (cells: eval/ev_stability.c) with MF_BINARY as child\n"
                        "  processes in DIR; writes OUT_DIR/README.md, OUT_DIR/grid.csv (and seeds.csv). Exit 1 when a cell is not\n"
                        "  as expected (non-finite output, a failed run, a refusal that does not name its option, a bound\n"
-                       "  not met) or the seed row's mean difference exceeds 0.3 dB.\n",
+                       "  not met) or the seed row's mean exposure difference exceeds 0.3 dB.\n",
                        t, 1, NULL);
 }
 
