@@ -70,7 +70,7 @@ LIB_OBJ  := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
 CLI_OBJ  := $(CLI_C:%.c=$(BUILD)/obj/%.o)
 TEST_OBJ := $(TEST_C:%.c=$(BUILD)/obj/%.o)
 
-.PHONY: FORCE all deps deps-node deps-fuzz bench-asset fuzz fuzz-lib fuzz-seeds test check-deps asan bench-geom bench-hull bench-render bench-nn bench-nn-dnnl bench-nn-onednn bench-baseline bench-prior prior-objects bench-sds-cost bench-quick bench bench-split bench-split-now bench-runs bench-external recon-runs train-prior train-prior-wide eval-prior calibrate-trust sweep-guidance bench-domain bench-matrix bench-stability test-slurm clean
+.PHONY: FORCE all deps deps-node deps-fuzz bench-asset fuzz fuzz-lib fuzz-seeds test check-deps asan bench-geom bench-hull bench-render profile-render bench-nn bench-nn-dnnl bench-nn-onednn bench-baseline bench-prior prior-objects bench-sds-cost bench-quick bench bench-split bench-split-now bench-runs bench-external recon-runs train-prior train-prior-wide eval-prior calibrate-trust sweep-guidance bench-domain bench-matrix bench-stability test-slurm clean
 all: $(BUILD)/mf $(BUILD)/mf_tests
 
 deps:
@@ -187,6 +187,10 @@ asan:
 
 bench-render: $(BUILD)/mf
 	./$(BUILD)/mf bench-render -o reports/perf/render.md
+
+# Where the renderer's time goes outside the rays (perf profile of bench-render; needs linux-perf)
+profile-render: $(BUILD)/mf
+	tools/profile_render.sh ./$(BUILD)/mf reports/perf/render-profile.md
 
 # The network's convolution and residual block against OpenBLAS sgemm at the prior's denoiser
 # shapes (batch 16, 8 groups; mf/prior/weights/prior.mfck), on one thread: ratios of CPU seconds
@@ -394,6 +398,13 @@ bench-frontier: $(BUILD)/mf $(DATA)/test-3d/.rendered
 	MF=$(MF) DATA=$(DATA)/test-3d RESULTS=$(RESULTS)/frontier OUT=reports/frontier \
 	  $(if $(filter 1,$(BENCH_FULL)),F_RES="64 128" F_SPP="2 4 8" F_ITERS="100 400 1000 2000 5000" F_CONFIG=baselines/nvdiffrecmc_full.json F_DEFAULT=none) \
 	  sh eval/bench_frontier.sh
+
+# Issue 16's adaptive default: the baseline at its default budget with and without the budget
+# flags on every val-3d scene (where a default may be chosen) and test-3d scene (where it is
+# checked) -> reports/adaptive/ (resumable; A_CONFIGS="name=flags;..." for other flag sets).
+.PHONY: bench-adaptive
+bench-adaptive: $(BUILD)/mf $(DATA)/val-3d/.rendered $(DATA)/test-3d/.rendered
+	MF=$(MF) DATA=$(DATA) RESULTS=$(RESULTS)/adaptive OUT=reports/adaptive sh eval/bench_adaptive.sh
 
 # The same tables on a reduced setting (3 scenes, 64 px training, 100 iterations).
 bench-quick: $(BUILD)/mf

@@ -94,6 +94,8 @@ static int write_report(const BenchRenderArgs *a, const EvRenderBench *r, int nt
         "| bare Embree replay: %s | %.3f s (%.3g rays/s) |\n"
         "| bare Embree replay: %s | %.3f s (%.3g rays/s) |\n"
         "| **bare time (fastest API: %s) / renderer time** (wall) | **%.3f** (target >= 0.6) |\n"
+        "| renderer time outside the fastest bare replay's (wall): renderer - bare | %.3f s (%.0f%% of the renderer) |\n"
+        "| for the 0.6 target: renderer at most bare / 0.6 = %.3f s, so the time outside the rays at most %.3f s | x%.1f less than now |\n"
         "| CPU seconds: renderer / bare replay / ratio | %.3f / %.3f / %.3f |\n"
         "| machine load (1-minute load average) at the start / end | %.2f / %.2f |\n\n"
         "All timings are taken interleaved per chunk of 32 rows (render chunk, record its rays untimed,\n"
@@ -101,11 +103,14 @@ static int write_report(const BenchRenderArgs *a, const EvRenderBench *r, int nt
         "packet and stream replays take the log's rays in order, 16 (packets) or up to 256 (streams) of\n"
         "one kind at a time; every replay's checksum is checked equal.\n"
         "Shadow rays are traced only for samples with a non-zero BRDF value and a direction above the\n"
-        "geometric surface, so rays < path samples + primary rays. Replay checksum (hits + occluded): %ld.\n",
+        "geometric surface, so rays < path samples + primary rays. Replay checksum (hits + occluded): %ld.\n"
+        "Where the time outside the rays goes: reports/perf/render-profile.md (`make profile-render`).\n",
         ntri, W, H, ps, r->coverage, spp, spp, spp, spp, env_desc, a->threads, un.sysname, un.machine, r->t_render, path_samples,
         path_samples / r->t_render, r->n_primary, r->n_shadow, rays / r->t_render,
         ev_replay_names[0], r->t_api[0], rays / r->t_api[0], ev_replay_names[1], r->t_api[1], rays / r->t_api[1],
-        ev_replay_names[2], r->t_api[2], rays / r->t_api[2], ev_replay_names[r->best], r->t_bare / r->t_render, r->c_render, r->c_bare, r->c_bare / r->c_render, r->load[0], r->load[1],
+        ev_replay_names[2], r->t_api[2], rays / r->t_api[2], ev_replay_names[r->best], r->t_bare / r->t_render, r->t_render - r->t_bare,
+        100.0 * (r->t_render - r->t_bare) / r->t_render, r->t_bare / 0.6, r->t_bare / 0.6 - r->t_bare,
+        (r->t_render - r->t_bare) / (r->t_bare / 0.6 - r->t_bare), r->c_render, r->c_bare, r->c_bare / r->c_render, r->load[0], r->load[1],
         r->checksum);
     if (len < 0 || (size_t)len >= sizeof md) return mf_fail(MF_EARG, "report too long");
     int rc = mf_mkdirs_for(a->out);
