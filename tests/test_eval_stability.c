@@ -83,7 +83,7 @@ MF_TEST(stability_quick_grid) {
 static void add_seed(EvTable *t, const char *kind, const char *metric, int seed, double ref, double x1, double var) {
     static const char *variant[3] = {"reference", "png_-4_x1", "png_-4"};
     const double v[3] = {ref, x1, var};
-    char sc[16];
+    char sc[24];
     snprintf(sc, sizeof sc, "seed %d", seed);
     for (int i = 0; i < 3; ++i) {
         char m[64];
@@ -129,7 +129,7 @@ MF_TEST(stability_seed_row) {
     ev_table_init(&t); /* no png_-4_x1 runs: no exposure comparison, not ok */
     for (int s = 0; s < 2; ++s)
         for (int k = 0; k < 3; ++k) {
-            char sc[16];
+            char sc[24];
             snprintf(sc, sizeof sc, "seed %d", s + 1);
             CHECK_OK(ev_table_add(&t, "baseline reference", "seeds", sc, metric[k], ref[s]));
             CHECK_OK(ev_table_add(&t, "baseline png_-4", "seeds", sc, metric[k], ref[s]));
