@@ -25,12 +25,10 @@ recon() { # recon RUN_DIR SCENE_DIR ARGS...: one resumable run; a failed one is 
     [ -f "$d/run.json" ] && return 0
     mkdir -p "$(dirname "$d")"
     echo "bench-adaptive: $d"
-    # shellcheck disable=SC2068
-    "$MF" recon "$sd" -o "$d" --config "$A_CONFIG" --method nvdiffrecmc --resume $@ >"$d.log" 2>&1 ||
+    "$MF" recon "$sd" -o "$d" --config "$A_CONFIG" --method nvdiffrecmc --resume "$@" >"$d.log" 2>&1 ||
         { echo "bench-adaptive: $d failed (log: $d.log; not in the report)"; tail -3 "$d.log"; }
 }
 
-names=default
 for sp in $SPLITS; do
     [ -d "$DATA/$sp" ] || { echo "bench-adaptive: $DATA/$sp missing (make data-$sp)" >&2; exit 1; }
     for sd in "$DATA/$sp"/*/; do
@@ -38,6 +36,7 @@ for sp in $SPLITS; do
         s=$(basename "$sd")
         recon "$RESULTS/$sp/default/$s" "$sd"
         echo "$A_CONFIGS" | tr ';' '\n' | while IFS='=' read -r name flags; do
+            # shellcheck disable=SC2086 # the flags are split into words
             [ -n "$name" ] && recon "$RESULTS/$sp/$name/$s" "$sd" $flags
         done
     done

@@ -23,7 +23,7 @@
 
 #define EV_STAB_MAX_CELLS 128
 #define EV_STAB_MAX_SEEDS 9
-/* Child runs of one grid: the cells, the memory row's two, the seed row's 4 per extra seed. */
+/* Child runs of one grid: the cells, the memory row's two, the seed row's 6 per extra seed. */
 #define EV_STAB_MAX_RUNS (EV_STAB_MAX_CELLS + 2 + 6 * (EV_STAB_MAX_SEEDS - 1))
 
 typedef struct {
