@@ -9,26 +9,23 @@ differences (mf eval's scenes.csv), paired over the scenes both finished: mean a
 Writes OUT/adaptive.csv and OUT/README.md (atomically).
 """
 import argparse
-import json
 import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from frontier import METRICS, log_wall, mean_ci, read_scenes, write_csv  # noqa: E402
+from frontier import METRICS, budget_decisions, log_wall, mean_ci, read_scenes, write_csv  # noqa: E402
 
 
 def decisions(run_dir):
-    """What the budget flags decided in one run (run.json options)."""
-    with open(os.path.join(run_dir, "run.json")) as f:
-        o = json.load(f)["options"]
+    """What the budget flags decided in one run, in a few words."""
+    d = budget_decisions(run_dir)
     out = []
-    if "early_stop_result" in o:
-        st = int(o["early_stop_result"]["stop_iter"])
-        out.append("stop %d" % st if st else "no stop")
-    if "metal_auto_result" in o:
-        out.append("metal " + ("0" if "fixed" in o["metal_auto_result"]["decision"] else "kept"))
-    if o.get("tex_auto"):
-        out.append("tex %d" % o["tex_res"])
+    if "stop" in d:
+        out.append("stop %d" % d["stop"] if d["stop"] else "no stop")
+    if "metal" in d:
+        out.append({"metallic fixed at 0": "metal 0", "metallic kept": "metal kept"}.get(d["metal"], "metal " + d["metal"]))
+    if "tex" in d:
+        out.append("tex %d" % d["tex"])
     return ", ".join(out)
 
 

@@ -163,19 +163,32 @@ def report(a):
     readme(a, rows, flags)
 
 
+def budget_decisions(run_dir):
+    """What the budget flags that were on decided in one run (its run.json's options): "stop" (the
+    early-stop iteration, 0: no stop), "metal" (metal_auto's decision string), "tex" (tex_auto's tex_res)."""
+    with open(os.path.join(run_dir, "run.json")) as f:
+        o = json.load(f)["options"]
+    d = {}
+    if "early_stop_result" in o:
+        d["stop"] = int(o["early_stop_result"]["stop_iter"])
+    if "metal_auto_result" in o:
+        d["metal"] = o["metal_auto_result"]["decision"]
+    if o.get("tex_auto"):
+        d["tex"] = int(o["tex_res"])
+    return d
+
+
 def flag_detail(ev, point, scenes):
     """What each flag decided per scene (from the staged run.json's options)."""
     out = []
     for sc in scenes:
-        with open(os.path.join(ev, point, sc, "run.json")) as f:
-            o = json.load(f)["options"]
-        if "early_stop_result" in o:
-            st = int(o["early_stop_result"]["stop_iter"])
-            out.append("%s: %s" % (sc, "stopped at %d" % st if st else "no stop"))
-        elif "metal_auto_result" in o:
-            out.append("%s: %s" % (sc, o["metal_auto_result"]["decision"]))
-        elif o.get("tex_auto"):
-            out.append("%s: tex_res %d" % (sc, o["tex_res"]))
+        d = budget_decisions(os.path.join(ev, point, sc))
+        if "stop" in d:
+            out.append("%s: %s" % (sc, "stopped at %d" % d["stop"] if d["stop"] else "no stop"))
+        elif "metal" in d:
+            out.append("%s: %s" % (sc, d["metal"]))
+        elif "tex" in d:
+            out.append("%s: tex_res %d" % (sc, d["tex"]))
     return "; ".join(out)
 
 
