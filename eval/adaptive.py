@@ -12,6 +12,7 @@ import argparse
 import os
 import sys
 
+sys.dont_write_bytecode = True  # importing frontier.py leaves no __pycache__ in the source tree
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from frontier import METRICS, budget_decisions, log_wall, mean_ci, read_scenes, write_csv  # noqa: E402
 
