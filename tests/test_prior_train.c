@@ -164,3 +164,61 @@ MF_TEST(prior_train_partial_folder_and_default_weights) {
     mf_prior_default_weights(got, sizeof got);
     CHECK(strstr(got, MF_PRIOR_WEIGHTS_DEFAULT) != NULL);
 }
+
+MF_TEST(prior_train_init_keeps_ae_and_cosine_lr) {
+    /* train a tiny prior, then train on from it: the AE and latent scale stay, the denoiser starts
+     * where it was (its first losses below a fresh run's), the cosine ends the learning rate at 0 */
+    char a[MF_PATH_MAX], b[MF_PATH_MAX], ca[MF_PATH_MAX], cb[MF_PATH_MAX], wa[MF_PATH_MAX], wb[MF_PATH_MAX];
+    mf_test_path_to(a, sizeof a, "prior_init_a");
+    mf_test_path_to(b, sizeof b, "prior_init_b");
+    mf_test_path_to(ca, sizeof ca, "prior_init_a.csv");
+    mf_test_path_to(cb, sizeof cb, "prior_init_b.csv");
+    MfTrainPriorOpts o;
+    MfTrainPriorResult ra, rb;
+    tp_tiny_opts(&o, a, ca);
+    CHECK_OK(mf_train_prior(&o, &ra));
+    mf_path_join(wa, sizeof wa, a, "prior.mfck");
+    tp_tiny_opts(&o, b, cb);
+    o.init = wa, o.ae_steps = 0, o.steps = 20, o.lr_cosine = 1, o.seed = 6;
+    o.tiny = 0; /* the model comes from the file */
+    CHECK_OK(mf_train_prior(&o, &rb));
+    CHECK_MSG(rb.dn_loss_first < 0.8f * ra.dn_loss_first, "init run starts at %g, fresh run at %g", rb.dn_loss_first,
+              ra.dn_loss_first);
+    CHECK(rb.latent_scale == ra.latent_scale);
+    mf_path_join(wb, sizeof wb, b, "prior.mfck");
+    MfPrior *pa, *pb;
+    CHECK_OK(mf_prior_load(wa, &pa));
+    CHECK_OK(mf_prior_load(wb, &pb));
+    CHECK(pa->ae->tab.numel == pb->ae->tab.numel &&
+          !memcmp(pa->ae->params, pb->ae->params, pa->ae->tab.numel * sizeof(float)));
+    CHECK(pb->latent_scale == pa->latent_scale && pb->cfg.ae.res == 16);
+    CHECK(memcmp(pa->dn->params, pb->dn->params, pa->dn->tab.numel * sizeof(float)) != 0);
+    mf_prior_free(pa), mf_prior_free(pb);
+    char *meta = NULL, *txt = NULL;
+    size_t len = 0;
+    CHECK_OK(mf_prior_read_meta(wb, &meta));
+    CHECK_MSG(meta && strstr(meta, "\"init\":") && strstr(meta, "\"lr_cosine\":true") && strstr(meta, "\"ae_steps\":0"),
+              "meta %s", meta ? meta : "");
+    free(meta);
+    /* the CSV: no AE rows; warm-up to 2e-3 at step 5, half of it half-way through the cosine, 0 at the end */
+    CHECK_OK(mf_read_file(cb, &txt, &len));
+    CHECK(txt && !strstr(txt, "\nae,") && strstr(txt, "\ndn,20,"));
+    float lr5 = -1, lr13 = -1, lr20 = -1, l;
+    for (char *line = strchr(txt, '\n'); line; line = strchr(line + 1, '\n')) {
+        int st;
+        float lr;
+        if (sscanf(line + 1, "dn,%d,%g,%g", &st, &l, &lr) != 3) continue;
+        if (st == 5) lr5 = lr;
+        if (st == 13) lr13 = lr; /* step index 12: u = (12 - 5) / (19 - 5) = 0.5 */
+        if (st == 20) lr20 = lr;
+    }
+    free(txt);
+    CHECK_MSG(fabsf(lr5 - 2e-3f) < 1e-7f && fabsf(lr13 - 1e-3f) < 1e-7f && lr20 == 0.0f, "lr %g %g %g", lr5, lr13, lr20);
+    /* refused: training the AE of an init prior, a model option beside it, a missing file */
+    o.ae_steps = 5;
+    CHECK_ERR(mf_train_prior(&o, &rb), "--ae-steps 0");
+    o.ae_steps = 0, o.tiny = 1;
+    CHECK_ERR(mf_train_prior(&o, &rb), "--ae-steps 0");
+    o.tiny = 0, o.init = mf_test_path("prior_init_missing.mfck");
+    CHECK_ERR(mf_train_prior(&o, &rb), "prior_init_missing.mfck");
+}

@@ -206,7 +206,14 @@ static int hist_write(const Hist *h, const char *path) {
 
 /* ---- training --------------------------------------------------------------------------------------- */
 
-static float lr_at(float lr, int step, int warmup) { return step < warmup ? lr * (float)(step + 1) / (float)warmup : lr; }
+/* Learning rate of 0-based step of a phase of total steps: linear warm-up, then constant or a cosine
+ * from lr to 0 at the last step. */
+static float lr_at(float lr, int step, int warmup, int total, int cosine) {
+    if (step < warmup) return lr * (float)(step + 1) / (float)warmup;
+    if (!cosine || total - 1 <= warmup) return lr;
+    double u = (double)(step - warmup) / (double)(total - 1 - warmup); /* 0 .. 1 */
+    return (float)(0.5 * lr * (1.0 + cos(M_PI * u)));
+}
 
 typedef struct {
     const MfTrainPriorOpts *o;
@@ -291,7 +298,7 @@ static int train_ae(Ctx *c, MfPrior *p, const Data *d, MfTrainPriorResult *res, 
         for (size_t i = 0; i < nz; ++i) dz[i] += 2.0f * lam * z[i] / (float)nz;
         mf_ae_encode_backward(ae, &w, dz, NULL);
         mf_grad_clip_norm(ae->grads, np, 1.0f);
-        opt.lr = lr_at(o->lr_ae, step, o->warmup);
+        opt.lr = lr_at(o->lr_ae, step, o->warmup, o->ae_steps, o->lr_cosine);
         if (mf_adamw_step(&opt, ae->params, ae->grads)) {
             rc = mf_fail_prefix(MF_ENAN, "train-prior: autoencoder step %d (stopped; the last good checkpoint is kept: %s)",
                                 step + 1, c->ae_state);
@@ -360,13 +367,26 @@ static int encode_all(MfPrior *p, const Data *d, float *lat, MfTrainPriorResult 
 /* Writes out_dir/prior.mfck with the current weights; dn_step = denoiser steps done so far. */
 static int save_weights(Ctx *c, const MfPrior *p, const Data *d, const MfTrainPriorResult *res, int dn_step) {
     const MfTrainPriorOpts *o = c->o;
-    char extra[512];
-    snprintf(extra, sizeof extra,
-             "{\"train\":{\"ae_steps\":%d,\"dn_steps\":%d,\"dn_steps_planned\":%d,\"batch\":%d,\"seed\":%llu,"
-             "\"samples\":%d,\"dn_samples\":%d,\"psnr_albedo\":%.3f,\"psnr_orm\":%.3f,\"psnr_rgb\":%.3f}}",
-             o->ae_steps, dn_step, o->steps, o->batch, (unsigned long long)o->seed, d->n, d->m, res->psnr[0], res->psnr[1],
-             res->psnr[2]);
-    return mf_prior_save(p, c->final, extra);
+    cJSON *t = cJSON_CreateObject(), *root = cJSON_CreateObject();
+    cJSON_AddNumberToObject(t, "ae_steps", o->ae_steps);
+    cJSON_AddNumberToObject(t, "dn_steps", dn_step);
+    cJSON_AddNumberToObject(t, "dn_steps_planned", o->steps);
+    cJSON_AddNumberToObject(t, "batch", o->batch);
+    cJSON_AddNumberToObject(t, "seed", (double)o->seed);
+    cJSON_AddNumberToObject(t, "samples", d->n);
+    cJSON_AddNumberToObject(t, "dn_samples", d->m);
+    cJSON_AddNumberToObject(t, "lr", o->lr_dn);
+    cJSON_AddBoolToObject(t, "lr_cosine", o->lr_cosine);
+    for (int k = 0; k < 3; ++k)
+        cJSON_AddNumberToObject(t, (const char *[]){"psnr_albedo", "psnr_orm", "psnr_rgb"}[k], round(res->psnr[k] * 1e3) / 1e3);
+    if (o->init) cJSON_AddStringToObject(t, "init", o->init);
+    cJSON_AddItemToObject(root, "train", t);
+    char *extra = cJSON_PrintUnformatted(root);
+    cJSON_Delete(root);
+    if (!extra) return mf_fail(MF_ENOMEM, "train-prior: out of memory");
+    int rc = mf_prior_save(p, c->final, extra);
+    free(extra);
+    return rc;
 }
 
 static int train_dn(Ctx *c, MfPrior *p, const Data *d, const float *lat, MfTrainPriorResult *res, int *stop) {
@@ -425,7 +445,7 @@ static int train_dn(Ctx *c, MfPrior *p, const Data *d, const float *lat, MfTrain
         mf_mse_backward(dv, v, tgt, nv, 1.0f);
         mf_denoiser_backward(dn, &w, dv);
         mf_grad_clip_norm(dn->grads, np, 1.0f);
-        opt.lr = lr_at(o->lr_dn, step, o->warmup);
+        opt.lr = lr_at(o->lr_dn, step, o->warmup, o->steps, o->lr_cosine);
         if (mf_adamw_step(&opt, dn->params, dn->grads)) {
             rc = mf_fail_prefix(MF_ENAN, "train-prior: denoiser step %d (stopped; the last good checkpoint is kept: %s)",
                                 step + 1, c->dn_state);
@@ -457,8 +477,11 @@ done:
 
 int mf_train_prior(const MfTrainPriorOpts *o, MfTrainPriorResult *res) {
     memset(res, 0, sizeof *res);
-    if (o->batch < 1 || o->steps < 0 || o->ae_steps < 1)
+    if (o->batch < 1 || o->steps < 0 || o->ae_steps < !o->init)
         return mf_fail(MF_EARG, "train-prior: need --batch >= 1, --steps >= 0, --ae-steps >= 1");
+    if (o->init && (o->ae_steps || o->tiny || o->ae_c1 || o->ae_c2 || o->dn_c1 || o->dn_c2))
+        return mf_fail(MF_EARG, "train-prior: --init %s keeps that prior's model and autoencoder: give --ae-steps 0 and "
+                                "no --tiny or channel options", o->init);
     Data d = {0};
     int rc = data_load(o->data_dir, &d);
     if (rc) return rc;
@@ -481,11 +504,20 @@ int mf_train_prior(const MfTrainPriorOpts *o, MfTrainPriorResult *res) {
     int stop = 0;
     c.o = o;
     c.csv = o->loss_csv ? o->loss_csv : "reports/prior/loss.csv";
-    if ((rc = mf_prior_new(&p, &cfg))) goto out;
+    if (o->init) {
+        if ((rc = mf_prior_load(o->init, &p))) goto out;
+        if (p->cfg.ae.res != d.R) {
+            rc = mf_fail(MF_EARG, "train-prior: --init %s is a %d px prior, %s holds %d px samples", o->init, p->cfg.ae.res,
+                         o->data_dir, d.R);
+            goto out;
+        }
+    } else {
+        if ((rc = mf_prior_new(&p, &cfg))) goto out;
+        mf_ae_init_weights(p->ae, o->seed);
+        mf_denoiser_init_weights(p->dn, o->seed);
+    }
     p->data_seed = d.seed;
     res->params = mf_prior_num_params(p);
-    mf_ae_init_weights(p->ae, o->seed);
-    mf_denoiser_init_weights(p->dn, o->seed);
     if ((rc = mf_mkdirs(o->out_dir))) goto out;
     mf_path_join(c.ae_state, sizeof c.ae_state, o->out_dir, "ae_state.mfck");
     mf_path_join(c.dn_state, sizeof c.dn_state, o->out_dir, "dn_state.mfck");
@@ -511,7 +543,8 @@ int mf_train_prior(const MfTrainPriorOpts *o, MfTrainPriorResult *res) {
     }
     mf_log_info("train-prior: %d samples at %d px, %zu parameters, batch %d, %d AE + %d denoiser steps", d.n, d.R,
                 res->params, o->batch, o->ae_steps, o->steps);
-    if ((rc = train_ae(&c, p, &d, res, &stop)) || stop) goto out;
+    if (o->init) mf_log_info("train-prior: starting from %s (autoencoder and latent scale %.4f kept)", o->init, p->latent_scale);
+    else if ((rc = train_ae(&c, p, &d, res, &stop)) || stop) goto out;
     d.m = o->dn_samples > 0 && o->dn_samples < d.n ? o->dn_samples : d.n;
     d.sel = malloc((size_t)d.m * sizeof(int));
     if (!d.sel) {
@@ -527,10 +560,13 @@ int mf_train_prior(const MfTrainPriorOpts *o, MfTrainPriorResult *res) {
         goto out;
     }
     if ((rc = encode_all(p, &d, lat, res))) goto out;
-    double s = 0, s2 = 0;
-    for (size_t i = 0; i < nl; ++i) s += lat[i], s2 += (double)lat[i] * lat[i];
-    double mean = s / nl, sd = sqrt(fmax(s2 / nl - mean * mean, 1e-12));
-    p->latent_scale = res->latent_scale = (float)(1.0 / sd);
+    if (!o->init) { /* a trained denoiser keeps the scale it was trained at */
+        double s = 0, s2 = 0;
+        for (size_t i = 0; i < nl; ++i) s += lat[i], s2 += (double)lat[i] * lat[i];
+        double mean = s / nl, sd = sqrt(fmax(s2 / nl - mean * mean, 1e-12));
+        p->latent_scale = (float)(1.0 / sd);
+    }
+    res->latent_scale = p->latent_scale;
     for (size_t i = 0; i < nl; ++i) lat[i] *= p->latent_scale;
     mf_log_info("train-prior: autoencoder PSNR albedo %.2f dB, ORM %.2f dB, RGB %.2f dB; latent scale %.4f",
                 res->psnr[0], res->psnr[1], res->psnr[2], p->latent_scale);

@@ -6,7 +6,9 @@
  * are computed once, the latent scale is set to 1/std of all of them, and phase 2 trains the
  * denoiser and image encoder jointly on v-prediction MSE with t ~ U{0..999} and conditioning
  * dropout (5% embedding only, 5% both, 5% image latent only).
- * Both phases: AdamW (beta 0.9/0.999, wd 1e-2), linear warm-up, global gradient clipping at 1.
+ * Both phases: AdamW (beta 0.9/0.999, wd 1e-2), linear warm-up (then constant, or a cosine to 0 with
+ * lr_cosine), global gradient clipping at 1. With init, training goes on from a trained prior: phase 1
+ * is skipped and its autoencoder and latent scale are kept, so the denoiser's latents do not move.
  * Randomness is derived from (seed, phase, step) alone, so a run resumed from a checkpoint is
  * bit-identical to an uninterrupted one (same build and thread count).
  * Files in out_dir: ae_state.mfck, dn_state.mfck (weights + AdamW moments, written atomically every
@@ -39,6 +41,12 @@ typedef struct {
     float lr_ae, lr_dn, weight_decay;
     int tiny;                       /* the tiny test model (resolution 16) */
     int ae_c1, ae_c2, dn_c1, dn_c2; /* channel overrides of the default model (0 = default 32/64, 64/128) */
+    const char *init;               /* borrowed; NULL = random init. A trained prior (.mfck): its model size,
+                                       autoencoder and latent scale are kept (the AE is not trained:
+                                       ae_steps must be 0) and the denoiser starts from its weights with
+                                       fresh AdamW moments (fine-tuning / training on) */
+    int lr_cosine;                  /* after the warm-up, both learning rates follow a cosine from their
+                                       value to 0 at the phase's last step (else constant) */
     int stop_after;                 /* test hook: checkpoint and stop after this many steps of this run (0 = off) */
     int nan_at;                     /* test hook: pretend the loss is NaN at this global step (0 = off) */
 } MfTrainPriorOpts;

@@ -22,6 +22,11 @@ static const MfOpt k_opts[] = {
     MF_OPT_FLOAT(S, lr_ae, 5e-4, 0, 1, "AdamW learning rate of the autoencoder"),
     MF_OPT_NAMED(S, "lr", lr_dn, MF_OPT_FLOAT, 3e-4, 0, 1, "AdamW learning rate of the denoiser"),
     MF_OPT_INT(S, warmup, 100, 0, 10000000, "learning-rate warm-up steps"),
+    MF_OPT_BOOL(S, lr_cosine, 0, "after the warm-up, each phase's learning rate falls along a cosine to 0 at its last step "
+                "(default: constant)"),
+    MF_OPT_STR(S, init, NULL, "train on from these prior weights (.mfck): the model size, autoencoder and latent scale "
+               "are kept (needs --ae-steps 0), the denoiser starts from its weights with fresh AdamW moments",
+               .meta = "WEIGHTS"),
     MF_OPT_INT(S, ae_c1, 0, 0, 4096, "AE channels, first level (0: default 32)"),
     MF_OPT_INT(S, ae_c2, 0, 0, 4096, "AE channels, second level (0: default 64)"),
     MF_OPT_NAMED(S, "unet_c1", dn_c1, MF_OPT_INT, 0, 0, 4096, "denoiser channels, first level (0: default 64; a multiple of 8)"),
