@@ -9,8 +9,11 @@
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "inverse/mf_budget.h"
+#include "inverse/mf_loss.h"
 #include "inverse/mf_recon.h"
+#include "io/mf_obj.h"
 #include "mf_test.h"
+#include "mf_test_kit.h"
 #include "mf_test_recon.h"
 #include "render/mf_integrator.h"
 #include "scene/mf_shapes.h"
@@ -307,4 +310,81 @@ MF_TEST(inverse_budget_texel_side) {
     CHECK_MSG(side[1] > 40.0 && side[1] < 152.0, "side %g at 64 px", side[1]);
     mf_rtscene_free(rt);
     mf_mesh_free(&mesh);
+}
+
+/* ---- env coverage (env_auto) ---- */
+
+MF_TEST(inverse_budget_env_coverage) {
+    /* a flat quad (z = 0, normal +z) seen from straight above reflects the view rays back up:
+     * only texels near the zenith are seen; with the sphere's 8 views almost every texel is */
+    char path[MF_PATH_MAX];
+    mf_test_path_to(path, sizeof path, "envcov_quad.obj");
+    put(path, k_quad);
+    MfMesh quad, sphere;
+    CHECK_OK(mf_obj_read(path, &quad));
+    MfRtScene *rt = NULL;
+    CHECK_OK(mf_rtscene_new(&quad, &rt));
+    MfReconView v[NV];
+    memset(v, 0, sizeof v);
+    CHECK_OK(look_cam(&v[0].cam, 16, 16, mf_v3(0.01f, 0.0f, 2.0f), mf_v3(0, 0, 0)));
+    enum { W = 16, H = 8 };
+    unsigned char cover[W * H];
+    size_t n0 = mf_budget_env_coverage(rt, v, 1, NULL, W, H, 0, cover);
+    int top_only = 1;
+    for (int i = W; i < W * H; ++i) top_only &= !cover[i];
+    CHECK_MSG(n0 > 0 && top_only, "%zu texels marked, all in the top row: %d", n0, top_only);
+    size_t n1 = mf_budget_env_coverage(rt, v, 1, NULL, W, H, 1, cover);
+    CHECK_MSG(n1 > n0 && n1 <= 2 * W && !cover[2 * W], "dilated: %zu (undilated %zu)", n1, n0);
+    unsigned char skip = 1;
+    CHECK(mf_budget_env_coverage(rt, v, 1, &skip, W, H, 1, cover) == 0);
+    mf_rtscene_free(rt);
+    /* the sphere seen from 8 directions: its mirror reflections reach (nearly) every direction */
+    CHECK_OK(mf_shape_uv_sphere(&sphere, mf_v3(0, 0, 0), 0.5f, 16, 8));
+    CHECK_OK(sphere_views(&sphere, 24, 0.0f, v));
+    CHECK_OK(mf_rtscene_new(&sphere, &rt));
+    size_t ns = mf_budget_env_coverage(rt, v, NV, NULL, W, H, 0, cover);
+    CHECK_MSG(ns > W * H * 9 / 10, "sphere: %zu of %d texels", ns, W * H);
+    mf_rtscene_free(rt);
+    /* mf_recon_new measures it with env_auto; the flag does not change a run where all is seen */
+    MfReconOpts o = tiny_opts();
+    o.env_auto = 1, o.env_auto_dilate = 1;
+    MfRecon *r = NULL;
+    CHECK_OK(mf_recon_new(&sphere, v, NV, &o, &r));
+    CHECK(r && mf_recon_env_covered(r) > 0.9 && mf_recon_env_covered(r) <= 1.0);
+    mf_recon_free(r);
+    for (int i = 0; i < NV; ++i) mf_image_free(&v[i].ref);
+    /* the quad from above, 2 views: with env_auto the directions it does not reflect end smoother */
+    CHECK_OK(mf_rtscene_new(&quad, &rt));
+    MfEnvMap env;
+    CHECK_OK(mf_env_init_constant(&env, 16, 8, mf_v3s(0.8f)));
+    MfTexMaterial mat = {NULL, NULL, mf_v3(0.6f, 0.4f, 0.2f), mf_v3(1.0f, 0.3f, 0.0f), NULL};
+    MfRenderInput in = {rt, &quad, &mat, 1, &env, NULL, 0};
+    MfRenderOpts ro = {2, 1, 7, MF_LOBE_ALL};
+    double tv[2];
+    for (int k = 0; k < 2; ++k) {
+        MfReconView q[2];
+        memset(q, 0, sizeof q);
+        CHECK_OK(ref_view(&in, &ro, 16, mf_v3(0.01f, 0.0f, 2.0f), &q[0]));
+        CHECK_OK(ref_view(&in, &ro, 16, mf_v3(0.3f, 0.2f, 1.9f), &q[1]));
+        o = tiny_opts();
+        o.spp_sqrt = 2, o.iters = 30, o.env_auto = k;
+        char dir[MF_PATH_MAX];
+        mf_test_path_to(dir, sizeof dir, k ? "envcov_on" : "envcov_off");
+        CHECK(mf_budget_env_coverage(rt, q, 2, NULL, 16, 8, 1, cover) < 16 * 8 / 2);
+        CHECK_OK(mf_recon_new(&quad, q, 2, &o, &r));
+        CHECK_OK(mf_recon_run(r, NULL, dir));
+        /* the spread of the upper hemisphere's unseen texels: the diffuse light's noisy gradients
+         * reach them (the lower hemisphere gets none and stays at its start) */
+        const float *e = mf_recon_block(r, MF_BLOCK_ENV)->p;
+        double s1 = 0, s2 = 0;
+        int m = 0;
+        for (int i = 0; i < 16 * 4; ++i)
+            if (!cover[i]) s1 += e[3 * i], s2 += (double)e[3 * i] * e[3 * i], m++;
+        tv[k] = m ? sqrt(fmax(s2 / m - (s1 / m) * (s1 / m), 0.0)) : 0.0;
+        mf_recon_free(r);
+    }
+    CHECK_MSG(tv[1] < 0.5 * tv[0] && tv[0] > 0.0, "spread of the unseen upper texels: %g with env_auto, %g without", tv[1], tv[0]);
+    mf_env_free(&env);
+    mf_rtscene_free(rt);
+    mf_mesh_free(&quad), mf_mesh_free(&sphere);
 }

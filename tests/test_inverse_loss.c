@@ -1,5 +1,6 @@
 /* Tests of mf/inverse: losses and regularisers (gradient checks against central differences),
  * and the Adam optimiser (convergence, bounds, frozen channels, NaN refusal). */
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -82,6 +83,45 @@ MF_TEST(inverse_reg_smooth_gradient) {
     /* a constant texture has zero smoothness loss */
     for (int i = 0; i < W * H * CH; ++i) tex[i] = 0.3f;
     CHECK(mf_reg_smooth_fwd(tex, W, H, CH, 0, 3, NULL) == 0.0);
+}
+
+typedef struct { const float *env; int w, h; const unsigned char *cover; } EnvCtx;
+static double f_env_unseen(void *c) {
+    const EnvCtx *e = c;
+    return mf_reg_env_unseen_fwd(e->env, e->w, e->h, e->cover);
+}
+
+MF_TEST(inverse_reg_env_unseen_gradient) {
+    enum { W = 8, H = 4 };
+    float env[W * H * 3], g[W * H * 3];
+    unsigned char cover[W * H];
+    MfRng r;
+    mf_rng_seed(&r, 6, 0);
+    for (int i = 0; i < W * H * 3; ++i) env[i] = 0.1f + 2.0f * mf_rng_float(&r);
+    for (int i = 0; i < W * H; ++i) cover[i] = (unsigned char)(i / W < 2); /* the upper two rows seen */
+    EnvCtx c = {env, W, H, cover};
+    memset(g, 0, sizeof g);
+    mf_reg_env_unseen_bwd(env, W, H, cover, 1.0f, g);
+    CHECK_MSG(worst_rel(f_env_unseen, &c, env, W * H * 3, g, 1e-4f, 1e-2) < 2e-2, "env unseen gradient");
+    for (int i = 0; i < W * 3; ++i) CHECK(g[i] == 0.0f); /* row 0: seen, no unseen neighbour */
+    int row1 = 0;
+    for (int i = W * 3; i < 2 * W * 3; ++i) row1 += g[i] != 0.0f; /* row 1 borders row 2 */
+    CHECK(row1 > 0);
+    /* the longitude wraps: a step between the last and first column of an unseen row costs */
+    for (int i = 0; i < W * H * 3; ++i) env[i] = 1.0f;
+    CHECK(mf_reg_env_unseen_fwd(env, W, H, cover) == 0.0);
+    for (int y = 2; y < H; ++y)
+        for (int x = W / 2; x < W; ++x)
+            for (int k = 0; k < 3; ++k) env[(y * W + x) * 3 + k] = 2.0f;
+    /* pairs with an unseen texel: down from rows 1 and 2 (2 x W) + right in rows 2 and 3 (2 x W) =
+     * 32; steps of 1: x = 3|4 and x = 7|0 in rows 2 and 3 (4), rows 1|2 at x >= 4 (4) */
+    CHECK_MSG(fabs(mf_reg_env_unseen_fwd(env, W, H, cover) - 8.0 / 32.0) < 1e-6, "loss %g",
+              mf_reg_env_unseen_fwd(env, W, H, cover));
+    /* everything seen: no term */
+    memset(cover, 1, sizeof cover);
+    memset(g, 0, sizeof g);
+    mf_reg_env_unseen_bwd(env, W, H, cover, 1.0f, g);
+    CHECK(mf_reg_env_unseen_fwd(env, W, H, cover) == 0.0 && g[0] == 0.0f && g[W * H * 3 - 1] == 0.0f);
 }
 
 typedef struct { const float *diffuse, *spec, *cover; size_t n; float ls; } ShadeCtx;

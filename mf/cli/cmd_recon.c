@@ -210,6 +210,7 @@ static void budgets_to_json(const MfRecon *r, cJSON *opts) {
         cJSON_AddStringToObject(m, "decision", ms < 0 ? "not tested" : (ms ? "metallic fixed at 0" : "metallic kept"));
     }
     if (mf_recon_opts(r)->tex_auto) cJSON_AddNumberToObject(opts, "tex_auto_median_side", mf_recon_texel_side(r));
+    if (mf_recon_opts(r)->env_auto) cJSON_AddNumberToObject(opts, "env_auto_covered_fraction", mf_recon_env_covered(r));
 }
 
 /* run.json's time_split (wall seconds) and cpu_split (CPU seconds of the process, all threads: the

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "core/mf_error.h"
+#include "scene/mf_envmap.h"
 
 static int cmp_double(const void *a, const void *b) {
     double x = *(const double *)a, y = *(const double *)b;
@@ -89,6 +90,39 @@ size_t mf_budget_visible_texels(const MfRtScene *rt, const MfReconView *views, i
                 *m = 1;
             }
     }
+    return marked;
+}
+
+size_t mf_budget_env_coverage(const MfRtScene *rt, const MfReconView *views, int nviews, const unsigned char *skip,
+                              int W, int H, int dilate, unsigned char *cover) {
+    memset(cover, 0, (size_t)W * H);
+    for (int v = 0; v < nviews; ++v) {
+        if (skip && skip[v]) continue;
+        const MfCamera *cam = &views[v].cam;
+        for (int py = 0; py < cam->h; ++py)
+            for (int px = 0; px < cam->w; ++px) {
+                MfVec3 org, dir;
+                MfHit hit;
+                mf_camera_ray(cam, (float)px + 0.5f, (float)py + 0.5f, &org, &dir);
+                if (!mf_rtscene_intersect(rt, org, dir, 0.0f, INFINITY, &hit)) continue;
+                float u, w;
+                mf_env_dir_to_uv(mf_reflect(mf_neg(dir), hit.ns), &u, &w);
+                int x = (int)floorf(u * (float)W), y = (int)floorf((1.0f - w) * (float)H);
+                x = x < 0 ? 0 : (x >= W ? W - 1 : x), y = y < 0 ? 0 : (y >= H ? H - 1 : y);
+                cover[(size_t)y * W + x] = 2; /* 2: reached itself; 1: by the dilation below */
+            }
+    }
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) {
+            if (cover[(size_t)y * W + x] != 2) continue;
+            for (int dy = -dilate; dy <= dilate; ++dy)
+                for (int dx = -dilate; dx <= dilate; ++dx) {
+                    int yy = y + dy, xx = ((x + dx) % W + W) % W;
+                    if (yy >= 0 && yy < H && !cover[(size_t)yy * W + xx]) cover[(size_t)yy * W + xx] = 1;
+                }
+        }
+    size_t marked = 0;
+    for (size_t i = 0; i < (size_t)W * H; ++i) marked += cover[i] != 0, cover[i] = cover[i] != 0;
     return marked;
 }
 

@@ -3,6 +3,8 @@
  *   - texture side from the projected texel density of the training views (tex_auto);
  *   - visible texels (hit by a primary ray through a training pixel's centre), on which the
  *     "no metal" test (metal_auto) counts metallic texels;
+ *   - env directions seen in a reflection by some training view (env_auto: the others are
+ *     regularised toward their neighbours);
  *   - early stopping on held-out training views (early_stop): which views are held out, and
  *     the patience rule on their PSNR.
  * Units: pixels of the training views at their training resolution; UV area in the unit square
@@ -29,6 +31,12 @@ int mf_budget_pow2_side(double side, int lo, int hi);
  * skip[i] != 0 are not used. Returns the number of texels marked. */
 size_t mf_budget_visible_texels(const MfRtScene *rt, const MfReconView *views, int nviews, const unsigned char *skip,
                                 int T, unsigned char *mask);
+/* cover (H, W), the env map's texels (row 0 = +z, mf_envmap.h): 1 where a texel lies within
+ * `dilate` texels (the longitude wraps) of the mirror reflection, about the shading normal, of a
+ * primary ray through a pixel centre of one of the views (skip as above), else 0: the directions
+ * some view sees in a reflection. Returns the number of texels marked. */
+size_t mf_budget_env_coverage(const MfRtScene *rt, const MfReconView *views, int nviews, const unsigned char *skip,
+                              int W, int H, int dilate, unsigned char *cover);
 /* Fraction of the texels with mask != 0 whose metallic (channel 2 of orm, (T*T, 3)) is above
  * thresh; 0 when the mask is empty. */
 double mf_budget_metal_fraction(const float *orm, const unsigned char *mask, size_t ntex, float thresh);
@@ -64,5 +72,7 @@ int mf_recon_is_holdout(const MfRecon *r, int view);
 int mf_recon_metal_state(const MfRecon *r, double *fraction);
 /* tex_auto: the measured median side for 1 pixel per texel (0 when tex_auto is off). */
 double mf_recon_texel_side(const MfRecon *r);
+/* env_auto: the fraction of env texels some view sees in a reflection (-1 when env_auto is off). */
+double mf_recon_env_covered(const MfRecon *r);
 
 #endif

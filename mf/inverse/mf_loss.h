@@ -37,6 +37,12 @@ void mf_loss_mse_bwd(const float *pred, const float *ref, size_t n, float scale,
 
 /* tex (h, w, ch); channels [c0, c0 + nc) are regularised; mask (h, w) or NULL (all texels). */
 double mf_reg_smooth_fwd(const float *tex, int w, int h, int ch, int c0, int nc, const float *mask);
+/* Env-map smoothness of the unseen directions (env_auto): env (h, w, 3) radiance, cover (h, w)
+ * (mf_budget_env_coverage); mean over the neighbour pairs (right, with the longitude wrapping, and
+ * lower) where at least one texel is uncovered, and the 3 channels, of |e(p) - e(q)|: the uncovered
+ * texels are pulled toward their neighbours, the covered ones only where they border them. */
+double mf_reg_env_unseen_fwd(const float *env, int w, int h, const unsigned char *cover);
+void mf_reg_env_unseen_bwd(const float *env, int w, int h, const unsigned char *cover, float scale, float *denv);
 void mf_reg_smooth_bwd(const float *tex, int w, int h, int ch, int c0, int nc, const float *mask, float scale,
                        float *dtex);
 

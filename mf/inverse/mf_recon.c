@@ -52,6 +52,8 @@ struct MfRecon {
     int metal_state;            /* metal_auto: -1 not tested yet, 0 metallic kept, 1 frozen at 0 */
     double metal_fraction;      /* metal_auto: the fraction measured by the test (-1 before it) */
     double texel_side;          /* tex_auto: median sqrt(screen px / UV area) (0 when off) */
+    unsigned char *env_cover;   /* owned with env_auto; (env_h, env_w) 1 where a view sees the texel in a reflection */
+    double env_covered;         /* env_auto: fraction of texels covered (-1 when off) */
 };
 
 long mf_peak_rss_bytes(void) {
@@ -111,6 +113,25 @@ float mf_recon_exposure_of(const MfReconView *views, int nviews, double *mean) {
     return ldexpf(1.0f, (int)k);
 }
 
+/* env_auto: which env texels the training views (not the held-out ones) see in a reflection. */
+static int env_coverage(MfRecon *r, const MfReconView *views, int nviews) {
+    int W = r->o.env_w, H = r->o.env_h;
+    unsigned char *skip = calloc((size_t)nviews, 1);
+    r->env_cover = malloc((size_t)W * H);
+    if (!skip || !r->env_cover) {
+        free(skip);
+        return mf_fail(MF_ENOMEM, "out of memory");
+    }
+    for (int i = 0; i < nviews; ++i) skip[i] = (unsigned char)(r->o.early_stop && mf_budget_is_holdout(i, r->o.holdout_every));
+    size_t n = mf_budget_env_coverage(r->rt, views, nviews, skip, W, H, r->o.env_auto_dilate, r->env_cover);
+    free(skip);
+    r->env_covered = (double)n / ((double)W * H);
+    mf_log_info("recon: env_auto: the views see %.1f%% of the %dx%d env texels in a reflection (dilated by %d); the "
+                "rest are pulled toward their neighbours (weight %g)", 100.0 * r->env_covered, W, H,
+                r->o.env_auto_dilate, r->o.w_env_unseen);
+    return MF_OK;
+}
+
 int mf_recon_new(const MfMesh *mesh, MfReconView *views, int nviews, const MfReconOpts *opts, MfRecon **out) {
     if (!mesh->uv) return mf_fail(MF_EARG, "the mesh has no UVs: reconstruction needs a UV-mapped mesh (unwrap it first: mf unwrap IN.obj -o OUT.obj)");
     if (nviews < 1) return mf_fail(MF_EARG, "no training views");
@@ -132,6 +153,7 @@ int mf_recon_new(const MfMesh *mesh, MfReconView *views, int nviews, const MfRec
     r->lr_scale = 1.0f;
     r->metal_state = -1;
     r->metal_fraction = -1.0;
+    r->env_covered = -1.0;
     mf_divguard_init(&r->guard, opts->div_factor, opts->div_patience);
     rc = mf_rtscene_new(mesh, &r->rt);
     if (!rc && opts->tex_auto && !(rc = mf_budget_texel_side(r->rt, mesh, views, nviews, &r->texel_side, NULL))) {
@@ -142,6 +164,7 @@ int mf_recon_new(const MfMesh *mesh, MfReconView *views, int nviews, const MfRec
     if (!rc && !(r->train = malloc((size_t)nviews * sizeof(int)))) rc = mf_fail(MF_ENOMEM, "out of memory");
     for (int i = 0; !rc && i < nviews; ++i)
         if (!opts->early_stop || !mf_budget_is_holdout(i, opts->holdout_every)) r->train[r->ntrain++] = i;
+    if (!rc && opts->env_auto) rc = env_coverage(r, views, nviews);
     if (!rc && opts->early_stop) {
         if (!(r->es = malloc(sizeof *r->es))) rc = mf_fail(MF_ENOMEM, "out of memory");
         else mf_early_stop_init(r->es);
@@ -218,6 +241,7 @@ void mf_recon_free(MfRecon *r) {
     free(r->tan);
     free(r->train);
     free(r->es);
+    free(r->env_cover);
     free(r);
 }
 
@@ -251,6 +275,7 @@ int mf_recon_metal_state(const MfRecon *r, double *fraction) {
     return r->metal_state;
 }
 double mf_recon_texel_side(const MfRecon *r) { return r->texel_side; }
+double mf_recon_env_covered(const MfRecon *r) { return r->env_covered; }
 int mf_recon_is_holdout(const MfRecon *r, int view) { return r->o.early_stop && mf_budget_is_holdout(view, r->o.holdout_every); }
 
 MfImage mf_recon_kd_image(const MfRecon *r) { return block_image(&r->blocks[MF_BLOCK_KD], r->o.tex_res, r->o.tex_res); }
@@ -751,6 +776,11 @@ int mf_recon_run(MfRecon *r, const MfReconHook *hook, const char *out_dir) {
         if (r->o.w_orm_smooth > 0.0f) {
             st.reg += r->o.w_orm_smooth * mf_reg_smooth_fwd(orm->p, T, T, 3, 1, 2, r->uv_mask);
             mf_reg_smooth_bwd(orm->p, T, T, 3, 1, 2, r->uv_mask, r->o.w_orm_smooth, orm->g);
+        }
+        if (r->env_cover && r->o.w_env_unseen > 0.0f) {
+            MfParamBlock *env = &r->blocks[MF_BLOCK_ENV];
+            st.reg += r->o.w_env_unseen * mf_reg_env_unseen_fwd(env->p, r->o.env_w, r->o.env_h, r->env_cover);
+            mf_reg_env_unseen_bwd(env->p, r->o.env_w, r->o.env_h, r->env_cover, r->o.w_env_unseen, env->g);
         }
         if (r->o.normal_map) {
             MfParamBlock *nb = &r->blocks[MF_BLOCK_NORMAL];

@@ -55,7 +55,9 @@
  * Budgets from the data (mf_budget.h; each off by default): early_stop holds views out of step 2's
  * permutation and ends the run on their PSNR (holdout.csv; the checkpoint is written at the stop);
  * metal_auto sets ORM B to 0 and freezes it after metal_warmup iterations when the scene shows no
- * metal (the decision is stored in the checkpoint); tex_auto picks tex_res in mf_recon_new. */
+ * metal (the decision is stored in the checkpoint); tex_auto picks tex_res in mf_recon_new; env_auto
+ * finds there the env directions the training views see in a reflection and regularises the others
+ * toward their neighbours every iteration. */
 #ifndef MF_RECON_H
 #define MF_RECON_H
 
@@ -116,6 +118,9 @@ typedef struct {
     float metal_frac;     /* ... is below this */
     int tex_auto;         /* 1: tex_res from the views' texel density (power of two, clamped) */
     int tex_auto_min, tex_auto_max;
+    int env_auto;         /* 1: env texels no view sees in a reflection are regularised toward their neighbours */
+    int env_auto_dilate;  /* ... coverage dilated by this many texels ... */
+    float w_env_unseen;   /* ... with this weight (mf_reg_env_unseen) */
 } MfReconOpts;
 
 /* The defaults, from the option table (mf_recon_opts.c: defaults, ranges and docs are written there). */

@@ -52,6 +52,9 @@ static const MfOpt k_opts[] = {
     MF_OPT_BOOL(R, tex_auto, 0, "1: tex_res = the power of two nearest 1 pixel per texel over the training views (median over visible triangles)"),
     MF_OPT_INT(R, tex_auto_min, 32, 4, 8192, "tex_auto: smallest texture side"),
     MF_OPT_INT(R, tex_auto_max, 1024, 4, 8192, "tex_auto: largest texture side"),
+    MF_OPT_BOOL(R, env_auto, 0, "1: env texels no training view sees in a mirror reflection are pulled toward their neighbours (L1 of neighbour differences)"),
+    MF_OPT_INT(R, env_auto_dilate, 1, 0, 64, "env_auto: the reflected directions cover this many texels around them"),
+    MF_OPT_FLOAT(R, w_env_unseen, 0.1, 0, 1000, "env_auto: weight of the unseen directions' smoothness"),
 };
 #undef R
 const MfOptTable mf_recon_opt_table = MF_OPT_TABLE("Options of both methods", k_opts);
