@@ -388,3 +388,50 @@ MF_TEST(inverse_budget_env_coverage) {
     mf_rtscene_free(rt);
     mf_mesh_free(&quad), mf_mesh_free(&sphere);
 }
+
+/* ---- samples per pixel that grow as the loss stops falling (spp_grow) ---- */
+
+MF_TEST(inverse_budget_spp_grow_rule_and_resume) {
+    MfMesh mesh;
+    CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
+    MfReconOpts o = tiny_opts();
+    o.iters = 24, o.spp_grow = 1, o.spp_grow_window = 4, o.spp_grow_max = 3, o.checkpoint_every = 4;
+    o.spp_grow_tol = 1.0f; /* any window whose loss fell by less than 100% grows it */
+    MfRecon *r = recon_of(&mesh, 0.0f, &o);
+    char dir[512], hd[512], ck[1024];
+    mf_test_path_to(dir, sizeof dir, "sppgrow_full");
+    CHECK_OK(mf_recon_run(r, NULL, dir));
+    const int *at;
+    int n, spp = mf_recon_spp_now(r, &at, &n);
+    /* the first window sets the reference; windows 2 and 3 grow 1 -> 2 -> 3 (the cap) */
+    CHECK_MSG(spp == 3 && n == 2 && at[0] == 8 && at[1] == 12, "spp %d, %d growths (first at %d)", spp, n, n ? at[0] : -1);
+    /* resumed from iteration 8 (just after the first growth), the rest is bit-identical */
+    MfReconOpts oh = o;
+    oh.iters = 10; /* checkpoint at 8 (every 4) and at the end, 10 (mid-window) */
+    mf_test_path_to(hd, sizeof hd, "sppgrow_half");
+    MfRecon *h = recon_of(&mesh, 0.0f, &oh);
+    CHECK_OK(mf_recon_run(h, NULL, hd));
+    mf_recon_free(h);
+    h = recon_of(&mesh, 0.0f, &o);
+    snprintf(ck, sizeof ck, "%s/checkpoint.mfck", hd);
+    CHECK_OK(mf_recon_load_checkpoint(h, ck));
+    CHECK(mf_recon_iteration(h) == 10 && mf_recon_spp_now(h, NULL, NULL) == 2);
+    CHECK_OK(mf_recon_run(h, NULL, hd));
+    int nh, spph = mf_recon_spp_now(h, &at, &nh);
+    CHECK(spph == 3 && nh == 2 && at[0] == 8 && at[1] == 12);
+    for (int k = 0; k < MF_BLOCK_NORMAL; ++k) {
+        const MfParamBlock *x = mf_recon_block(r, k), *y = mf_recon_block(h, k);
+        CHECK_MSG(x->n == y->n && !memcmp(x->p, y->p, x->n * sizeof(float)), "block %s differs after resume", x->name);
+    }
+    mf_recon_free(h);
+    mf_recon_free(r);
+    /* off: the level stays at --spp */
+    o.spp_grow = 0, o.iters = 12;
+    r = recon_of(&mesh, 0.0f, &o);
+    mf_test_path_to(dir, sizeof dir, "sppgrow_off");
+    CHECK_OK(mf_recon_run(r, NULL, dir));
+    int n0, s0 = mf_recon_spp_now(r, NULL, &n0);
+    CHECK(s0 == o.spp_sqrt && n0 == 0);
+    mf_recon_free(r);
+    mf_mesh_free(&mesh);
+}

@@ -211,6 +211,13 @@ static void budgets_to_json(const MfRecon *r, cJSON *opts) {
     }
     if (mf_recon_opts(r)->tex_auto) cJSON_AddNumberToObject(opts, "tex_auto_median_side", mf_recon_texel_side(r));
     if (mf_recon_opts(r)->env_auto) cJSON_AddNumberToObject(opts, "env_auto_covered_fraction", mf_recon_env_covered(r));
+    if (mf_recon_opts(r)->spp_grow) {
+        const int *at;
+        int n, spp = mf_recon_spp_now(r, &at, &n);
+        cJSON *g = cJSON_AddObjectToObject(opts, "spp_grow_result");
+        cJSON_AddNumberToObject(g, "spp_final", spp);
+        cJSON_AddItemToObject(g, "grew_at", cJSON_CreateIntArray(at, n));
+    }
 }
 
 /* run.json's time_split (wall seconds) and cpu_split (CPU seconds of the process, all threads: the

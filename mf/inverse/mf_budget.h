@@ -72,6 +72,8 @@ int mf_recon_is_holdout(const MfRecon *r, int view);
 int mf_recon_metal_state(const MfRecon *r, double *fraction);
 /* tex_auto: the measured median side for 1 pixel per texel (0 when tex_auto is off). */
 double mf_recon_texel_side(const MfRecon *r);
+/* spp_grow: the training renders' spp_sqrt now, and the iterations it grew at (up to 16; *n their count). */
+int mf_recon_spp_now(const MfRecon *r, const int **grew_at, int *n);
 /* env_auto: the fraction of env texels some view sees in a reflection (-1 when env_auto is off). */
 double mf_recon_env_covered(const MfRecon *r);
 

@@ -54,6 +54,10 @@ struct MfRecon {
     double texel_side;          /* tex_auto: median sqrt(screen px / UV area) (0 when off) */
     unsigned char *env_cover;   /* owned with env_auto; (env_h, env_w) 1 where a view sees the texel in a reflection */
     double env_covered;         /* env_auto: fraction of texels covered (-1 when off) */
+    int spp_now;                /* the training renders' spp_sqrt (spp_grow raises it) */
+    double grow_prev, grow_sum; /* spp_grow: mean image loss of the last whole window (-1: none), sum of this one */
+    int grow_n;                 /* spp_grow: iterations in this window so far */
+    int grew_at[16], ngrew;     /* spp_grow: iterations where spp_now grew */
 };
 
 long mf_peak_rss_bytes(void) {
@@ -154,6 +158,8 @@ int mf_recon_new(const MfMesh *mesh, MfReconView *views, int nviews, const MfRec
     r->metal_state = -1;
     r->metal_fraction = -1.0;
     r->env_covered = -1.0;
+    r->spp_now = opts->spp_sqrt;
+    r->grow_prev = -1.0;
     mf_divguard_init(&r->guard, opts->div_factor, opts->div_patience);
     rc = mf_rtscene_new(mesh, &r->rt);
     if (!rc && opts->tex_auto && !(rc = mf_budget_texel_side(r->rt, mesh, views, nviews, &r->texel_side, NULL))) {
@@ -276,6 +282,11 @@ int mf_recon_metal_state(const MfRecon *r, double *fraction) {
 }
 double mf_recon_texel_side(const MfRecon *r) { return r->texel_side; }
 double mf_recon_env_covered(const MfRecon *r) { return r->env_covered; }
+int mf_recon_spp_now(const MfRecon *r, const int **grew_at, int *n) {
+    if (grew_at) *grew_at = r->grew_at;
+    if (n) *n = r->ngrew;
+    return r->spp_now;
+}
 int mf_recon_is_holdout(const MfRecon *r, int view) { return r->o.early_stop && mf_budget_is_holdout(view, r->o.holdout_every); }
 
 MfImage mf_recon_kd_image(const MfRecon *r) { return block_image(&r->blocks[MF_BLOCK_KD], r->o.tex_res, r->o.tex_res); }
@@ -314,13 +325,16 @@ static int save_checkpoint(const MfRecon *r, const char *path, double wall) {
         memcpy(buf + off, pb->m, pb->n * sizeof(float)), off += pb->n;
         memcpy(buf + off, pb->v, pb->n * sizeof(float)), off += pb->n;
     }
-    char meta[512];
+    char meta[1024], grew[16 * 12] = "";
+    for (int i = 0, len = 0; i < r->ngrew && i < 16; ++i)
+        len += snprintf(grew + len, sizeof grew - (size_t)len, "%s%d", i ? " " : "", r->grew_at[i]);
     snprintf(meta, sizeof meta,
              "{\"kind\":\"mf-recon\",\"iteration\":%d,\"adam_t\":%ld,\"wall_s\":%.17g,\"tex_res\":%d,\"env_w\":%d,\"env_h\":%d,"
-             "\"lr_scale\":%.9g,\"loss_min\":%.17g,\"recoveries\":%d,\"exposure\":%.9g,\"metal_state\":%d,\"metal_fraction\":%.17g}",
+             "\"lr_scale\":%.9g,\"loss_min\":%.17g,\"recoveries\":%d,\"exposure\":%.9g,\"metal_state\":%d,\"metal_fraction\":%.17g,"
+             "\"spp_now\":%d,\"grow_prev\":%.17g,\"grow_sum\":%.17g,\"grow_n\":%d,\"grew_at\":\"%s\"}",
              r->it, r->adam.t, wall, r->o.tex_res, r->o.env_w, r->o.env_h, r->lr_scale,
              isfinite(r->guard.loss_min) ? r->guard.loss_min : -1.0, r->nrec_total, r->exposure, r->metal_state,
-             r->metal_fraction);
+             r->metal_fraction, r->spp_now, r->grow_prev, r->grow_sum, r->grow_n, grew);
     int rc = mf_ckpt_save(path, specs, r->nblocks * 3, buf, meta);
     free(buf);
     return rc;
@@ -401,6 +415,19 @@ int mf_recon_load_checkpoint(MfRecon *r, const char *path) {
     r->nrec_total = nrec;
     r->metal_state = metal_state;
     r->metal_fraction = metal_fraction;
+    /* spp_grow's state (absent in older checkpoints: the start) */
+    const char *ps = meta ? strstr(meta, "\"spp_now\":") : NULL;
+    if (ps && sscanf(ps, "\"spp_now\":%d,\"grow_prev\":%lf,\"grow_sum\":%lf,\"grow_n\":%d", &r->spp_now, &r->grow_prev,
+                     &r->grow_sum, &r->grow_n) == 4) {
+        const char *pg = strstr(ps, "\"grew_at\":\"");
+        r->ngrew = 0;
+        for (const char *q = pg ? pg + 11 : ""; r->ngrew < 16 && *q && *q != '"';) {
+            char *end;
+            long v = strtol(q, &end, 10);
+            if (end == q) break;
+            r->grew_at[r->ngrew++] = (int)v, q = end;
+        }
+    }
     if (metal_state == 1) mf_param_set_bounds(&r->blocks[MF_BLOCK_ORM], 2, 0.0f, 0.0f);
     mf_divguard_init(&r->guard, r->o.div_factor, r->o.div_patience);
     if (isfinite(loss_min) && loss_min >= 0.0) r->guard.loss_min = loss_min;
@@ -420,7 +447,7 @@ static int view_step(MfRecon *r, int vi, uint64_t vseed, float scale, IterStats 
     MfImage kd = mf_recon_kd_image(r), orm = mf_recon_orm_image(r), nm = mf_recon_normal_image(r);
     MfDiffScene s = {.rt = r->rt, .kd = &kd, .orm = &orm, .env = &r->env, .normal = r->o.normal_map ? &nm : NULL,
                      .tangent = r->tan};
-    MfDiffOpts fo = {.spp_sqrt = r->o.spp_sqrt, .pixel_samples = r->o.pixel_samples, .seed = mf_hash64(vseed, 1)};
+    MfDiffOpts fo = {.spp_sqrt = r->spp_now, .pixel_samples = r->o.pixel_samples, .seed = mf_hash64(vseed, 1)};
     MfRenderOut out;
     float *dz = NULL, *dn = NULL, *gbuf = NULL; /* denoiser: (h, w), (3, h, w, 3), (4, h, w, 3) */
     float *dmod_c = NULL;                       /* (h, w, 3) F(diffuse) of the seed-C render */
@@ -643,6 +670,22 @@ static int holdout_psnr(MfRecon *r, double *psnr) {
     return rc;
 }
 
+/* spp_grow: adds the image loss of iteration r->it; at the end of a window, raises spp_now when
+ * the window's mean fell by less than spp_grow_tol of the previous window's. */
+static void spp_grow_observe(MfRecon *r, double loss) {
+    r->grow_sum += loss, r->grow_n++;
+    if (r->it % r->o.spp_grow_window != 0) return;
+    double m = r->grow_sum / (r->grow_n > 0 ? r->grow_n : 1);
+    if (r->grow_prev > 0.0 && r->grow_prev - m < r->o.spp_grow_tol * r->grow_prev && r->spp_now < r->o.spp_grow_max) {
+        r->spp_now++;
+        if (r->ngrew < 16) r->grew_at[r->ngrew++] = r->it;
+        mf_log_info("recon: spp_grow at iteration %d: the image loss's mean over the last %d iterations fell %.2f%% "
+                    "(< %g%%): --spp %d", r->it, r->grow_n, 100.0 * (r->grow_prev - m) / r->grow_prev,
+                    100.0 * r->o.spp_grow_tol, r->spp_now);
+    }
+    r->grow_prev = m, r->grow_sum = 0.0, r->grow_n = 0;
+}
+
 /* metal_auto: the fraction of the training views' visible texels with metallic > 0.5; below
  * metal_frac the channel is set to 0 and frozen (its Adam moments zeroed). */
 static int metal_test(MfRecon *r) {
@@ -825,6 +868,7 @@ int mf_recon_run(MfRecon *r, const MfReconHook *hook, const char *out_dir) {
         fflush(log);
         mf_stage_lap(&r->times.io, &ck);
         if (r->o.metal_auto && r->metal_state < 0 && r->it >= r->o.metal_warmup && (rc = metal_test(r))) break;
+        if (r->o.spp_grow) spp_grow_observe(r, st.image);
         if (r->es && r->it % r->o.es_every == 0) {
             double hp;
             if ((rc = holdout_psnr(r, &hp))) break;

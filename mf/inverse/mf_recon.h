@@ -57,7 +57,8 @@
  * metal_auto sets ORM B to 0 and freezes it after metal_warmup iterations when the scene shows no
  * metal (the decision is stored in the checkpoint); tex_auto picks tex_res in mf_recon_new; env_auto
  * finds there the env directions the training views see in a reflection and regularises the others
- * toward their neighbours every iteration. */
+ * toward their neighbours every iteration; spp_grow raises the training renders' samples per pixel when
+ * the image loss stops falling (the level and its window are in the checkpoint). */
 #ifndef MF_RECON_H
 #define MF_RECON_H
 
@@ -121,6 +122,10 @@ typedef struct {
     int env_auto;         /* 1: env texels no view sees in a reflection are regularised toward their neighbours */
     int env_auto_dilate;  /* ... coverage dilated by this many texels ... */
     float w_env_unseen;   /* ... with this weight (mf_reg_env_unseen) */
+    int spp_grow;         /* 1: spp_sqrt grows by 1 (up to spp_grow_max) whenever the image loss's mean over a
+                             window of spp_grow_window iterations fell by less than spp_grow_tol of the previous one */
+    int spp_grow_max, spp_grow_window;
+    float spp_grow_tol;
 } MfReconOpts;
 
 /* The defaults, from the option table (mf_recon_opts.c: defaults, ranges and docs are written there). */

@@ -55,6 +55,10 @@ static const MfOpt k_opts[] = {
     MF_OPT_BOOL(R, env_auto, 0, "1: env texels no training view sees in a mirror reflection are pulled toward their neighbours (L1 of neighbour differences)"),
     MF_OPT_INT(R, env_auto_dilate, 1, 0, 64, "env_auto: the reflected directions cover this many texels around them"),
     MF_OPT_FLOAT(R, w_env_unseen, 0.1, 0, 1000, "env_auto: weight of the unseen directions' smoothness"),
+    MF_OPT_BOOL(R, spp_grow, 0, "1: --spp grows by 1 (up to spp_grow_max) each time the image loss's mean over a window fell by less than spp_grow_tol of the previous window's"),
+    MF_OPT_INT(R, spp_grow_max, 4, 1, MF_OPT_SPP_MAX, "spp_grow: largest --spp"),
+    MF_OPT_INT(R, spp_grow_window, 25, 1, 1000000, "spp_grow: window (iterations; windows end at multiples of it)"),
+    MF_OPT_FLOAT(R, spp_grow_tol, 0.02, 0, 1, "spp_grow: relative fall of the windowed loss below which --spp grows"),
 };
 #undef R
 const MfOptTable mf_recon_opt_table = MF_OPT_TABLE("Options of both methods", k_opts);

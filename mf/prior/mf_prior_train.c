@@ -375,7 +375,7 @@ static int save_weights(Ctx *c, const MfPrior *p, const Data *d, const MfTrainPr
     cJSON_AddNumberToObject(t, "seed", (double)o->seed);
     cJSON_AddNumberToObject(t, "samples", d->n);
     cJSON_AddNumberToObject(t, "dn_samples", d->m);
-    cJSON_AddNumberToObject(t, "lr", o->lr_dn);
+    cJSON_AddNumberToObject(t, "lr", round((double)o->lr_dn * 1e9) / 1e9);
     cJSON_AddBoolToObject(t, "lr_cosine", o->lr_cosine);
     for (int k = 0; k < 3; ++k)
         cJSON_AddNumberToObject(t, (const char *[]){"psnr_albedo", "psnr_orm", "psnr_rgb"}[k], round(res->psnr[k] * 1e3) / 1e3);
