@@ -70,7 +70,7 @@ LIB_OBJ  := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
 CLI_OBJ  := $(CLI_C:%.c=$(BUILD)/obj/%.o)
 TEST_OBJ := $(TEST_C:%.c=$(BUILD)/obj/%.o)
 
-.PHONY: FORCE all deps deps-node deps-fuzz bench-asset fuzz fuzz-lib fuzz-seeds test check-deps asan bench-geom bench-hull bench-render profile-render bench-nn bench-nn-dnnl bench-nn-onednn bench-baseline bench-prior prior-objects bench-sds-cost bench-quick bench bench-split bench-split-now bench-runs bench-external recon-runs train-prior train-prior-wide eval-prior calibrate-trust sweep-guidance bench-domain bench-matrix bench-stability test-slurm clean
+.PHONY: FORCE all deps deps-node deps-fuzz bench-asset fuzz fuzz-lib fuzz-seeds test check-deps asan bench-geom bench-hull bench-render profile-render bench-nn bench-nn-dnnl bench-nn-onednn bench-baseline bench-prior prior-objects train-prior-ft prior-curve bench-sds-cost bench-quick bench bench-split bench-split-now bench-runs bench-external recon-runs train-prior train-prior-wide eval-prior calibrate-trust sweep-guidance bench-domain bench-matrix bench-stability test-slurm clean
 all: $(BUILD)/mf $(BUILD)/mf_tests
 
 deps:
@@ -503,6 +503,36 @@ prior-objects: $(BUILD)/mf $(DATA)/test-3d/.rendered $(DATA)/val-3d/.rendered $(
 	  --pair test-3d reports/prior/objects/test-3d/objects.csv reports/bench/views8-mv/scenes.csv mf-mean-g1trust-mv nvdiffrecmc \
 	  --pair test-3d-ambig reports/prior/objects/test-3d-ambig/objects.csv reports/bench/test-3d-ambig-mv/scenes.csv \
 	  mf-mean-g1trust-mv nvdiffrecmc
+
+# Training on from the committed prior (issue 12 item 2): the denoiser continues from its weights for
+# PRIOR_FT_STEPS more steps on every sample of prior-train (the committed run saw 6000), the learning
+# rate falling along a cosine; the weights kept every 1000 steps (PRIOR_FT_CKPT/prior-<step>.mfck).
+PRIOR_FT_CKPT  ?= $(DATA)/prior-ft
+PRIOR_FT_STEPS ?= 4000
+PRIOR_FT_ARGS  ?= --init $(PRIOR_WEIGHTS) --ae-steps 0 --steps $(PRIOR_FT_STEPS) --dn-samples 0 --batch 16 --seed 2 \
+  --lr-cosine --keep-every 1000
+train-prior-ft: $(BUILD)/mf $(PRIOR_DATA)/manifest.json
+	$(MF) train-prior $(PRIOR_DATA) -o $(PRIOR_FT_CKPT) $(PRIOR_FT_ARGS) --loss-csv reports/prior/curve/ft-loss.csv --resume
+# The prior's held-out curve over training steps (issue 12 item 2): eval-prior at the mean targets'
+# setting (PRIOR_OBJ_ARGS) on the validation splits (never a test split) for each point of
+# CURVE_POINTS (label=denoiser steps=weights), then per-object means, paired over objects against the
+# first point (eval/prior_curve.py, mf compare) -> reports/prior/curve/. val-2d-cyc only with Blender.
+CURVE_REPORT ?= reports/prior/curve
+CURVE_SPLITS ?= val-2d $(if $(shell command -v blender 2>/dev/null)$(wildcard $(DATA)/val-2d-cyc/manifest.json),val-2d-cyc) val-3d
+CURVE_POINTS ?= v1=4000=$(PRIOR_WEIGHTS) $(foreach k,1 2 3 4,ft-$(k)000=$(k)000+4000=$(PRIOR_FT_CKPT)/prior-$(k)000.mfck)
+curve-point = --point $(word 1,$(subst =, ,$(1))) $(word 2,$(subst =, ,$(1))) $(CURVE_REPORT)/$(word 1,$(subst =, ,$(1)))
+prior-curve: $(BUILD)/mf $(foreach s,$(CURVE_SPLITS),$(DATA)/$(s)/$(if $(filter val-3d,$(s)),.rendered,manifest.json)) $(PRIOR_DATA)/manifest.json
+	@for p in $(CURVE_POINTS); do w=$${p##*=}; d=$(CURVE_REPORT)/$${p%%=*}; \
+	  [ -f "$$w" ] || { echo "prior-curve: $$w missing (make train-prior-ft makes the ft-* weights)" >&2; exit 1; }; \
+	  for s in $(CURVE_SPLITS); do [ -f $$d/$$s/table2d.csv ] && [ $$d/$$s/table2d.csv -nt $$w ] || \
+	    $(MF) eval-prior $(DATA)/$$s -o $$d/$$s --weights $$w $(PRIOR_OBJ_ARGS) || exit 1; done; done
+	python3 eval/prior_curve.py -o $(CURVE_REPORT) $(addprefix --split ,$(CURVE_SPLITS)) \
+	  $(foreach p,$(CURVE_POINTS),$(call curve-point,$(p)))
+	for s in $(CURVE_SPLITS); do for m in StableMaterial StableMaterialMV; do \
+	  $(MF) compare $(CURVE_REPORT)/objects.csv --dataset $$s --ref $$m@$(word 1,$(subst =, ,$(word 1,$(CURVE_POINTS)))) \
+	    -o $(CURVE_REPORT)/$$s/$$m >/dev/null || exit 1; done; done
+	python3 eval/prior_curve.py -o $(CURVE_REPORT) --readme-only $(addprefix --split ,$(CURVE_SPLITS)) \
+	  $(foreach p,$(CURVE_POINTS),$(call curve-point,$(p))) --caption "$(CURVE_CAPTION)"
 
 # The prior term's cost (issue 12 item 7; tools/sds_cost.sh): the baseline and MaterialFusion back
 # to back on test-3d/000_cup (made in $(SDS_COST_DATA) when missing), $(SDS_COST_ITERS) iterations,

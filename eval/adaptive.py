@@ -27,6 +27,10 @@ def decisions(run_dir):
         out.append({"metallic fixed at 0": "metal 0", "metallic kept": "metal kept"}.get(d["metal"], "metal " + d["metal"]))
     if "tex" in d:
         out.append("tex %d" % d["tex"])
+    if "env" in d:
+        out.append("env seen %.1f%%" % (100 * d["env"]))
+    if "spp" in d:
+        out.append("spp %d%s" % (d["spp"][0], " (grew at %s)" % ", ".join(map(str, d["spp"][1])) if d["spp"][1] else ""))
     return ", ".join(out)
 
 

@@ -17,7 +17,7 @@ RESULTS=${RESULTS:-results/adaptive}
 OUT=${OUT:-reports/adaptive}
 SPLITS=${SPLITS:-"val-3d test-3d"}
 A_CONFIG=${A_CONFIG:-baselines/nvdiffrecmc.json}
-A_CONFIGS=${A_CONFIGS:-"adaptive=--early-stop --metal-auto --tex-auto;spp1=--spp 1"}
+A_CONFIGS=${A_CONFIGS:-"adaptive=--early-stop --metal-auto --tex-auto;spp1=--spp 1;sppgrow=--spp-grow;envauto=--env-auto"}
 
 recon() { # recon RUN_DIR SCENE_DIR ARGS...: one resumable run; a failed one is named and skipped
     d=$1 sd=$2

@@ -179,13 +179,18 @@ MF_TEST(prior_train_init_keeps_ae_and_cosine_lr) {
     CHECK_OK(mf_train_prior(&o, &ra));
     mf_path_join(wa, sizeof wa, a, "prior.mfck");
     tp_tiny_opts(&o, b, cb);
-    o.init = wa, o.ae_steps = 0, o.steps = 20, o.lr_cosine = 1, o.seed = 6;
+    o.init = wa, o.ae_steps = 0, o.steps = 20, o.lr_cosine = 1, o.seed = 6, o.keep_every = 10;
     o.tiny = 0; /* the model comes from the file */
     CHECK_OK(mf_train_prior(&o, &rb));
     CHECK_MSG(rb.dn_loss_first < 0.8f * ra.dn_loss_first, "init run starts at %g, fresh run at %g", rb.dn_loss_first,
               ra.dn_loss_first);
     CHECK(rb.latent_scale == ra.latent_scale);
     mf_path_join(wb, sizeof wb, b, "prior.mfck");
+    char k10[MF_PATH_MAX], k20[MF_PATH_MAX], k7[MF_PATH_MAX];
+    mf_path_join(k10, sizeof k10, b, "prior-10.mfck");
+    mf_path_join(k20, sizeof k20, b, "prior-20.mfck");
+    mf_path_join(k7, sizeof k7, b, "prior-7.mfck");
+    CHECK(mf_file_exists(k10) && files_equal(k20, wb) && !files_equal(k10, wb) && !mf_file_exists(k7));
     MfPrior *pa, *pb;
     CHECK_OK(mf_prior_load(wa, &pa));
     CHECK_OK(mf_prior_load(wb, &pb));

@@ -415,8 +415,8 @@ int mf_recon_load_checkpoint(MfRecon *r, const char *path) {
     r->nrec_total = nrec;
     r->metal_state = metal_state;
     r->metal_fraction = metal_fraction;
-    /* spp_grow's state (absent in older checkpoints: the start) */
-    const char *ps = meta ? strstr(meta, "\"spp_now\":") : NULL;
+    /* spp_grow's state (absent in older checkpoints: the start; without spp_grow, --spp as given) */
+    const char *ps = meta && r->o.spp_grow ? strstr(meta, "\"spp_now\":") : NULL;
     if (ps && sscanf(ps, "\"spp_now\":%d,\"grow_prev\":%lf,\"grow_sum\":%lf,\"grow_n\":%d", &r->spp_now, &r->grow_prev,
                      &r->grow_sum, &r->grow_n) == 4) {
         const char *pg = strstr(ps, "\"grew_at\":\"");

@@ -364,7 +364,8 @@ static int encode_all(MfPrior *p, const Data *d, float *lat, MfTrainPriorResult 
     return rc;
 }
 
-/* Writes out_dir/prior.mfck with the current weights; dn_step = denoiser steps done so far. */
+/* Writes out_dir/prior.mfck with the current weights (and out_dir/prior-<dn_step>.mfck at a multiple
+ * of keep_every); dn_step = denoiser steps done so far. */
 static int save_weights(Ctx *c, const MfPrior *p, const Data *d, const MfTrainPriorResult *res, int dn_step) {
     const MfTrainPriorOpts *o = c->o;
     cJSON *t = cJSON_CreateObject(), *root = cJSON_CreateObject();
@@ -385,6 +386,11 @@ static int save_weights(Ctx *c, const MfPrior *p, const Data *d, const MfTrainPr
     cJSON_Delete(root);
     if (!extra) return mf_fail(MF_ENOMEM, "train-prior: out of memory");
     int rc = mf_prior_save(p, c->final, extra);
+    if (!rc && o->keep_every > 0 && dn_step > 0 && dn_step % o->keep_every == 0) {
+        char name[48], kept[MF_PATH_MAX];
+        snprintf(name, sizeof name, "prior-%d.mfck", dn_step);
+        if (!(rc = mf_path_join(kept, sizeof kept, o->out_dir, name))) rc = mf_prior_save(p, kept, extra);
+    }
     free(extra);
     return rc;
 }
@@ -455,7 +461,8 @@ static int train_dn(Ctx *c, MfPrior *p, const Data *d, const float *lat, MfTrain
         mf_progress_add(&prog, 1);
         ++done_here, ++c->ran;
         int last = step + 1 == o->steps, halt = o->stop_after && c->ran >= o->stop_after;
-        if ((o->ckpt_every > 0 && (step + 1) % o->ckpt_every == 0) || last || halt) {
+        int keep = o->keep_every > 0 && (step + 1) % o->keep_every == 0;
+        if ((o->ckpt_every > 0 && (step + 1) % o->ckpt_every == 0) || last || halt || keep) {
             rc = checkpoint(c, "dn", &dn->tab, dn->params, &opt, step + 1);
             if (!rc) rc = save_weights(c, p, d, res, step + 1); /* a partial run is usable */
         }

@@ -47,6 +47,8 @@ typedef struct {
                                        fresh AdamW moments (fine-tuning / training on) */
     int lr_cosine;                  /* after the warm-up, both learning rates follow a cosine from their
                                        value to 0 at the phase's last step (else constant) */
+    int keep_every;                 /* also keep the weights every K denoiser steps as out_dir/prior-<step>.mfck
+                                       (a held-out curve over steps; 0 = off) */
     int stop_after;                 /* test hook: checkpoint and stop after this many steps of this run (0 = off) */
     int nan_at;                     /* test hook: pretend the loss is NaN at this global step (0 = off) */
 } MfTrainPriorOpts;

@@ -31,6 +31,7 @@ static const MfOpt k_opts[] = {
     MF_OPT_INT(S, ae_c2, 0, 0, 4096, "AE channels, second level (0: default 64)"),
     MF_OPT_NAMED(S, "unet_c1", dn_c1, MF_OPT_INT, 0, 0, 4096, "denoiser channels, first level (0: default 64; a multiple of 8)"),
     MF_OPT_NAMED(S, "unet_c2", dn_c2, MF_OPT_INT, 0, 0, 4096, "denoiser channels, second level (0: default 128; >= c1, a multiple of 8)"),
+    MF_OPT_INT(S, keep_every, 0, 0, 10000000, "also keep the weights every N denoiser steps as CKPT_DIR/prior-<step>.mfck (0: off)"),
     MF_OPT_INT(S, stop_after, 0, 0, 1000000000, "stop (with a checkpoint) after N steps of this run (0: off)"),
     MF_OPT_BOOL(S, tiny, 0, "the tiny test model (resolution 16)"),
 };
