@@ -69,6 +69,15 @@ MF_TEST(prior_cli_predicts_maps) {
     CHECK_OK(mf_prior_load(f, &t));
     mf_prior_free(t);
     CHECK(mf_file_exists(lc));
+    /* trained on from those weights (--init): a denoiser-only loss curve, still plotted */
+    char ck2[MF_PATH_MAX], lc2[MF_PATH_MAX], png[MF_PATH_MAX];
+    mf_test_path_to(ck2, sizeof ck2, "prior_cli_ck_init");
+    mf_test_path_to(lc2, sizeof lc2, "prior_cli_loss_init.csv");
+    mf_test_path_to(png, sizeof png, "prior_cli_loss_init.png");
+    snprintf(args, sizeof args, "train-prior '%s' -o '%s' --init '%s' --ae-steps 0 --steps 3 --batch 4 --lr-cosine --loss-csv '%s'",
+             tp_synth_dir(), ck2, f, lc2);
+    CHECK_MSG(mf_test_run_mf(args, NULL, err, sizeof err) == 0, "mf %s: %s", args, err);
+    CHECK(mf_file_exists(lc2) && mf_file_exists(png));
     snprintf(args, sizeof args, "train-prior '%s'", tp_synth_dir());
     CHECK(mf_test_run_mf(args, NULL, err, sizeof err) != 0); /* no -o */
     /* missing weights: a clear message naming the file and the expected version */

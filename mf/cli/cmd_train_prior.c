@@ -69,9 +69,10 @@ static void plot_loss(const char *csv) {
         char png[1024];
         size_t l = strlen(csv);
         snprintf(png, sizeof png, "%.*s.png", (int)(l > 4 && !strcmp(csv + l - 4, ".csv") ? l - 4 : l), csv);
-        int ns = n[1] ? 2 : 1;
-        if (n[0] && ev_plot_png(png, "prior training loss (50-step moving average)", "step (autoencoder, then denoiser)",
-                                "loss", s, ns, 0))
+        /* the phases with rows: both, the autoencoder alone (stopped in it), or the denoiser alone (--init) */
+        int first = n[0] ? 0 : 1, ns = n[0] && n[1] ? 2 : 1;
+        if (n[first] && ev_plot_png(png, "prior training loss (50-step moving average)", "step (autoencoder, then denoiser)",
+                                    "loss", s + first, ns, 0))
             mf_log_warn("train-prior: no loss plot: %s", mf_error());
     }
     for (int j = 0; j < 2; ++j) free(x[j]), free(y[j]);
