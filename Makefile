@@ -265,6 +265,12 @@ FLAGS_mf-mean-g1trust = --method materialfusion --guidance 1 --sds-target mean $
 FLAGS_mf-mean-g1trust-mv = $(FLAGS_mf-mean-g1trust) --sds-mv 1
 # and the channel trust measured at the mean targets' own sampling (reports/prior/mean-targets: 0 / 0)
 FLAGS_mf-mean-cal    := --method materialfusion --guidance 1 --sds-target mean --sds-trust-rough 0 --sds-trust-metal 0
+# the mean targets with the prior trained on (mf/prior/weights/prior-ft.mfck = make train-prior-ft's
+# prior-4000.mfck) and its channel trust measured at the targets' own sampling on the 2D validation
+# splits (reports/prior/curve/ft-4000; the smaller value per channel, floored to 0.01)
+TRUST_FT = $(shell jq -s '"--sds-trust-rough \(map(.trust_roughness) | min * 100 | floor / 100) --sds-trust-metal \(map(.trust_metallic) | min * 100 | floor / 100)"' -r $(wildcard reports/prior/curve/ft-4000/val-2d*/table2d.json) 2>/dev/null)
+FLAGS_mf-ft-cal = --method materialfusion --guidance 1 --sds-target mean --prior-weights mf/prior/weights/prior-ft.mfck \
+  $(or $(TRUST_FT),$(error mf-ft-cal: no reports/prior/curve/ft-4000/val-2d*/table2d.json (make prior-curve writes them)))
 FLAGS_mf-gamma-const := --method materialfusion --gamma-const 1
 FLAGS_mf-no-rgb      := --method materialfusion --lambda-rgb 0
 FLAGS_mf-no-latent   := --method materialfusion --lambda-latent 0
