@@ -12,15 +12,27 @@ static int cmp_double(const void *a, const void *b) {
     return (x > y) - (x < y);
 }
 
-/* Marks in seen (nt,) the triangles hit by a primary ray through a pixel centre of view v. */
-static void mark_hit_triangles(const MfRtScene *rt, const MfReconView *v, unsigned char *seen) {
-    for (int py = 0; py < v->cam.h; ++py)
-        for (int px = 0; px < v->cam.w; ++px) {
-            MfVec3 org, dir;
-            MfHit hit;
-            mf_camera_ray(&v->cam, (float)px + 0.5f, (float)py + 0.5f, &org, &dir);
-            if (mf_rtscene_intersect(rt, org, dir, 0.0f, INFINITY, &hit)) seen[hit.tri] = 1;
-        }
+/* Calls fn(ctx, dir, hit) for every primary ray through a pixel centre of the views (those with
+ * skip[i] != 0 left out; skip may be NULL) that hits the mesh; dir is the ray's unit direction. */
+typedef void (*HitFn)(void *ctx, MfVec3 dir, const MfHit *hit);
+static void for_each_centre_hit(const MfRtScene *rt, const MfReconView *views, int nviews, const unsigned char *skip,
+                                HitFn fn, void *ctx) {
+    for (int v = 0; v < nviews; ++v) {
+        if (skip && skip[v]) continue;
+        const MfCamera *cam = &views[v].cam;
+        for (int py = 0; py < cam->h; ++py)
+            for (int px = 0; px < cam->w; ++px) {
+                MfVec3 org, dir;
+                MfHit hit;
+                mf_camera_ray(cam, (float)px + 0.5f, (float)py + 0.5f, &org, &dir);
+                if (mf_rtscene_intersect(rt, org, dir, 0.0f, INFINITY, &hit)) fn(ctx, dir, &hit);
+            }
+    }
+}
+
+static void mark_triangle(void *seen, MfVec3 dir, const MfHit *hit) {
+    (void)dir;
+    ((unsigned char *)seen)[hit->tri] = 1;
 }
 
 int mf_budget_texel_side(const MfRtScene *rt, const MfMesh *mesh, const MfReconView *views, int nviews,
@@ -35,7 +47,7 @@ int mf_budget_texel_side(const MfRtScene *rt, const MfMesh *mesh, const MfReconV
     size_t n = 0;
     for (int v = 0; v < nviews; ++v) {
         memset(seen, 0, (size_t)mesh->nt);
-        mark_hit_triangles(rt, &views[v], seen);
+        for_each_centre_hit(rt, &views[v], 1, NULL, mark_triangle, seen); /* triangles view v sees */
         for (int t = 0; t < mesh->nt; ++t) {
             if (!seen[t]) continue;
             float px[3], py[3], u[3], w[3];
@@ -70,48 +82,46 @@ int mf_budget_pow2_side(double side, int lo, int hi) {
     return t < lo ? lo : (t > hi ? hi : t);
 }
 
+typedef struct {
+    int w, h;            /* the grid: a T x T texture, or the env's W x H */
+    unsigned char *mask; /* (h, w) */
+    size_t marked;
+} MarkCtx;
+
+static void mark_cell(MarkCtx *c, int x, int y, unsigned char value) {
+    unsigned char *m = &c->mask[(size_t)y * c->w + x];
+    c->marked += !*m;
+    *m = value;
+}
+
+static void mark_texel(void *ctx, MfVec3 dir, const MfHit *hit) {
+    MarkCtx *c = ctx;
+    int T = c->w, x = (int)floorf(hit->uv.x * T), y = (int)floorf((1.0f - hit->uv.y) * T);
+    (void)dir;
+    mark_cell(c, ((x % T) + T) % T, ((y % T) + T) % T, 1); /* repeat wrap */
+}
+
 size_t mf_budget_visible_texels(const MfRtScene *rt, const MfReconView *views, int nviews, const unsigned char *skip,
                                 int T, unsigned char *mask) {
     memset(mask, 0, (size_t)T * T);
-    size_t marked = 0;
-    for (int v = 0; v < nviews; ++v) {
-        if (skip && skip[v]) continue;
-        const MfCamera *cam = &views[v].cam;
-        for (int py = 0; py < cam->h; ++py)
-            for (int px = 0; px < cam->w; ++px) {
-                MfVec3 org, dir;
-                MfHit hit;
-                mf_camera_ray(cam, (float)px + 0.5f, (float)py + 0.5f, &org, &dir);
-                if (!mf_rtscene_intersect(rt, org, dir, 0.0f, INFINITY, &hit)) continue;
-                int x = (int)floorf(hit.uv.x * T), y = (int)floorf((1.0f - hit.uv.y) * T);
-                x = ((x % T) + T) % T, y = ((y % T) + T) % T; /* repeat wrap */
-                unsigned char *m = &mask[(size_t)y * T + x];
-                marked += !*m;
-                *m = 1;
-            }
-    }
-    return marked;
+    MarkCtx c = {T, T, mask, 0};
+    for_each_centre_hit(rt, views, nviews, skip, mark_texel, &c);
+    return c.marked;
+}
+
+static void mark_reflection(void *ctx, MfVec3 dir, const MfHit *hit) {
+    MarkCtx *c = ctx;
+    float u, w;
+    mf_env_dir_to_uv(mf_reflect(mf_neg(dir), hit->ns), &u, &w);
+    int x = (int)floorf(u * (float)c->w), y = (int)floorf((1.0f - w) * (float)c->h);
+    mark_cell(c, x < 0 ? 0 : (x >= c->w ? c->w - 1 : x), y < 0 ? 0 : (y >= c->h ? c->h - 1 : y), 2);
 }
 
 size_t mf_budget_env_coverage(const MfRtScene *rt, const MfReconView *views, int nviews, const unsigned char *skip,
                               int W, int H, int dilate, unsigned char *cover) {
     memset(cover, 0, (size_t)W * H);
-    for (int v = 0; v < nviews; ++v) {
-        if (skip && skip[v]) continue;
-        const MfCamera *cam = &views[v].cam;
-        for (int py = 0; py < cam->h; ++py)
-            for (int px = 0; px < cam->w; ++px) {
-                MfVec3 org, dir;
-                MfHit hit;
-                mf_camera_ray(cam, (float)px + 0.5f, (float)py + 0.5f, &org, &dir);
-                if (!mf_rtscene_intersect(rt, org, dir, 0.0f, INFINITY, &hit)) continue;
-                float u, w;
-                mf_env_dir_to_uv(mf_reflect(mf_neg(dir), hit.ns), &u, &w);
-                int x = (int)floorf(u * (float)W), y = (int)floorf((1.0f - w) * (float)H);
-                x = x < 0 ? 0 : (x >= W ? W - 1 : x), y = y < 0 ? 0 : (y >= H ? H - 1 : y);
-                cover[(size_t)y * W + x] = 2; /* 2: reached itself; 1: by the dilation below */
-            }
-    }
+    MarkCtx c = {W, H, cover, 0};
+    for_each_centre_hit(rt, views, nviews, skip, mark_reflection, &c); /* 2: reached; 1: by the dilation */
     for (int y = 0; y < H; ++y)
         for (int x = 0; x < W; ++x) {
             if (cover[(size_t)y * W + x] != 2) continue;
