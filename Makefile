@@ -259,7 +259,10 @@ FLAGS_mf-spread       = $(FLAGS_mf-chtrust-g1) --sds-draws 2 --sds-weight spread
 # or the prior's mean prediction per view (4 samples from pure noise), held for the run, as the target
 FLAGS_mf-mean         = $(FLAGS_mf-chtrust-g1) --sds-target mean
 # and with the channel trust measured at guidance 1 (make sweep-guidance's g1 cells, the smaller value per channel)
-TRUST_G1 = $(shell jq -s '"--sds-trust-rough \(map(.trust_roughness) | min * 100 | floor / 100) --sds-trust-metal \(map(.trust_metallic) | min * 100 | floor / 100)"' -r $(wildcard $(GUIDANCE_REPORT)/g1/*/table2d.json) 2>/dev/null)
+# $(call trust-flags,TABLE2D_JSONS): the --sds-trust-* flags from eval-prior tables, the smaller value
+# per channel floored to 0.01 (empty when there is none)
+trust-flags = $(shell jq -s '"--sds-trust-rough \(map(.trust_roughness) | min * 100 | floor / 100) --sds-trust-metal \(map(.trust_metallic) | min * 100 | floor / 100)"' -r $(1) 2>/dev/null)
+TRUST_G1 = $(call trust-flags,$(wildcard $(GUIDANCE_REPORT)/g1/*/table2d.json))
 FLAGS_mf-mean-g1trust = --method materialfusion --guidance 1 --sds-target mean $(or $(TRUST_G1),$(error mf-mean-g1trust: no $(GUIDANCE_REPORT)/g1/*/table2d.json (make sweep-guidance writes them)))
 # and with the multi-view prior (StableMaterialMV) making each view's target jointly with 3 other views
 FLAGS_mf-mean-g1trust-mv = $(FLAGS_mf-mean-g1trust) --sds-mv 1
@@ -268,7 +271,7 @@ FLAGS_mf-mean-cal    := --method materialfusion --guidance 1 --sds-target mean -
 # the mean targets with the prior trained on (mf/prior/weights/prior-ft.mfck = make train-prior-ft's
 # prior-4000.mfck) and its channel trust measured at the targets' own sampling on the 2D validation
 # splits (reports/prior/curve/ft-4000; the smaller value per channel, floored to 0.01)
-TRUST_FT = $(shell jq -s '"--sds-trust-rough \(map(.trust_roughness) | min * 100 | floor / 100) --sds-trust-metal \(map(.trust_metallic) | min * 100 | floor / 100)"' -r $(wildcard reports/prior/curve/ft-4000/val-2d*/table2d.json) 2>/dev/null)
+TRUST_FT = $(call trust-flags,$(wildcard reports/prior/curve/ft-4000/val-2d*/table2d.json))
 FLAGS_mf-ft-cal = --method materialfusion --guidance 1 --sds-target mean --prior-weights mf/prior/weights/prior-ft.mfck \
   $(or $(TRUST_FT),$(error mf-ft-cal: no reports/prior/curve/ft-4000/val-2d*/table2d.json (make prior-curve writes them)))
 FLAGS_mf-gamma-const := --method materialfusion --gamma-const 1
