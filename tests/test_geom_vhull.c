@@ -114,38 +114,43 @@ MF_TEST(geom_vhull_sphere_box_cut) {
 }
 
 /* The border test counts only vertices some view sees: 8 views from one side (+x, above the
- * equator, at distance 1.8) leave grid vertices out of every frame (+0.5, never carved). A
- * sphere well inside the grid does not touch (the grid keeps its side, no warning), though unseen border vertices are
- * inside (the old rule's false alarm); a sphere crossing the border touches, and still touches
- * after the grid is enlarged once. */
+ * equator, at distance 1.8) leave grid vertices out of every frame. With the sphere wholly inside
+ * each frame those views carve them (no border vertex inside); with a mask pixel set on each
+ * frame's border (the object may extend beyond it) they do not (+0.5), and a sphere well inside
+ * the grid still does not touch (the grid keeps its side, no warning), though unseen border
+ * vertices are inside (the old rule's false alarm); a sphere crossing the border touches, and
+ * still touches after the grid is enlarged once. */
 MF_TEST(geom_vhull_border_few_views) {
     enum { NV = 8 };
     MfCamera cams[NV];
     MfImage masks[NV];
     /* grid sides: shape 0 (r 0.35) well inside 1.2; shape 2 (r 0.7) crosses 0.8 and, enlarged, 1.2 */
-    const float side[2] = {1.2f, 0.8f};
-    for (int t = 0; t < 2; ++t) {
-        int shape = t ? 2 : 0;
+    const float side[3] = {1.2f, 1.2f, 0.8f};
+    for (int t = 0; t < 3; ++t) {
+        int shape = t == 2 ? 2 : 0;
         for (int v = 0; v < NV; ++v) {
             float az = (-60.0f + 120.0f * (float)(v % 4) / 3) * 0.0174533f, el = (v < 4 ? 20.0f : 50.0f) * 0.0174533f;
             MfVec3 dir = mf_v3(cosf(az) * cosf(el), sinf(az) * cosf(el), sinf(el));
             look_cam(&cams[v], HW, HW, mf_scale(dir, 1.8f), mf_v3s(0));
             render_mask(shape, &cams[v], &masks[v]);
+            if (t == 1) mf_image_px(&masks[v], 0, 0)[masks[v].c - 1] = 1.0f; /* touches its frame */
         }
         MfTetGrid g;
         float *f = NULL;
         int touches = -1;
         CHECK_OK(mf_vhull_grid(cams, masks, NV, 32, side[t], &g, &f, &touches));
         double ext = g.cell * (double)g.res;
-        if (t == 0) {
-            /* the old rule (any border vertex > 0) would report a touch here */
+        if (t < 2) {
+            /* the old rule (any border vertex > 0) would report a touch with cut views */
             size_t n = (size_t)g.res + 1, old_hits = 0;
             for (size_t k = 0; k < n; ++k)
                 for (size_t j = 0; j < n; ++j)
                     for (size_t i = 0; i < n; ++i)
                         old_hits += (i == 0 || j == 0 || k == 0 || i == n - 1 || j == n - 1 || k == n - 1) && f[i + n * (j + n * k)] > 0;
-            if (getenv("MF_TEST_VERBOSE")) printf("    few views: %zu border vertices inside, not counted\n", old_hits);
-            CHECK_MSG(old_hits > 0, "no border vertex inside: the test does not exercise the old rule's false alarm");
+            if (getenv("MF_TEST_VERBOSE")) printf("    few views (%s): %zu border vertices inside, not counted\n",
+                                                  t ? "cut" : "framed", old_hits);
+            if (t == 0) CHECK_MSG(old_hits == 0, "framed views left %zu border vertices uncarved", old_hits);
+            else CHECK_MSG(old_hits > 0, "no border vertex inside: the test does not exercise the old rule's false alarm");
             CHECK_MSG(!touches && fabs(ext - 1.2) < 1e-4, "sphere well inside: touches %d, grid side %g (want 1.2, not enlarged)",
                       touches, ext);
         } else {

@@ -40,7 +40,8 @@ static char usage[8192];
 static const char k_usage_head[] =
     "usage: mf hull DATA -o OUT.obj [--res N] [--extent S] [--smooth N] [--target-tris N] [--eval]\n"
     "Builds the soft visual hull of DATA's masks (alpha): per grid vertex the minimum over views of\n"
-    "the bilinear mask - 0.5 (views that do not see a vertex do not carve it), extracts it by\n"
+    "the bilinear mask - 0.5 (a view that does not see a vertex carves it only when the view's mask\n"
+    "lies wholly inside its frame), extracts it by\n"
     "marching tets, welds, drops degenerate triangles and small components, smooths (Taubin) and\n"
     "decimates (meshoptimizer); writes OUT.obj (no UVs). Prints one CSV line on stdout:\n"
     "  scene,views,res,tris,hull_s[,chamfer,normal_deg,normal_1mcos,view_normal_deg,view_normal_1mcos,mask_iou]\n"

@@ -22,9 +22,18 @@ static float mask_at(const MfImage *m, float px, float py) {
 }
 
 /* 1 when view c sees p: in front of the camera and projecting inside [0, w] x [0, h] (at *px, *py).
- * Only such a view carves p; the one rule of mf_vhull and of the border test. */
+ * Such a view carves p by its mask; one that does not see p carves it only when the object lies
+ * wholly inside its frame (mask_touches_border): the one rule of mf_vhull and of the border test. */
 static int view_sees(const MfCamera *c, MfVec3 p, float *px, float *py) {
     return mf_camera_project(c, p, px, py) && *px >= 0 && *py >= 0 && *px <= (float)c->w && *py <= (float)c->h;
+}
+
+/* 1 when a pixel on the image's border has alpha >= 0.5: the object may extend out of the frame. */
+static int mask_touches_border(const MfImage *m) {
+    for (int y = 0; y < m->h; ++y)
+        for (int x = 0; x < m->w; x += (y == 0 || y == m->h - 1) ? 1 : m->w - 1)
+            if (mf_image_px(m, x, y)[m->c - 1] >= 0.5f) return 1;
+    return 0;
 }
 
 int mf_vhull(const MfTetGrid *g, const MfCamera *cams, const MfImage *masks, int n, float *field) {
@@ -33,6 +42,9 @@ int mf_vhull(const MfTetGrid *g, const MfCamera *cams, const MfImage *masks, int
         if (masks[v].w != cams[v].w || masks[v].h != cams[v].h || masks[v].c < 1 || !masks[v].data)
             return mf_fail(MF_EARG, "visual hull: view %d: mask is %dx%d, its camera %dx%d", v, masks[v].w, masks[v].h,
                            cams[v].w, cams[v].h);
+    unsigned char *framed = calloc((size_t)n, 1);
+    if (!framed) return mf_fail(MF_ENOMEM, "out of memory");
+    for (int v = 0; v < n; ++v) framed[v] = !mask_touches_border(&masks[v]);
     long long nz = (long long)g->res + 1;
     size_t slice = (size_t)(nz * nz);
 #pragma omp parallel for schedule(dynamic, 1)
@@ -43,19 +55,23 @@ int mf_vhull(const MfTetGrid *g, const MfCamera *cams, const MfImage *masks, int
             float f = 0.5f;
             for (int v = 0; v < n; ++v) {
                 float px, py;
-                if (!view_sees(&cams[v], p, &px, &py)) continue;
+                if (!view_sees(&cams[v], p, &px, &py)) {
+                    if (framed[v]) f = -0.5f;
+                    continue;
+                }
                 float a = mask_at(&masks[v], px, py) - 0.5f;
                 if (a < f) f = a;
             }
             field[idx] = f;
         }
+    free(framed);
     return MF_OK;
 }
 
 /* 1 when some grid vertex on the border of g is inside the hull and seen by at least one view.
- * A vertex no view sees keeps +0.5 (nothing carved it) but says nothing about the object: with
- * few views the grid's corners are often out of every frame, and counting them would report
- * the hull as cut on any scene. */
+ * A vertex no view sees (possible only when every view's object touches its frame) keeps +0.5
+ * but says nothing about the object: with few such views the grid's corners are often out of
+ * every frame, and counting them would report the hull as cut on any scene. */
 static int touches_border(const MfTetGrid *g, const float *f, const MfCamera *cams, int nviews) {
     size_t n = (size_t)g->res + 1;
     for (size_t k = 0; k < n; ++k)
