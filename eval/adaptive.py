@@ -29,9 +29,20 @@ def decisions(run_dir):
         out.append("tex %d" % d["tex"])
     if "env" in d:
         out.append("env seen %.1f%%" % (100 * d["env"]))
+    if "envres" in d:
+        out.append("env %dx%d (roughness %.2f)" % d["envres"])
     if "spp" in d:
         out.append("spp %d%s" % (d["spp"][0], " (grew at %s)" % ", ".join(map(str, d["spp"][1])) if d["spp"][1] else ""))
     return ", ".join(out)
+
+
+def same_outputs(a, b):
+    """True when two runs wrote the same albedo.png, orm.png and env.exr bytes."""
+    for f in ("albedo.png", "orm.png", "env.exr"):
+        with open(os.path.join(a, f), "rb") as x, open(os.path.join(b, f), "rb") as y:
+            if x.read() != y.read():
+                return False
+    return True
 
 
 def verdict(ratio, d):
@@ -51,7 +62,14 @@ def main():
     ap.add_argument("--splits", required=True)
     ap.add_argument("--configs", required=True, help="name=flags;name=flags")
     ap.add_argument("--config", required=True)
+    ap.add_argument("--time-reference", action="append", default=[],
+                    help="REF:name,name (repeatable): these flag sets' wall time is over REF's, the default re-run "
+                         "beside them when they were added in a later sitting (its outputs equal the default's)")
     a = ap.parse_args()
+    time_ref = {}
+    for t in a.time_reference:
+        ref, names = t.split(":", 1)
+        time_ref.update({n: ref for n in names.split(",")})
     configs = [c.split("=", 1) for c in a.configs.split(";") if "=" in c]
     rows, detail = [], []
     for sp in a.splits.split():
@@ -60,7 +78,12 @@ def main():
             scenes = sorted({k[1] for k in vals if k[0] == name} & {k[1] for k in vals if k[0] == "default"})
             ratio, d = [], {m: [] for m in METRICS}
             for s in scenes:
-                w0 = log_wall(os.path.join(a.results, sp, "default", s))
+                ref = time_ref.get(name, "default")
+                if ref != "default" and not same_outputs(os.path.join(a.results, sp, ref, s),
+                                                         os.path.join(a.results, sp, "default", s)):
+                    sys.exit("adaptive.py: %s/%s/%s: the time reference's outputs differ from the default's "
+                             "(another build or options?)" % (sp, ref, s))
+                w0 = log_wall(os.path.join(a.results, sp, ref, s))
                 w1 = log_wall(os.path.join(a.results, sp, name, s))
                 ratio.append(w1 / w0)
                 for m in METRICS:
@@ -68,13 +91,14 @@ def main():
                 detail.append({"split": sp, "config": name, "scene": s, "wall_default_s": w0, "wall_s": w1,
                                "wall_ratio": w1 / w0, "decisions": decisions(os.path.join(a.results, sp, name, s)),
                                **{"d_" + m: d[m][-1] for m in METRICS}})
-            r = {"split": sp, "config": name, "flags": flags.strip(), "scenes": len(scenes)}
+            r = {"split": sp, "config": name, "flags": flags.strip(), "scenes": len(scenes),
+                 "time_reference": time_ref.get(name, "default")}
             r["wall_ratio"], r["wall_ratio_ci"] = mean_ci(ratio)
             for m in METRICS:
                 r["d_" + m], r["d_" + m + "_ci"] = mean_ci(d[m])
             r["target"] = verdict(r["wall_ratio"], [(r["d_" + m], r["d_" + m + "_ci"]) for m in METRICS])
             rows.append(r)
-    cols = ["split", "config", "flags", "scenes", "wall_ratio", "wall_ratio_ci"]
+    cols = ["split", "config", "flags", "scenes", "time_reference", "wall_ratio", "wall_ratio_ci"]
     for m in METRICS:
         cols += ["d_" + m, "d_" + m + "_ci"]
     write_csv(os.path.join(a.out, "adaptive.csv"), cols + ["target"], rows)
@@ -93,8 +117,9 @@ def main():
           "| split | flag set | scenes | wall time ratio | d relit dB | d albedo dB | d ORM dB | target |",
           "|---|---|---:|---:|---:|---:|---:|---|"]
     for r in rows:
-        md.append("| %s | %s (`%s`) | %d | %.2f ± %.2f | %+.2f ± %.2f | %+.2f ± %.2f | %+.2f ± %.2f | %s |" % (
-            r["split"], r["config"], r["flags"], r["scenes"], r["wall_ratio"], r["wall_ratio_ci"],
+        ref = "" if r["time_reference"] == "default" else "; time over %s" % r["time_reference"]
+        md.append("| %s | %s (`%s`%s) | %d | %.2f ± %.2f | %+.2f ± %.2f | %+.2f ± %.2f | %+.2f ± %.2f | %s |" % (
+            r["split"], r["config"], r["flags"], ref, r["scenes"], r["wall_ratio"], r["wall_ratio_ci"],
             r["d_relit_psnr"], r["d_relit_psnr_ci"], r["d_albedo_psnr"], r["d_albedo_psnr_ci"],
             r["d_orm_psnr"], r["d_orm_psnr_ci"], r["target"]))
     md += ["", "Per scene (scenes_adaptive.csv):", "",

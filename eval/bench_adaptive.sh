@@ -9,7 +9,9 @@
 # most 0.5x its time, or better quality in at most its time.
 # Resumable: every run is `mf recon --resume`; a run with a run.json is not redone.
 #
-# Environment (all optional): MF, DATA (the folder of the splits), RESULTS, OUT, SPLITS, A_CONFIG, A_CONFIGS.
+# Environment (all optional): MF, DATA (the folder of the splits), RESULTS, OUT, SPLITS, A_CONFIG, A_CONFIGS,
+# A_TIME_REF ("REF:name,name ...": flag sets timed against REF, a re-run of the default made beside
+# them in a later sitting; its outputs must equal the default's; REF must be in A_CONFIGS to be run).
 set -eu
 MF=${MF:-build/mf}
 DATA=${DATA:-data}
@@ -49,4 +51,7 @@ for sp in $SPLITS; do
         "$MF" eval "$DATA/$sp" --results "$RESULTS/$sp" --methods "$names" --dataset "$sp" --no-curves --no-geom -o "$OUT/$sp"
     fi
 done
-python3 eval/adaptive.py --results "$RESULTS" --out "$OUT" --splits "$SPLITS" --configs "$A_CONFIGS" --config "$A_CONFIG"
+refs=""
+for t in ${A_TIME_REF:-}; do refs="$refs --time-reference $t"; done
+# shellcheck disable=SC2086 # one word per --time-reference argument
+python3 eval/adaptive.py --results "$RESULTS" --out "$OUT" --splits "$SPLITS" --configs "$A_CONFIGS" --config "$A_CONFIG" $refs

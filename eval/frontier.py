@@ -166,7 +166,8 @@ def report(a):
 def budget_decisions(run_dir):
     """What the budget flags that were on decided in one run (its run.json's options): "stop" (the
     early-stop iteration, 0: no stop), "metal" (metal_auto's decision string), "tex" (tex_auto's tex_res),
-    "env" (env_auto's covered fraction), "spp" ((final spp, [iterations it grew at]) of spp_grow)."""
+    "env" (env_auto's covered fraction), "envres" ((env width, height, 10th-percentile roughness) of
+    env_res_auto), "spp" ((final spp, [iterations it grew at]) of spp_grow)."""
     with open(os.path.join(run_dir, "run.json")) as f:
         o = json.load(f)["options"]
     d = {}
@@ -178,6 +179,9 @@ def budget_decisions(run_dir):
         d["tex"] = int(o["tex_res"])
     if "env_auto_covered_fraction" in o:
         d["env"] = float(o["env_auto_covered_fraction"])
+    if "env_res_result" in o:
+        d["envres"] = (int(o["env_res_result"]["env_w"]), int(o["env_res_result"]["env_h"]),
+                       float(o["env_res_result"]["roughness_p10"]))
     if "spp_grow_result" in o:
         d["spp"] = (int(o["spp_grow_result"]["spp_final"]), list(o["spp_grow_result"]["grew_at"]))
     return d

@@ -435,3 +435,95 @@ MF_TEST(inverse_budget_spp_grow_rule_and_resume) {
     mf_recon_free(r);
     mf_mesh_free(&mesh);
 }
+
+/* ---- env_res_auto ---- */
+
+MF_TEST(inverse_budget_env_width) {
+    enum { N = 10 };
+    float orm[N * 3];
+    unsigned char vis[N];
+    double rough;
+    for (int i = 0; i < N; ++i) orm[3 * i] = 1.0f, orm[3 * i + 1] = 0.7f, orm[3 * i + 2] = 0.0f, vis[i] = 1;
+    /* 0.7: alpha 0.49, lobe 4 atan(0.315) = 1.22 rad, 2 texels across it at W >= 10.3: 64 -> 16 */
+    CHECK(fabs(mf_budget_lobe_fwhm(0.7f) - 4.0 * atan(0.6436 * 0.49)) < 1e-6);
+    CHECK(mf_budget_env_width(orm, vis, N, 0.1, 64, 32, 4, &rough) == 16 && fabs(rough - 0.7) < 1e-6);
+    /* 0.3: alpha 0.09, lobe 0.231 rad, W >= 54.3: 64 kept */
+    for (int i = 0; i < N; ++i) orm[3 * i + 1] = 0.3f;
+    CHECK(mf_budget_env_width(orm, vis, N, 0.1, 64, 32, 4, &rough) == 64);
+    /* the texels no view sees do not count: a mirror texel out of sight leaves 16 */
+    for (int i = 0; i < N; ++i) orm[3 * i + 1] = i ? 0.7f : 0.08f, vis[i] = i != 0;
+    CHECK(mf_budget_env_width(orm, vis, N, 0.1, 64, 32, 4, &rough) == 16);
+    /* ... but seen, it counts: one in ten moves the 10th percentile (GSL's, interpolated) to
+     * 0.1 x 0.08 + 0.9 x 0.7 = 0.638 (still 16); two set it at 0.08 and keep all 64 */
+    vis[0] = 1;
+    CHECK_MSG(mf_budget_env_width(orm, vis, N, 0.1, 64, 32, 4, &rough) == 16 && fabs(rough - 0.638) < 1e-5, "rough %g", rough);
+    orm[3 * 1 + 1] = 0.08f;
+    CHECK_MSG(mf_budget_env_width(orm, vis, N, 0.1, 64, 32, 4, &rough) == 64 && fabs(rough - 0.08) < 1e-6, "rough %g", rough);
+    /* roughness 1 (lobe 2.29 rad, W >= 5.5): the floor w_min, and an odd height stops the halving */
+    for (int i = 0; i < N; ++i) orm[3 * i + 1] = 1.0f;
+    CHECK(mf_budget_env_width(orm, vis, N, 0.1, 64, 32, 16, &rough) == 16);
+    CHECK(mf_budget_env_width(orm, vis, N, 0.1, 64, 32, 4, &rough) == 8);
+    CHECK(mf_budget_env_width(orm, vis, N, 0.1, 64, 6, 4, &rough) == 32);
+    /* nothing visible: the cap, rough -1 */
+    memset(vis, 0, sizeof vis);
+    CHECK(mf_budget_env_width(orm, vis, N, 0.1, 64, 32, 4, &rough) == 64 && rough == -1.0);
+    /* the shrink: 4x2 texels of value x + 10 y + 100 c, by 2: the means of 2x2 blocks */
+    float src[2 * 4 * 3], dst[1 * 2 * 3];
+    for (int y = 0; y < 2; ++y)
+        for (int x = 0; x < 4; ++x)
+            for (int c = 0; c < 3; ++c) src[(y * 4 + x) * 3 + c] = (float)(x + 10 * y + 100 * c);
+    mf_budget_env_shrink(src, 4, 2, 2, dst);
+    for (int x = 0; x < 2; ++x)
+        for (int c = 0; c < 3; ++c) CHECK(dst[x * 3 + c] == (float)(2 * x + 0.5 + 5 + 100 * c));
+}
+
+MF_TEST(inverse_budget_env_res_auto_and_resume) {
+    MfMesh mesh;
+    CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
+    MfReconOpts o = tiny_opts();
+    /* rough start (0.9: lobe 1.94 rad, W >= 6.5) tested after 2 iterations: 64x32 -> 8x4 */
+    o.env_w = 64, o.env_h = 32, o.init_rough = 0.9f, o.iters = 10, o.checkpoint_every = 4;
+    o.env_res_auto = 1, o.env_res_warmup = 2, o.env_res_min = 8;
+    MfRecon *r = recon_of(&mesh, 0.0f, &o);
+    char dir[512], hd[512], ck[1024];
+    mf_test_path_to(dir, sizeof dir, "envres_full");
+    CHECK_OK(mf_recon_run(r, NULL, dir));
+    double rough;
+    int w = mf_recon_env_res(r, &rough);
+    const MfParamBlock *env = mf_recon_block(r, MF_BLOCK_ENV);
+    CHECK_MSG(w == 8 && mf_recon_opts(r)->env_w == 8 && mf_recon_opts(r)->env_h == 4 && env->n == 8 * 4 * 3 &&
+                  mf_recon_env(r)->img.w == 8 && rough > 0.8 && rough < 1.0,
+              "width %d (rough %g), env block of %zu", w, rough, env->n);
+    /* resumed from iteration 6 (after the choice): the checkpoint holds the 8x4 env; bit-identical */
+    MfReconOpts oh = o;
+    oh.iters = 6;
+    mf_test_path_to(hd, sizeof hd, "envres_half");
+    MfRecon *h = recon_of(&mesh, 0.0f, &oh);
+    CHECK_OK(mf_recon_run(h, NULL, hd));
+    mf_recon_free(h);
+    h = recon_of(&mesh, 0.0f, &o);
+    snprintf(ck, sizeof ck, "%s/checkpoint.mfck", hd);
+    CHECK_OK(mf_recon_load_checkpoint(h, ck));
+    CHECK(mf_recon_iteration(h) == 6 && mf_recon_env_res(h, NULL) == 8 && mf_recon_opts(h)->env_w == 8);
+    CHECK_OK(mf_recon_run(h, NULL, hd));
+    for (int k = 0; k < MF_BLOCK_NORMAL; ++k) {
+        const MfParamBlock *x = mf_recon_block(r, k), *y = mf_recon_block(h, k);
+        CHECK_MSG(x->n == y->n && !memcmp(x->p, y->p, x->n * sizeof(float)), "block %s differs after resume", x->name);
+    }
+    mf_recon_free(h);
+    /* a checkpoint whose env is not a fraction of the run's is refused by name */
+    MfReconOpts ob = o;
+    ob.env_w = 60, ob.env_h = 30;
+    h = recon_of(&mesh, 0.0f, &ob);
+    CHECK(mf_recon_load_checkpoint(h, ck) == MF_EFORMAT && strstr(mf_error(), "not a fraction"));
+    mf_recon_free(h);
+    mf_recon_free(r);
+    /* glossy (0.3: W >= 54): the env keeps its 64x32 */
+    o.init_rough = 0.3f, o.iters = 4;
+    r = recon_of(&mesh, 0.0f, &o);
+    mf_test_path_to(dir, sizeof dir, "envres_keep");
+    CHECK_OK(mf_recon_run(r, NULL, dir));
+    CHECK(mf_recon_env_res(r, NULL) == 64 && mf_recon_block(r, MF_BLOCK_ENV)->n == 64 * 32 * 3);
+    mf_recon_free(r);
+    mf_mesh_free(&mesh);
+}

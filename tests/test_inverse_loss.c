@@ -124,6 +124,34 @@ MF_TEST(inverse_reg_env_unseen_gradient) {
     CHECK(mf_reg_env_unseen_fwd(env, W, H, cover) == 0.0 && g[0] == 0.0f && g[W * H * 3 - 1] == 0.0f);
 }
 
+static double f_env_logtv(void *c) {
+    const EnvCtx *e = c;
+    return mf_reg_env_logtv_fwd(e->env, e->w, e->h);
+}
+
+MF_TEST(inverse_reg_env_logtv_gradient) {
+    enum { W = 8, H = 4 };
+    float env[W * H * 3], g[W * H * 3];
+    MfRng r;
+    mf_rng_seed(&r, 7, 0);
+    for (int i = 0; i < W * H * 3; ++i) env[i] = 0.05f + 20.0f * mf_rng_float(&r) * mf_rng_float(&r);
+    EnvCtx c = {env, W, H, NULL};
+    memset(g, 0, sizeof g);
+    mf_reg_env_logtv_bwd(env, W, H, 1.0f, g);
+    CHECK_MSG(worst_rel(f_env_logtv, &c, env, W * H * 3, g, 1e-4f, 1e-2) < 2e-2, "env log-TV gradient");
+    /* exposure does not change it: the same env x 1000 has the same loss, gradients / 1000 */
+    double l1 = mf_reg_env_logtv_fwd(env, W, H);
+    for (int i = 0; i < W * H * 3; ++i) env[i] *= 1000.0f;
+    CHECK_MSG(fabs(mf_reg_env_logtv_fwd(env, W, H) - l1) < 1e-5 * l1, "%g vs %g", mf_reg_env_logtv_fwd(env, W, H), l1);
+    /* a constant env costs nothing; one texel 2x brighter: its 4 pairs (left, right, up, down) of
+     * log 2 each, over 3 channels of W x H right pairs (wrapping) + W x (H - 1) lower pairs */
+    for (int i = 0; i < W * H * 3; ++i) env[i] = 3.0f;
+    CHECK(mf_reg_env_logtv_fwd(env, W, H) == 0.0);
+    for (int k = 0; k < 3; ++k) env[(1 * W + 0) * 3 + k] = 6.0f; /* row 1, column 0: its left pair wraps */
+    double want = 4.0 * log(2.0) / (double)(W * H + W * (H - 1));
+    CHECK_MSG(fabs(mf_reg_env_logtv_fwd(env, W, H) - want) < 1e-6, "loss %g, want %g", mf_reg_env_logtv_fwd(env, W, H), want);
+}
+
 typedef struct { const float *diffuse, *spec, *cover; size_t n; float ls; } ShadeCtx;
 static double f_shade(void *c) {
     const ShadeCtx *s = c;

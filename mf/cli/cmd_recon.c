@@ -211,6 +211,15 @@ static void budgets_to_json(const MfRecon *r, cJSON *opts) {
     }
     if (mf_recon_opts(r)->tex_auto) cJSON_AddNumberToObject(opts, "tex_auto_median_side", mf_recon_texel_side(r));
     if (mf_recon_opts(r)->env_auto) cJSON_AddNumberToObject(opts, "env_auto_covered_fraction", mf_recon_env_covered(r));
+    if (mf_recon_opts(r)->env_res_auto) {
+        double rough;
+        int w = mf_recon_env_res(r, &rough);
+        cJSON *e = cJSON_AddObjectToObject(opts, "env_res_result");
+        cJSON_AddNumberToObject(e, "roughness_p10", rough);
+        cJSON_AddNumberToObject(e, "env_w", w < 0 ? mf_recon_opts(r)->env_w : w);
+        cJSON_AddNumberToObject(e, "env_h", mf_recon_opts(r)->env_h);
+        cJSON_AddStringToObject(e, "decision", w < 0 ? "not tested" : "tested");
+    }
     if (mf_recon_opts(r)->spp_grow) {
         const int *at;
         int n, spp = mf_recon_spp_now(r, &at, &n);

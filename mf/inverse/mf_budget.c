@@ -4,6 +4,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <gsl/gsl_sort_float.h>
+#include <gsl/gsl_statistics_float.h>
+
 #include "core/mf_error.h"
 #include "scene/mf_envmap.h"
 
@@ -141,6 +144,43 @@ double mf_budget_metal_fraction(const float *orm, const unsigned char *mask, siz
     for (size_t i = 0; i < ntex; ++i)
         if (mask[i]) vis++, metal += orm[3 * i + 2] > thresh;
     return vis ? (double)metal / (double)vis : 0.0;
+}
+
+double mf_budget_lobe_fwhm(float rough) {
+    double alpha = (double)rough * rough;
+    return 4.0 * atan(0.6436 * alpha); /* tan at half maximum = alpha sqrt(sqrt(2) - 1) */
+}
+
+int mf_budget_env_width(const float *orm, const unsigned char *mask, size_t ntex, double pct, int w_max, int h_max,
+                        int w_min, double *rough) {
+    *rough = -1.0;
+    float *r = malloc(ntex * sizeof(float) + 1);
+    if (!r) return -1;
+    size_t n = 0;
+    for (size_t i = 0; i < ntex; ++i)
+        if (mask[i]) r[n++] = orm[3 * i + 1];
+    if (n) {
+        gsl_sort_float(r, 1, n);
+        *rough = gsl_stats_float_quantile_from_sorted_data(r, 1, n, pct);
+    }
+    free(r);
+    if (!n) return w_max; /* nothing visible: no information, the cap */
+    double need = 4.0 * M_PI / mf_budget_lobe_fwhm((float)*rough); /* two texels across the lobe */
+    int w = w_max, h = h_max;
+    while (w % 2 == 0 && h % 2 == 0 && h / 2 >= 2 && w / 2 >= w_min && w / 2 >= need) w /= 2, h /= 2;
+    return w;
+}
+
+void mf_budget_env_shrink(const float *src, int W, int H, int f, float *dst) {
+    int w = W / f, h = H / f;
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            for (int c = 0; c < 3; ++c) {
+                double sum = 0.0;
+                for (int dy = 0; dy < f; ++dy)
+                    for (int dx = 0; dx < f; ++dx) sum += src[((size_t)(y * f + dy) * W + x * f + dx) * 3 + c];
+                dst[((size_t)y * w + x) * 3 + c] = (float)(sum / ((double)f * f));
+            }
 }
 
 void mf_early_stop_init(MfEarlyStop *es) {

@@ -5,6 +5,7 @@
  *     "no metal" test (metal_auto) counts metallic texels;
  *   - env directions seen in a reflection by some training view (env_auto: the others are
  *     regularised toward their neighbours);
+ *   - the env map's size from the sharpest specular lobe on the visible texels (env_res_auto);
  *   - early stopping on held-out training views (early_stop): which views are held out, and
  *     the patience rule on their PSNR.
  * Units: pixels of the training views at their training resolution; UV area in the unit square
@@ -41,6 +42,22 @@ size_t mf_budget_env_coverage(const MfRtScene *rt, const MfReconView *views, int
  * thresh; 0 when the mask is empty. */
 double mf_budget_metal_fraction(const float *orm, const unsigned char *mask, size_t ntex, float thresh);
 
+/* env_res_auto. The full width at half maximum, in radians, of the reflected GGX lobe of a
+ * roughness (alpha = rough^2): the half-vector distribution falls to half at tan(theta_h) =
+ * alpha sqrt(sqrt(2) - 1), and a reflection doubles the angle: 4 atan(0.6436 alpha). */
+double mf_budget_lobe_fwhm(float rough);
+/* The env width the sharpest visible specular can use: *rough = the pct quantile (e.g. 0.1) of the
+ * roughness (orm (T*T, 3) channel 1) over the texels with mask != 0 (-1 when none: then w_max);
+ * a texel of 2 pi / W radians puts two texels across that lobe at W >= 4 pi / fwhm. Returns the
+ * smallest w_max / 2^k (k >= 0) at or above that and at or above w_min, halving only while both
+ * w_max / 2^k and h_max / 2^k stay even and the height at least 2 (so the height is
+ * h_max * W / w_max, exact); -1 when out of memory. */
+int mf_budget_env_width(const float *orm, const unsigned char *mask, size_t ntex, double pct, int w_max, int h_max,
+                        int w_min, double *rough);
+
+/* src (H, W, 3) -> dst (H / f, W / f, 3): each texel the mean of its f x f block (W, H multiples of f). */
+void mf_budget_env_shrink(const float *src, int W, int H, int f, float *dst);
+
 /* Early stopping: views with index % every == 0 are held out (0, every, 2*every, ...). */
 static inline int mf_budget_is_holdout(int view, int every) { return every > 0 && view % every == 0; }
 
@@ -76,5 +93,8 @@ double mf_recon_texel_side(const MfRecon *r);
 int mf_recon_spp_now(const MfRecon *r, const int **grew_at, int *n);
 /* env_auto: the fraction of env texels some view sees in a reflection (-1 when env_auto is off). */
 double mf_recon_env_covered(const MfRecon *r);
+/* env_res_auto: the env width chosen (-1 before the choice); *rough (may be NULL) the roughness it
+ * was chosen for. */
+int mf_recon_env_res(const MfRecon *r, double *rough);
 
 #endif

@@ -45,6 +45,12 @@ double mf_reg_env_unseen_fwd(const float *env, int w, int h, const unsigned char
 void mf_reg_env_unseen_bwd(const float *env, int w, int h, const unsigned char *cover, float scale, float *denv);
 void mf_reg_smooth_bwd(const float *tex, int w, int h, int ch, int c0, int nc, const float *mask, float scale,
                        float *dtex);
+/* Env-map log-radiance total variation (w_env_tv): env (h, w, 3) radiance > 0; mean over every
+ * neighbour pair (right, the longitude wrapping, and lower) and the 3 channels of
+ * |log e(p) - log e(q)|. In log space it does not depend on the images' exposure, and a bright
+ * sun's edge costs what any other edge of the same contrast costs. */
+double mf_reg_env_logtv_fwd(const float *env, int w, int h);
+void mf_reg_env_logtv_bwd(const float *env, int w, int h, float scale, float *denv);
 
 /* Normal-map perturbation (nvdiffrecmc's normal-map regulariser): mean over the masked texels
  * of sum_c |(2 v_c - 1) - flat_c| / 3, flat = (0, 0, 1): the L1 deviation of the tangent-space

@@ -54,6 +54,8 @@ struct MfRecon {
     double texel_side;          /* tex_auto: median sqrt(screen px / UV area) (0 when off) */
     unsigned char *env_cover;   /* owned with env_auto; (env_h, env_w) 1 where a view sees the texel in a reflection */
     double env_covered;         /* env_auto: fraction of texels covered (-1 when off) */
+    int env_res_w;              /* env_res_auto: the width chosen (-1 before the choice) */
+    double env_res_rough;       /* env_res_auto: the roughness it was chosen for (-1 before the choice) */
     int spp_now;                /* the training renders' spp_sqrt (spp_grow raises it) */
     double grow_prev, grow_sum; /* spp_grow: mean image loss of the last whole window (-1: none), sum of this one */
     int grow_n;                 /* spp_grow: iterations in this window so far */
@@ -158,6 +160,8 @@ int mf_recon_new(const MfMesh *mesh, MfReconView *views, int nviews, const MfRec
     r->metal_state = -1;
     r->metal_fraction = -1.0;
     r->env_covered = -1.0;
+    r->env_res_w = -1;
+    r->env_res_rough = -1.0;
     r->spp_now = opts->spp_sqrt;
     r->grow_prev = -1.0;
     mf_divguard_init(&r->guard, opts->div_factor, opts->div_patience);
@@ -282,6 +286,10 @@ int mf_recon_metal_state(const MfRecon *r, double *fraction) {
 }
 double mf_recon_texel_side(const MfRecon *r) { return r->texel_side; }
 double mf_recon_env_covered(const MfRecon *r) { return r->env_covered; }
+int mf_recon_env_res(const MfRecon *r, double *rough) {
+    if (rough) *rough = r->env_res_rough;
+    return r->env_res_w;
+}
 int mf_recon_spp_now(const MfRecon *r, const int **grew_at, int *n) {
     if (grew_at) *grew_at = r->grew_at;
     if (n) *n = r->ngrew;
@@ -331,16 +339,64 @@ static int save_checkpoint(const MfRecon *r, const char *path, double wall) {
     snprintf(meta, sizeof meta,
              "{\"kind\":\"mf-recon\",\"iteration\":%d,\"adam_t\":%ld,\"wall_s\":%.17g,\"tex_res\":%d,\"env_w\":%d,\"env_h\":%d,"
              "\"lr_scale\":%.9g,\"loss_min\":%.17g,\"recoveries\":%d,\"exposure\":%.9g,\"metal_state\":%d,\"metal_fraction\":%.17g,"
-             "\"spp_now\":%d,\"grow_prev\":%.17g,\"grow_sum\":%.17g,\"grow_n\":%d,\"grew_at\":\"%s\"}",
+             "\"spp_now\":%d,\"grow_prev\":%.17g,\"grow_sum\":%.17g,\"grow_n\":%d,\"grew_at\":\"%s\",\"env_res_w\":%d,"
+             "\"env_res_rough\":%.17g}",
              r->it, r->adam.t, wall, r->o.tex_res, r->o.env_w, r->o.env_h, r->lr_scale,
              isfinite(r->guard.loss_min) ? r->guard.loss_min : -1.0, r->nrec_total, r->exposure, r->metal_state,
-             r->metal_fraction, r->spp_now, r->grow_prev, r->grow_sum, r->grow_n, grew);
+             r->metal_fraction, r->spp_now, r->grow_prev, r->grow_sum, r->grow_n, grew, r->env_res_w, r->env_res_rough);
     int rc = mf_ckpt_save(path, specs, r->nblocks * 3, buf, meta);
     free(buf);
     return rc;
 }
 
+/* Shrinks the env map to w x h (an exact fraction 1/f of its size): its values and Adam moments are
+ * box-averaged over f x f texels; the env map, env_auto's coverage and the last good state follow. */
+static int env_resize(MfRecon *r, int w, int h) {
+    int W = r->o.env_w, f = W / w;
+    MfParamBlock *old = &r->blocks[MF_BLOCK_ENV], nb;
+    int rc = mf_param_init(&nb, old->name, (size_t)w * h * 3, 3, NULL);
+    if (rc) return rc;
+    nb.lr_scale = old->lr_scale;
+    memcpy(nb.lo, old->lo, sizeof nb.lo), memcpy(nb.hi, old->hi, sizeof nb.hi);
+    mf_budget_env_shrink(old->p, W, r->o.env_h, f, nb.p);
+    mf_budget_env_shrink(old->m, W, r->o.env_h, f, nb.m);
+    mf_budget_env_shrink(old->v, W, r->o.env_h, f, nb.v);
+    mf_param_free(old);
+    *old = nb;
+    r->o.env_w = w, r->o.env_h = h;
+    mf_env_free(&r->env);
+    if ((rc = mf_env_init_constant(&r->env, w, h, mf_v3s(1.0f))) || (rc = sync_env(r))) return rc;
+    if (r->env_cover) {
+        free(r->env_cover), r->env_cover = NULL;
+        if ((rc = env_coverage(r, r->views, r->nviews))) return rc;
+    }
+    mf_param_snapshot_free(&r->good);
+    return mf_param_snapshot_save(&r->good, r->blocks, r->nblocks, &r->adam);
+}
+
+/* The env size a checkpoint holds (env_res_auto may have shrunk it): resize to it before loading. */
+static int env_size_of_checkpoint(MfRecon *r, const char *path) {
+    MfTensorSpec *specs = NULL;
+    float *data = NULL;
+    char *meta = NULL;
+    int n = 0, w = 0, h = 0, rc = mf_ckpt_read(path, &specs, &n, &data, &meta);
+    if (rc) return rc;
+    const char *pw = meta ? strstr(meta, "\"env_w\":") : NULL;
+    if (pw && sscanf(pw, "\"env_w\":%d,\"env_h\":%d", &w, &h) == 2 && w != r->o.env_w) {
+        if (w < 1 || h < 1 || r->o.env_w % w || r->o.env_h % h || r->o.env_w / w != r->o.env_h / h)
+            rc = mf_fail(MF_EFORMAT, "%s: its env map is %dx%d, not a fraction of this run's %dx%d", path, w, h, r->o.env_w,
+                         r->o.env_h);
+        else rc = env_resize(r, w, h);
+    }
+    free(specs), free(data), free(meta);
+    return rc;
+}
+
 int mf_recon_load_checkpoint(MfRecon *r, const char *path) {
+    if (r->o.env_res_auto) {
+        int rc = env_size_of_checkpoint(r, path);
+        if (rc) return rc;
+    }
     MfTensorSpec specs[MF_NBLOCKS * 3];
     ckpt_specs(r, specs);
     size_t total = mf_specs_numel(specs, r->nblocks * 3), off = 0;
@@ -428,6 +484,8 @@ int mf_recon_load_checkpoint(MfRecon *r, const char *path) {
             r->grew_at[r->ngrew++] = (int)v, q = end;
         }
     }
+    const char *pe2 = meta && r->o.env_res_auto ? strstr(meta, "\"env_res_w\":") : NULL;
+    if (pe2) sscanf(pe2, "\"env_res_w\":%d,\"env_res_rough\":%lf", &r->env_res_w, &r->env_res_rough);
     if (metal_state == 1) mf_param_set_bounds(&r->blocks[MF_BLOCK_ORM], 2, 0.0f, 0.0f);
     mf_divguard_init(&r->guard, r->o.div_factor, r->o.div_patience);
     if (isfinite(loss_min) && loss_min >= 0.0) r->guard.loss_min = loss_min;
@@ -686,19 +744,47 @@ static void spp_grow_observe(MfRecon *r, double loss) {
     r->grow_prev = m, r->grow_sum = 0.0, r->grow_n = 0;
 }
 
-/* metal_auto: the fraction of the training views' visible texels with metallic > 0.5; below
- * metal_frac the channel is set to 0 and frozen (its Adam moments zeroed). */
-static int metal_test(MfRecon *r) {
+/* The texels a training view (not a held-out one) sees: *vis (T, T) malloc'd, *nvis their count. */
+static int visible_texels(const MfRecon *r, unsigned char **vis, size_t *nvis) {
     int T = r->o.tex_res;
-    unsigned char *vis = malloc((size_t)T * T), *skip = calloc((size_t)r->nviews, 1);
-    if (!vis || !skip) {
-        free(vis), free(skip);
+    unsigned char *skip = calloc((size_t)r->nviews, 1);
+    *vis = malloc((size_t)T * T);
+    if (!*vis || !skip) {
+        free(*vis), free(skip), *vis = NULL;
         return mf_fail(MF_ENOMEM, "out of memory");
     }
     for (int i = 0; i < r->nviews; ++i) skip[i] = (unsigned char)mf_recon_is_holdout(r, i);
-    size_t nvis = mf_budget_visible_texels(r->rt, r->views, r->nviews, skip, T, vis);
+    *nvis = mf_budget_visible_texels(r->rt, r->views, r->nviews, skip, T, *vis);
+    free(skip);
+    return MF_OK;
+}
+
+/* env_res_auto: the env width for the visible texels' 10th-percentile roughness (mf_budget_env_width). */
+static int env_res_test(MfRecon *r) {
+    unsigned char *vis;
+    size_t nvis;
+    int rc = visible_texels(r, &vis, &nvis), W = r->o.env_w, H = r->o.env_h;
+    if (rc) return rc;
+    int w = mf_budget_env_width(r->blocks[MF_BLOCK_ORM].p, vis, (size_t)r->o.tex_res * r->o.tex_res, 0.1, W, H,
+                                r->o.env_res_min, &r->env_res_rough);
+    free(vis);
+    if (w < 0) return mf_fail(MF_ENOMEM, "out of memory");
+    r->env_res_w = w;
+    mf_log_info("recon: env_res_auto at iteration %d: roughness %.3f (10th percentile of %zu visible texels), lobe %.1f deg: "
+                "env %dx%d%s", r->it, r->env_res_rough, nvis, mf_budget_lobe_fwhm((float)r->env_res_rough) * 180.0 / M_PI,
+                w, H / (W / w), w == W ? " (kept)" : "");
+    return w == W ? MF_OK : env_resize(r, w, H / (W / w));
+}
+
+/* metal_auto: the fraction of the training views' visible texels with metallic > 0.5; below
+ * metal_frac the channel is set to 0 and frozen (its Adam moments zeroed). */
+static int metal_test(MfRecon *r) {
+    unsigned char *vis;
+    size_t nvis;
+    int rc = visible_texels(r, &vis, &nvis);
+    if (rc) return rc;
     MfParamBlock *orm = &r->blocks[MF_BLOCK_ORM];
-    r->metal_fraction = mf_budget_metal_fraction(orm->p, vis, (size_t)T * T, 0.5f);
+    r->metal_fraction = mf_budget_metal_fraction(orm->p, vis, (size_t)r->o.tex_res * r->o.tex_res, 0.5f);
     r->metal_state = r->metal_fraction < r->o.metal_frac;
     if (r->metal_state) {
         for (size_t i = 2; i < orm->n; i += 3) orm->p[i] = orm->m[i] = orm->v[i] = 0.0f;
@@ -706,7 +792,7 @@ static int metal_test(MfRecon *r) {
     }
     mf_log_info("recon: metal_auto at iteration %d: %.4f of %zu visible texels have metallic > 0.5 (threshold %g): %s",
                 r->it, r->metal_fraction, nvis, r->o.metal_frac, r->metal_state ? "metallic fixed at 0" : "metallic kept");
-    free(vis), free(skip);
+    free(vis);
     return MF_OK;
 }
 
@@ -820,6 +906,11 @@ int mf_recon_run(MfRecon *r, const MfReconHook *hook, const char *out_dir) {
             st.reg += r->o.w_orm_smooth * mf_reg_smooth_fwd(orm->p, T, T, 3, 1, 2, r->uv_mask);
             mf_reg_smooth_bwd(orm->p, T, T, 3, 1, 2, r->uv_mask, r->o.w_orm_smooth, orm->g);
         }
+        if (r->o.w_env_tv > 0.0f) {
+            MfParamBlock *env = &r->blocks[MF_BLOCK_ENV];
+            st.reg += r->o.w_env_tv * mf_reg_env_logtv_fwd(env->p, r->o.env_w, r->o.env_h);
+            mf_reg_env_logtv_bwd(env->p, r->o.env_w, r->o.env_h, r->o.w_env_tv, env->g);
+        }
         if (r->env_cover && r->o.w_env_unseen > 0.0f) {
             MfParamBlock *env = &r->blocks[MF_BLOCK_ENV];
             st.reg += r->o.w_env_unseen * mf_reg_env_unseen_fwd(env->p, r->o.env_w, r->o.env_h, r->env_cover);
@@ -868,6 +959,7 @@ int mf_recon_run(MfRecon *r, const MfReconHook *hook, const char *out_dir) {
         fflush(log);
         mf_stage_lap(&r->times.io, &ck);
         if (r->o.metal_auto && r->metal_state < 0 && r->it >= r->o.metal_warmup && (rc = metal_test(r))) break;
+        if (r->o.env_res_auto && r->env_res_w < 0 && r->it >= r->o.env_res_warmup && (rc = env_res_test(r))) break;
         if (r->o.spp_grow) spp_grow_observe(r, st.image);
         if (r->es && r->it % r->o.es_every == 0) {
             double hp;

@@ -57,8 +57,10 @@
  * metal_auto sets ORM B to 0 and freezes it after metal_warmup iterations when the scene shows no
  * metal (the decision is stored in the checkpoint); tex_auto picks tex_res in mf_recon_new; env_auto
  * finds there the env directions the training views see in a reflection and regularises the others
- * toward their neighbours every iteration; spp_grow raises the training renders' samples per pixel when
- * the image loss stops falling (the level and its window are in the checkpoint). */
+ * toward their neighbours every iteration; env_res_auto shrinks the env map (box-averaging its values
+ * and Adam moments) after env_res_warmup iterations to the width the sharpest visible specular lobe
+ * resolves (the size is in the checkpoint, which resumes at it); spp_grow raises the training renders'
+ * samples per pixel when the image loss stops falling (the level and its window are in the checkpoint). */
 #ifndef MF_RECON_H
 #define MF_RECON_H
 
@@ -91,6 +93,7 @@ typedef struct {
     float light_lr_scale; /* x lr for the env map (nvdiffrecmc: 3) */
     float w_kd_smooth;    /* albedo smoothness weight */
     float w_orm_smooth;   /* ORM smoothness weight */
+    float w_env_tv;       /* env log-radiance total variation weight (mf_reg_env_logtv; 0: off) */
     float w_shading;      /* white-light shading regulariser weight */
     float w_spec_ratio;   /* mean(spec) / mean(diffuse) weight inside the shading term */
     int normal_map;       /* 1: optimise a tangent-space normal map (tex_res^2, MF_BLOCK_NORMAL);
@@ -122,6 +125,9 @@ typedef struct {
     int env_auto;         /* 1: env texels no view sees in a reflection are regularised toward their neighbours */
     int env_auto_dilate;  /* ... coverage dilated by this many texels ... */
     float w_env_unseen;   /* ... with this weight (mf_reg_env_unseen) */
+    int env_res_auto;     /* 1: after env_res_warmup iterations the env map shrinks to what the sharpest
+                             visible specular resolves (mf_budget_env_width), not below env_res_min wide */
+    int env_res_warmup, env_res_min;
     int spp_grow;         /* 1: spp_sqrt grows by 1 (up to spp_grow_max) whenever the image loss's mean over a
                              window of spp_grow_window iterations fell by less than spp_grow_tol of the previous one */
     int spp_grow_max, spp_grow_window;

@@ -16,6 +16,7 @@ static const MfOpt k_opts[] = {
     MF_OPT_FLOAT(R, light_lr_scale, 3, 0, 100, "env learning rate multiplier"),
     MF_OPT_FLOAT(R, w_kd_smooth, 0.1, 0, 1000, "albedo smoothness weight"),
     MF_OPT_FLOAT(R, w_orm_smooth, 0.05, 0, 1000, "ORM smoothness weight"),
+    MF_OPT_FLOAT(R, w_env_tv, 0, 0, 1000, "env smoothness weight: L1 of the log-radiance differences of neighbouring env texels (0: off)"),
     MF_OPT_FLOAT(R, w_shading, 0.15, 0, 1000, "white-light shading regulariser weight"),
     MF_OPT_FLOAT(R, w_spec_ratio, 0.0025, 0, 1000, "mean(spec)/mean(diffuse) weight"),
     /* Off by measurement: on test-3d (GT meshes, default budget) the normal map lowered relit
@@ -55,6 +56,9 @@ static const MfOpt k_opts[] = {
     MF_OPT_BOOL(R, env_auto, 0, "1: env texels no training view sees in a mirror reflection are pulled toward their neighbours (L1 of neighbour differences)"),
     MF_OPT_INT(R, env_auto_dilate, 1, 0, 64, "env_auto: the reflected directions cover this many texels around them"),
     MF_OPT_FLOAT(R, w_env_unseen, 0.1, 0, 1000, "env_auto: weight of the unseen directions' smoothness"),
+    MF_OPT_BOOL(R, env_res_auto, 0, "1: after env_res_warmup iterations, halve the env map while two texels still span the reflected lobe of the visible texels' 10th-percentile roughness"),
+    MF_OPT_INT(R, env_res_warmup, 50, 1, 10000000, "env_res_auto: warm-up iterations before the choice"),
+    MF_OPT_INT(R, env_res_min, 8, 4, 8192, "env_res_auto: smallest env map width"),
     MF_OPT_BOOL(R, spp_grow, 0, "1: --spp grows by 1 (up to spp_grow_max) each time the image loss's mean over a window fell by less than spp_grow_tol of the previous window's"),
     MF_OPT_INT(R, spp_grow_max, 4, 1, MF_OPT_SPP_MAX, "spp_grow: largest --spp"),
     MF_OPT_INT(R, spp_grow_window, 25, 1, 1000000, "spp_grow: window (iterations; windows end at multiples of it)"),
