@@ -72,6 +72,14 @@ static MfRecon *recon_of(const MfMesh *mesh, float metallic, const MfReconOpts *
     return r;
 }
 
+/* Every texture and env block of a and b holds the same bytes. */
+static void check_same_blocks(MfRecon *a, MfRecon *b) {
+    for (int k = 0; k < MF_BLOCK_NORMAL; ++k) {
+        const MfParamBlock *x = mf_recon_block(a, k), *y = mf_recon_block(b, k);
+        CHECK_MSG(x->n == y->n && !memcmp(x->p, y->p, x->n * sizeof(float)), "block %s differs after resume", x->name);
+    }
+}
+
 /* ---- early stop ---- */
 
 MF_TEST(inverse_budget_early_stop_rule) {
@@ -176,10 +184,7 @@ MF_TEST(inverse_budget_early_stop_resume_is_exact) {
     CHECK_OK(mf_recon_run(half, NULL, hd));
     const MfEarlyStop *a = mf_recon_early_stop(full), *b = mf_recon_early_stop(half);
     CHECK(a->stop_iter == 6 && b->stop_iter == 6 && b->n == 3 && a->psnr[2] == b->psnr[2]);
-    for (int k = 0; k < MF_BLOCK_NORMAL; ++k) {
-        const MfParamBlock *x = mf_recon_block(full, k), *y = mf_recon_block(half, k);
-        CHECK_MSG(x->n == y->n && !memcmp(x->p, y->p, x->n * sizeof(float)), "block %s differs after resume", x->name);
-    }
+    check_same_blocks(full, half);
     /* a stopped run resumed again does no more iterations */
     mf_recon_free(half);
     half = recon_of(&mesh, 0.0f, &o);
@@ -391,6 +396,22 @@ MF_TEST(inverse_budget_env_coverage) {
 
 /* ---- samples per pixel that grow as the loss stops falling (spp_grow) ---- */
 
+/* A run of o stopped at `stop` iterations in the test folder `name` (its checkpoint path into ck),
+ * then a fresh reconstruction with o resumed from that checkpoint (not yet run). */
+static MfRecon *stopped_and_resumed(const MfMesh *mesh, const MfReconOpts *o, int stop, const char *name, char *dir,
+                                    size_t dcap, char *ck, size_t ckcap) {
+    MfReconOpts oh = *o;
+    oh.iters = stop;
+    mf_test_path_to(dir, dcap, name);
+    MfRecon *h = recon_of(mesh, 0.0f, &oh);
+    CHECK_OK(mf_recon_run(h, NULL, dir));
+    mf_recon_free(h);
+    h = recon_of(mesh, 0.0f, o);
+    snprintf(ck, ckcap, "%s/checkpoint.mfck", dir);
+    CHECK_OK(mf_recon_load_checkpoint(h, ck));
+    return h;
+}
+
 MF_TEST(inverse_budget_spp_grow_rule_and_resume) {
     MfMesh mesh;
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
@@ -405,24 +426,14 @@ MF_TEST(inverse_budget_spp_grow_rule_and_resume) {
     int n, spp = mf_recon_spp_now(r, &at, &n);
     /* the first window sets the reference; windows 2 and 3 grow 1 -> 2 -> 3 (the cap) */
     CHECK_MSG(spp == 3 && n == 2 && at[0] == 8 && at[1] == 12, "spp %d, %d growths (first at %d)", spp, n, n ? at[0] : -1);
-    /* resumed from iteration 8 (just after the first growth), the rest is bit-identical */
-    MfReconOpts oh = o;
-    oh.iters = 10; /* checkpoint at 8 (every 4) and at the end, 10 (mid-window) */
-    mf_test_path_to(hd, sizeof hd, "sppgrow_half");
-    MfRecon *h = recon_of(&mesh, 0.0f, &oh);
-    CHECK_OK(mf_recon_run(h, NULL, hd));
-    mf_recon_free(h);
-    h = recon_of(&mesh, 0.0f, &o);
-    snprintf(ck, sizeof ck, "%s/checkpoint.mfck", hd);
-    CHECK_OK(mf_recon_load_checkpoint(h, ck));
+    /* stopped at 10 (checkpoints at 8, every 4, and at the end, mid-window) and resumed: the rest is
+     * bit-identical */
+    MfRecon *h = stopped_and_resumed(&mesh, &o, 10, "sppgrow_half", hd, sizeof hd, ck, sizeof ck);
     CHECK(mf_recon_iteration(h) == 10 && mf_recon_spp_now(h, NULL, NULL) == 2);
     CHECK_OK(mf_recon_run(h, NULL, hd));
     int nh, spph = mf_recon_spp_now(h, &at, &nh);
     CHECK(spph == 3 && nh == 2 && at[0] == 8 && at[1] == 12);
-    for (int k = 0; k < MF_BLOCK_NORMAL; ++k) {
-        const MfParamBlock *x = mf_recon_block(r, k), *y = mf_recon_block(h, k);
-        CHECK_MSG(x->n == y->n && !memcmp(x->p, y->p, x->n * sizeof(float)), "block %s differs after resume", x->name);
-    }
+    check_same_blocks(r, h);
     mf_recon_free(h);
     mf_recon_free(r);
     /* off: the level stays at --spp */
@@ -494,22 +505,11 @@ MF_TEST(inverse_budget_env_res_auto_and_resume) {
     CHECK_MSG(w == 8 && mf_recon_opts(r)->env_w == 8 && mf_recon_opts(r)->env_h == 4 && env->n == 8 * 4 * 3 &&
                   mf_recon_env(r)->img.w == 8 && rough > 0.8 && rough < 1.0,
               "width %d (rough %g), env block of %zu", w, rough, env->n);
-    /* resumed from iteration 6 (after the choice): the checkpoint holds the 8x4 env; bit-identical */
-    MfReconOpts oh = o;
-    oh.iters = 6;
-    mf_test_path_to(hd, sizeof hd, "envres_half");
-    MfRecon *h = recon_of(&mesh, 0.0f, &oh);
-    CHECK_OK(mf_recon_run(h, NULL, hd));
-    mf_recon_free(h);
-    h = recon_of(&mesh, 0.0f, &o);
-    snprintf(ck, sizeof ck, "%s/checkpoint.mfck", hd);
-    CHECK_OK(mf_recon_load_checkpoint(h, ck));
+    /* stopped at 6 (after the choice) and resumed: the checkpoint holds the 8x4 env; bit-identical */
+    MfRecon *h = stopped_and_resumed(&mesh, &o, 6, "envres_half", hd, sizeof hd, ck, sizeof ck);
     CHECK(mf_recon_iteration(h) == 6 && mf_recon_env_res(h, NULL) == 8 && mf_recon_opts(h)->env_w == 8);
     CHECK_OK(mf_recon_run(h, NULL, hd));
-    for (int k = 0; k < MF_BLOCK_NORMAL; ++k) {
-        const MfParamBlock *x = mf_recon_block(r, k), *y = mf_recon_block(h, k);
-        CHECK_MSG(x->n == y->n && !memcmp(x->p, y->p, x->n * sizeof(float)), "block %s differs after resume", x->name);
-    }
+    check_same_blocks(r, h);
     mf_recon_free(h);
     /* a checkpoint whose env is not a fraction of the run's is refused by name */
     MfReconOpts ob = o;
