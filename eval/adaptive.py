@@ -36,6 +36,21 @@ def decisions(run_dir):
     return ", ".join(out)
 
 
+def split_scenes(d):
+    """mf eval's scenes.csv of a split's report folder, merged with those of its subfolders (reports
+    of later sittings, each an mf eval run of its own): a value scored twice must agree."""
+    vals = read_scenes(os.path.join(d, "scenes.csv"))
+    for sub in sorted(os.listdir(d)):
+        path = os.path.join(d, sub, "scenes.csv")
+        if not os.path.isfile(path):
+            continue
+        for k, v in read_scenes(path).items():
+            if k in vals and abs(vals[k] - v) > 1e-6 * max(1.0, abs(v)):
+                sys.exit("adaptive.py: %s: %s scored %g here, %g in another report" % (path, "/".join(k), v, vals[k]))
+            vals[k] = v
+    return vals
+
+
 def same_outputs(a, b):
     """True when two runs wrote the same albedo.png, orm.png and env.exr bytes."""
     for f in ("albedo.png", "orm.png", "env.exr"):
@@ -73,9 +88,11 @@ def main():
     configs = [c.split("=", 1) for c in a.configs.split(";") if "=" in c]
     rows, detail = [], []
     for sp in a.splits.split():
-        vals = read_scenes(os.path.join(a.out, sp, "scenes.csv"))
+        vals = split_scenes(os.path.join(a.out, sp))
         for name, flags in configs:
             scenes = sorted({k[1] for k in vals if k[0] == name} & {k[1] for k in vals if k[0] == "default"})
+            if not scenes:
+                continue  # this flag set was not run (or not scored) on this split
             ratio, d = [], {m: [] for m in METRICS}
             for s in scenes:
                 ref = time_ref.get(name, "default")
@@ -111,7 +128,8 @@ def main():
           "the validation split (val-3d: where a default may be chosen) and the test split (test-3d: where the "
           "choice is checked). Wall time: the optimisation loop's (log.csv, holdout.csv); ratio = flag set / "
           "default per scene (README \"Budgets from the data\" says under which load the runs were made). PSNR: `mf eval` (every test view, its full protocol; "
-          "%s/<split>/ has its tables), flag set minus default. Mean and 95%% CI half-width over the scenes "
+          "%s/<split>/ has its tables; flag sets scored in a later sitting are in its subfolders, one `mf eval` "
+          "batch of scenes each, merged here), flag set minus default. Mean and 95%% CI half-width over the scenes "
           "(Student t). Target: within 0.2 dB of the default on relit, albedo and ORM at <= 0.5x its wall time, "
           "or all three >= 0 with at least one CI above 0 at <= 1x." % (a.config, a.out), "",
           "| split | flag set | scenes | wall time ratio | d relit dB | d albedo dB | d ORM dB | target |",

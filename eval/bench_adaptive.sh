@@ -19,7 +19,9 @@ RESULTS=${RESULTS:-results/adaptive}
 OUT=${OUT:-reports/adaptive}
 SPLITS=${SPLITS:-"val-3d test-3d"}
 A_CONFIG=${A_CONFIG:-baselines/nvdiffrecmc.json}
-A_CONFIGS=${A_CONFIGS:-"adaptive=--early-stop --metal-auto --tex-auto;spp1=--spp 1;sppgrow=--spp-grow;envauto=--env-auto"}
+A_CONFIGS=${A_CONFIGS:-"adaptive=--early-stop --metal-auto --tex-auto;spp1=--spp 1;sppgrow=--spp-grow;envauto=--env-auto;\
+combo=--early-stop --metal-auto --tex-auto --spp-grow;spp4i200=--spp 4 --iters 200;spp4i100=--spp 4 --iters 100;\
+sg200=--spp-grow --iters 200;env32=--env-w 32 --env-h 16;env16=--env-w 16 --env-h 8;tv003=--w-env-tv 0.03;tv03=--w-env-tv 0.3"}
 
 recon() { # recon RUN_DIR SCENE_DIR ARGS...: one resumable run; a failed one is named and skipped
     d=$1 sd=$2
