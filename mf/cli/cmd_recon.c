@@ -218,7 +218,7 @@ static void budgets_to_json(const MfRecon *r, cJSON *opts) {
         cJSON_AddNumberToObject(e, "roughness_p10", rough);
         cJSON_AddNumberToObject(e, "env_w", w < 0 ? mf_recon_opts(r)->env_w : w);
         cJSON_AddNumberToObject(e, "env_h", mf_recon_opts(r)->env_h);
-        cJSON_AddStringToObject(e, "decision", w < 0 ? "not tested" : "tested");
+        cJSON_AddStringToObject(e, "decision", w < 0 ? "not tested (the run ended before the warm-up)" : "chosen");
     }
     if (mf_recon_opts(r)->spp_grow) {
         const int *at;

@@ -31,7 +31,7 @@ static int view_sees(const MfCamera *c, MfVec3 p, float *px, float *py) {
 /* 1 when a pixel on the image's border has alpha >= 0.5: the object may extend out of the frame. */
 static int mask_touches_border(const MfImage *m) {
     for (int y = 0; y < m->h; ++y)
-        for (int x = 0; x < m->w; x += (y == 0 || y == m->h - 1) ? 1 : m->w - 1)
+        for (int x = 0; x < m->w; x += (y == 0 || y == m->h - 1 || m->w == 1) ? 1 : m->w - 1)
             if (mf_image_px(m, x, y)[m->c - 1] >= 0.5f) return 1;
     return 0;
 }
