@@ -216,7 +216,7 @@ static void budgets_to_json(const MfRecon *r, cJSON *opts) {
         int w = mf_recon_env_res(r, &rough);
         cJSON *e = cJSON_AddObjectToObject(opts, "env_res_result");
         cJSON_AddNumberToObject(e, "roughness_p10", rough);
-        cJSON_AddNumberToObject(e, "env_w", w < 0 ? mf_recon_opts(r)->env_w : w);
+        cJSON_AddNumberToObject(e, "env_w", mf_recon_opts(r)->env_w); /* the chosen size once chosen */
         cJSON_AddNumberToObject(e, "env_h", mf_recon_opts(r)->env_h);
         cJSON_AddStringToObject(e, "decision", w < 0 ? "not tested (the run ended before the warm-up)" : "chosen");
     }

@@ -86,14 +86,14 @@ void mf_reg_smooth_bwd(const float *tex, int w, int h, int ch, int c0, int nc, c
     })
 }
 
-/* Visits every env pair (p, q) with an uncovered texel (every pair when cover is NULL). */
-#define ENV_UNSEEN_PAIRS(BODY)                                                              \
+/* Visits every env pair (p, q) with a texel uncovered by COVER ((h, w), or NULL: every pair). */
+#define ENV_PAIRS(COVER, BODY)                                                              \
     for (int y = 0; y < h; ++y)                                                             \
         for (int x = 0; x < w; ++x) {                                                       \
             size_t p = (size_t)y * w + x;                                                   \
             for (int d = 0; d < 2; ++d) {                                                   \
                 int qx = d == 0 ? (x + 1) % w : x, qy = y + (d == 1);                       \
-                if (qy >= h || (cover && cover[p] && cover[(size_t)qy * w + qx])) continue; \
+                if (qy >= h || ((COVER) && (COVER)[p] && (COVER)[(size_t)qy * w + qx])) continue; \
                 size_t q = (size_t)qy * w + qx;                                             \
                 ++pairs;                                                                    \
                 for (int c = 0; c < 3; ++c) {                                               \
@@ -106,17 +106,17 @@ void mf_reg_smooth_bwd(const float *tex, int w, int h, int ch, int c0, int nc, c
 double mf_reg_env_unseen_fwd(const float *env, int w, int h, const unsigned char *cover) {
     double s = 0.0;
     size_t pairs = 0;
-    ENV_UNSEEN_PAIRS(s += fabsf(env[ip] - env[iq]))
+    ENV_PAIRS(cover, s += fabsf(env[ip] - env[iq]))
     return pairs ? s / (3.0 * (double)pairs) : 0.0;
 }
 
 void mf_reg_env_unseen_bwd(const float *env, int w, int h, const unsigned char *cover, float scale, float *denv) {
     size_t pairs = 0;
-    ENV_UNSEEN_PAIRS((void)ip; (void)iq)
+    ENV_PAIRS(cover, (void)ip; (void)iq)
     if (!pairs) return;
     float k = scale / (3.0f * (float)pairs);
     pairs = 0;
-    ENV_UNSEEN_PAIRS({
+    ENV_PAIRS(cover, {
         float g = k * sgn(env[ip] - env[iq]);
         denv[ip] += g;
         denv[iq] -= g;
@@ -126,19 +126,15 @@ void mf_reg_env_unseen_bwd(const float *env, int w, int h, const unsigned char *
 double mf_reg_env_logtv_fwd(const float *env, int w, int h) {
     double s = 0.0;
     size_t pairs = 0;
-    const unsigned char *cover = NULL;
-    ENV_UNSEEN_PAIRS(s += fabsf(logf(env[ip]) - logf(env[iq])))
+    ENV_PAIRS((const unsigned char *)NULL, s += fabsf(logf(env[ip]) - logf(env[iq])))
     return pairs ? s / (3.0 * (double)pairs) : 0.0;
 }
 
 void mf_reg_env_logtv_bwd(const float *env, int w, int h, float scale, float *denv) {
-    size_t pairs = 0;
-    const unsigned char *cover = NULL;
-    ENV_UNSEEN_PAIRS((void)ip; (void)iq)
+    size_t pairs = (size_t)w * h + (size_t)w * (h - 1); /* every right (wrapping) and lower pair */
     if (!pairs) return;
     float k = scale / (3.0f * (float)pairs);
-    pairs = 0;
-    ENV_UNSEEN_PAIRS({
+    ENV_PAIRS((const unsigned char *)NULL, {
         float g = k * sgn(logf(env[ip]) - logf(env[iq]));
         denv[ip] += g / env[ip];
         denv[iq] -= g / env[iq];

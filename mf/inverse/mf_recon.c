@@ -769,11 +769,12 @@ static int env_res_test(MfRecon *r) {
                                 r->o.env_res_min, &r->env_res_rough);
     free(vis);
     if (w < 0) return mf_fail(MF_ENOMEM, "out of memory");
+    int h = H / (W / w);
     r->env_res_w = w;
     mf_log_info("recon: env_res_auto at iteration %d: roughness %.3f (10th percentile of %zu visible texels), lobe %.1f deg: "
                 "env %dx%d%s", r->it, r->env_res_rough, nvis, mf_budget_lobe_fwhm((float)r->env_res_rough) * 180.0 / M_PI,
-                w, H / (W / w), w == W ? " (kept)" : "");
-    return w == W ? MF_OK : env_resize(r, w, H / (W / w));
+                w, h, w == W ? " (kept)" : "");
+    return w == W ? MF_OK : env_resize(r, w, h);
 }
 
 /* metal_auto: the fraction of the training views' visible texels with metallic > 0.5; below
