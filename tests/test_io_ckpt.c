@@ -106,3 +106,36 @@ MF_TEST(io_ckpt_roundtrip_and_refusals) {
     for (size_t i = 0; i < n; ++i) CHECK(back[i] == 0.0f);
     free(raw), free(cp), free(data), free(back);
 }
+
+MF_TEST(io_ckpt_read_meta_header_only) {
+    /* the meta text alone, without the tensors; a length beyond the file or the caller's bound,
+     * a bad magic and a missing file are refused by name */
+    MfTensorSpec s[1];
+    int sh[1] = {1000};
+    mf_spec_set(&s[0], NULL, "w", 1, sh);
+    float *data = fal(1000);
+    fill(data, 1000, -1, 1, 7);
+    char path[MF_PATH_MAX], bad[MF_PATH_MAX];
+    mf_test_path_to(path, sizeof path, "meta_only.mfck");
+    mf_test_path_to(bad, sizeof bad, "meta_bad.mfck");
+    const char *meta = "{\"env_w\":32,\"env_h\":16}";
+    CHECK_OK(mf_ckpt_save(path, s, 1, data, meta));
+    char *got = NULL;
+    CHECK_OK(mf_ckpt_read_meta(path, 1024, &got));
+    CHECK(got && !strcmp(got, meta));
+    free(got), got = NULL;
+    CHECK_ERR(mf_ckpt_read_meta(path, 8, &got), "meta length 23 exceeds");
+    char *buf = NULL;
+    size_t len = 0;
+    CHECK_OK(mf_read_file(path, &buf, &len));
+    uint32_t huge = 0xF0000000u;
+    memcpy(buf + 12, &huge, 4);
+    CHECK(!write_bytes(bad, buf, len));
+    CHECK_ERR(mf_ckpt_read_meta(bad, (size_t)1 << 31, &got), "meta_bad.mfck: meta length 4026531840 exceeds the file");
+    buf[0] = 'X';
+    CHECK(!write_bytes(bad, buf, len));
+    CHECK_ERR(mf_ckpt_read_meta(bad, 1024, &got), "meta_bad.mfck: not an MFCK checkpoint");
+    CHECK_ERR(mf_ckpt_read_meta(mf_test_path("meta_missing.mfck"), 1024, &got), "meta_missing.mfck: cannot open");
+    CHECK(got == NULL);
+    free(buf), free(data);
+}

@@ -26,7 +26,7 @@ MF_TEST(prior_bad_weights_refused) {
     const char *good = mf_test_path("prior_good.mfck");
     char path[MF_PATH_MAX];
     CHECK_OK(mf_prior_save(p, good, NULL));
-    CHECK_ERR(mf_prior_load(mf_test_path("prior_missing.mfck"), &q), "prior_missing.mfck: cannot open prior weights");
+    CHECK_ERR(mf_prior_load(mf_test_path("prior_missing.mfck"), &q), "prior_missing.mfck: cannot open checkpoint");
     CHECK_ERR(mf_prior_load(mf_test_path("prior_missing.mfck"), &q), "MFCK version 1");
     char *d = NULL;
     size_t len = 0;

@@ -376,10 +376,8 @@ static int env_resize(MfRecon *r, int w, int h) {
 
 /* The env size a checkpoint holds (env_res_auto may have shrunk it): resize to it before loading. */
 static int env_size_of_checkpoint(MfRecon *r, const char *path) {
-    MfTensorSpec *specs = NULL;
-    float *data = NULL;
     char *meta = NULL;
-    int n = 0, w = 0, h = 0, rc = mf_ckpt_read(path, &specs, &n, &data, &meta);
+    int w = 0, h = 0, rc = mf_ckpt_read_meta(path, (size_t)1 << 24, &meta);
     if (rc) return rc;
     const char *pw = meta ? strstr(meta, "\"env_w\":") : NULL;
     if (pw && sscanf(pw, "\"env_w\":%d,\"env_h\":%d", &w, &h) == 2 && w != r->o.env_w) {
@@ -388,7 +386,7 @@ static int env_size_of_checkpoint(MfRecon *r, const char *path) {
                          r->o.env_h);
         else rc = env_resize(r, w, h);
     }
-    free(specs), free(data), free(meta);
+    free(meta);
     return rc;
 }
 

@@ -206,6 +206,46 @@ done:
     return rc;
 }
 
+int mf_ckpt_read_meta(const char *path, size_t max_len, char **meta) {
+    int rc = mf_file_exists(path) ? mf_input_file(path, NULL) : MF_OK; /* a directory: refused by name */
+    if (rc) return rc;
+    FILE *f = fopen(path, "rb");
+    if (!f) return mf_fail(MF_EIO, "%s: cannot open checkpoint (%s)", path, strerror(errno));
+    unsigned char h[16];
+    uint32_t ver = 0, mlen = 0;
+    if (fread(h, 1, 16, f) != 16) rc = mf_fail(MF_EFORMAT, "%s: truncated checkpoint (no header)", path);
+    else if (memcmp(h, "MFCK", 4)) rc = mf_fail(MF_EFORMAT, "%s: not an MFCK checkpoint (bad magic)", path);
+    if (!rc) {
+        memcpy(&ver, h + 4, 4), memcpy(&mlen, h + 12, 4);
+        if (ver != MF_CKPT_VERSION)
+            rc = mf_fail(MF_EFORMAT, "%s: unsupported checkpoint version %u (this build reads %u)", path, ver,
+                         MF_CKPT_VERSION);
+    }
+    /* the meta length comes from the file: checked against the file's real length and max_len
+     * before allocating */
+    if (!rc) {
+        long flen = fseek(f, 0, SEEK_END) == 0 ? ftell(f) : -1;
+        if (flen < 0 || fseek(f, 16, SEEK_SET) != 0) rc = mf_fail(MF_EIO, "%s: cannot seek", path);
+        else if (mlen > max_len || (uint64_t)mlen > (uint64_t)flen - 16)
+            rc = mf_fail(MF_EFORMAT, "%s: meta length %u exceeds the file (%ld bytes) or %zu bytes", path, mlen, flen,
+                         max_len);
+    }
+    char *m = NULL;
+    if (!rc) {
+        m = malloc((size_t)mlen + 1);
+        if (!m) rc = mf_fail(MF_ENOMEM, "%s: out of memory", path);
+        else if (fread(m, 1, mlen, f) != mlen) rc = mf_fail(MF_EFORMAT, "%s: truncated checkpoint (meta text)", path);
+        else m[mlen] = 0;
+    }
+    fclose(f);
+    if (rc) {
+        free(m);
+        return rc;
+    }
+    *meta = m;
+    return MF_OK;
+}
+
 int mf_ckpt_load(const char *path, const MfTensorSpec *specs, int n, float *data, char **meta) {
     MfTensorSpec *fs = NULL;
     float *fd = NULL;

@@ -51,4 +51,9 @@ int mf_ckpt_load(const char *path, const MfTensorSpec *specs, int n, float *data
  * *meta (NUL-terminated): heap copies the caller frees. Outputs are untouched on failure. */
 int mf_ckpt_read(const char *path, MfTensorSpec **specs, int *n, float **data, char **meta);
 
+/* Reads only the header's meta text of path into *meta (NUL-terminated heap copy the caller frees),
+ * without the tensors: the magic, version and a meta length within the file and max_len are checked,
+ * not the checksum (mf_ckpt_read / _load check it when the tensors are read). */
+int mf_ckpt_read_meta(const char *path, size_t max_len, char **meta);
+
 #endif

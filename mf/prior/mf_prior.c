@@ -143,43 +143,13 @@ int mf_prior_save(const MfPrior *p, const char *path, const char *extra_json) {
 #define EXPECT "expected prior weights: an MFCK version 1 checkpoint with mf-prior format 1, written by `mf train-prior`"
 
 int mf_prior_read_meta(const char *path, char **meta) {
-    int rc0 = mf_file_exists(path) ? mf_input_file(path, NULL) : MF_OK; /* a directory: refused by name */
-    if (rc0) return rc0;
-    FILE *f = fopen(path, "rb");
-    if (!f) return mf_fail(MF_EIO, "%s: cannot open prior weights (%s)", path, EXPECT);
-    unsigned char h[16];
-    int rc = MF_OK;
-    if (fread(h, 1, 16, f) != 16) rc = mf_fail(MF_EFORMAT, "%s: truncated checkpoint (%s)", path, EXPECT);
-    else if (memcmp(h, "MFCK", 4)) rc = mf_fail(MF_EFORMAT, "%s: not an MFCK checkpoint (%s)", path, EXPECT);
-    uint32_t ver = 0, mlen = 0;
-    if (!rc) {
-        memcpy(&ver, h + 4, 4), memcpy(&mlen, h + 12, 4);
-        if (ver != MF_CKPT_VERSION)
-            rc = mf_fail(MF_EFORMAT, "%s: unsupported checkpoint version %u (%s)", path, ver, EXPECT);
+    int rc = mf_ckpt_read_meta(path, MF_PRIOR_META_MAX, meta);
+    if (rc && rc != MF_ENOMEM) {
+        char why[512];
+        snprintf(why, sizeof why, "%s", mf_error());
+        rc = mf_fail(rc, "%s (%s)", why, EXPECT);
     }
-    /* the meta length comes from the file: check it against the file's real length (and a sane
-     * bound) before allocating */
-    if (!rc) {
-        long flen = fseek(f, 0, SEEK_END) == 0 ? ftell(f) : -1;
-        if (flen < 0 || fseek(f, 16, SEEK_SET) != 0) rc = mf_fail(MF_EIO, "%s: cannot seek", path);
-        else if (mlen > MF_PRIOR_META_MAX || (uint64_t)mlen > (uint64_t)flen - 16)
-            rc = mf_fail(MF_EFORMAT, "%s: meta length %u exceeds the file (%ld bytes) or %u bytes (%s)", path, mlen,
-                         flen, (unsigned)MF_PRIOR_META_MAX, EXPECT);
-    }
-    char *m = NULL;
-    if (!rc) {
-        m = malloc((size_t)mlen + 1);
-        if (!m) rc = mf_fail(MF_ENOMEM, "%s: out of memory", path);
-        else if (fread(m, 1, mlen, f) != mlen) rc = mf_fail(MF_EFORMAT, "%s: truncated checkpoint (%s)", path, EXPECT);
-        else m[mlen] = 0;
-    }
-    fclose(f);
-    if (rc) {
-        free(m);
-        return rc;
-    }
-    *meta = m;
-    return MF_OK;
+    return rc;
 }
 
 static int jint(const cJSON *o, const char *k, int *out) {
