@@ -227,3 +227,41 @@ MF_TEST(prior_train_init_keeps_ae_and_cosine_lr) {
     o.tiny = 0, o.init = mf_test_path("prior_init_missing.mfck");
     CHECK_ERR(mf_train_prior(&o, &rb), "prior_init_missing.mfck");
 }
+
+MF_TEST(prior_train_fresh_denoiser_keeps_only_the_ae) {
+    /* --init with --fresh-denoiser (the data-size curve): the AE and latent scale come from the file,
+     * the denoiser is exactly a random one of the run's seed, not the file's */
+    char a[MF_PATH_MAX], b[MF_PATH_MAX], ca[MF_PATH_MAX], cb[MF_PATH_MAX], wa[MF_PATH_MAX], wb[MF_PATH_MAX];
+    mf_test_path_to(a, sizeof a, "prior_fresh_a");
+    mf_test_path_to(b, sizeof b, "prior_fresh_b");
+    mf_test_path_to(ca, sizeof ca, "prior_fresh_a.csv");
+    mf_test_path_to(cb, sizeof cb, "prior_fresh_b.csv");
+    MfTrainPriorOpts o;
+    MfTrainPriorResult ra, rb;
+    tp_tiny_opts(&o, a, ca);
+    CHECK_OK(mf_train_prior(&o, &ra));
+    mf_path_join(wa, sizeof wa, a, "prior.mfck");
+    tp_tiny_opts(&o, b, cb);
+    o.fresh_denoiser = 1;
+    CHECK_ERR(mf_train_prior(&o, &rb), "--fresh-denoiser needs --init");
+    o.init = wa, o.ae_steps = 0, o.steps = 0, o.seed = 9, o.tiny = 0;
+    CHECK_OK(mf_train_prior(&o, &rb));
+    mf_path_join(wb, sizeof wb, b, "prior.mfck");
+    MfPrior *pa, *pb, *pr;
+    MfPriorConfig cfg;
+    mf_prior_config_tiny(&cfg);
+    CHECK_OK(mf_prior_load(wa, &pa));
+    CHECK_OK(mf_prior_load(wb, &pb));
+    CHECK_OK(mf_prior_new(&pr, &cfg));
+    mf_denoiser_init_weights(pr->dn, 9);
+    size_t nd = pb->dn->tab.numel;
+    CHECK(!memcmp(pa->ae->params, pb->ae->params, pa->ae->tab.numel * sizeof(float)));
+    CHECK(pb->latent_scale == pa->latent_scale);
+    CHECK(nd == pr->dn->tab.numel && !memcmp(pb->dn->params, pr->dn->params, nd * sizeof(float)));
+    CHECK(memcmp(pb->dn->params, pa->dn->params, nd * sizeof(float)) != 0);
+    mf_prior_free(pa), mf_prior_free(pb), mf_prior_free(pr);
+    char *meta = NULL;
+    CHECK_OK(mf_prior_read_meta(wb, &meta));
+    CHECK_MSG(meta && strstr(meta, "\"fresh_denoiser\":true"), "meta %s", meta ? meta : "");
+    free(meta);
+}

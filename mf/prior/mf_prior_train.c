@@ -381,6 +381,7 @@ static int save_weights(Ctx *c, const MfPrior *p, const Data *d, const MfTrainPr
     for (int k = 0; k < 3; ++k)
         cJSON_AddNumberToObject(t, (const char *[]){"psnr_albedo", "psnr_orm", "psnr_rgb"}[k], round(res->psnr[k] * 1e3) / 1e3);
     if (o->init) cJSON_AddStringToObject(t, "init", o->init);
+    if (o->fresh_denoiser) cJSON_AddBoolToObject(t, "fresh_denoiser", 1);
     cJSON_AddItemToObject(root, "train", t);
     char *extra = cJSON_PrintUnformatted(root);
     cJSON_Delete(root);
@@ -489,6 +490,7 @@ int mf_train_prior(const MfTrainPriorOpts *o, MfTrainPriorResult *res) {
     if (o->init && (o->ae_steps || o->tiny || o->ae_c1 || o->ae_c2 || o->dn_c1 || o->dn_c2))
         return mf_fail(MF_EARG, "train-prior: --init %s keeps that prior's model and autoencoder: give --ae-steps 0 and "
                                 "no --tiny or channel options", o->init);
+    if (o->fresh_denoiser && !o->init) return mf_fail(MF_EARG, "train-prior: --fresh-denoiser needs --init WEIGHTS");
     Data d = {0};
     int rc = data_load(o->data_dir, &d);
     if (rc) return rc;
@@ -518,6 +520,7 @@ int mf_train_prior(const MfTrainPriorOpts *o, MfTrainPriorResult *res) {
                          o->data_dir, d.R);
             goto out;
         }
+        if (o->fresh_denoiser) mf_denoiser_init_weights(p->dn, o->seed);
     } else {
         if ((rc = mf_prior_new(&p, &cfg))) goto out;
         mf_ae_init_weights(p->ae, o->seed);
@@ -550,7 +553,9 @@ int mf_train_prior(const MfTrainPriorOpts *o, MfTrainPriorResult *res) {
     }
     mf_log_info("train-prior: %d samples at %d px, %zu parameters, batch %d, %d AE + %d denoiser steps", d.n, d.R,
                 res->params, o->batch, o->ae_steps, o->steps);
-    if (o->init) mf_log_info("train-prior: starting from %s (autoencoder and latent scale %.4f kept)", o->init, p->latent_scale);
+    if (o->init)
+        mf_log_info("train-prior: starting from %s (autoencoder and latent scale %.4f kept%s)", o->init, p->latent_scale,
+                    o->fresh_denoiser ? "; the denoiser from random weights" : "");
     else if ((rc = train_ae(&c, p, &d, res, &stop)) || stop) goto out;
     d.m = o->dn_samples > 0 && o->dn_samples < d.n ? o->dn_samples : d.n;
     d.sel = malloc((size_t)d.m * sizeof(int));
