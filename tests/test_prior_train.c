@@ -264,4 +264,14 @@ MF_TEST(prior_train_fresh_denoiser_keeps_only_the_ae) {
     CHECK_OK(mf_prior_read_meta(wb, &meta));
     CHECK_MSG(meta && strstr(meta, "\"fresh_denoiser\":true"), "meta %s", meta ? meta : "");
     free(meta);
+    /* a wider denoiser beside the same autoencoder; without --fresh-denoiser the channels are refused */
+    o.dn_c1 = 16, o.dn_c2 = 16;
+    CHECK_OK(mf_train_prior(&o, &rb));
+    CHECK_OK(mf_prior_load(wa, &pa));
+    CHECK_OK(mf_prior_load(wb, &pb));
+    CHECK(pb->cfg.dn.c1 == 16 && pb->cfg.dn.c2 == 16 && pb->dn->tab.numel > nd);
+    CHECK(!memcmp(pa->ae->params, pb->ae->params, pa->ae->tab.numel * sizeof(float)) && pb->latent_scale == pa->latent_scale);
+    mf_prior_free(pa), mf_prior_free(pb);
+    o.fresh_denoiser = 0;
+    CHECK_ERR(mf_train_prior(&o, &rb), "denoiser channels only with --fresh-denoiser");
 }

@@ -487,9 +487,9 @@ int mf_train_prior(const MfTrainPriorOpts *o, MfTrainPriorResult *res) {
     memset(res, 0, sizeof *res);
     if (o->batch < 1 || o->steps < 0 || o->ae_steps < !o->init)
         return mf_fail(MF_EARG, "train-prior: need --batch >= 1, --steps >= 0, --ae-steps >= 1");
-    if (o->init && (o->ae_steps || o->tiny || o->ae_c1 || o->ae_c2 || o->dn_c1 || o->dn_c2))
+    if (o->init && (o->ae_steps || o->tiny || o->ae_c1 || o->ae_c2 || (!o->fresh_denoiser && (o->dn_c1 || o->dn_c2))))
         return mf_fail(MF_EARG, "train-prior: --init %s keeps that prior's model and autoencoder: give --ae-steps 0 and "
-                                "no --tiny or channel options", o->init);
+                                "no --tiny or channel options (denoiser channels only with --fresh-denoiser)", o->init);
     if (o->fresh_denoiser && !o->init) return mf_fail(MF_EARG, "train-prior: --fresh-denoiser needs --init WEIGHTS");
     Data d = {0};
     int rc = data_load(o->data_dir, &d);
@@ -519,6 +519,17 @@ int mf_train_prior(const MfTrainPriorOpts *o, MfTrainPriorResult *res) {
             rc = mf_fail(MF_EARG, "train-prior: --init %s is a %d px prior, %s holds %d px samples", o->init, p->cfg.ae.res,
                          o->data_dir, d.R);
             goto out;
+        }
+        if (o->fresh_denoiser && (o->dn_c1 > 0 || o->dn_c2 > 0)) { /* a denoiser of another size */
+            MfPriorConfig fc = p->cfg;
+            if (o->dn_c1 > 0) fc.dn.c1 = o->dn_c1;
+            if (o->dn_c2 > 0) fc.dn.c2 = o->dn_c2;
+            MfPrior *q = NULL;
+            if ((rc = mf_prior_new(&q, &fc))) goto out;
+            memcpy(q->ae->params, p->ae->params, p->ae->tab.numel * sizeof(float));
+            q->latent_scale = p->latent_scale;
+            mf_prior_free(p);
+            p = q;
         }
         if (o->fresh_denoiser) mf_denoiser_init_weights(p->dn, o->seed);
     } else {

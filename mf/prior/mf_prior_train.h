@@ -46,8 +46,9 @@ typedef struct {
                                        ae_steps must be 0) and the denoiser starts from its weights with
                                        fresh AdamW moments (fine-tuning / training on) */
     int fresh_denoiser;             /* with init: keep only its autoencoder and latent scale; the denoiser
-                                       starts from random weights (seed), as in a run from scratch
-                                       (the data-size curve: one autoencoder, denoisers on N samples) */
+                                       starts from random weights (seed), as in a run from scratch, of
+                                       the size dn_c1/dn_c2 where given (the data-size and model-size
+                                       curves: one autoencoder, denoisers on N samples or of C channels) */
     int lr_cosine;                  /* after the warm-up, both learning rates follow a cosine from their
                                        value to 0 at the phase's last step (else constant) */
     int keep_every;                 /* also keep the weights every K denoiser steps as out_dir/prior-<step>.mfck

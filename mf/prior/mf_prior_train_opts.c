@@ -28,7 +28,7 @@ static const MfOpt k_opts[] = {
                "are kept (needs --ae-steps 0), the denoiser starts from its weights with fresh AdamW moments",
                .meta = "WEIGHTS"),
     MF_OPT_BOOL(S, fresh_denoiser, 0, "with --init: keep only its autoencoder and latent scale; the denoiser starts "
-                "from random weights (--seed)"),
+                "from random weights (--seed), at --unet-c1/--unet-c2 where given"),
     MF_OPT_INT(S, ae_c1, 0, 0, 4096, "AE channels, first level (0: default 32)"),
     MF_OPT_INT(S, ae_c2, 0, 0, 4096, "AE channels, second level (0: default 64)"),
     MF_OPT_NAMED(S, "unet_c1", dn_c1, MF_OPT_INT, 0, 0, 4096, "denoiser channels, first level (0: default 64; a multiple of 8)"),
