@@ -165,27 +165,40 @@ MF_TEST(prior_train_partial_folder_and_default_weights) {
     CHECK(strstr(got, MF_PRIOR_WEIGHTS_DEFAULT) != NULL);
 }
 
+/* Two runs' folders <tag>_a / <tag>_b (and their loss CSVs): trains a tiny prior into a (weights wa)
+ * and leaves o set for a second tiny run into b (weights wb), whose init and options the test sets. */
+typedef struct {
+    char a[MF_PATH_MAX], b[MF_PATH_MAX], ca[MF_PATH_MAX], cb[MF_PATH_MAX], wa[MF_PATH_MAX], wb[MF_PATH_MAX];
+} TwoRuns;
+
+static int tiny_then_second(TwoRuns *t, const char *tag, MfTrainPriorOpts *o, MfTrainPriorResult *ra) {
+    char name[64];
+    snprintf(name, sizeof name, "%s_a", tag), mf_test_path_to(t->a, sizeof t->a, name);
+    snprintf(name, sizeof name, "%s_b", tag), mf_test_path_to(t->b, sizeof t->b, name);
+    snprintf(name, sizeof name, "%s_a.csv", tag), mf_test_path_to(t->ca, sizeof t->ca, name);
+    snprintf(name, sizeof name, "%s_b.csv", tag), mf_test_path_to(t->cb, sizeof t->cb, name);
+    mf_path_join(t->wa, sizeof t->wa, t->a, "prior.mfck");
+    mf_path_join(t->wb, sizeof t->wb, t->b, "prior.mfck");
+    tp_tiny_opts(o, t->a, t->ca);
+    int rc = mf_train_prior(o, ra);
+    tp_tiny_opts(o, t->b, t->cb);
+    return rc;
+}
+
 MF_TEST(prior_train_init_keeps_ae_and_cosine_lr) {
     /* train a tiny prior, then train on from it: the AE and latent scale stay, the denoiser starts
      * where it was (its first losses below a fresh run's), the cosine ends the learning rate at 0 */
-    char a[MF_PATH_MAX], b[MF_PATH_MAX], ca[MF_PATH_MAX], cb[MF_PATH_MAX], wa[MF_PATH_MAX], wb[MF_PATH_MAX];
-    mf_test_path_to(a, sizeof a, "prior_init_a");
-    mf_test_path_to(b, sizeof b, "prior_init_b");
-    mf_test_path_to(ca, sizeof ca, "prior_init_a.csv");
-    mf_test_path_to(cb, sizeof cb, "prior_init_b.csv");
+    TwoRuns t;
     MfTrainPriorOpts o;
     MfTrainPriorResult ra, rb;
-    tp_tiny_opts(&o, a, ca);
-    CHECK_OK(mf_train_prior(&o, &ra));
-    mf_path_join(wa, sizeof wa, a, "prior.mfck");
-    tp_tiny_opts(&o, b, cb);
+    CHECK_OK(tiny_then_second(&t, "prior_init", &o, &ra));
+    const char *b = t.b, *cb = t.cb, *wa = t.wa, *wb = t.wb;
     o.init = wa, o.ae_steps = 0, o.steps = 20, o.lr_cosine = 1, o.seed = 6, o.keep_every = 10;
     o.tiny = 0; /* the model comes from the file */
     CHECK_OK(mf_train_prior(&o, &rb));
     CHECK_MSG(rb.dn_loss_first < 0.8f * ra.dn_loss_first, "init run starts at %g, fresh run at %g", rb.dn_loss_first,
               ra.dn_loss_first);
     CHECK(rb.latent_scale == ra.latent_scale);
-    mf_path_join(wb, sizeof wb, b, "prior.mfck");
     char k10[MF_PATH_MAX], k20[MF_PATH_MAX], k7[MF_PATH_MAX];
     mf_path_join(k10, sizeof k10, b, "prior-10.mfck");
     mf_path_join(k20, sizeof k20, b, "prior-20.mfck");
@@ -231,22 +244,15 @@ MF_TEST(prior_train_init_keeps_ae_and_cosine_lr) {
 MF_TEST(prior_train_fresh_denoiser_keeps_only_the_ae) {
     /* --init with --fresh-denoiser (the data-size curve): the AE and latent scale come from the file,
      * the denoiser is exactly a random one of the run's seed, not the file's */
-    char a[MF_PATH_MAX], b[MF_PATH_MAX], ca[MF_PATH_MAX], cb[MF_PATH_MAX], wa[MF_PATH_MAX], wb[MF_PATH_MAX];
-    mf_test_path_to(a, sizeof a, "prior_fresh_a");
-    mf_test_path_to(b, sizeof b, "prior_fresh_b");
-    mf_test_path_to(ca, sizeof ca, "prior_fresh_a.csv");
-    mf_test_path_to(cb, sizeof cb, "prior_fresh_b.csv");
+    TwoRuns t;
     MfTrainPriorOpts o;
     MfTrainPriorResult ra, rb;
-    tp_tiny_opts(&o, a, ca);
-    CHECK_OK(mf_train_prior(&o, &ra));
-    mf_path_join(wa, sizeof wa, a, "prior.mfck");
-    tp_tiny_opts(&o, b, cb);
+    CHECK_OK(tiny_then_second(&t, "prior_fresh", &o, &ra));
+    const char *wa = t.wa, *wb = t.wb;
     o.fresh_denoiser = 1;
     CHECK_ERR(mf_train_prior(&o, &rb), "--fresh-denoiser needs --init");
     o.init = wa, o.ae_steps = 0, o.steps = 0, o.seed = 9, o.tiny = 0;
     CHECK_OK(mf_train_prior(&o, &rb));
-    mf_path_join(wb, sizeof wb, b, "prior.mfck");
     MfPrior *pa, *pb, *pr;
     MfPriorConfig cfg;
     mf_prior_config_tiny(&cfg);
