@@ -576,7 +576,7 @@ int mf_train_prior(const MfTrainPriorOpts *o, MfTrainPriorResult *res) {
     }
     for (int j = 0; j < d.m; ++j) d.sel[j] = (int)((long long)j * d.n / d.m);
     if (d.m < d.n) mf_log_info("train-prior: the denoiser trains on %d of the %d samples (evenly spread)", d.m, d.n);
-    size_t zsz = (size_t)cfg.ae.zc * (d.R / 4) * (d.R / 4), nl = (size_t)d.m * 3 * zsz;
+    size_t zsz = (size_t)p->cfg.ae.zc * (d.R / 4) * (d.R / 4), nl = (size_t)d.m * 3 * zsz;
     lat = malloc(nl * sizeof(float));
     if (!lat) {
         rc = mf_fail(MF_ENOMEM, "train-prior: out of memory for latents");
