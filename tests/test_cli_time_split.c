@@ -64,9 +64,9 @@ MF_TEST(cli_recon_time_split) {
     CHECK_MSG(pm > 0.0 && pc > 0.0, "MaterialFusion's prior stages sum to %g s wall, %g s CPU", pm, pc);
     CHECK(mf_test_sh("grep -q 'recon: time split of .* prior term' %s/mf.log", d) == 0); /* the log's summary line */
     /* the prior's OpenBLAS thread count (--prior-threads, default 1): a fixed count gives the same
-     * bits run after run; 1 and 2 threads agree to the last bits only. OpenBLAS 0.3.21's kernels for
-     * Intel AVX-512 (SkylakeX) gave the same bytes at 1 and 2; its Zen kernel (AMD EPYC) gives
-     * 72-77 dB between them here: another split of the products changes their rounding. */
+     * bits run after run; 1 and 2 threads agree to the last bits only. Earlier sessions' machines
+     * gave the same bytes at 1 and 2; on an AMD EPYC (OpenBLAS 0.3.21's Zen kernel) they are 72-77 dB
+     * apart: another split of the products changes their rounding. */
     for (int k = 2; k <= 3; ++k)
         CHECK(mf_test_sh("%s recon %s/000_cup -o %s/mf%d --method materialfusion %s --prior-threads 2 2>/dev/null", mf, d, d,
                          k, budget) == 0);
