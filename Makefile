@@ -557,10 +557,10 @@ DATASIZE_STEPS  ?= 2000
 DATASIZE_CKPT   ?= $(DATA)/prior-datasize
 DATASIZE_REPORT ?= reports/prior/datasize
 # A point is n<N>[-w<C1>x<C2>][-s<K>]: N samples, the denoiser's channels C1/C2 (default 64/128),
-# seed K (default 1). DATASIZE_RESEED adds the first N again with seed 2 (the run-to-run spread the
-# other differences are read against); DATASIZE_WIDE a wider denoiser on the first N at both seeds
+# seed K (default 1). DATASIZE_RESEED adds the first and the last N again with seed 2 (the run-to-run
+# spread the other differences are read against, and the extreme sizes at a second seed); DATASIZE_WIDE a wider denoiser on the first N at both seeds
 # (the model-size question).
-DATASIZE_RESEED ?= $(word 1,$(DATASIZE_N))-s2
+DATASIZE_RESEED ?= $(word 1,$(DATASIZE_N))-s2 $(lastword $(DATASIZE_N))-s2
 DATASIZE_WIDE   ?= $(word 1,$(DATASIZE_N))-w96x192 $(word 1,$(DATASIZE_N))-w96x192-s2
 DATASIZE_PTS     = $(DATASIZE_N) $(DATASIZE_RESEED) $(DATASIZE_WIDE)
 ds-n    = $(word 1,$(subst -, ,$(1)))
