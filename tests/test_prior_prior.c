@@ -41,7 +41,7 @@ MF_TEST(prior_bad_weights_refused) {
     /* wrong container version */
     d[4] = 7;
     CHECK_OK(mf_write_file(path, d, len));
-    CHECK_ERR(mf_prior_load(path, &q), "unsupported checkpoint version 7");
+    CHECK_ERR(mf_prior_load(path, &q), "unsupported version 7 of checkpoint");
     d[4] = 1;
     /* corrupt data */
     d[len - 20] ^= 0x55;

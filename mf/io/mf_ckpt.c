@@ -99,32 +99,31 @@ static int rd(Reader *r, void *out, size_t n) {
     return 1;
 }
 
+#define MF_CKPT_HEADER 16 /* "MFCK", version, tensor count, meta length: 4 bytes each */
+
+/* The header's checks, one place for mf_ckpt_read and mf_ckpt_read_meta: its first n bytes are at h
+ * (fewer than MF_CKPT_HEADER: a truncated file); *nt and *mlen receive the tensor count and meta length. */
+static int header_check(const char *path, const unsigned char *h, size_t n, uint32_t *nt, uint32_t *mlen) {
+    if (n < 4) return mf_fail(MF_EFORMAT, "%s: truncated checkpoint (%zu bytes, no header)", path, n);
+    if (memcmp(h, "MFCK", 4) != 0) return mf_fail(MF_EFORMAT, "%s: not an MFCK checkpoint (bad magic)", path);
+    if (n < MF_CKPT_HEADER) return mf_fail(MF_EFORMAT, "%s: truncated checkpoint header", path);
+    uint32_t version;
+    memcpy(&version, h + 4, 4), memcpy(nt, h + 8, 4), memcpy(mlen, h + 12, 4);
+    if (version != MF_CKPT_VERSION)
+        return mf_fail(MF_EFORMAT, "%s: unsupported version %u of checkpoint (this build reads %u)", path, version,
+                       MF_CKPT_VERSION);
+    return MF_OK;
+}
+
 int mf_ckpt_read(const char *path, MfTensorSpec **specs, int *n, float **data, char **meta) {
     char *buf = NULL;
     size_t len = 0;
     int rc = mf_read_file(path, &buf, &len);
     if (rc) return rc;
-    Reader r = {(const unsigned char *)buf, len, 0};
-    char magic[4];
-    uint32_t version, nt, mlen;
+    Reader r = {(const unsigned char *)buf, len, MF_CKPT_HEADER};
+    uint32_t nt, mlen;
     MfTensorSpec *fs = NULL;
-    if (!rd(&r, magic, 4)) {
-        rc = mf_fail(MF_EFORMAT, "%s: truncated checkpoint (%zu bytes, no header)", path, len);
-        goto done;
-    }
-    if (memcmp(magic, "MFCK", 4) != 0) {
-        rc = mf_fail(MF_EFORMAT, "%s: not an MFCK checkpoint (bad magic)", path);
-        goto done;
-    }
-    if (!rd(&r, &version, 4) || !rd(&r, &nt, 4) || !rd(&r, &mlen, 4)) {
-        rc = mf_fail(MF_EFORMAT, "%s: truncated checkpoint header", path);
-        goto done;
-    }
-    if (version != MF_CKPT_VERSION) {
-        rc = mf_fail(MF_EFORMAT, "%s: unsupported version %u of checkpoint (this build reads %u)", path,
-                     version, MF_CKPT_VERSION);
-        goto done;
-    }
+    if ((rc = header_check(path, r.p, len < MF_CKPT_HEADER ? len : MF_CKPT_HEADER, &nt, &mlen))) goto done;
     if (r.len - r.pos < mlen) {
         rc = mf_fail(MF_EFORMAT, "%s: truncated checkpoint header (meta text)", path);
         goto done;
@@ -211,22 +210,15 @@ int mf_ckpt_read_meta(const char *path, size_t max_len, char **meta) {
     if (rc) return rc;
     FILE *f = fopen(path, "rb");
     if (!f) return mf_fail(MF_EIO, "%s: cannot open checkpoint (%s)", path, strerror(errno));
-    unsigned char h[16];
-    uint32_t ver = 0, mlen = 0;
-    if (fread(h, 1, 16, f) != 16) rc = mf_fail(MF_EFORMAT, "%s: truncated checkpoint (no header)", path);
-    else if (memcmp(h, "MFCK", 4)) rc = mf_fail(MF_EFORMAT, "%s: not an MFCK checkpoint (bad magic)", path);
-    if (!rc) {
-        memcpy(&ver, h + 4, 4), memcpy(&mlen, h + 12, 4);
-        if (ver != MF_CKPT_VERSION)
-            rc = mf_fail(MF_EFORMAT, "%s: unsupported checkpoint version %u (this build reads %u)", path, ver,
-                         MF_CKPT_VERSION);
-    }
+    unsigned char h[MF_CKPT_HEADER];
+    uint32_t nt = 0, mlen = 0;
+    rc = header_check(path, h, fread(h, 1, sizeof h, f), &nt, &mlen);
     /* the meta length comes from the file: checked against the file's real length and max_len
      * before allocating */
     if (!rc) {
         long flen = fseek(f, 0, SEEK_END) == 0 ? ftell(f) : -1;
-        if (flen < 0 || fseek(f, 16, SEEK_SET) != 0) rc = mf_fail(MF_EIO, "%s: cannot seek", path);
-        else if (mlen > max_len || (uint64_t)mlen > (uint64_t)flen - 16)
+        if (flen < 0 || fseek(f, MF_CKPT_HEADER, SEEK_SET) != 0) rc = mf_fail(MF_EIO, "%s: cannot seek", path);
+        else if (mlen > max_len || (uint64_t)mlen > (uint64_t)flen - MF_CKPT_HEADER)
             rc = mf_fail(MF_EFORMAT, "%s: meta length %u exceeds the file (%ld bytes) or %zu bytes", path, mlen, flen,
                          max_len);
     }
