@@ -70,7 +70,7 @@ LIB_OBJ  := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
 CLI_OBJ  := $(CLI_C:%.c=$(BUILD)/obj/%.o)
 TEST_OBJ := $(TEST_C:%.c=$(BUILD)/obj/%.o)
 
-.PHONY: FORCE all deps deps-node deps-fuzz bench-asset fuzz fuzz-lib fuzz-seeds test check-deps asan bench-geom bench-hull bench-render profile-render bench-nn bench-nn-dnnl bench-nn-onednn bench-baseline bench-prior prior-objects train-prior-ft prior-curve train-prior-datasize prior-datasize bench-sds-cost bench-quick bench bench-split bench-split-now bench-runs bench-external recon-runs train-prior train-prior-wide eval-prior calibrate-trust sweep-guidance bench-domain bench-matrix bench-stability test-slurm clean
+.PHONY: FORCE all deps deps-node deps-fuzz bench-asset fuzz fuzz-lib fuzz-seeds test check-deps asan bench-geom bench-hull bench-render profile-render bench-nn bench-nn-dnnl bench-nn-onednn bench-baseline bench-prior prior-objects train-prior-ft prior-curve train-prior-datasize prior-datasize bench-sds-cost bench-quick bench bench-split bench-split-now bench-runs bench-external recon-runs train-prior train-prior-wide eval-prior calibrate-trust sweep-guidance bench-domain bench-matrix bench-stability bench-stability-stops test-slurm clean
 all: $(BUILD)/mf $(BUILD)/mf_tests
 
 deps:
@@ -325,6 +325,7 @@ bench: $(BUILD)/mf
 	$(call sched-job,bench-external) $(MAKE) --no-print-directory bench-external REPORT=reports/bench
 	$(call sched-job,eval-prior) $(MAKE) --no-print-directory eval-prior
 	$(call sched-job,bench-stability) $(MAKE) --no-print-directory bench-stability
+	$(call sched-job,bench-stability-stops) $(MAKE) --no-print-directory bench-stability-stops
 
 # A glTF asset through the whole pipeline (issue 15): `mf gen --split test-3d --asset` renders it
 # like a test-3d scene (its textures are the ground truth), then baseline and MaterialFusion
@@ -347,6 +348,14 @@ STAB_WORK ?= $(RESULTS)/stability
 bench-stability: $(BUILD)/mf
 	rm -rf $(STAB_WORK)
 	$(MF) bench-stability --mf $(MF) --work $(STAB_WORK) -o reports/stability --iters 200 --mem-iters 10000 --seeds 5
+# Issue 18's exposure sweep below the grid's -4 stops: the seed row alone (both methods, the
+# reference and the 8-bit images darkened STAB_STOPS stops, and the same values brought back, at
+# recon seeds 1..5) -> reports/stability/stops.
+STAB_STOPS ?= 1,2,3
+bench-stability-stops: $(BUILD)/mf
+	rm -rf $(STAB_WORK)-stops
+	$(MF) bench-stability --mf $(MF) --work $(STAB_WORK)-stops -o reports/stability/stops --iters 200 --seeds 5 \
+	  --seed-row-only --seed-stops $(STAB_STOPS)
 
 # Geometry recovery (issue 14): the visual hull of every test-3d scene (64 masks at 128 px,
 # 128^3 grid), scored against the GT mesh (Stanford-ORB Chamfer x1e3, normal error), beside the

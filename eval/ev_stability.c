@@ -40,6 +40,12 @@ static const EvStabVariant k_variants[] = {
     {"exr_-4", EV_VAR_EXPOSURE_EXR, -4, "training images as float EXR x 2^-4"},
     {"exr_+4", EV_VAR_EXPOSURE_EXR, 4, "training images as float EXR x 2^4"},
     {"exr_+8", EV_VAR_EXPOSURE_EXR, 8, "training images as float EXR x 2^8"},
+    {"png_-1", EV_VAR_EXPOSURE_PNG, -1, "training PNGs darkened 1 stop (8-bit)"},
+    {"png_-1_x1", EV_VAR_EXPOSURE_PNG_BACK, -1, "png_-1's 8-bit values brought back 1 stop (16-bit PNG)"},
+    {"png_-2", EV_VAR_EXPOSURE_PNG, -2, "training PNGs darkened 2 stops (8-bit)"},
+    {"png_-2_x1", EV_VAR_EXPOSURE_PNG_BACK, -2, "png_-2's 8-bit values brought back 2 stops (16-bit PNG)"},
+    {"png_-3", EV_VAR_EXPOSURE_PNG, -3, "training PNGs darkened 3 stops (8-bit)"},
+    {"png_-3_x1", EV_VAR_EXPOSURE_PNG_BACK, -3, "png_-3's 8-bit values brought back 3 stops (16-bit PNG)"},
     {"png_-4", EV_VAR_EXPOSURE_PNG, -4, "training PNGs darkened 4 stops (8-bit)"},
     {"png_-4_x1", EV_VAR_EXPOSURE_PNG_BACK, -4, "png_-4's 8-bit values brought back 4 stops (16-bit PNG)"},
     {"saturated", EV_VAR_SATURATE, 2, "training PNGs x 4 (2 stops), clipped at 1"},
@@ -292,22 +298,25 @@ static void fmt_db(char *buf, size_t cap, double v, int sign) {
 static const char *const k_seed_kind[2] = {"baseline", "materialfusion"};
 static const char *const k_seed_metric[3] = {"relit_psnr", "albedo_psnr", "orm_psnr"};
 
-/* The seed row's comparisons (EV_SEED_*): variant a - variant b. */
+/* The seed row's comparisons (EV_SEED_*): variant a - variant b, "%s" standing for png_-K. */
 static const struct {
     const char *a, *b, *name;
-} k_seed_cmp[EV_SEED_NCMP] = {
-    {"png_-4", "reference", "total"}, {"png_-4", "png_-4_x1", "exposure"}, {"png_-4_x1", "reference", "bits"}};
+} k_seed_cmp[EV_SEED_NCMP] = {{"%s", "reference", "total"}, {"%s", "%s_x1", "exposure"}, {"%s_x1", "reference", "bits"}};
 
-void ev_stab_seed_row(const EvTable *t, EvStabSeedRow *row) {
+void ev_stab_seed_row(const EvTable *t, int stops, EvStabSeedRow *row) {
     memset(row, 0, sizeof *row);
-    row->ok = 1;
+    row->stops = stops, row->ok = 1;
     row->n = -1;
+    char png[16];
+    snprintf(png, sizeof png, "png_-%d", stops);
     for (int m = 0; m < 2; ++m)
         for (int k = 0; k < 3; ++k) {
             for (int c = 0; c < EV_SEED_NCMP; ++c) {
-                char a[64], b[64];
-                snprintf(a, sizeof a, "%s %s", k_seed_kind[m], k_seed_cmp[c].a);
-                snprintf(b, sizeof b, "%s %s", k_seed_kind[m], k_seed_cmp[c].b);
+                char a[64], b[64], va[32], vb[32];
+                snprintf(va, sizeof va, k_seed_cmp[c].a, png);
+                snprintf(vb, sizeof vb, k_seed_cmp[c].b, png);
+                snprintf(a, sizeof a, "%s %s", k_seed_kind[m], va);
+                snprintf(b, sizeof b, "%s %s", k_seed_kind[m], vb);
                 EvPaired p;
                 ev_paired(t, a, b, "seeds", k_seed_metric[k], &p);
                 if (row->n < 0 || p.n < row->n) row->n = p.n;
@@ -326,56 +335,83 @@ void ev_stab_seed_row(const EvTable *t, EvStabSeedRow *row) {
         }
 }
 
-/* The seed row's section of the report (Markdown into m) and its CSV (c: seeds.csv). */
-static void write_seed_row(MfStrBuf *m, MfStrBuf *c, const EvStabSeedRow *s) {
-    mf_sb_printf(m, "\nSeed row: the 8-bit -4 stops variant (png_-4), the same 8-bit values brought back 4 stops "
-                    "into 16-bit PNGs (png_-4_x1: the darkened images' information at the reference's exposure) and "
-                    "the reference, each reconstructed at recon seeds 1..%d. Paired over seeds: mean difference with "
-                    "its 95%% CI (Student t) for total = png_-4 - reference, exposure = png_-4 - png_-4_x1 (the "
-                    "method's part: the same bits at two exposures) and bits = png_-4_x1 - reference (the images' "
-                    "part: the information the darkened 8-bit images no longer hold); beside them the reference's "
-                    "own spread over the seeds (max - min). Expected: every exposure |mean| <= %.1f dB (issue 18's "
-                    "exposure target for the method): %s. The total is reported, not bounded.\n\n| method | metric "
-                    "| seeds | total dB [95%% CI] | exposure dB [95%% CI] | bits dB [95%% CI] | reference spread dB "
-                    "|\n|---|---|---|---|---|---|---|\n",
-                 s->n, EV_STAB_SEED_DB, s->ok ? "yes" : "**NO**");
-    mf_sb_printf(c, "method,metric,comparison,seeds,mean_diff,ci_lo,ci_hi,reference_spread,bounded,within_bound\n");
-    for (int mi = 0; mi < 2; ++mi)
-        for (int k = 0; k < 3; ++k) {
-            mf_sb_printf(m, "| %s | %s | %d ", k_seed_kind[mi], k_seed_metric[k], s->n);
-            for (int j = 0; j < EV_SEED_NCMP; ++j) {
-                mf_sb_printf(m, "| %+.2f [%+.2f, %+.2f] ", s->mean[j][mi][k], s->lo[j][mi][k], s->hi[j][mi][k]);
-                mf_sb_printf(c, "%s,%s,%s,%d,%.4f,%.4f,%.4f,%.4f,%d,%d\n", k_seed_kind[mi], k_seed_metric[k],
-                             k_seed_cmp[j].name, s->n, s->mean[j][mi][k], s->lo[j][mi][k], s->hi[j][mi][k],
-                             s->spread[mi][k], j == EV_SEED_EXPOSURE, fabs(s->mean[j][mi][k]) <= EV_STAB_SEED_DB);
+/* The seed rows' section of the report (Markdown into m) and their CSV (c: seeds.csv). */
+static void write_seed_rows(MfStrBuf *m, MfStrBuf *c, const EvStabSeedRow *rows, int nrows) {
+    int ok = 1;
+    for (int i = 0; i < nrows; ++i) ok &= rows[i].ok;
+    mf_sb_printf(m, "\nSeed row: the 8-bit training images darkened K stops (png_-K), the same 8-bit values brought "
+                    "back K stops into 16-bit PNGs (png_-K_x1: the darkened images' information at the reference's "
+                    "exposure) and the reference, each reconstructed at recon seeds 1..%d. Paired over seeds: mean "
+                    "difference with its 95%% CI (Student t) for total = png_-K - reference, exposure = png_-K - "
+                    "png_-K_x1 (the method's part: the same bits at two exposures) and bits = png_-K_x1 - reference "
+                    "(the images' part: the information the darkened 8-bit images no longer hold); beside them the "
+                    "reference's own spread over the seeds (max - min). Expected: every exposure |mean| <= %.1f dB "
+                    "(issue 18's exposure target for the method): %s. The total is reported, not bounded.\n\n| stops "
+                    "| method | metric | seeds | total dB [95%% CI] | exposure dB [95%% CI] | bits dB [95%% CI] | "
+                    "reference spread dB |\n|---|---|---|---|---|---|---|---|\n",
+                 nrows ? rows[0].n : 0, EV_STAB_SEED_DB, ok ? "yes" : "**NO**");
+    mf_sb_printf(c, "stops,method,metric,comparison,seeds,mean_diff,ci_lo,ci_hi,reference_spread,bounded,within_bound\n");
+    for (int i = 0; i < nrows; ++i) {
+        const EvStabSeedRow *s = &rows[i];
+        for (int mi = 0; mi < 2; ++mi)
+            for (int k = 0; k < 3; ++k) {
+                mf_sb_printf(m, "| -%d | %s | %s | %d ", s->stops, k_seed_kind[mi], k_seed_metric[k], s->n);
+                for (int j = 0; j < EV_SEED_NCMP; ++j) {
+                    mf_sb_printf(m, "| %+.2f [%+.2f, %+.2f] ", s->mean[j][mi][k], s->lo[j][mi][k], s->hi[j][mi][k]);
+                    mf_sb_printf(c, "-%d,%s,%s,%s,%d,%.4f,%.4f,%.4f,%.4f,%d,%d\n", s->stops, k_seed_kind[mi], k_seed_metric[k],
+                                 k_seed_cmp[j].name, s->n, s->mean[j][mi][k], s->lo[j][mi][k], s->hi[j][mi][k],
+                                 s->spread[mi][k], j == EV_SEED_EXPOSURE, fabs(s->mean[j][mi][k]) <= EV_STAB_SEED_DB);
+                }
+                mf_sb_printf(m, "| %.2f |\n", s->spread[mi][k]);
             }
-            mf_sb_printf(m, "| %.2f |\n", s->spread[mi][k]);
-        }
+    }
+}
+
+/* Whether variant id is used by one of the n cells or the seed rows (the report lists only those). */
+static int variant_used(const char *id, const EvStabCell *const *cells, int n, const EvStabSeedRow *rows, int nrows) {
+    for (int i = 0; i < n; ++i)
+        if (!strcmp(cells[i]->variant, id)) return 1;
+    for (int i = 0; i < nrows; ++i) {
+        char png[16], x1[24];
+        snprintf(png, sizeof png, "png_-%d", rows[i].stops);
+        snprintf(x1, sizeof x1, "%s_x1", png);
+        if (!strcmp(id, "reference") || !strcmp(id, png) || !strcmp(id, x1)) return 1;
+    }
+    return 0;
 }
 
 static int write_report(const char *out_dir, const EvStabCell *const *cells, const EvStabResult *res, int n, int iters,
-                        const EvStabResult *mem, const int *mem_iters, int nmem, const EvStabSeedRow *seeds, double total_s,
-                        int jobs, int threads) {
+                        const EvStabResult *mem, const int *mem_iters, int nmem, const EvStabSeedRow *rows, int nrows,
+                        double total_s, int jobs, int threads) {
     char md[1024], csv[1024];
     snprintf(md, sizeof md, "%s/README.md", out_dir);
     snprintf(csv, sizeof csv, "%s/grid.csv", out_dir);
     MfStrBuf m = {0}, c = {0};
-    mf_sb_printf(&m, "# Numerical-stability grid\n\nGenerated by `make bench-stability` (`mf bench-stability`); do not edit. "
-                     "Scenes: `mf gen --split tiny`'s 000_cup (8 train views, 32 px) and the hard-case variants below, each "
-                     "rendered with its own ground truth (eval/ev_stab_scene.h). Recon cells: %d iterations, "
-                     "--tex-res 64 --env-w 32 --env-h 16. Non-finite: EXR files under the cell's output holding a NaN/Inf "
-                     "(the recon guard refuses to write them). Render dB: worst view PSNR (linear RGB) against the reference "
-                     "render, for the scenes whose images should not change (reference, scale, sliver). Recon dB: relit / albedo / ORM PSNR against the scene's own ground truth (`mf eval`'s "
-                     "scale-aligned protocol), then the difference to the same method's reference cell. Rough / metal: texel "
-                     "means of the result's orm.png, truth in brackets. Expected: exit 0 (or, for a refusal cell, non-zero "
-                     "with a message naming its option), no non-finite value, and the cell's stated bound when it has one "
-                     "(|delta| <= bound dB on relit, albedo and ORM; render dB >= bound). Whole grid: %.0f s wall, %d cell%s at a "
-                     "time (%s); a cell's wall s is its own, under that load.\n\n",
-                 iters, total_s, jobs, jobs > 1 ? "s" : "", threads > 0 ? "every cell with OMP_NUM_THREADS = cores / cells" : "OpenMP threads as inherited");
+    int grid = n || nmem;
+    if (grid)
+        mf_sb_printf(&m, "# Numerical-stability grid\n\nGenerated by `make bench-stability` (`mf bench-stability`); do not edit. "
+                         "Scenes: `mf gen --split tiny`'s 000_cup (8 train views, 32 px) and the hard-case variants below, each "
+                         "rendered with its own ground truth (eval/ev_stab_scene.h). Recon cells: %d iterations, "
+                         "--tex-res 64 --env-w 32 --env-h 16. Non-finite: EXR files under the cell's output holding a NaN/Inf "
+                         "(the recon guard refuses to write them). Render dB: worst view PSNR (linear RGB) against the reference "
+                         "render, for the scenes whose images should not change (reference, scale, sliver). Recon dB: relit / albedo / ORM PSNR against the scene's own ground truth (`mf eval`'s "
+                         "scale-aligned protocol), then the difference to the same method's reference cell. Rough / metal: texel "
+                         "means of the result's orm.png, truth in brackets. Expected: exit 0 (or, for a refusal cell, non-zero "
+                         "with a message naming its option), no non-finite value, and the cell's stated bound when it has one "
+                         "(|delta| <= bound dB on relit, albedo and ORM; render dB >= bound). Whole grid: %.0f s wall, %d cell%s at a "
+                         "time (%s); a cell's wall s is its own, under that load.\n\n",
+                     iters, total_s, jobs, jobs > 1 ? "s" : "", threads > 0 ? "every cell with OMP_NUM_THREADS = cores / cells" : "OpenMP threads as inherited");
+    else
+        mf_sb_printf(&m, "# Numerical-stability grid: the seed row alone\n\nGenerated by `mf bench-stability --seed-row-only`; do "
+                         "not edit. Scene: `mf gen --split tiny`'s 000_cup (8 train views, 32 px) and its darkened variants below "
+                         "(eval/ev_stab_scene.h). Recon runs: %d iterations, --tex-res 64 --env-w 32 --env-h 16, relit / albedo / "
+                         "ORM PSNR against the scene's ground truth (`mf eval`'s scale-aligned protocol). %.0f s wall, %d run%s at "
+                         "a time (%s).\n\n",
+                     iters, total_s, jobs, jobs > 1 ? "s" : "", threads > 0 ? "every run with OMP_NUM_THREADS = cores / runs" : "OpenMP threads as inherited");
     mf_sb_printf(&m, "Scene variants:\n\n| scene | what |\n|---|---|\n");
     for (size_t i = 0; i < sizeof k_variants / sizeof k_variants[0]; ++i)
-        mf_sb_printf(&m, "| %s | %s |\n", k_variants[i].id, k_variants[i].what);
-    mf_sb_printf(&m, "\n| kind | scene | case | exit | bound | expected | EXR / non-finite | ckpt floats / non-finite | recoveries | render dB | relit dB | albedo dB | "
+        if (variant_used(k_variants[i].id, cells, n, rows, nrows)) mf_sb_printf(&m, "| %s | %s |\n", k_variants[i].id, k_variants[i].what);
+    if (grid) mf_sb_printf(&m, "\n| kind | scene | case | exit | bound | expected | EXR / non-finite | ckpt floats / non-finite | recoveries | render dB | relit dB | albedo dB | "
                      "ORM dB | rough | metal | wall s | peak RSS MB |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     mf_sb_printf(&c, "kind,scene,case,exit,expected,exr_files,nonfinite,ckpt_values,ckpt_nonfinite,recoveries,render_db,relit_db,albedo_db,orm_db,relit_delta,albedo_delta,"
                      "orm_delta,rough,rough_true,metal,metal_true,wall_s,peak_rss_mb\n");
@@ -415,15 +451,15 @@ static int write_report(const char *out_dir, const EvStabCell *const *cells, con
         }
     }
     int rc3 = MF_OK;
-    if (seeds->n) {
+    if (nrows) {
         MfStrBuf sc = {0};
         char scsv[1024];
         snprintf(scsv, sizeof scsv, "%s/seeds.csv", out_dir);
-        write_seed_row(&m, &sc, seeds);
+        write_seed_rows(&m, &sc, rows, nrows);
         rc3 = mf_sb_write(&sc, scsv);
     }
     int rc = mf_sb_write(&m, md);
-    int rc2 = mf_sb_write(&c, csv);
+    int rc2 = grid ? mf_sb_write(&c, csv) : (mf_sb_free(&c), MF_OK);
     return rc ? rc : rc2 ? rc2 : rc3;
 }
 
@@ -448,40 +484,92 @@ static int cell_ok(const EvStabCell *c, const EvStabResult *r, const char *err_p
     return !(c->min_render_db > 0) || (!isnan(r->render_db) && r->render_db >= c->min_render_db);
 }
 
-/* The j-th run of the seed row (seeds 2.., then method, then reference / png_-4 / png_-4_x1): its
- * seed, kind, variant, scene folder and output folder. */
+/* One run of the seed row: its seed, kind, variant, scene folder and output folder. */
 typedef struct {
     int seed;
-    const char *kind, *variant;
-    char scene[1200], out[1090];
+    const char *kind;
+    char variant[16], scene[1200], out[1090];
 } SeedRun;
 
-static void seed_run(const char *work, int j, SeedRun *r) {
-    static const char *const variant[3] = {"reference", "png_-4", "png_-4_x1"};
-    r->seed = 2 + j / 6, r->kind = k_seed_kind[(j / 3) % 2], r->variant = variant[j % 3];
-    snprintf(r->scene, sizeof r->scene, "%s/scenes/%s/000_cup", work, r->variant);
-    snprintf(r->out, sizeof r->out, "%s/seed%d-%s-%s", work, r->seed, r->kind, r->variant);
+/* Whether the grid itself has a cell of kind and variant at the default settings (its seed 1). */
+static int grid_has(const char *kind, const char *variant) {
+    for (size_t i = 0; i < sizeof k_cells / sizeof k_cells[0]; ++i)
+        if (!strcmp(k_cells[i].kind, kind) && !strcmp(k_cells[i].variant, variant) && !k_cells[i].args[0]) return 1;
+    return 0;
 }
 
-/* Recon commands of the seed row (6 per seed 2..o->seeds, seed_run), appended to cmd/err/slot
- * from index n; their results go to sres. Returns their count. */
-static int seed_cmds(const char *mf, const char *work, const char *env, const EvStabOpts *o, int n, char (*cmd)[4096],
-                     char (*err)[1100], EvStabResult **slot, EvStabResult *sres) {
-    int runs = 6 * (o->seeds - 1);
-    for (int j = 0; j < runs; ++j) {
-        SeedRun r;
-        char args[32];
-        seed_run(work, j, &r);
-        snprintf(args, sizeof args, "--seed %d", r.seed);
-        EvStabCell c = {"seed", r.kind, r.variant, args, NULL, 0, 0, 0};
-        snprintf(err[n + j], sizeof err[n + j], "%s.err", r.out);
+/* Whether variant is one of the seed row's: the reference, png_-K or png_-K_x1 for K in stops. */
+static int seed_variant(const char *variant, const int *stops, int nstops) {
+    if (!strcmp(variant, "reference")) return 1;
+    for (int i = 0; i < nstops; ++i) {
+        char png[16];
+        snprintf(png, sizeof png, "png_-%d", stops[i]);
+        size_t l = strlen(png);
+        if (!strncmp(variant, png, l) && (!variant[l] || !strcmp(variant + l, "_x1"))) return 1;
+    }
+    return 0;
+}
+
+/* The seed row's runs into r (room for EV_STAB_MAX_SEED_RUNS): seeds 1..o->seeds, each method, the
+ * reference and png_-K / png_-K_x1 for each K in stops; seed 1 of what the grid has is left to the
+ * grid's cells unless o->seed_row_only. Returns their count. */
+static int seed_runs(const char *work, const EvStabOpts *o, const int *stops, int nstops, SeedRun *r) {
+    int n = 0;
+    for (int s = 1; s <= o->seeds; ++s)
+        for (int m = 0; m < 2; ++m)
+            for (int v = 0; v < 1 + 2 * nstops; ++v) {
+                SeedRun *x = &r[n];
+                if (!v) snprintf(x->variant, sizeof x->variant, "reference");
+                else snprintf(x->variant, sizeof x->variant, "png_-%d%s", stops[(v - 1) / 2], (v - 1) % 2 ? "_x1" : "");
+                if (s == 1 && !o->seed_row_only && grid_has(k_seed_kind[m], x->variant)) continue;
+                x->seed = s, x->kind = k_seed_kind[m];
+                snprintf(x->scene, sizeof x->scene, "%s/scenes/%s/000_cup", work, x->variant);
+                snprintf(x->out, sizeof x->out, "%s/seed%d-%s-%s", work, s, x->kind, x->variant);
+                ++n;
+            }
+    return n;
+}
+
+/* Recon commands of the seed runs r[0..nr) (their scene variants built under work/scenes/ first),
+ * appended to cmd/err/slot from index n; their results go to sres. */
+static int seed_cmds(const char *mf, const char *layout, const char *work, const char *env, int iters, const SeedRun *r,
+                     int nr, int n, char (*cmd)[4096], char (*err)[1100], EvStabResult **slot, EvStabResult *sres) {
+    for (int j = 0; j < nr; ++j) {
+        char args[32], vdir[1100];
+        snprintf(vdir, sizeof vdir, "%s/scenes/%s", work, r[j].variant);
+        int rc = ev_stab_variant_build(layout, ev_stab_variant(r[j].variant), vdir);
+        if (rc) return mf_fail_prefix(rc, "stability scene variant %s", r[j].variant);
+        snprintf(args, sizeof args, "--seed %d", r[j].seed);
+        EvStabCell c = {"seed", r[j].kind, r[j].variant, args, NULL, 0, 0, 0};
+        snprintf(err[n + j], sizeof err[n + j], "%s.err", r[j].out);
         size_t e = (size_t)snprintf(cmd[n + j], sizeof cmd[n + j], "%s", env);
-        cell_cmd(cmd[n + j] + e, sizeof cmd[n + j] - e, mf, r.scene, r.out, &c, o->iters);
+        cell_cmd(cmd[n + j] + e, sizeof cmd[n + j] - e, mf, r[j].scene, r[j].out, &c, iters);
         memset(&sres[j], 0, sizeof sres[j]);
         for (int k = 0; k < 3; ++k) sres[j].db[k] = NAN;
         slot[n + j] = &sres[j];
     }
-    return runs;
+    return MF_OK;
+}
+
+/* o->seed_stops ("1,2,3"; NULL or "": "4") into stops[0..*n), ascending, each in 1..EV_STAB_MAX_STOPS,
+ * no repeats. */
+static int parse_stops(const char *text, int *stops, int *n) {
+    const char *p = text && text[0] ? text : "4";
+    *n = 0;
+    while (*p) {
+        char *end;
+        long k = strtol(p, &end, 10);
+        int dup = 0;
+        for (int i = 0; i < *n; ++i) dup |= stops[i] == k;
+        if (end == p || (*end && (*end != ',' || !end[1])) || k < 1 || k > EV_STAB_MAX_STOPS || dup || *n >= EV_STAB_MAX_STOPS)
+            return mf_fail(MF_EARG, "--seed-stops '%s': expected distinct stops in 1..%d separated by commas, e.g. 1,2,3",
+                           text, EV_STAB_MAX_STOPS);
+        int i = (*n)++;
+        for (; i > 0 && stops[i - 1] > k; --i) stops[i] = stops[i - 1]; /* kept in ascending order */
+        stops[i] = (int)k;
+        p = *end ? end + 1 : end;
+    }
+    return MF_OK;
 }
 
 /* Adds a recon result's three PSNRs to the seed table t (method "<kind> <variant>"). */
@@ -496,26 +584,31 @@ static int seed_record(EvTable *t, const char *kind, const char *variant, int se
 }
 
 int ev_stab_grid(const char *mf, const char *work, const char *out_dir, const EvStabOpts *o, EvStabResult *results,
-                 int cap, int *n_out, EvStabSeedRow *seed_row) {
-    int iters = o->iters, quick = o->quick, jobs = o->jobs;
+                 int cap, int *n_out, EvStabSeedRow *seed_rows, int *n_rows) {
+    int iters = o->iters, quick = o->quick, jobs = o->jobs, stops[EV_STAB_MAX_STOPS], nstops = 0;
     char layout[1024], scene[1200], vdir[1100], ref_render[1100] = "";
     struct timespec t0, t1;
     clock_gettime(CLOCK_MONOTONIC, &t0);
-    *n_out = 0;
+    *n_out = *n_rows = 0;
+    if (o->seeds < 1 || o->seeds > EV_STAB_MAX_SEEDS)
+        return mf_fail(MF_EARG, "stability grid: --seeds %d outside [1, %d]", o->seeds, EV_STAB_MAX_SEEDS);
+    int rc;
+    if ((rc = parse_stops(o->seed_stops, stops, &nstops))) return rc;
+    if (o->seed_row_only && (quick || o->seeds < 2))
+        return mf_fail(MF_EARG, "stability grid: --seed-row-only needs --seeds 2 or more and no --quick");
     snprintf(layout, sizeof layout, "%s/layout", work);
-    int rc = mf_mkdirs(work);
+    rc = mf_mkdirs(work);
     if (rc || (rc = mf_mkdirs(out_dir)) || (rc = ev_stab_layout(layout))) return rc;
     int nc, n = 0;
     const EvStabCell *cells = ev_stab_cells(&nc);
     const EvStabCell *ran[EV_STAB_MAX_CELLS];
     int idx[EV_STAB_MAX_CELLS];
-    if (o->seeds < 1 || o->seeds > EV_STAB_MAX_SEEDS)
-        return mf_fail(MF_EARG, "stability grid: --seeds %d outside [1, %d]", o->seeds, EV_STAB_MAX_SEEDS);
     /* one pool of commands: the cells, the memory row's two runs, the seed row's */
     char(*cmd)[4096] = malloc(EV_STAB_MAX_RUNS * sizeof *cmd), (*err)[1100] = malloc(EV_STAB_MAX_RUNS * sizeof *err);
-    EvStabResult mem[2], sres[6 * (EV_STAB_MAX_SEEDS - 1)], *slot[EV_STAB_MAX_RUNS];
-    if (!cmd || !err) {
-        free(cmd), free(err);
+    EvStabResult mem[2], *slot[EV_STAB_MAX_RUNS], *sres = malloc(EV_STAB_MAX_SEED_RUNS * sizeof *sres);
+    SeedRun *sr = malloc(EV_STAB_MAX_SEED_RUNS * sizeof *sr);
+    if (!cmd || !err || !sres || !sr) {
+        free(cmd), free(err), free(sres), free(sr);
         return mf_fail(MF_ENOMEM, "stability grid: out of memory");
     }
     /* threads per cell: the cores shared by the cells that run at once (set in the child's env) */
@@ -528,7 +621,7 @@ int ev_stab_grid(const char *mf, const char *work, const char *out_dir, const Ev
     for (int i = 0; i < nc && n < cap && n < EV_STAB_MAX_CELLS && !rc; ++i) {
         const EvStabCell *c = &cells[i];
         const EvStabVariant *v = ev_stab_variant(c->variant);
-        if (quick && !c->quick) continue;
+        if ((quick && !c->quick) || o->seed_row_only) continue;
         if (!v) {
             rc = mf_fail(MF_EARG, "stability cell %d: unknown scene variant '%s'", i, c->variant);
             break;
@@ -552,7 +645,7 @@ int ev_stab_grid(const char *mf, const char *work, const char *out_dir, const Ev
         r->rough[0] = r->rough[1] = r->metal[0] = r->metal[1] = NAN;
         slot[n] = r, ran[n] = c, idx[n] = i, ++n;
     }
-    int mem_n[2] = {50, o->mem_iters}, nmem = quick ? 0 : 2;
+    int mem_n[2] = {50, o->mem_iters}, nmem = quick || o->seed_row_only ? 0 : 2;
     for (int i = 0; i < nmem && !rc; ++i) {
         static const EvStabCell base = {"memory", "baseline", "reference", "", NULL, 0, 0, 0};
         char out[1100];
@@ -564,7 +657,8 @@ int ev_stab_grid(const char *mf, const char *work, const char *out_dir, const Ev
         memset(&mem[i], 0, sizeof mem[i]);
         slot[n + i] = &mem[i];
     }
-    int nseed = quick || rc ? 0 : seed_cmds(mf, work, env, o, n + nmem, cmd, err, slot, sres);
+    int nseed = quick || rc || o->seeds < 2 ? 0 : seed_runs(work, o, stops, nstops, sr);
+    if (!rc && nseed) rc = seed_cmds(mf, layout, work, env, iters, sr, nseed, n + nmem, cmd, err, slot, sres);
     if (!rc) rc = run_pool(cmd, err, slot, n + nmem + nseed, jobs);
     /* scoring, in the cells' order: each reference cell comes before the cells compared with it */
     const EvStabResult *ref[2] = {NULL, NULL}; /* baseline, materialfusion reference cells */
@@ -591,31 +685,27 @@ int ev_stab_grid(const char *mf, const char *work, const char *out_dir, const Ev
         }
         r->ok = cell_ok(c, r, err[j]);
     }
-    /* the seed row: seed 1 from the grid's own cells, then the extra seeds' runs */
-    EvStabSeedRow row = {0};
+    /* the seed rows: seed 1 from the grid's own cells (unless seed_row_only), then the seed runs */
     if (nseed && !rc) {
         EvTable st;
         ev_table_init(&st);
         for (int j = 0; j < n && !rc; ++j) {
             const EvStabCell *c = ran[j];
-            int is_png = !strncmp(c->variant, "png_-4", 6) && !c->args[0];
-            if (strcmp(c->kind, "render") && (is_reference(c, c->kind) || is_png))
+            if (strcmp(c->kind, "render") && !c->args[0] && seed_variant(c->variant, stops, nstops))
                 rc = seed_record(&st, c->kind, c->variant, 1, &results[j]);
         }
         for (int j = 0; j < nseed && !rc; ++j) {
-            SeedRun sr;
-            seed_run(work, j, &sr);
-            if (sres[j].exit_code == 0) score_recon(sr.scene, sr.out, &sres[j]);
-            rc = seed_record(&st, sr.kind, sr.variant, sr.seed, &sres[j]);
+            if (sres[j].exit_code == 0) score_recon(sr[j].scene, sr[j].out, &sres[j]);
+            rc = seed_record(&st, sr[j].kind, sr[j].variant, sr[j].seed, &sres[j]);
         }
-        if (!rc) ev_stab_seed_row(&st, &row);
+        for (int i = 0; i < nstops && !rc; ++i) ev_stab_seed_row(&st, stops[i], &seed_rows[i]);
+        if (!rc) *n_rows = nstops;
         ev_table_free(&st);
     }
-    if (seed_row) *seed_row = row;
-    free(cmd), free(err);
+    free(cmd), free(err), free(sres), free(sr);
     if (rc) return rc;
     *n_out = n;
     clock_gettime(CLOCK_MONOTONIC, &t1);
     double total = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
-    return write_report(out_dir, ran, results, n, iters, mem, mem_n, nmem, &row, total, jobs, threads);
+    return write_report(out_dir, ran, results, n, iters, mem, mem_n, nmem, seed_rows, *n_rows, total, jobs, threads);
 }

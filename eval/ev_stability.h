@@ -23,8 +23,12 @@
 
 #define EV_STAB_MAX_CELLS 128
 #define EV_STAB_MAX_SEEDS 9
-/* Child runs of one grid: the cells, the memory row's two, the seed row's 6 per extra seed. */
-#define EV_STAB_MAX_RUNS (EV_STAB_MAX_CELLS + 2 + 6 * (EV_STAB_MAX_SEEDS - 1))
+/* The seed row's darkenings of the 8-bit training images: 1..EV_STAB_MAX_STOPS stops. */
+#define EV_STAB_MAX_STOPS 4
+/* The seed row's runs: per seed and method the reference and, per darkening, png_-K and png_-K_x1. */
+#define EV_STAB_MAX_SEED_RUNS (EV_STAB_MAX_SEEDS * 2 * (1 + 2 * EV_STAB_MAX_STOPS))
+/* Child runs of one grid: the cells, the memory row's two, the seed row's. */
+#define EV_STAB_MAX_RUNS (EV_STAB_MAX_CELLS + 2 + EV_STAB_MAX_SEED_RUNS)
 
 typedef struct {
     const char *name;    /* cell label, e.g. "lr at its maximum (1)" */
@@ -59,23 +63,28 @@ typedef struct {
     int mem_iters; /* the memory row's long run (its short run: 50) */
     int quick;     /* 1: only the cells marked quick; no memory or seed row */
     int jobs;      /* cells run at once (< 1: one per core) */
-    int seeds;     /* 1..EV_STAB_MAX_SEEDS: the seed row repeats the 8-bit -4 stops cells (png_-4,
-                      png_-4_x1) and their references at recon seeds 2..seeds (1: no seed row) */
+    int seeds;     /* 1..EV_STAB_MAX_SEEDS: the seed row runs the 8-bit darkened cells (png_-K,
+                      png_-K_x1) and their references at recon seeds 1..seeds, seed 1 of those the
+                      grid has (reference, png_-4, png_-4_x1) taken from the grid (1: no seed row) */
+    const char *seed_stops; /* the seed row's darkenings K, a comma list in 1..EV_STAB_MAX_STOPS
+                               (NULL or "": "4", the grid's own png_-4 cells) */
+    int seed_row_only; /* 1: no cells and no memory row, only the seed row (every seed run here) */
 } EvStabOpts;
 
-/* The seed row: the effect of darkening the 8-bit training images 4 stops on each method ([0]
- * baseline, [1] MaterialFusion) and metric (relit, albedo, ORM PSNR), paired over recon seeds
- * 1..n (ev_paired: mean difference and its 95% CI), split in three comparisons (a - b):
- *   EV_SEED_TOTAL     png_-4 - reference      what darkening an 8-bit capture costs in all;
- *   EV_SEED_EXPOSURE  png_-4 - png_-4_x1      the same bits at two exposures: the method's part;
- *   EV_SEED_BITS      png_-4_x1 - reference   the same exposure, fewer bits: the images' part;
+/* The seed row of one darkening: the effect of darkening the 8-bit training images K = `stops`
+ * stops on each method ([0] baseline, [1] MaterialFusion) and metric (relit, albedo, ORM PSNR),
+ * paired over recon seeds 1..n (ev_paired: mean difference and its 95% CI), split in three
+ * comparisons (a - b):
+ *   EV_SEED_TOTAL     png_-K - reference      what darkening an 8-bit capture costs in all;
+ *   EV_SEED_EXPOSURE  png_-K - png_-K_x1      the same bits at two exposures: the method's part;
+ *   EV_SEED_BITS      png_-K_x1 - reference   the same exposure, fewer bits: the images' part;
  * beside the reference's own seed-to-seed spread (max - min over the seeds). ok: every exposure
  * |mean| <= EV_STAB_SEED_DB, issue 18's exposure target for the method (the total is reported,
  * not bounded: the bits part is information the darkened images no longer hold). */
 #define EV_STAB_SEED_DB 0.3
 enum { EV_SEED_TOTAL, EV_SEED_EXPOSURE, EV_SEED_BITS, EV_SEED_NCMP };
 typedef struct {
-    int n;
+    int stops, n;
     double mean[EV_SEED_NCMP][2][3], lo[EV_SEED_NCMP][2][3], hi[EV_SEED_NCMP][2][3], spread[2][3];
     int ok;
 } EvStabSeedRow;
@@ -94,14 +103,16 @@ void ev_stab_scan_ckpt(const char *dir, long *values, long *nonfinite);
  * thread counts (the renderer's OpenMP sums run in another order), so every cell of a run gets
  * the same count and is compared with its reference cell from the same run; wall times are
  * measured under the load of the cells beside it. results[i] belongs to the i-th
- * cell run (ev_stab_cells order, skipping the others); *seed_row (may be NULL) gets the seed row
- * (n = 0 without one). Writes out_dir/README.md and out_dir/grid.csv atomically. */
+ * cell run (ev_stab_cells order, skipping the others); seed_rows[0..*n_rows) (room for
+ * EV_STAB_MAX_STOPS) get the seed row of each darkening of o->seed_stops (*n_rows = 0 without a
+ * seed row). Writes out_dir/README.md, out_dir/grid.csv (not with o->seed_row_only) and
+ * out_dir/seeds.csv (with a seed row) atomically. */
 int ev_stab_grid(const char *mf_bin, const char *work, const char *out_dir, const EvStabOpts *o, EvStabResult *results,
-                 int cap, int *n_out, EvStabSeedRow *seed_row);
-/* The seed row from t's records (method "<kind> <variant>" for kind baseline and materialfusion and
- * variant reference, png_-4 and png_-4_x1; dataset "seeds", scene = the seed, metrics relit_psnr,
- * albedo_psnr, orm_psnr). */
-void ev_stab_seed_row(const EvTable *t, EvStabSeedRow *row);
+                 int cap, int *n_out, EvStabSeedRow *seed_rows, int *n_rows);
+/* The seed row of darkening `stops` from t's records (method "<kind> <variant>" for kind baseline
+ * and materialfusion and variant reference, png_-K and png_-K_x1 with K = stops; dataset "seeds",
+ * scene = the seed, metrics relit_psnr, albedo_psnr, orm_psnr). */
+void ev_stab_seed_row(const EvTable *t, int stops, EvStabSeedRow *row);
 
 /* The grid's cells; *n gets their count. */
 const EvStabCell *ev_stab_cells(int *n);

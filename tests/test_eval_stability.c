@@ -50,7 +50,10 @@ MF_TEST(stability_quick_grid) {
     EvStabResult res[EV_STAB_MAX_CELLS];
     int n = 0, nc, nq = 0, bounded = 0;
     EvStabOpts o = {.iters = 20, .mem_iters = 50, .quick = 1, .jobs = 2, .seeds = 1};
-    CHECK_OK(ev_stab_grid(mf, work, out, &o, res, EV_STAB_MAX_CELLS, &n, NULL));
+    EvStabSeedRow rows[EV_STAB_MAX_STOPS];
+    int nrows = -1;
+    CHECK_OK(ev_stab_grid(mf, work, out, &o, res, EV_STAB_MAX_CELLS, &n, rows, &nrows));
+    CHECK(nrows == 0);
     const EvStabCell *cells = ev_stab_cells(&nc);
     for (int i = 0; i < nc; ++i) nq += cells[i].quick;
     CHECK(n == nq && n >= 10);
@@ -79,17 +82,23 @@ MF_TEST(stability_quick_grid) {
     CHECK(mf_file_exists(md));
 }
 
-/* One seed of the seed row's table: method kind's reference, png_-4_x1 and png_-4 values of metric k. */
-static void add_seed(EvTable *t, const char *kind, const char *metric, int seed, double ref, double x1, double var) {
-    static const char *variant[3] = {"reference", "png_-4_x1", "png_-4"};
+/* One seed of the seed row's table: method kind's png_-K_x1 and png_-K values of metric (K = stops),
+ * and its reference value unless ref is NaN. */
+static void add_seed_stops(EvTable *t, int stops, const char *kind, const char *metric, int seed, double ref, double x1,
+                           double var) {
     const double v[3] = {ref, x1, var};
     char sc[24];
     snprintf(sc, sizeof sc, "seed %d", seed);
     for (int i = 0; i < 3; ++i) {
         char m[64];
-        snprintf(m, sizeof m, "%s %s", kind, variant[i]);
-        CHECK_OK(ev_table_add(t, m, "seeds", sc, metric, v[i]));
+        if (i) snprintf(m, sizeof m, "%s png_-%d%s", kind, stops, i == 1 ? "_x1" : "");
+        else snprintf(m, sizeof m, "%s reference", kind);
+        if (!isnan(v[i])) CHECK_OK(ev_table_add(t, m, "seeds", sc, metric, v[i]));
     }
+}
+
+static void add_seed(EvTable *t, const char *kind, const char *metric, int seed, double ref, double x1, double var) {
+    add_seed_stops(t, 4, kind, metric, seed, ref, x1, var);
 }
 
 /* The seed row: per method and metric the paired means over seeds (with CI, ev_paired) of total =
@@ -106,10 +115,11 @@ MF_TEST(stability_seed_row) {
             for (int k = 0; k < 3; ++k) {
                 double x1 = ref[s] + k + bits[s], var = x1 + expo[s] * (m ? 3.0 : 1.0);
                 add_seed(&t, kind[m], metric[k], s + 1, ref[s] + k, x1, var);
+                add_seed_stops(&t, 2, kind[m], metric[k], s + 1, NAN, x1, x1 + (s ? 0.1 : 0.0)); /* exposure mean 0.2 / 3 */
             }
     EvStabSeedRow row;
-    ev_stab_seed_row(&t, &row);
-    CHECK(row.n == 3);
+    ev_stab_seed_row(&t, 4, &row);
+    CHECK(row.n == 3 && row.stops == 4);
     CHECK_NEAR(row.mean[EV_SEED_EXPOSURE][0][1], 0.2, 1e-9);
     CHECK_NEAR(row.mean[EV_SEED_BITS][0][1], 0.6, 1e-9);
     CHECK_NEAR(row.mean[EV_SEED_TOTAL][0][1], 0.8, 1e-9);
@@ -117,12 +127,17 @@ MF_TEST(stability_seed_row) {
     CHECK(row.lo[EV_SEED_EXPOSURE][0][0] < 0.2 && row.hi[EV_SEED_EXPOSURE][0][0] > 0.2);
     CHECK_NEAR(row.mean[EV_SEED_EXPOSURE][1][0], 0.6, 1e-9);
     CHECK(!row.ok); /* MaterialFusion's exposure mean 0.6 dB > 0.3 */
+    ev_stab_seed_row(&t, 2, &row); /* the 2-stop variants of the same table, beside the same references */
+    CHECK(row.n == 3 && row.stops == 2 && row.ok);
+    CHECK_NEAR(row.mean[EV_SEED_EXPOSURE][1][0], 0.2 / 3, 1e-9);
+    CHECK_NEAR(row.mean[EV_SEED_BITS][0][1], 0.6, 1e-9);
+    CHECK_NEAR(row.mean[EV_SEED_TOTAL][1][1], 0.6 + 0.2 / 3, 1e-9);
     ev_table_free(&t);
     ev_table_init(&t);
     for (int m = 0; m < 2; ++m)
         for (int s = 0; s < 2; ++s)
             for (int k = 0; k < 3; ++k) add_seed(&t, kind[m], metric[k], s + 1, ref[s], ref[s] + 1.0, ref[s] + 1.0 + (s ? 0.25 : -0.25));
-    ev_stab_seed_row(&t, &row);
+    ev_stab_seed_row(&t, 4, &row);
     CHECK(row.n == 2 && row.ok && fabs(row.mean[EV_SEED_EXPOSURE][1][2]) < 1e-12); /* +-0.25 cancels */
     CHECK_NEAR(row.mean[EV_SEED_TOTAL][1][2], 1.0, 1e-9); /* a 1 dB total from the bits alone is not bounded */
     ev_table_free(&t);
@@ -134,7 +149,25 @@ MF_TEST(stability_seed_row) {
             CHECK_OK(ev_table_add(&t, "baseline reference", "seeds", sc, metric[k], ref[s]));
             CHECK_OK(ev_table_add(&t, "baseline png_-4", "seeds", sc, metric[k], ref[s]));
         }
-    ev_stab_seed_row(&t, &row);
+    ev_stab_seed_row(&t, 4, &row);
     CHECK(row.n == 0 && !row.ok);
     ev_table_free(&t);
+}
+
+/* The seed row's options are checked before any work: darkenings outside 1..4, repeated or not a
+ * number, and --seed-row-only without seeds to pair, each refused naming the option. */
+MF_TEST(stability_seed_options_refused) {
+    static const char *bad[] = {"5", "0", "1,1", "2,x", "3,", "1,2,3,4,1"};
+    char work[1024];
+    mf_test_path_to(work, sizeof work, "stability-refused");
+    EvStabResult res[1];
+    EvStabSeedRow rows[EV_STAB_MAX_STOPS];
+    int n, nrows;
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; ++i) {
+        EvStabOpts o = {.iters = 1, .mem_iters = 1, .seeds = 2, .seed_stops = bad[i]};
+        CHECK_ERR(ev_stab_grid("mf", work, work, &o, res, 1, &n, rows, &nrows), "--seed-stops");
+    }
+    EvStabOpts o = {.iters = 1, .mem_iters = 1, .seeds = 1, .seed_stops = "1,2", .seed_row_only = 1};
+    CHECK_ERR(ev_stab_grid("mf", work, work, &o, res, 1, &n, rows, &nrows), "--seed-row-only");
+    CHECK(!mf_file_exists(work)); /* refused before anything was written */
 }
