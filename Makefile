@@ -421,8 +421,14 @@ bench-frontier: $(BUILD)/mf $(DATA)/test-3d/.rendered
 # flags on every val-3d scene (where a default may be chosen) and test-3d scene (where it is
 # checked) -> reports/adaptive/ (resumable; A_CONFIGS="name=flags;..." for other flag sets).
 .PHONY: bench-adaptive
+# ADAPTIVE_SPLITS, A_CONFIGS ("name=flags;...") and ADAPTIVE_OUT run other flag sets on some splits into
+# a report of their own (e.g. the iteration count: A_CONFIGS="i800=--iters 800" ADAPTIVE_SPLITS=val-3d
+# ADAPTIVE_OUT=reports/adaptive/iters800, with a default re-run beside them).
+ADAPTIVE_OUT ?= reports/adaptive
 bench-adaptive: $(BUILD)/mf $(DATA)/val-3d/.rendered $(DATA)/test-3d/.rendered
-	MF=$(MF) DATA=$(DATA) RESULTS=$(RESULTS)/adaptive OUT=reports/adaptive sh eval/bench_adaptive.sh
+	MF=$(MF) DATA=$(DATA) RESULTS=$(RESULTS)/adaptive$(if $(filter-out reports/adaptive,$(ADAPTIVE_OUT)),-$(notdir $(ADAPTIVE_OUT))) \
+	  OUT=$(ADAPTIVE_OUT) $(if $(ADAPTIVE_SPLITS),SPLITS="$(ADAPTIVE_SPLITS)") $(if $(A_CONFIGS),A_CONFIGS="$(A_CONFIGS)") \
+	  sh eval/bench_adaptive.sh
 
 # The same tables on a reduced setting (3 scenes, 64 px training, 100 iterations).
 bench-quick: $(BUILD)/mf
