@@ -577,6 +577,9 @@ DATASIZE_REPORT ?= reports/prior/datasize
 # (the model-size question).
 DATASIZE_RESEED ?= $(word 1,$(DATASIZE_N))-s2 $(lastword $(DATASIZE_N))-s2
 DATASIZE_WIDE   ?= $(word 1,$(DATASIZE_N))-w96x192 $(word 1,$(DATASIZE_N))-w96x192-s2
+# DATASIZE_EMA=D: the runs keep a moving average of the denoiser's weights (mf train-prior --ema D) from
+# the step they start or resume at; prior-<steps>.mfck is then the average, prior-<steps>-raw.mfck the weights.
+DATASIZE_EMA    ?=
 DATASIZE_PTS     = $(DATASIZE_N) $(DATASIZE_RESEED) $(DATASIZE_WIDE)
 ds-n    = $(word 1,$(subst -, ,$(1)))
 ds-seed = $(or $(patsubst s%,%,$(filter s%,$(subst -, ,$(1)))),1)
@@ -587,7 +590,7 @@ $(DATASIZE_PTS:%=$(DATASIZE_CKPT)/n%/prior-$(DATASIZE_STEPS).mfck): $(DATASIZE_C
 	$(MF) train-prior $(PRIOR_DATA) -o $(DATASIZE_CKPT)/n$* --init $(PRIOR_WEIGHTS) --fresh-denoiser --ae-steps 0 \
 	  --steps $(DATASIZE_STEPS) --dn-samples $(call ds-n,$*) --batch 16 --seed $(call ds-seed,$*) --keep-every 1000 \
 	  $(if $(call ds-wide,$*),--unet-c1 $(word 1,$(call ds-wide,$*)) --unet-c2 $(word 2,$(call ds-wide,$*))) \
-	  --loss-csv reports/prior/datasize/loss-n$*.csv --resume
+	  $(if $(DATASIZE_EMA),--ema $(DATASIZE_EMA)) --loss-csv reports/prior/datasize/loss-n$*.csv --resume
 train-prior-datasize: $(DATASIZE_PTS:%=$(DATASIZE_CKPT)/n%/prior-$(DATASIZE_STEPS).mfck)
 prior-datasize: train-prior-datasize
 	$(MAKE) prior-curve CURVE_REPORT=$(DATASIZE_REPORT) \

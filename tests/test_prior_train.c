@@ -281,3 +281,60 @@ MF_TEST(prior_train_fresh_denoiser_keeps_only_the_ae) {
     o.fresh_denoiser = 0;
     CHECK_ERR(mf_train_prior(&o, &rb), "denoiser channels only with --fresh-denoiser");
 }
+
+/* --ema: after one step the kept average is exactly d w0 + (1 - d) w1 with the warmed-up decay
+ * d = min(D, 2 / 11), w0 the fresh denoiser of the seed and w1 the raw weights (prior-1-raw.mfck);
+ * prior.mfck is the average; the metas say which is which; a resumed run goes on from the average
+ * kept in dn_ema.mfck (bit-identical to an uninterrupted one), and without that file it is not. */
+MF_TEST(prior_train_ema_averages_weights) {
+    TwoRuns t;
+    MfTrainPriorOpts o;
+    MfTrainPriorResult ra, rb;
+    CHECK_OK(tiny_then_second(&t, "prior_ema", &o, &ra));
+    o.init = t.wa, o.ae_steps = 0, o.fresh_denoiser = 1, o.tiny = 0, o.seed = 9, o.ema = 0.9f, o.keep_every = 1;
+    o.steps = 1;
+    CHECK_OK(mf_train_prior(&o, &rb));
+    char raw[MF_PATH_MAX], avg[MF_PATH_MAX];
+    mf_path_join(raw, sizeof raw, t.b, "prior-1-raw.mfck");
+    mf_path_join(avg, sizeof avg, t.b, "prior-1.mfck");
+    MfPrior *pw, *pa, *p0;
+    MfPriorConfig cfg;
+    mf_prior_config_tiny(&cfg);
+    CHECK_OK(mf_prior_load(raw, &pw));
+    CHECK_OK(mf_prior_load(avg, &pa));
+    CHECK_OK(mf_prior_new(&p0, &cfg));
+    mf_denoiser_init_weights(p0->dn, 9);
+    size_t nd = p0->dn->tab.numel, far = 0;
+    float d = 2.0f / 11.0f;
+    CHECK(pw->dn->tab.numel == nd && pa->dn->tab.numel == nd);
+    for (size_t i = 0; i < nd; ++i) far += fabsf(pa->dn->params[i] - (d * p0->dn->params[i] + (1.0f - d) * pw->dn->params[i])) > 1e-6f;
+    CHECK_MSG(far == 0, "%zu of %zu averaged weights differ from d w0 + (1 - d) w1", far, nd);
+    CHECK(memcmp(pa->dn->params, pw->dn->params, nd * sizeof(float)) != 0);
+    mf_prior_free(pw), mf_prior_free(pa), mf_prior_free(p0);
+    CHECK(files_equal(avg, t.wb));
+    char *meta = NULL;
+    CHECK_OK(mf_prior_read_meta(t.wb, &meta));
+    CHECK_MSG(meta && strstr(meta, "\"ema\":0.9") && strstr(meta, "\"weights\":\"average\""), "meta %s", meta ? meta : "");
+    free(meta), meta = NULL;
+    CHECK_OK(mf_prior_read_meta(raw, &meta));
+    CHECK_MSG(meta && strstr(meta, "\"weights\":\"raw\""), "meta %s", meta ? meta : "");
+    free(meta);
+    /* resume: b goes on to 3 steps from its state and average; a fresh folder runs 3 at once */
+    char one[MF_PATH_MAX], w3[MF_PATH_MAX], b3[MF_PATH_MAX], ema_file[MF_PATH_MAX];
+    mf_test_path_to(one, sizeof one, "prior_ema_one");
+    o.steps = 3, o.resume = 1;
+    CHECK_OK(mf_train_prior(&o, &rb));
+    mf_path_join(b3, sizeof b3, t.b, "prior-3.mfck");
+    o.out_dir = one, o.resume = 0;
+    CHECK_OK(mf_train_prior(&o, &rb));
+    mf_path_join(w3, sizeof w3, one, "prior-3.mfck");
+    CHECK(files_equal(b3, w3));
+    /* the same resume without dn_ema.mfck restarts the average from the step-1 weights: different */
+    o.out_dir = t.b, o.steps = 1;
+    CHECK_OK(mf_train_prior(&o, &rb));
+    mf_path_join(ema_file, sizeof ema_file, t.b, "dn_ema.mfck");
+    CHECK(remove(ema_file) == 0);
+    o.steps = 3, o.resume = 1;
+    CHECK_OK(mf_train_prior(&o, &rb));
+    CHECK(!files_equal(b3, w3));
+}

@@ -217,15 +217,39 @@ static float lr_at(float lr, int step, int warmup, int total, int cosine) {
 
 typedef struct {
     const MfTrainPriorOpts *o;
-    char ae_state[MF_PATH_MAX], dn_state[MF_PATH_MAX], final[MF_PATH_MAX];
+    char ae_state[MF_PATH_MAX], dn_state[MF_PATH_MAX], dn_ema[MF_PATH_MAX], final[MF_PATH_MAX];
     const char *csv;
     Hist hist;
-    int ran; /* steps done in this run */
+    int ran;    /* steps done in this run */
+    float *ema; // (denoiser params,) the moving average of the denoiser's weights (o->ema > 0), else NULL
 } Ctx;
+
+/* The average's file: the denoiser's tensors holding the average, meta {"step": dn_step}. */
+static int ema_save(const Ctx *c, const MfSpecTab *tab, int step) {
+    char meta[64];
+    snprintf(meta, sizeof meta, "{\"step\":%d}", step);
+    return mf_ckpt_save(c->dn_ema, tab->v, tab->n, c->ema, meta);
+}
+
+/* Loads the average of step `step` into c->ema; MF_ENOTFOUND-like failure (any error) when the file is
+ * missing, unreadable or of another step (the caller then starts the average afresh). */
+static int ema_load(Ctx *c, const MfSpecTab *tab, int step) {
+    char *meta = NULL;
+    if (!mf_file_exists(c->dn_ema)) return MF_EIO;
+    int rc = mf_ckpt_load(c->dn_ema, tab->v, tab->n, c->ema, &meta);
+    cJSON *m = rc ? NULL : cJSON_Parse(meta);
+    const cJSON *js = cJSON_GetObjectItemCaseSensitive(m, "step");
+    if (!rc && (!cJSON_IsNumber(js) || js->valueint != step)) rc = MF_EFORMAT;
+    cJSON_Delete(m);
+    free(meta);
+    return rc;
+}
 
 static int checkpoint(Ctx *c, const char *phase, const MfSpecTab *tab, const float *params, const MfAdamW *opt,
                       int step) {
-    int rc = state_save(!strcmp(phase, "ae") ? c->ae_state : c->dn_state, tab, params, opt, phase, step, c->o->seed);
+    int ae = !strcmp(phase, "ae");
+    int rc = state_save(ae ? c->ae_state : c->dn_state, tab, params, opt, phase, step, c->o->seed);
+    if (!rc && !ae && c->ema) rc = ema_save(c, tab, step);
     if (!rc) rc = hist_write(&c->hist, c->csv);
     return rc;
 }
@@ -364,8 +388,9 @@ static int encode_all(MfPrior *p, const Data *d, float *lat, MfTrainPriorResult 
     return rc;
 }
 
-/* Writes out_dir/prior.mfck with the current weights (and out_dir/prior-<dn_step>.mfck at a multiple
- * of keep_every); dn_step = denoiser steps done so far. */
+/* Writes out_dir/prior.mfck with the current weights (the moving average with c->ema) and
+ * out_dir/prior-<dn_step>.mfck at a multiple of keep_every (with c->ema also prior-<dn_step>-raw.mfck,
+ * the weights themselves); dn_step = denoiser steps done so far. */
 static int save_weights(Ctx *c, const MfPrior *p, const Data *d, const MfTrainPriorResult *res, int dn_step) {
     const MfTrainPriorOpts *o = c->o;
     cJSON *t = cJSON_CreateObject(), *root = cJSON_CreateObject();
@@ -382,17 +407,34 @@ static int save_weights(Ctx *c, const MfPrior *p, const Data *d, const MfTrainPr
         cJSON_AddNumberToObject(t, (const char *[]){"psnr_albedo", "psnr_orm", "psnr_rgb"}[k], round(res->psnr[k] * 1e3) / 1e3);
     if (o->init) cJSON_AddStringToObject(t, "init", o->init);
     if (o->fresh_denoiser) cJSON_AddBoolToObject(t, "fresh_denoiser", 1);
+    if (c->ema) cJSON_AddNumberToObject(t, "ema", round((double)o->ema * 1e6) / 1e6);
     cJSON_AddItemToObject(root, "train", t);
-    char *extra = cJSON_PrintUnformatted(root);
+    int keep = o->keep_every > 0 && dn_step > 0 && dn_step % o->keep_every == 0, rc = MF_OK;
+    char name[48], kept[MF_PATH_MAX];
+    size_t np = p->dn->tab.numel;
+    float *raw = c->ema ? malloc(np * sizeof(float)) : NULL;
+    if (c->ema && !raw) rc = mf_fail(MF_ENOMEM, "train-prior: out of memory");
+    if (!rc && raw) { /* the weights themselves first, then the average in their place */
+        memcpy(raw, p->dn->params, np * sizeof(float));
+        cJSON_AddStringToObject(t, "weights", "raw");
+        char *extra = cJSON_PrintUnformatted(root);
+        snprintf(name, sizeof name, "prior-%d-raw.mfck", dn_step);
+        if (!extra) rc = mf_fail(MF_ENOMEM, "train-prior: out of memory");
+        else if (keep && !(rc = mf_path_join(kept, sizeof kept, o->out_dir, name))) rc = mf_prior_save(p, kept, extra);
+        free(extra);
+        cJSON_ReplaceItemInObject(t, "weights", cJSON_CreateString("average"));
+        memcpy(p->dn->params, c->ema, np * sizeof(float));
+    }
+    char *extra = rc ? NULL : cJSON_PrintUnformatted(root);
     cJSON_Delete(root);
-    if (!extra) return mf_fail(MF_ENOMEM, "train-prior: out of memory");
-    int rc = mf_prior_save(p, c->final, extra);
-    if (!rc && o->keep_every > 0 && dn_step > 0 && dn_step % o->keep_every == 0) {
-        char name[48], kept[MF_PATH_MAX];
+    if (!rc && !extra) rc = mf_fail(MF_ENOMEM, "train-prior: out of memory");
+    if (!rc) rc = mf_prior_save(p, c->final, extra);
+    if (!rc && keep) {
         snprintf(name, sizeof name, "prior-%d.mfck", dn_step);
         if (!(rc = mf_path_join(kept, sizeof kept, o->out_dir, name))) rc = mf_prior_save(p, kept, extra);
     }
-    free(extra);
+    if (raw) memcpy(p->dn->params, raw, np * sizeof(float)); /* training goes on from the weights */
+    free(extra), free(raw);
     return rc;
 }
 
@@ -407,6 +449,18 @@ static int train_dn(Ctx *c, MfPrior *p, const Data *d, const float *lat, MfTrain
     if (o->resume && mf_file_exists(c->dn_state)) {
         if ((rc = state_load(c->dn_state, &dn->tab, dn->params, &opt, &step))) goto done;
         mf_log_info("train-prior: resuming the denoiser at step %d", step);
+    }
+    if (o->ema > 0) {
+        c->ema = malloc(np * sizeof(float));
+        if (!c->ema) {
+            rc = mf_fail(MF_ENOMEM, "train-prior: out of memory");
+            goto done;
+        }
+        if (o->resume && !ema_load(c, &dn->tab, step)) mf_log_info("train-prior: resuming the weights' average (decay %g)", o->ema);
+        else {
+            memcpy(c->ema, dn->params, np * sizeof(float));
+            mf_log_info("train-prior: the weights' average (decay %g) starts from the weights at step %d", o->ema, step);
+        }
     }
     int B = o->batch, R = p->cfg.ae.res, zc = p->cfg.ae.zc, h = R / 4;
     size_t isz = (size_t)3 * R * R, zsz = (size_t)zc * h * h, nv = (size_t)B * 2 * zsz;
@@ -457,6 +511,10 @@ static int train_dn(Ctx *c, MfPrior *p, const Data *d, const float *lat, MfTrain
             rc = mf_fail_prefix(MF_ENAN, "train-prior: denoiser step %d (stopped; the last good checkpoint is kept: %s)",
                                 step + 1, c->dn_state);
             break;
+        }
+        if (c->ema) { /* decay warmed up over the first steps, as in latent diffusion's EMA */
+            float dk = fminf(o->ema, (float)(step + 2) / (float)(step + 11));
+            for (size_t i = 0; i < np; ++i) c->ema[i] = dk * c->ema[i] + (1.0f - dk) * dn->params[i];
         }
         hist_add(&c->hist, "dn", step + 1, loss, opt.lr);
         mf_progress_add(&prog, 1);
@@ -542,6 +600,7 @@ int mf_train_prior(const MfTrainPriorOpts *o, MfTrainPriorResult *res) {
     if ((rc = mf_mkdirs(o->out_dir))) goto out;
     mf_path_join(c.ae_state, sizeof c.ae_state, o->out_dir, "ae_state.mfck");
     mf_path_join(c.dn_state, sizeof c.dn_state, o->out_dir, "dn_state.mfck");
+    mf_path_join(c.dn_ema, sizeof c.dn_ema, o->out_dir, "dn_ema.mfck");
     mf_path_join(c.final, sizeof c.final, o->out_dir, "prior.mfck");
     if (o->resume) {
         int sa = 0, sd = 0;
@@ -560,7 +619,7 @@ int mf_train_prior(const MfTrainPriorOpts *o, MfTrainPriorResult *res) {
         }
         hist_read(&c.hist, c.csv, sa, sd);
     } else {
-        remove(c.ae_state), remove(c.dn_state);
+        remove(c.ae_state), remove(c.dn_state), remove(c.dn_ema);
     }
     mf_log_info("train-prior: %d samples at %d px, %zu parameters, batch %d, %d AE + %d denoiser steps", d.n, d.R,
                 res->params, o->batch, o->ae_steps, o->steps);
@@ -598,7 +657,7 @@ int mf_train_prior(const MfTrainPriorOpts *o, MfTrainPriorResult *res) {
     if (!rc) rc = hist_write(&c.hist, c.csv);
 out:
     res->stopped = stop;
-    free(lat), free(d.px), free(d.sel), free(c.hist.r);
+    free(lat), free(d.px), free(d.sel), free(c.hist.r), free(c.ema);
     mf_prior_free(p);
     return rc;
 }

@@ -12,7 +12,7 @@
  * Randomness is derived from (seed, phase, step) alone, so a run resumed from a checkpoint is
  * bit-identical to an uninterrupted one (same build and thread count).
  * Files in out_dir: ae_state.mfck, dn_state.mfck (weights + AdamW moments, written atomically every
- * ckpt_every steps and at phase ends), prior.mfck (the final weights, mf_prior.h format). The loss
+ * ckpt_every steps and at phase ends; with ema, dn_ema.mfck beside it), prior.mfck (the final weights, mf_prior.h format). The loss
  * CSV (phase,step,loss,lr) is rewritten atomically with every checkpoint. A non-finite loss stops
  * training with MF_ENAN and leaves the last good checkpoint in place.
  * Learning rates (defaults) were picked on synthetic 64 px data, same seed (same batches and noise):
@@ -53,6 +53,12 @@ typedef struct {
                                        value to 0 at the phase's last step (else constant) */
     int keep_every;                 /* also keep the weights every K denoiser steps as out_dir/prior-<step>.mfck
                                        (a held-out curve over steps; 0 = off) */
+    float ema;                      /* > 0: an exponential moving average of the denoiser's weights, decay
+                                       min(ema, (1 + step) / (10 + step)) per step, started from the weights
+                                       at the run's first step (from scratch or on resume; kept across
+                                       resumes in out_dir/dn_ema.mfck); prior.mfck and prior-<step>.mfck
+                                       then hold the average and prior-<step>-raw.mfck the weights
+                                       themselves (0 = off) */
     int stop_after;                 /* test hook: checkpoint and stop after this many steps of this run (0 = off) */
     int nan_at;                     /* test hook: pretend the loss is NaN at this global step (0 = off) */
 } MfTrainPriorOpts;

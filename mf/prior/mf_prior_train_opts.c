@@ -34,6 +34,10 @@ static const MfOpt k_opts[] = {
     MF_OPT_NAMED(S, "unet_c1", dn_c1, MF_OPT_INT, 0, 0, 4096, "denoiser channels, first level (0: default 64; a multiple of 8)"),
     MF_OPT_NAMED(S, "unet_c2", dn_c2, MF_OPT_INT, 0, 0, 4096, "denoiser channels, second level (0: default 128; >= c1, a multiple of 8)"),
     MF_OPT_INT(S, keep_every, 0, 0, 10000000, "also keep the weights every N denoiser steps as CKPT_DIR/prior-<step>.mfck (0: off)"),
+    MF_OPT_FLOAT(S, ema, 0, 0, 0.99999, "keep an exponential moving average of the denoiser's weights with this decay "
+                 "(warmed up as min(D, (1 + step) / (10 + step)); started from the weights at this run's first step unless "
+                 "CKPT_DIR/dn_ema.mfck holds it): prior.mfck and prior-<step>.mfck then hold the average, "
+                 "prior-<step>-raw.mfck the weights (0: off)", .meta = "D"),
     MF_OPT_INT(S, stop_after, 0, 0, 1000000000, "stop (with a checkpoint) after N steps of this run (0: off)"),
     MF_OPT_BOOL(S, tiny, 0, "the tiny test model (resolution 16)"),
 };
