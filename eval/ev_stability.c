@@ -367,16 +367,24 @@ static void write_seed_rows(MfStrBuf *m, MfStrBuf *c, const EvStabSeedRow *rows,
     }
 }
 
+/* Whether variant is one of the seed row's: the reference, png_-K or png_-K_x1 for K in stops. */
+static int seed_variant(const char *variant, const int *stops, int nstops) {
+    if (!strcmp(variant, "reference")) return 1;
+    for (int i = 0; i < nstops; ++i) {
+        char png[16];
+        snprintf(png, sizeof png, "png_-%d", stops[i]);
+        size_t l = strlen(png);
+        if (!strncmp(variant, png, l) && (!variant[l] || !strcmp(variant + l, "_x1"))) return 1;
+    }
+    return 0;
+}
+
 /* Whether variant id is used by one of the n cells or the seed rows (the report lists only those). */
 static int variant_used(const char *id, const EvStabCell *const *cells, int n, const EvStabSeedRow *rows, int nrows) {
     for (int i = 0; i < n; ++i)
         if (!strcmp(cells[i]->variant, id)) return 1;
-    for (int i = 0; i < nrows; ++i) {
-        char png[16], x1[24];
-        snprintf(png, sizeof png, "png_-%d", rows[i].stops);
-        snprintf(x1, sizeof x1, "%s_x1", png);
-        if (!strcmp(id, "reference") || !strcmp(id, png) || !strcmp(id, x1)) return 1;
-    }
+    for (int i = 0; i < nrows; ++i)
+        if (seed_variant(id, &rows[i].stops, 1)) return 1;
     return 0;
 }
 
@@ -495,18 +503,6 @@ typedef struct {
 static int grid_has(const char *kind, const char *variant) {
     for (size_t i = 0; i < sizeof k_cells / sizeof k_cells[0]; ++i)
         if (!strcmp(k_cells[i].kind, kind) && !strcmp(k_cells[i].variant, variant) && !k_cells[i].args[0]) return 1;
-    return 0;
-}
-
-/* Whether variant is one of the seed row's: the reference, png_-K or png_-K_x1 for K in stops. */
-static int seed_variant(const char *variant, const int *stops, int nstops) {
-    if (!strcmp(variant, "reference")) return 1;
-    for (int i = 0; i < nstops; ++i) {
-        char png[16];
-        snprintf(png, sizeof png, "png_-%d", stops[i]);
-        size_t l = strlen(png);
-        if (!strncmp(variant, png, l) && (!variant[l] || !strcmp(variant + l, "_x1"))) return 1;
-    }
     return 0;
 }
 

@@ -231,8 +231,8 @@ static int ema_save(const Ctx *c, const MfSpecTab *tab, int step) {
     return mf_ckpt_save(c->dn_ema, tab->v, tab->n, c->ema, meta);
 }
 
-/* Loads the average of step `step` into c->ema; MF_ENOTFOUND-like failure (any error) when the file is
- * missing, unreadable or of another step (the caller then starts the average afresh). */
+/* Loads the average of step `step` into c->ema; non-zero when the file is missing, unreadable or of
+ * another step (the caller then starts the average afresh from the weights). */
 static int ema_load(Ctx *c, const MfSpecTab *tab, int step) {
     char *meta = NULL;
     if (!mf_file_exists(c->dn_ema)) return MF_EIO;
