@@ -106,7 +106,8 @@ $(BUILD)/gen/mf_build_info.h: FORCE
 	@mkdir -p $(dir $@)
 	@echo "#define MF_GIT_REV \"$$(git rev-parse --short HEAD 2>/dev/null || echo unknown)$$(git diff --quiet HEAD 2>/dev/null || echo -dirty)\"" > $@.tmp
 	@cmp -s $@.tmp $@ || mv $@.tmp $@; rm -f $@.tmp
-$(CLI_OBJ): $(BUILD)/gen/mf_build_info.h
+# only the two files that include it (a new revision then recompiles two objects, not every CLI one)
+$(BUILD)/obj/mf/cli/cli_run_info.o $(BUILD)/obj/mf/cli/cmd_eval.o: $(BUILD)/gen/mf_build_info.h
 
 $(BUILD)/libmf.a: $(LIB_OBJ)
 	@rm -f $@
