@@ -519,22 +519,31 @@ static int seed_runs(const char *work, const EvStabOpts *o, const int *stops, in
                 else snprintf(x->variant, sizeof x->variant, "png_-%d%s", stops[(v - 1) / 2], (v - 1) % 2 ? "_x1" : "");
                 if (s == 1 && !o->seed_row_only && grid_has(k_seed_kind[m], x->variant)) continue;
                 x->seed = s, x->kind = k_seed_kind[m];
-                snprintf(x->scene, sizeof x->scene, "%s/scenes/%s/000_cup", work, x->variant);
                 snprintf(x->out, sizeof x->out, "%s/seed%d-%s-%s", work, s, x->kind, x->variant);
                 ++n;
             }
     return n;
 }
 
-/* Recon commands of the seed runs r[0..nr) (their scene variants built under work/scenes/ first),
+/* Builds variant v under work/scenes/<id>/ (ev_stab_variant_build: once, then kept) and writes its
+ * scene folder to scene. */
+static int variant_scene(const char *layout, const char *work, const EvStabVariant *v, char *scene, size_t cap) {
+    char vdir[1100];
+    snprintf(vdir, sizeof vdir, "%s/scenes/%s", work, v->id);
+    int rc = ev_stab_variant_build(layout, v, vdir);
+    if (rc) return mf_fail_prefix(rc, "stability scene variant %s", v->id);
+    snprintf(scene, cap, "%s/000_cup", vdir);
+    return MF_OK;
+}
+
+/* Recon commands of the seed runs r[0..nr) (their scene variants built first, r[j].scene set),
  * appended to cmd/err/slot from index n; their results go to sres. */
-static int seed_cmds(const char *mf, const char *layout, const char *work, const char *env, int iters, const SeedRun *r,
+static int seed_cmds(const char *mf, const char *layout, const char *work, const char *env, int iters, SeedRun *r,
                      int nr, int n, char (*cmd)[4096], char (*err)[1100], EvStabResult **slot, EvStabResult *sres) {
     for (int j = 0; j < nr; ++j) {
-        char args[32], vdir[1100];
-        snprintf(vdir, sizeof vdir, "%s/scenes/%s", work, r[j].variant);
-        int rc = ev_stab_variant_build(layout, ev_stab_variant(r[j].variant), vdir);
-        if (rc) return mf_fail_prefix(rc, "stability scene variant %s", r[j].variant);
+        char args[32];
+        int rc = variant_scene(layout, work, ev_stab_variant(r[j].variant), r[j].scene, sizeof r[j].scene);
+        if (rc) return rc;
         snprintf(args, sizeof args, "--seed %d", r[j].seed);
         EvStabCell c = {"seed", r[j].kind, r[j].variant, args, NULL, 0, 0, 0};
         snprintf(err[n + j], sizeof err[n + j], "%s.err", r[j].out);
@@ -582,7 +591,7 @@ static int seed_record(EvTable *t, const char *kind, const char *variant, int se
 int ev_stab_grid(const char *mf, const char *work, const char *out_dir, const EvStabOpts *o, EvStabResult *results,
                  int cap, int *n_out, EvStabSeedRow *seed_rows, int *n_rows) {
     int iters = o->iters, quick = o->quick, jobs = o->jobs, stops[EV_STAB_MAX_STOPS], nstops = 0;
-    char layout[1024], scene[1200], vdir[1100], ref_render[1100] = "";
+    char layout[1024], scene[1200], ref_render[1100] = "";
     struct timespec t0, t1;
     clock_gettime(CLOCK_MONOTONIC, &t0);
     *n_out = *n_rows = 0;
@@ -622,12 +631,7 @@ int ev_stab_grid(const char *mf, const char *work, const char *out_dir, const Ev
             rc = mf_fail(MF_EARG, "stability cell %d: unknown scene variant '%s'", i, c->variant);
             break;
         }
-        snprintf(vdir, sizeof vdir, "%s/scenes/%s", work, v->id);
-        if ((rc = ev_stab_variant_build(layout, v, vdir))) {
-            rc = mf_fail_prefix(rc, "stability scene variant %s", v->id);
-            break;
-        }
-        snprintf(scene, sizeof scene, "%s/000_cup", vdir);
+        if ((rc = variant_scene(layout, work, v, scene, sizeof scene))) break;
         char out[1100];
         snprintf(out, sizeof out, "%s/cell%02d", work, i);
         snprintf(err[n], sizeof err[n], "%s/cell%02d.err", work, i);

@@ -388,6 +388,23 @@ static int encode_all(MfPrior *p, const Data *d, float *lat, MfTrainPriorResult 
     return rc;
 }
 
+/* mf_prior_save of p with root (printed) as its extra meta: to path when step < 0, else to
+ * path/prior-<step><suffix>.mfck. */
+static int save_json(const MfPrior *p, const char *path, int step, const char *suffix, const cJSON *root) {
+    char name[48], kept[MF_PATH_MAX];
+    int rc = MF_OK;
+    if (step >= 0) {
+        snprintf(name, sizeof name, "prior-%d%s.mfck", step, suffix);
+        if ((rc = mf_path_join(kept, sizeof kept, path, name))) return rc;
+        path = kept;
+    }
+    char *extra = cJSON_PrintUnformatted(root);
+    if (!extra) return mf_fail(MF_ENOMEM, "train-prior: out of memory");
+    rc = mf_prior_save(p, path, extra);
+    free(extra);
+    return rc;
+}
+
 /* Writes out_dir/prior.mfck with the current weights (the moving average with c->ema) and
  * out_dir/prior-<dn_step>.mfck at a multiple of keep_every (with c->ema also prior-<dn_step>-raw.mfck,
  * the weights themselves); dn_step = denoiser steps done so far. */
@@ -410,31 +427,21 @@ static int save_weights(Ctx *c, const MfPrior *p, const Data *d, const MfTrainPr
     if (c->ema) cJSON_AddNumberToObject(t, "ema", round((double)o->ema * 1e6) / 1e6);
     cJSON_AddItemToObject(root, "train", t);
     int keep = o->keep_every > 0 && dn_step > 0 && dn_step % o->keep_every == 0, rc = MF_OK;
-    char name[48], kept[MF_PATH_MAX];
     size_t np = p->dn->tab.numel;
     float *raw = c->ema ? malloc(np * sizeof(float)) : NULL;
     if (c->ema && !raw) rc = mf_fail(MF_ENOMEM, "train-prior: out of memory");
-    if (!rc && raw) { /* the weights themselves first, then the average in their place */
-        memcpy(raw, p->dn->params, np * sizeof(float));
+    if (!rc && raw) { /* the weights themselves first (kept steps only), then the average in their place */
         cJSON_AddStringToObject(t, "weights", "raw");
-        char *extra = cJSON_PrintUnformatted(root);
-        snprintf(name, sizeof name, "prior-%d-raw.mfck", dn_step);
-        if (!extra) rc = mf_fail(MF_ENOMEM, "train-prior: out of memory");
-        else if (keep && !(rc = mf_path_join(kept, sizeof kept, o->out_dir, name))) rc = mf_prior_save(p, kept, extra);
-        free(extra);
+        if (keep) rc = save_json(p, o->out_dir, dn_step, "-raw", root);
         cJSON_ReplaceItemInObject(t, "weights", cJSON_CreateString("average"));
+        memcpy(raw, p->dn->params, np * sizeof(float));
         memcpy(p->dn->params, c->ema, np * sizeof(float));
     }
-    char *extra = rc ? NULL : cJSON_PrintUnformatted(root);
-    cJSON_Delete(root);
-    if (!rc && !extra) rc = mf_fail(MF_ENOMEM, "train-prior: out of memory");
-    if (!rc) rc = mf_prior_save(p, c->final, extra);
-    if (!rc && keep) {
-        snprintf(name, sizeof name, "prior-%d.mfck", dn_step);
-        if (!(rc = mf_path_join(kept, sizeof kept, o->out_dir, name))) rc = mf_prior_save(p, kept, extra);
-    }
+    if (!rc) rc = save_json(p, c->final, -1, NULL, root);
+    if (!rc && keep) rc = save_json(p, o->out_dir, dn_step, "", root);
     if (raw) memcpy(p->dn->params, raw, np * sizeof(float)); /* training goes on from the weights */
-    free(extra), free(raw);
+    cJSON_Delete(root);
+    free(raw);
     return rc;
 }
 
