@@ -6,7 +6,7 @@
 
 #include "core/mf_error.h"
 #include "geom/mf_bake.h"
-#include "geom/mf_voltex.h"
+#include "scene/mf_voltex.h"
 #include "mf_test.h"
 
 /* field(p) = A p + B, 3 channels */

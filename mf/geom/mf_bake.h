@@ -15,7 +15,7 @@
 #ifndef MF_BAKE_H
 #define MF_BAKE_H
 
-#include "geom/mf_voltex.h"
+#include "scene/mf_voltex.h"
 #include "io/mf_image.h"
 #include "scene/mf_mesh.h"
 

@@ -1,4 +1,4 @@
-#include "geom/mf_voltex.h"
+#include "scene/mf_voltex.h"
 
 #include <math.h>
 #include <stdlib.h>

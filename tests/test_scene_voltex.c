@@ -6,7 +6,7 @@
 
 #include "core/mf_error.h"
 #include "core/mf_rng.h"
-#include "geom/mf_voltex.h"
+#include "scene/mf_voltex.h"
 #include "mf_test.h"
 #include "mf_test_grad.h"
 
