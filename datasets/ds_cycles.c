@@ -10,6 +10,7 @@
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "core/mf_proc.h"
+#include "core/mf_rng.h"
 #include "io/mf_json.h"
 #include "io/mf_obj.h"
 
@@ -84,10 +85,14 @@ int ds_cycles_add_view(DsCyclesJob *j, const char *name, const double c2w[16], d
     cJSON_AddNumberToObject(v, "angle_x", angle_x);
     int rc = MF_OK;
     if (env) {
-        char f[300];
-        snprintf(f, sizeof f, "env_%s.exr", name);
-        cJSON_AddStringToObject(v, "env", f);
-        rc = write_exr(j, f, env);
+        char dims[3 * 12];
+        int dl = snprintf(dims, sizeof dims, "%d %d %d", env->w, env->h, env->c);
+        uint64_t h = mf_fnv1a64(mf_fnv1a64(MF_FNV64_INIT, dims, (size_t)dl), env->data, sizeof(float) * (size_t)env->w * env->h * env->c);
+        if (h != j->env_hash || !j->env_hash) {
+            snprintf(j->env_file, sizeof j->env_file, "env_%s.exr", name);
+            j->env_hash = (rc = write_exr(j, j->env_file, env)) ? 0 : h;
+        }
+        cJSON_AddStringToObject(v, "env", j->env_file);
     } else
         cJSON_AddNullToObject(v, "env");
     for (int i = 0; i < n; ++i) {

@@ -4,7 +4,9 @@
  *
  * One job per object: ds_cycles_begin writes the object's assets into a scratch folder (mesh.obj
  * with UVs and normals as it is in world space, kd.exr and orm.exr linear float), ds_cycles_add_view
- * adds a view (camera, the view's rotated env map as env_<name>.exr, its sun / point lights),
+ * adds a view (camera, the view's rotated env map as env_<name>.exr unless it equals the previous
+ * view's map, whose file it then names: a split's views under one light share one file, and
+ * Blender's world stays loaded; its sun / point lights),
  * ds_cycles_run writes job.json and runs `blender -b --factory-startup -P ds_cycles.py -- job.json`
  * once, and ds_cycles_read returns a view's render. What Blender does with the job is in
  * datasets/ds_cycles.py: Principled BSDF (GGX, F0 = 0.04) with kd, roughness and metallic from
@@ -21,6 +23,8 @@
 #ifndef DS_CYCLES_H
 #define DS_CYCLES_H
 
+#include <stdint.h>
+
 #include "io/mf_image.h"
 #include "scene/mf_light.h"
 #include "scene/mf_mesh.h"
@@ -32,6 +36,8 @@ typedef struct {
     char dir[4096];
     int res, samples, bounces;
     void *views; /* cJSON array, owned */
+    uint64_t env_hash; /* FNV-1a 64 of the last env map written (0: none): views that share a map share its file */
+    char env_file[300];
 } DsCyclesJob;
 
 /* 1 when Blender can be run. */

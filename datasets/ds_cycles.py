@@ -4,7 +4,7 @@
 # JOB.json (written by ds_cycles_write_job, all paths relative to the job's folder):
 #   {"res": R, "samples": S, "bounces": B, "mesh": "mesh.obj", "kd": "kd.exr", "orm": "orm.exr",
 #    "views": [{"name": "v000", "c2w": [16 numbers, row-major camera-to-world, OpenGL camera axes],
-#               "angle_x": radians, "env": "env_v000.exr" or null,
+#               "angle_x": radians, "env": "env_v000.exr" or null (views that share a map name one file),
 #               "lights": [{"kind": "sun", "dir": [x, y, z] (towards the light), "rgb": [r, g, b]},
 #                          {"kind": "point", "pos": [x, y, z], "rgb": [r, g, b]}]}]}
 # World: +Z up, the project's conventions (checked against Blender by ../shared/blender-fixtures).
@@ -87,6 +87,7 @@ env_node = wnt.nodes.new("ShaderNodeTexEnvironment")
 background = wnt.nodes["Background"]
 
 lights = []
+env_file = None
 for v in job["views"]:
     for l in lights:
         bpy.data.objects.remove(l, do_unlink=True)
@@ -94,13 +95,17 @@ for v in job["views"]:
     m = v["c2w"]
     cam.matrix_world = Matrix([m[0:4], m[4:8], m[8:12], m[12:16]])
     cam.data.angle = float(v["angle_x"])
-    for link in list(background.inputs["Color"].links):
-        wnt.links.remove(link)
-    if v.get("env"):
+    if v.get("env") and v["env"] == env_file:
+        pass  # the previous view's map (ds_cycles.c names one file for views that share it): the world stays as it is
+    elif v.get("env"):
+        for link in list(background.inputs["Color"].links):
+            wnt.links.remove(link)
         env_node.image = bpy.data.images.load(path(v["env"]), check_existing=False)
         wnt.links.new(env_node.outputs["Color"], background.inputs["Color"])
         background.inputs["Strength"].default_value = 1.0
     else:
+        for link in list(background.inputs["Color"].links):
+            wnt.links.remove(link)
         background.inputs["Color"].default_value = (0, 0, 0, 1)
         background.inputs["Strength"].default_value = 0.0
     for i, l in enumerate(v.get("lights", [])):
@@ -120,6 +125,7 @@ for v in job["views"]:
             data.shadow_soft_size = 0.0
             o.location = Vector(l["pos"])
         lights.append(o)
+    env_file = v.get("env")
     out = path(v["name"] + ".tmp.exr")
     sc.render.filepath = out
     bpy.ops.render.render(write_still=True)

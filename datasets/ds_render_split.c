@@ -1,5 +1,6 @@
 /* Rendering of a split written by ds_write_split (see ds_split.h): in-process with mf_render or,
- * for specs with povray = 1, with POV-Ray (ds_povray.h); and the per-split manifest. */
+ * for specs with povray = 1, with POV-Ray (ds_povray.h), or with cycles = 1, with Blender Cycles
+ * (ds_cycles.h); and the per-split manifest. */
 #include <cJSON.h>
 #include <dirent.h>
 #include <math.h>
@@ -13,6 +14,7 @@
 #include "core/mf_fs.h"
 #include "core/mf_log.h"
 #include "core/mf_rng.h"
+#include "datasets/ds_cycles.h"
 #include "datasets/ds_povray.h"
 #include "datasets/ds_split.h"
 #include "io/mf_exr.h"
@@ -133,7 +135,8 @@ static int render_set(Ctx *c, const char *env_rel, const char *env_name, int kin
     }
     MfEnvMap env = {0};
     MfImage env_img = {0};
-    int rc;
+    int rc, cyc = s->cycles && kind != 1; /* Cycles: every missing view of the set in one Blender run after the loop */
+    DsCyclesJob job = {0};
     if ((rc = mf_path_join(p, sizeof p, c->sdir, env_rel))) return rc;
     if (s->povray) {
         if ((rc = mf_image_read(p, MF_ENC_LINEAR, &env_img))) return rc;
@@ -144,11 +147,15 @@ static int render_set(Ctx *c, const char *env_rel, const char *env_name, int kin
     }
     char pdir[MF_PATH_MAX];
     DsPovScene ps = {&sc->mesh, &sc->kd, {0.5f, 0.5f, 0.5f}, &env_img, NULL, 0, s->pov_radiosity > 0 ? s->pov_radiosity : DS_SPLIT_POV_RADIOSITY, 0, 1};
-    if (s->povray && sc->normal.data && kind != 1)
-        mf_log_warn("%s: POV-Ray's lit views ignore gt/normal.png (our AOVs use it)", c->sdir);
+    if ((s->povray || cyc) && sc->normal.data && kind != 1)
+        mf_log_warn("%s: %s's lit views ignore gt/normal.png (our AOVs use it)", c->sdir, cyc ? "Cycles" : "POV-Ray");
     if (s->povray) {
         snprintf(rel, sizeof rel, ".povray/%s", env_name);
         if (!(rc = mf_path_join(pdir, sizeof pdir, c->sdir, rel)) && !(rc = mf_mkdirs(pdir))) rc = ds_povray_export_assets(&ps, pdir);
+    }
+    if (cyc) {
+        snprintf(rel, sizeof rel, ".cycles/%s", env_name);
+        if (!(rc = mf_path_join(pdir, sizeof pdir, c->sdir, rel))) rc = ds_cycles_begin(&job, pdir, &sc->mesh, &sc->kd, &sc->orm, s->width);
     }
     MfRenderInput in = {sc->rt, &sc->mesh, &sc->mat, 1, &env, NULL, 0};
     MfRenderOut ro = {0};
@@ -162,6 +169,12 @@ static int render_set(Ctx *c, const char *env_rel, const char *env_name, int kin
         double m[16];
         for (int k = 0; k < 16; ++k) m[k] = cams[i].m[k];
         if ((rc = mf_camera_init(&cam, s->width, s->width, sc->angle_x, m, rel))) break;
+        if (cyc) { /* the image comes after the Blender run */
+            snprintf(rel, sizeof rel, "r_%03d", i);
+            rc = ds_cycles_add_view(&job, rel, m, sc->angle_x, &env.img, NULL, 0);
+            mf_progress_add(c->prog, 1);
+            continue;
+        }
         /* our render: the lit image (unless POV-Ray makes it) and the AOVs */
         int need_ours = !s->povray || kind == 1;
         if (need_ours) {
@@ -201,6 +214,21 @@ static int render_set(Ctx *c, const char *env_rel, const char *env_name, int kin
         if (!rc) ++c->rendered;
         mf_progress_add(c->prog, 1);
     }
+    if (cyc && !rc) rc = ds_cycles_run(&job);
+    for (int i = 0; cyc && i < n && !rc; ++i) {
+        if (kind == 0) snprintf(rel, sizeof rel, "train/r_%03d.png", i);
+        else snprintf(rel, sizeof rel, "relight/%s/r_%03d.exr", env_name, i);
+        if ((rc = mf_path_join(p, sizeof p, c->sdir, rel)) || mf_file_exists(p)) continue;
+        char vname[32];
+        snprintf(vname, sizeof vname, "r_%03d", i);
+        MfImage cimg = {0}; /* (width, width, 4) linear, premultiplied */
+        if (!(rc = ds_cycles_read(&job, vname, &cimg)))
+            rc = kind == 0 ? write_rgba(p, cimg.data, 4, cimg.data + 3, 4, 0, s->width, s->width, 1, MF_ENC_SRGB, 8)
+                           : write_rgba(p, cimg.data, 4, cimg.data + 3, 4, 0, s->width, s->width, 0, MF_ENC_LINEAR, 32);
+        mf_image_free(&cimg);
+        if (!rc) ++c->rendered;
+    }
+    if (cyc) ds_cycles_end(&job, rc != 0); /* a failed run keeps blender.log */
     mf_render_out_free(&ro);
     mf_env_free(&env);
     mf_image_free(&env_img);
@@ -329,7 +357,7 @@ int ds_split_manifest(const DsSplitSpec *s, const char *out_dir, uint64_t seed, 
     cJSON_AddNumberToObject(r, "spp_sqrt", s->spp_sqrt);
     cJSON_AddNumberToObject(r, "pixel_samples", s->pixel_samples > 0 ? s->pixel_samples : 4);
     cJSON_AddBoolToObject(r, "diffuse", s->diffuse);
-    cJSON_AddStringToObject(r, "renderer", !rendered ? "none (layout only; render with mf render or --render)" : s->povray ? "povray (lit views), mf (GT albedo/ORM AOVs)" : "mf");
+    cJSON_AddStringToObject(r, "renderer", !rendered ? "none (layout only; render with mf render or --render)" : s->povray ? "povray (lit views), mf (GT albedo/ORM AOVs)" : s->cycles ? "blender cycles (train and relit views), mf (test views under the training light, GT albedo/ORM AOVs)" : "mf");
     cJSON_AddNumberToObject(r, "views_rendered_this_run", views_rendered);
     cJSON_AddNumberToObject(r, "wall_time_s", wall_s);
     cJSON_AddNumberToObject(r, "views_per_s", wall_s > 0 ? views_rendered / wall_s : 0.0);

@@ -23,14 +23,15 @@ int ds_split_spec(const char *name, DsSplitSpec *out) {
     if (!strcmp(name, "tiny")) { s.n_scenes = 3; s.width = 32; s.n_train = 8; s.n_test = 4; s.tex_res = 64; s.n_relight = 2; s.spp_sqrt = 4; }
     else if (!strcmp(name, "small")) { s.n_scenes = 10; s.width = 128; s.n_train = 50; s.n_test = 20; s.tex_res = 256; s.n_relight = 3; s.spp_sqrt = 8; }
     else if (!strcmp(name, "full")) { s.n_scenes = 30; s.width = 512; s.n_train = 100; s.n_test = 50; s.tex_res = 512; s.n_relight = 4; s.spp_sqrt = 16; }
-    else if (!strcmp(name, "test-3d") || !strcmp(name, "test-3d-diffuse") || !strcmp(name, "test-3d-ambig")) {
+    else if (!strcmp(name, "test-3d") || !strcmp(name, "test-3d-diffuse") || !strcmp(name, "test-3d-ambig") || !strcmp(name, "test-3d-cyc")) {
         s.n_scenes = 9; s.width = 128; s.n_train = 64; s.n_test = 8; s.tex_res = 256; s.spp_sqrt = 3;
         s.diffuse = s.povray = !strcmp(name, "test-3d-diffuse");
+        s.cycles = !strcmp(name, "test-3d-cyc");
         s.ambiguous = !strcmp(name, "test-3d-ambig");
-        /* every other probe; POV-Ray's variant keeps 3 (each POV-Ray view costs ~6 CPU-s) */
-        s.n_relight = s.povray ? 3 : DS_RELIGHT_ALL;
+        /* every other probe; the other renderers' variants keep 3 (each POV-Ray view costs ~6 CPU-s) */
+        s.n_relight = s.povray || s.cycles ? 3 : DS_RELIGHT_ALL;
     }
-    else return mf_fail(MF_EARG, "unknown split '%s' (tiny, small, full, test-3d, test-3d-diffuse, test-3d-ambig, test-2d, prior-train)", name);
+    else return mf_fail(MF_EARG, "unknown split '%s' (tiny, small, full, test-3d, test-3d-diffuse, test-3d-cyc, test-3d-ambig, test-2d, prior-train)", name);
     snprintf(s.name, sizeof s.name, "%s", name);
     *out = s;
     return MF_OK;

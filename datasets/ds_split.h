@@ -35,7 +35,9 @@ typedef struct {
     int pixel_samples;  /* primary rays per pixel when rendered (0: 4) */
     int diffuse;    /* 1: objects made diffuse-dominant (metallic 0, roughness >= 0.6) */
     int ambiguous;  /* 1: scene k's object gets material ambiguity k mod DS_AMBIG_COUNT (ds_gen.h) */
-    int povray;     /* 1: --render makes the lit views (train, test, relit) with POV-Ray */
+    int povray;     /* 1: --render makes the lit views (train, relit) with POV-Ray */
+    int cycles;     /* 1: --render makes them with Blender Cycles (ds_cycles.h); the test views
+                       under the training light and the GT AOVs stay ours, with either */
     int pov_radiosity; /* POV-Ray radiosity count (0: DS_SPLIT_POV_RADIOSITY) */
     const char *asset; /* NULL: procedural objects; else one scene, 000_<stem>, from this glTF asset (ds_asset.h) */
     float r_min, r_max; /* camera distance range (default 1.5-2.0 as specified; note: with
@@ -47,7 +49,8 @@ typedef struct {
  * lights), "small" (10 scenes, 128x128, 50 / 20 views, 256^2, 3 lights), "full" (30 scenes,
  * 512x512, 100 / 50 views, 512^2, 4 lights), "test-3d" (9 scenes, 128x128, 64 train / 8 test
  * views, 256^2, every other probe relights (7 with Blender's 8), spp_sqrt 3), "test-3d-diffuse"
- * (test-3d with diffuse objects, lit views by POV-Ray, 3 relighting lights), "test-3d-ambig"
+ * (test-3d with diffuse objects, lit views by POV-Ray, 3 relighting lights), "test-3d-cyc" (test-3d's
+ * objects, cameras and probes, the first 3 relighting lights, lit views by Blender Cycles), "test-3d-ambig"
  * (test-3d whose objects carry material ambiguity: low-contrast albedo, mixed metals, rough beside
  * glossy, dark albedo, in turn; ds_object_make_ambiguous). MF_EARG for an unknown name. */
 int ds_split_spec(const char *name, DsSplitSpec *out);
@@ -64,7 +67,9 @@ int ds_write_split(DsSplitSpec *s, const char *out_dir, const char *env_dir, uin
  *   <scene>/relight/<env>/r_NNN.exr   test views under each relighting light (linear RGBA float,
  *                                     colour premultiplied by alpha)
  * with mf_render (s->spp_sqrt, s->pixel_samples; per-view seeds from the object seed) or, when
- * s->povray, POV-Ray for the lit views (ds_povray.h; scratch in <scene>/.povray/). Resumable:
+ * s->povray, POV-Ray for the lit views (ds_povray.h; scratch in <scene>/.povray/), or when
+ * s->cycles, Blender Cycles (ds_cycles.h; one Blender run per light, scratch in <scene>/.cycles/;
+ * its blender.log stays there when a run fails). Resumable:
  * views whose file exists are skipped (all writes are atomic), a scene is marked complete by
  * <scene>/.rendered. *rendered (may be NULL) = views rendered by this call. */
 int ds_render_split(const DsSplitSpec *s, const char *out_dir, int *rendered);

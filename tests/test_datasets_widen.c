@@ -1,4 +1,6 @@
-/* The widened prior-train recipe and the content hold-out (datasets/ds_widen.h). */
+/* The widened prior-train recipe and the content hold-out (datasets/ds_widen.h), and Blender Cycles
+ * as a renderer of generated views (datasets/ds_cycles.h): prior-train/test-2d and the test-3d-cyc split. */
+#include <cJSON.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -8,6 +10,7 @@
 #include "datasets/ds_cycles.h"
 #include "datasets/ds_gen.h"
 #include "datasets/ds_povray.h"
+#include "datasets/ds_split.h"
 #include "io/mf_json.h"
 #include "mf_test.h"
 
@@ -157,4 +160,74 @@ MF_TEST(ds_cycles_renders_views) {
     char p[MF_PATH_MAX];
     snprintf(p, sizeof p, "%s/.cycles", b);
     CHECK_MSG(!mf_file_exists(p), "%s: scratch folder left behind", p);
+}
+
+MF_TEST(ds_split_cycles_missing_blender) {
+    /* mf gen --split test-3d-cyc without Blender: exit non-zero naming it, nothing written */
+    MF_NEED_BIN();
+    const char *out = mf_test_path("split_cyc_noblender");
+    char args[MF_PATH_MAX + 128], err[4096];
+    snprintf(args, sizeof args, "gen --split test-3d-cyc --scenes 1 --train 2 --test 1 --width 16 -o %s", out);
+    const char *old = getenv("MF_BLENDER");
+    char *saved = old ? strdup(old) : NULL;
+    setenv("MF_BLENDER", "/nonexistent/blender", 1);
+    int code = mf_test_run_mf(args, NULL, err, sizeof err);
+    if (saved) setenv("MF_BLENDER", saved, 1);
+    else unsetenv("MF_BLENDER");
+    free(saved);
+    CHECK_MSG(code != 0, "exit %d", code);
+    CHECK_MSG(strstr(err, "blender") && strstr(err, "--no-render"), "%s", err);
+    CHECK(!mf_file_exists(out));
+}
+
+MF_TEST(ds_split_cycles_renders_test3d) {
+    if (!ds_cycles_available()) MF_SKIP("blender not installed (optional)");
+    /* test-3d-cyc is test-3d's objects, cameras and probes lit by Cycles: the same gt/ and
+     * transforms bytes as test-3d (so the two pair per scene), Cycles' training and relit views
+     * cover the pixels of ours and are not ours, the scratch folder is gone */
+    DsSplitSpec c, o;
+    CHECK_OK(ds_split_spec("test-3d-cyc", &c));
+    CHECK_OK(ds_split_spec("test-3d", &o));
+    CHECK(c.cycles && !o.cycles && c.n_relight == 3);
+    DsSplitSpec *sp[2] = {&o, &c};
+    for (int k = 0; k < 2; ++k) sp[k]->n_scenes = 1, sp[k]->n_train = 2, sp[k]->n_test = 1, sp[k]->width = 16, sp[k]->spp_sqrt = 1;
+    const char *a = mf_test_path("split_ours"), *b = mf_test_path("split_cyc");
+    CHECK_OK(ds_write_split(&o, a, NULL, 1));
+    CHECK_OK(ds_write_split(&c, b, NULL, 1));
+    CHECK_OK(ds_render_split(&o, a, NULL));
+    int nv = 0;
+    CHECK_OK(ds_render_split(&c, b, &nv));
+    CHECK_MSG(nv == 2 + 1 + 3, "views rendered %d", nv); /* 2 train, 1 test, 1 per relighting light */
+    static const char *const same[] = {"gt/kd.png", "gt/orm.png", "gt/env.exr", "transforms_train.json", "transforms_test.json",
+                                       "test/r_000.png", "gt/albedo/r_000.png"};
+    for (size_t i = 0; i < sizeof same / sizeof *same; ++i)
+        CHECK_MSG(!mf_test_sh("cmp -s %s/000_cup/%s %s/000_cup/%s", a, same[i], b, same[i]), "%s differs", same[i]);
+    cJSON *split = NULL;
+    char p[MF_PATH_MAX];
+    snprintf(p, sizeof p, "%s/split.json", b);
+    CHECK_OK(mf_json_load(p, &split));
+    const cJSON *rl = cJSON_GetObjectItem(cJSON_GetArrayItem(cJSON_GetObjectItem(split, "scenes"), 0), "relight");
+    CHECK(cJSON_GetArraySize(rl) == 3);
+    for (int r = -1; r < cJSON_GetArraySize(rl); ++r) {
+        const char *rel = r < 0 ? "train/r_000.png" : NULL;
+        char rp[512];
+        if (r >= 0) snprintf(rp, sizeof rp, "relight/%s/r_000.exr", cJSON_GetArrayItem(rl, r)->valuestring), rel = rp;
+        MfImage img[2] = {{0}};
+        for (int s = 0; s < 2; ++s) {
+            snprintf(p, sizeof p, "%s/000_cup/%s", s ? b : a, rel);
+            CHECK_OK(mf_image_read(p, MF_ENC_LINEAR, &img[s]));
+        }
+        int both = 0, either = 0, differ = 0;
+        for (int q = 0; img[0].data && img[1].data && q < 16 * 16; ++q) {
+            int ca = img[0].data[4 * q + 3] > 0.5f, cb = img[1].data[4 * q + 3] > 0.5f;
+            both += ca && cb, either += ca || cb;
+            differ |= img[0].data[4 * q] != img[1].data[4 * q];
+        }
+        CHECK_MSG(both > 10 && both >= 0.85 * either, "%s: coverage %d of %d", rel, both, either);
+        CHECK_MSG(differ, "%s: Cycles' view equals ours", rel);
+        mf_image_free(&img[0]), mf_image_free(&img[1]);
+    }
+    cJSON_Delete(split);
+    snprintf(p, sizeof p, "%s/000_cup/.cycles", b);
+    CHECK_MSG(!mf_test_sh("[ -z \"$(ls -A %s 2>/dev/null)\" ]", p), "%s: scratch left behind", p);
 }

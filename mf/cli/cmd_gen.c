@@ -16,6 +16,7 @@
 #include "datasets/ds_envgen.h"
 #include "datasets/ds_gen.h"
 #include "datasets/ds_shapes.h"
+#include "datasets/ds_cycles.h"
 #include "datasets/ds_split.h"
 
 #define K_USAGE \
@@ -38,12 +39,13 @@
     "  Images are width x 3/4 width, lit by a procedural indoor light. --distortion writes the coefficients\n" \
     "  only: the images stay undistorted (pinhole), so such a capture is one that readers must refuse.\n" \
     "\n" \
-    "       mf gen --split tiny|small|full|test-3d|test-3d-diffuse|test-3d-ambig -o DIR [--no-render] [--seed N] [--env-dir DIR]\n" \
+    "       mf gen --split tiny|small|full|test-3d|test-3d-diffuse|test-3d-cyc|test-3d-ambig -o DIR [--no-render] [--seed N] [--env-dir DIR]\n" \
     "  Writes a whole split: DIR/NNN_<family>/ scenes as above plus gt/env.exr (training light),\n" \
     "  relight/<env>.exr and render_{train,test,relight_<env>}.json for `mf render`, DIR/split.json\n" \
     "  and DIR/manifest.json (counts, seeds, FNV-1a 64 of every file), and renders the images\n" \
     "  in-process (--no-render: the layout only): train/ test/ r_NNN.png, gt/albedo/ gt/orm/ r_NNN.png, relight/<env>/r_NNN.exr\n" \
-    "  (test-3d-diffuse: diffuse objects, lit views by POV-Ray; test-3d-ambig: material ambiguity). Rerunning resumes.\n" \
+    "  (test-3d-diffuse: diffuse objects, lit views by POV-Ray; test-3d-cyc: test-3d lit by Blender Cycles;\n" \
+    "  test-3d-ambig: material ambiguity). Rerunning resumes.\n" \
     "  --asset FILE.glb: one scene, DIR/000_<name>/, whose object is a glTF asset (normalised like ours; its\n" \
     "    base colour and occlusion/roughness/metallic textures become gt/kd.png, gt/orm.png, its normalTexture\n" \
     "    gt/normal.png, used by the renders; emission and other unrendered features are warned about and\n" \
@@ -160,7 +162,7 @@ static const MfOpt k_args[] = {
                "images; readers must refuse it)", .unset = "0,0,0,0", .meta = "K1,K2,P1,P2"),
     MF_OPT_FLOAT(A, r_min, 1.5, 0.1, 100, "camera distance, lower end (2.2 / 2.8 cropped no view of 1500 checked)"),
     MF_OPT_FLOAT(A, r_max, 2.0, 0.1, 100, "camera distance, upper end"),
-    MF_OPT_STR(A, split, NULL, "write a whole split: tiny small full test-3d test-3d-diffuse test-3d-ambig prior-train test-2d", .meta = "NAME"),
+    MF_OPT_STR(A, split, NULL, "write a whole split: tiny small full test-3d test-3d-diffuse test-3d-cyc test-3d-ambig prior-train test-2d", .meta = "NAME"),
     MF_OPT_STR(A, asset, NULL, "split (tiny small full test-3d ...): one scene from this glTF asset (.glb/.gltf with UVs and one "
                "material; its textures are the ground truth) instead of the procedural objects", .meta = "FILE"),
     MF_OPT_BOOL(A, no_render, 0, "split: write the layout only, render no image"),
@@ -264,12 +266,17 @@ static int gen_compare_povray(const GenArgs *a, const DsSplitSpec *spec) {
     return MF_EXIT_OK;
 }
 
-/* --split tiny|small|full|test-3d|test-3d-diffuse: the layout, rendered unless --no-render. */
+/* --split tiny|small|full|test-3d|test-3d-*: the layout, rendered unless --no-render. */
 static int gen_split(const GenArgs *a) {
     const char *split = a->split, *out = a->out;
     int render = !a->no_render;
     DsSplitSpec spec;
     if (ds_split_spec(split, &spec)) return MF_EXIT_USAGE;
+    if (render && spec.cycles && !ds_cycles_available()) {
+        mf_fail(MF_EEXT, "--split %s renders with Blender Cycles: no blender here (install Debian's blender, or set $MF_BLENDER; "
+                "--no-render writes the layout only)", split);
+        return MF_EXIT_FAIL;
+    }
     spec.r_min = a->r_min;
     spec.r_max = a->r_max;
     if (a->spp > 0) spec.spp_sqrt = a->spp;
