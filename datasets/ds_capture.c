@@ -134,7 +134,7 @@ int ds_write_capture(const DsCaptureSpec *s, const DsObject *o, uint64_t seed, c
     if ((rc = ds_env_random(DS_ENV_INDOOR, mf_hash64(seed, 0xCA97u), 128, 64, &env_img)) || (rc = mf_env_init(&env, &env_img))) goto out;
     if ((rc = mf_path_join(path, sizeof path, dir, "mesh.obj")) || (rc = mf_obj_write(path, &o->mesh, NULL))) goto out;
     if ((rc = mf_rtscene_new(&o->mesh, &rt))) goto out;
-    MfTexMaterial mat = {&o->kd, &o->orm, mf_v3s(0.5f), mf_v3(1, 0.5f, 0), NULL};
+    MfTexMaterial mat = {.kd = &o->kd, .orm = &o->orm, .kd_const = mf_v3s(0.5f), .orm_const = mf_v3(1, 0.5f, 0), .normal = NULL};
     MfRenderInput in = {rt, &o->mesh, &mat, 1, &env, NULL, 0};
     for (int i = 0; i < s->n_frames && !rc; ++i) {
         MfCamera cam;

@@ -242,7 +242,7 @@ MF_TEST(ds_asset_normal_map_gt_renders) {
     MfRtScene *rt = NULL;
     CHECK_OK(mf_rtscene_new(&m, &rt));
     if (rt && tf.n == 1 && env && seeds) {
-        MfTexMaterial mat = {&kd, &orm, mf_v3s(0.5f), mf_v3(1, 0.5f, 0), &nm};
+        MfTexMaterial mat = {.kd = &kd, .orm = &orm, .kd_const = mf_v3s(0.5f), .orm_const = mf_v3(1, 0.5f, 0), .normal = &nm};
         MfRenderInput in = {rt, &m, &mat, 1, &e, NULL, 0};
         MfCamera cam;
         CHECK_OK(mf_camera_init(&cam, 16, 16, tf.camera_angle_x, tf.frames[0].c2w, "test"));

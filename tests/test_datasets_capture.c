@@ -60,7 +60,7 @@ MF_TEST(ds_capture_gen_intrinsics) {
     MfRtScene *rt = NULL;
     CHECK_OK(mf_rtscene_new(&o.mesh, &rt));
     if (rt) {
-        MfTexMaterial mat = {&o.kd, &o.orm, mf_v3s(0.5f), mf_v3(1, 0.5f, 0), NULL};
+        MfTexMaterial mat = {.kd = &o.kd, .orm = &o.orm, .kd_const = mf_v3s(0.5f), .orm_const = mf_v3(1, 0.5f, 0), .normal = NULL};
         MfRenderInput in = {rt, &o.mesh, &mat, 1, NULL, NULL, 0};
         double e_loaded = 0, e_ax = 0;
         for (int i = 0; i < v.n; ++i) {

@@ -115,7 +115,7 @@ static void write_nv_views(const char *scene, const char *good, const EvEvalOpts
     if (mf_test_failed_now()) return;
     MfRtScene *rt = NULL;
     CHECK_OK(mf_rtscene_new(&r.mesh, &rt));
-    MfTexMaterial mat = {&r.kd, &r.orm, mf_v3s(0.5f), mf_v3(1, 0.5f, 0), NULL};
+    MfTexMaterial mat = {.kd = &r.kd, .orm = &r.orm, .kd_const = mf_v3s(0.5f), .orm_const = mf_v3(1, 0.5f, 0), .normal = NULL};
     MfRenderInput in = {rt, &r.mesh, &mat, 1, &r.env, NULL, 0};
     MfRenderOpts ro = {o->spp_sqrt, o->pixel_samples, o->seed, MF_LOBE_ALL};
     const double c2w[2][16] = {{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 1.5, 0, 0, 0, 1}, {1, 0, 0, 0.1, 0, 1, 0, 0, 0, 0, 1, 1.4, 0, 0, 0, 1}};

@@ -33,7 +33,7 @@ static int make_recon_n(MfMesh *mesh, MfRecon **out, int iters, int ckpt_every) 
     if ((rc = mf_rtscene_new(mesh, &rt))) return rc;
     MfEnvMap env;
     mf_env_init_constant(&env, 8, 4, mf_v3s(1.0f));
-    MfTexMaterial mat = {NULL, NULL, mf_v3(0.6f, 0.4f, 0.3f), mf_v3(1, 0.6f, 0.1f), NULL};
+    MfTexMaterial mat = {.kd = NULL, .orm = NULL, .kd_const = mf_v3(0.6f, 0.4f, 0.3f), .orm_const = mf_v3(1, 0.6f, 0.1f), .normal = NULL};
     MfRenderInput in = {rt, mesh, &mat, 1, &env, NULL, 0};
     MfRenderOpts ro = {2, 2, 3, MF_LOBE_ALL};
     for (int v = 0; v < NV && !rc; ++v) {

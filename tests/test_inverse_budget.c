@@ -37,7 +37,7 @@ static int sphere_views(const MfMesh *mesh, int res, float metallic, MfReconView
         }
     MfEnvMap env;
     if ((rc = mf_env_init(&env, &e))) return rc;
-    MfTexMaterial mat = {NULL, NULL, mf_v3(0.6f, 0.4f, 0.2f), mf_v3(1.0f, 0.4f, metallic), NULL};
+    MfTexMaterial mat = {.kd = NULL, .orm = NULL, .kd_const = mf_v3(0.6f, 0.4f, 0.2f), .orm_const = mf_v3(1.0f, 0.4f, metallic), .normal = NULL};
     MfRenderInput in = {rt, mesh, &mat, 1, &env, NULL, 0};
     MfRenderOpts ro = {4, 2, 99, MF_LOBE_ALL};
     for (int v = 0; v < NV && !rc; ++v) {
@@ -362,7 +362,7 @@ MF_TEST(inverse_budget_env_coverage) {
     CHECK_OK(mf_rtscene_new(&quad, &rt));
     MfEnvMap env;
     CHECK_OK(mf_env_init_constant(&env, 16, 8, mf_v3s(0.8f)));
-    MfTexMaterial mat = {NULL, NULL, mf_v3(0.6f, 0.4f, 0.2f), mf_v3(1.0f, 0.3f, 0.0f), NULL};
+    MfTexMaterial mat = {.kd = NULL, .orm = NULL, .kd_const = mf_v3(0.6f, 0.4f, 0.2f), .orm_const = mf_v3(1.0f, 0.3f, 0.0f), .normal = NULL};
     MfRenderInput in = {rt, &quad, &mat, 1, &env, NULL, 0};
     MfRenderOpts ro = {2, 1, 7, MF_LOBE_ALL};
     double tv[2];

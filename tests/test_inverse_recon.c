@@ -42,7 +42,7 @@ static int make_views(const MfMesh *mesh, MfReconView *views) {
     gt_env(&e);
     MfEnvMap env;
     if ((rc = mf_env_init(&env, &e))) return rc;
-    MfTexMaterial mat = {NULL, NULL, mf_v3(GT_KD[0], GT_KD[1], GT_KD[2]), mf_v3(1.0f, 0.7f, 0.0f), NULL};
+    MfTexMaterial mat = {.kd = NULL, .orm = NULL, .kd_const = mf_v3(GT_KD[0], GT_KD[1], GT_KD[2]), .orm_const = mf_v3(1.0f, 0.7f, 0.0f), .normal = NULL};
     MfRenderInput in = {rt, mesh, &mat, 1, &env, NULL, 0};
     MfRenderOpts ro = {8, 4, 99, MF_LOBE_ALL};
     for (int v = 0; v < NV && !rc; ++v) {

@@ -4,13 +4,16 @@
  * so drawn directions, pdfs and MIS weights are constants, as the adjoint assumes. The scene is
  * a bumped quad that covers the whole image (no silhouette: the loss is smooth in the vertices
  * apart from shadow-ray flips, see the bound's comment) with textured kd/ORM and a random env;
- * the loss is a random linear functional of rgb, diffuse and specular. */
+ * the loss is a random linear functional of rgb, diffuse and specular. The same with world-space
+ * volume textures in place of the UV ones (DMTet's colour pass), where the hit's position, not its
+ * UV, carries the material gradient to the vertices, and the volumes' grids get gradients too. */
 #include <stdlib.h>
 #include <string.h>
 
 #include "core/mf_error.h"
 #include "core/mf_rng.h"
 #include "render/mf_diffrender.h"
+#include "scene/mf_voltex.h"
 #include "mf_test.h"
 #include "mf_test_diff.h"
 #include "mf_test_geom.h"
@@ -22,6 +25,9 @@ typedef struct {
     MfMesh mesh, mesh0; /* evaluated (perturbed) and sampling copies */
     MfRtScene *rt0;
     MfImage kd, orm;
+    MfVoltex vkd, vorm;   /* used in place of kd, orm when vol */
+    MfVoltex vkd0, vorm0; /* their sampling copies, kept at the initial values */
+    int vol;
     MfEnvMap env;
     MfCamera cam;
     float wr[W * H * 3], wd[W * H * 3], ws[W * H * 3];
@@ -65,6 +71,18 @@ static int fix_init(Fix *f) {
     if (!rc) rc = mf_image_alloc(&env, EW, EH, 3);
     if (rc) return rc;
     random_materials(&r, &f->kd, &f->orm, 0.3f);
+    /* volumes over the quad's box, 5^3 vertices, drawn like the textures */
+    const float lo[3] = {-1.1f, -1.1f, -0.2f}, hi[3] = {1.1f, 1.1f, 0.5f};
+    if ((rc = mf_voltex_init(&f->vkd, 5, 3, lo, hi, NULL)) || (rc = mf_voltex_init(&f->vorm, 5, 3, lo, hi, NULL))) return rc;
+    for (int i = 0; i < 125; ++i) {
+        for (int c = 0; c < 3; ++c) f->vkd.grid[3 * i + c] = 0.1f + 0.8f * mf_rng_float(&r);
+        f->vorm.grid[3 * i] = 1.0f;
+        f->vorm.grid[3 * i + 1] = 0.3f + 0.6f * mf_rng_float(&r);
+        f->vorm.grid[3 * i + 2] = 0.1f + 0.8f * mf_rng_float(&r);
+    }
+    if ((rc = mf_voltex_init(&f->vkd0, 5, 3, lo, hi, NULL)) || (rc = mf_voltex_init(&f->vorm0, 5, 3, lo, hi, NULL))) return rc;
+    memcpy(f->vkd0.grid, f->vkd.grid, sizeof(float) * 375);
+    memcpy(f->vorm0.grid, f->vorm.grid, sizeof(float) * 375);
     /* a sky: radiance above 45 degrees of elevation only (rows 0-1; bilinear lookups reach zero
      * at 34 degrees), so shadow rays near a facet's horizon (whose visibility jumps when a
      * primary hit crosses to the next facet) carry no light */
@@ -81,7 +99,19 @@ static void fix_free(Fix *f) {
     mf_mesh_free(&f->mesh0);
     mf_image_free(&f->kd);
     mf_image_free(&f->orm);
+    mf_voltex_free(&f->vkd);
+    mf_voltex_free(&f->vorm);
+    mf_voltex_free(&f->vkd0);
+    mf_voltex_free(&f->vorm0);
     mf_env_free(&f->env);
+}
+
+/* The scene over rt: f's UV textures, or its volumes (sampling from the initial copies) when f->vol. */
+static MfDiffScene fix_scene(const Fix *f, const MfRtScene *rt) {
+    MfDiffScene s = {.rt = rt, .env = &f->env};
+    if (f->vol) s.vkd = &f->vkd, s.vorm = &f->vorm, s.vkd_s = &f->vkd0, s.vorm_s = &f->vorm0;
+    else s.kd = &f->kd, s.orm = &f->orm;
+    return s;
 }
 
 /* The loss at f->mesh's current positions (normals recomputed, scene rebuilt); min_alpha gets
@@ -91,7 +121,8 @@ static double loss(Fix *f, const MfDiffOpts *o, float *min_alpha) {
     MfRenderOut out;
     if (mf_mesh_compute_normals(&f->mesh) || mf_rtscene_new(&f->mesh, &rt)) return NAN;
     if (mf_render_out_alloc(&out, W, H)) return NAN;
-    MfDiffScene s = {.rt = rt, .rt_s = f->rt0, .kd = &f->kd, .orm = &f->orm, .env = &f->env};
+    MfDiffScene s = fix_scene(f, rt);
+    s.rt_s = f->rt0;
     double j = NAN;
     if (!mf_diff_forward(&s, &f->cam, o, &out)) {
         j = weighted_sum(&out, f->wr, f->wd, f->ws, W * H * 3);
@@ -143,5 +174,43 @@ MF_TEST(render_hitgrad_dpos) {
     free(dpos);
     free(dkd);
     free(dkd2);
+    fix_free(&f);
+}
+
+MF_TEST(render_hitgrad_dpos_volume) {
+    /* volume textures: dpos through the hit's position (and normal), and the grids' gradients,
+     * against central differences */
+    Fix f;
+    CHECK_OK(fix_init(&f));
+    f.vol = 1;
+    MfDiffOpts o = {.spp_sqrt = 2, .pixel_samples = 2, .seed = 5};
+    CHECK(isfinite(loss(&f, &o, NULL)));
+    size_t ng = mf_voltex_size(&f.vkd), npos = (size_t)f.mesh.nv * 3;
+    float *dpos = calloc(npos, sizeof(float)), *dvkd = calloc(ng, sizeof(float)), *dvorm = calloc(ng, sizeof(float));
+    MfDiffScene s = fix_scene(&f, f.rt0);
+    MfDiffAdjoint adj = {.drgb = f.wr, .ddiffuse = f.wd, .dspecular = f.ws};
+    MfDiffGrads g = {.dpos = dpos, .dvkd = dvkd, .dvorm = dvorm};
+    CHECK_OK(mf_diff_backward(&s, &f.cam, &o, &adj, &g));
+    LossCtx lc = {&f, &o};
+    struct { const char *name; float *p, *g; size_t n; float eps; double tol; } chk[3] = {
+        {"dpos", f.mesh.pos, dpos, npos, 2e-4f, 2e-3}, {"dvkd", f.vkd.grid, dvkd, ng, 1e-3f, 1e-3}, {"dvorm", f.vorm.grid, dvorm, ng, 1e-3f, 2e-3}};
+    for (int k = 0; k < 3; ++k) {
+        MfGradResult r = mf_test_grad(&(MfGradCheck){.loss = loss_of, .ctx = &lc, .p = chk[k].p, .g = chk[k].g, .n = chk[k].n,
+                                                     .eps = chk[k].eps, .atol = 1, .rtol = 0});
+        double rel = r.worst / r.fd_max;
+        if (getenv("MF_TEST_VERBOSE"))
+            printf("    %s: max |fd| %.5g, max |adjoint - fd| %.3g (relative %.3g) at %ld (fd %.5g, adjoint %.5g)\n", chk[k].name,
+                   r.fd_max, r.worst, rel, r.at, r.fd, r.g);
+        CHECK_MSG(r.fd_max > 0, "%s: no gradient", chk[k].name);
+        CHECK_MSG(rel < chk[k].tol, "%s: max |adjoint - fd| / max |fd| = %.3g at %ld (fd %.6g, adjoint %.6g)", chk[k].name, rel, r.at,
+                  r.fd, r.g);
+    }
+    /* the occlusion channel gets none; the AOV path refuses volumes */
+    for (size_t i = 0; i < ng; i += 3) CHECK_MSG(dvorm[i] == 0.0f, "occlusion gradient at %zu", i);
+    float a[W * H * 3];
+    CHECK(mf_diff_aov_forward(&s, &f.cam, &o, a, NULL, NULL) == MF_EARG);
+    free(dpos);
+    free(dvkd);
+    free(dvorm);
     fix_free(&f);
 }

@@ -246,7 +246,7 @@ MF_TEST(render_degenerate_triangles) {
         CHECK_NEAR(h.ng.y, -1.0, 1e-6);
         CHECK_NEAR(h.t, 3.0, 1e-4);
     }
-    MfTexMaterial mat = {NULL, NULL, mf_v3s(0.5f), mf_v3(0, 0.5f, 0), NULL};
+    MfTexMaterial mat = {.kd = NULL, .orm = NULL, .kd_const = mf_v3s(0.5f), .orm_const = mf_v3(0, 0.5f, 0), .normal = NULL};
     MfLight sun = {MF_LIGHT_SUN, mf_v3s(1), 2.0f, mf_norm(mf_v3(0.2f, -1, 0.3f)), mf_v3s(0)};
     MfEnvMap env;
     CHECK_OK(mf_env_init_constant(&env, 8, 4, mf_v3s(0.5f)));
@@ -348,7 +348,7 @@ MF_TEST(render_blender_spheres_sunset) {
     CHECK_OK(two_spheres(&mesh, centres, 0.5f));
     MfRtScene *rt = NULL;
     CHECK_OK(mf_rtscene_new(&mesh, &rt));
-    MfTexMaterial mats[2] = {{NULL, NULL, {0.8f, 0.3f, 0.2f}, {0, 1.0f, 0.0f}, NULL}, {NULL, NULL, {0.9f, 0.7f, 0.4f}, {0, 0.4f, 1.0f}, NULL}};
+    MfTexMaterial mats[2] = {{.kd = NULL, .orm = NULL, .kd_const = {0.8f, 0.3f, 0.2f}, .orm_const = {0, 1.0f, 0.0f}, .normal = NULL}, {.kd = NULL, .orm = NULL, .kd_const = {0.9f, 0.7f, 0.4f}, .orm_const = {0, 0.4f, 1.0f}, .normal = NULL}};
     MfEnvMap env;
     CHECK_OK(mf_env_load(&env, probe));
     MfRenderInput in = {rt, &mesh, mats, 2, &env, NULL, 0};
@@ -474,7 +474,7 @@ MF_TEST(render_povray_lambert) {
     CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 256, 128));
     MfRtScene *rt = NULL;
     CHECK_OK(mf_rtscene_new(&mesh, &rt));
-    MfTexMaterial mat = {NULL, NULL, kd, {0, 0.5f, 0}, NULL};
+    MfTexMaterial mat = {.kd = NULL, .orm = NULL, .kd_const = kd, .orm_const = {0, 0.5f, 0}, .normal = NULL};
     MfLight sun = {MF_LIGHT_SUN, {1, 1, 1}, E, l, {0, 0, 0}};
     MfRenderInput in = {rt, &mesh, &mat, 1, NULL, &sun, 1};
     MfRenderOpts o = {1, 16, 9, MF_LOBE_DIFFUSE};

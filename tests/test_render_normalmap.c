@@ -130,7 +130,7 @@ MF_TEST(normalmap_flat_map_renders_unchanged) {
     MfImage flat;
     CHECK_OK(mf_image_alloc(&flat, 8, 8, 3));
     for (int i = 0; i < 64; ++i) flat.data[3 * i] = flat.data[3 * i + 1] = 0.5f, flat.data[3 * i + 2] = 1.0f;
-    MfTexMaterial mat = {NULL, NULL, mf_v3(0.6f, 0.5f, 0.4f), mf_v3(1, 0.3f, 0.2f), NULL};
+    MfTexMaterial mat = {.kd = NULL, .orm = NULL, .kd_const = mf_v3(0.6f, 0.5f, 0.4f), .orm_const = mf_v3(1, 0.3f, 0.2f), .normal = NULL};
     MfRenderInput in = {rt, &m, &mat, 1, &env, NULL, 0};
     MfCamera cam;
     CHECK_OK(look_cam(&cam, 16, 16, mf_v3(0.3f, -1.6f, 0.5f), mf_v3(0, 0, 0)));

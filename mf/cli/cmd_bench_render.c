@@ -143,7 +143,7 @@ static int bench_render_run(const BenchRenderArgs *a) {
     char env_desc[1200];
     if ((rc = mf_rtscene_new(&mesh, &rt)) || (rc = load_env(a, &env, env_desc, sizeof env_desc))) goto done;
     has_env = 1;
-    MfTexMaterial mat = {NULL, NULL, {0.6f, 0.5f, 0.4f}, {0.0f, 0.4f, 0.3f}, NULL};
+    MfTexMaterial mat = {.kd = NULL, .orm = NULL, .kd_const = {0.6f, 0.5f, 0.4f}, .orm_const = {0.0f, 0.4f, 0.3f}, .normal = NULL};
     MfRenderInput in = {rt, &mesh, &mat, 1, &env, NULL, 0};
     MfRenderOpts o = {a->spp, a->pixel_samples, 1, MF_LOBE_ALL};
     MfMat4 m = mf_mat4_look_at(mf_v3(0.0f, -1.15f, 0.75f), mf_v3(0, 0, 0), mf_v3(0, 0, 1));

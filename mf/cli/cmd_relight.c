@@ -77,8 +77,7 @@ static int relight_run(const char *result, const RelightArgs *a) {
     if (!rc && !(rc = ev_result_load(result, NULL, &res))) have_res = 1;
     if (!rc && !(rc = mf_env_load(&env, envp))) have_env = 1;
     if (!rc) rc = mf_rtscene_new(&res.mesh, &rt);
-    MfTexMaterial mat = {have_res ? &res.kd : NULL, have_res ? &res.orm : NULL, mf_v3s(0.5f), mf_v3(1, 0.5f, 0),
-                         have_res && res.has_normal ? &res.normal : NULL};
+    MfTexMaterial mat = {.kd = have_res ? &res.kd : NULL, .orm = have_res ? &res.orm : NULL, .kd_const = mf_v3s(0.5f), .orm_const = mf_v3(1, 0.5f, 0), .normal = have_res && res.has_normal ? &res.normal : NULL};
     MfRenderInput in = {rt, have_res ? &res.mesh : NULL, &mat, 1, have_env ? &env : NULL, NULL, 0};
     MfRenderOpts ro = {spp, ps, (uint64_t)seed, MF_LOBE_ALL};
     /* every frame's camera and output name first: a bad frame or two frames with the same

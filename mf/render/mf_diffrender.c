@@ -18,9 +18,10 @@ typedef struct {
 } Est;
 
 static void estimator_of(const MfDiffScene *s, const MfDiffOpts *o, const float *tan, Est *r) {
-    r->m = (MfTexMaterial){.kd = s->kd, .orm = s->orm, .normal = s->normal};
+    r->m = (MfTexMaterial){.kd = s->kd, .orm = s->orm, .normal = s->normal, .vkd = s->vkd, .vorm = s->vorm};
     r->m_s = (MfTexMaterial){.kd = s->kd_s ? s->kd_s : s->kd, .orm = s->orm_s ? s->orm_s : s->orm,
-                             .normal = s->normal_s ? s->normal_s : s->normal};
+                             .normal = s->normal_s ? s->normal_s : s->normal, .vkd = s->vkd_s ? s->vkd_s : s->vkd,
+                             .vorm = s->vorm_s ? s->vorm_s : s->vorm};
     r->e = (MfEstimator){.rt = s->rt, .rt_s = s->rt_s, .mesh = mf_rtscene_mesh(s->rt), .mats = &r->m,
                          .mats_s = &r->m_s, .nmat = 1, .env = s->env, .env_s = s->env_s ? s->env_s : s->env, .tan = tan, .spp_sqrt = o->spp_sqrt,
                          .pixel_samples = o->pixel_samples, .lobes = MF_LOBE_ALL, .seed = o->seed,
@@ -33,8 +34,11 @@ static void estimator_of(const MfDiffScene *s, const MfDiffOpts *o, const float 
 #define MF_DIFF_LANES 8
 
 static int check(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o) {
-    if (!s || !s->rt || !s->kd || !s->orm || !s->env) return mf_fail(MF_EARG, "diffrender: incomplete scene");
-    if (s->kd->c < 3 || s->orm->c < 3) return mf_fail(MF_EARG, "diffrender: kd and ORM textures need 3 channels");
+    if (!s || !s->rt || (!s->kd && !s->vkd) || (!s->orm && !s->vorm) || !s->env) return mf_fail(MF_EARG, "diffrender: incomplete scene");
+    if ((s->kd && s->kd->c < 3) || (s->orm && s->orm->c < 3)) return mf_fail(MF_EARG, "diffrender: kd and ORM textures need 3 channels");
+    const MfVoltex *vol[4] = {s->vkd, s->vorm, s->vkd_s, s->vorm_s};
+    for (int k = 0; k < 4; ++k)
+        if (vol[k] && vol[k]->c != 3) return mf_fail(MF_EARG, "diffrender: volume textures need 3 channels, not %d", vol[k]->c);
     if (s->normal) {
         if (s->normal->c != 3) return mf_fail(MF_EARG, "diffrender: the normal map needs 3 channels");
         if (s->normal_s && s->normal_s->c != 3) return mf_fail(MF_EARG, "diffrender: the sampling normal map needs 3 channels");
@@ -125,9 +129,10 @@ int mf_diff_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts
     float *tan_owned;
     int rc = setup(s, cam, o, &est, &tan_owned);
     if (rc) return rc;
-    size_t nkd = g->dkd ? (size_t)s->kd->w * s->kd->h * 3 : 0;
-    size_t norm = g->dorm ? (size_t)s->orm->w * s->orm->h * 3 : 0;
+    size_t nkd = g->dkd && s->kd && !s->vkd ? (size_t)s->kd->w * s->kd->h * 3 : 0;
+    size_t norm = g->dorm && s->orm && !s->vorm ? (size_t)s->orm->w * s->orm->h * 3 : 0;
     size_t nenv = g->denv ? (size_t)s->env->img.w * s->env->img.h * 3 : 0;
+    size_t nvkd = g->dvkd && s->vkd ? mf_voltex_size(s->vkd) : 0, nvorm = g->dvorm && s->vorm ? mf_voltex_size(s->vorm) : 0;
     size_t nnm = (g->dnormal && s->normal) ? (size_t)s->normal->w * s->normal->h * 3 : 0;
     const MfMesh *mesh = mf_rtscene_mesh(s->rt);
     size_t npos = g->dpos ? (size_t)mesh->nv * 3 : 0; /* dpos, then the vertex normals' adjoint */
@@ -145,7 +150,7 @@ int mf_diff_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts
         }
         adj = &aa_adj;
     }
-    size_t per = nkd + norm + nenv + nnm + 2 * npos;
+    size_t per = nkd + norm + nenv + nnm + nvkd + nvorm + 2 * npos; /* a lane: kd, ORM, env, normal map, volumes, dpos, dnrm */
     float *buf = calloc((size_t)MF_DIFF_LANES * per + 1, sizeof(float)); /* (lanes, per) */
     if (!buf) {
         free(tan_owned);
@@ -155,9 +160,11 @@ int mf_diff_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts
 #pragma omp parallel for schedule(static, 1)
     for (int l = 0; l < MF_DIFF_LANES; ++l) {
         float *b = buf + (size_t)l * per;
-        MfEstAdjoint a = {adj->drgb, adj->ddiffuse, adj->dspecular, nkd ? b : NULL, norm ? b + nkd : NULL,
-                          nnm ? b + nkd + norm + nenv : NULL, nenv ? b + nkd + norm : NULL,
-                          npos ? b + per - 2 * npos : NULL, npos ? b + per - npos : NULL};
+        float *vb = b + nkd + norm + nenv + nnm;
+        MfEstAdjoint a = {.drgb = adj->drgb, .ddiffuse = adj->ddiffuse, .dspecular = adj->dspecular, .dkd = nkd ? b : NULL,
+                          .dorm = norm ? b + nkd : NULL, .denv = nenv ? b + nkd + norm : NULL,
+                          .dnormal = nnm ? b + nkd + norm + nenv : NULL, .dvkd = nvkd ? vb : NULL, .dvorm = nvorm ? vb + nvkd : NULL,
+                          .dpos = npos ? b + per - 2 * npos : NULL, .dnrm = npos ? b + per - npos : NULL};
         for (int y = l; y < cam->h; y += MF_DIFF_LANES)
             for (int x = 0; x < cam->w; ++x) mf_est_pixel(&est.e, cam, x, y, NULL, &a, NULL);
     }
@@ -167,6 +174,8 @@ int mf_diff_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts
         for (size_t i = 0; i < norm; ++i) g->dorm[i] += b[nkd + i];
         for (size_t i = 0; i < nenv; ++i) g->denv[i] += b[nkd + norm + i];
         for (size_t i = 0; i < nnm; ++i) g->dnormal[i] += b[nkd + norm + nenv + i];
+        for (size_t i = 0; i < nvkd; ++i) g->dvkd[i] += b[nkd + norm + nenv + nnm + i];
+        for (size_t i = 0; i < nvorm; ++i) g->dvorm[i] += b[nkd + norm + nenv + nnm + nvkd + i];
         if (t > 0)
             for (size_t i = 0; i < 2 * npos; ++i) buf[per - 2 * npos + i] += b[per - 2 * npos + i];
     }
@@ -188,9 +197,16 @@ int mf_diff_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts
 
 /* ---- material AOVs ---- */
 
+/* check, and the AOVs' UV textures */
+static int check_aov(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o) {
+    int rc = check(s, cam, o);
+    if (!rc && (!s->kd || !s->orm || s->vkd || s->vorm)) rc = mf_fail(MF_EARG, "diffrender: material AOVs need UV textures, not volume textures");
+    return rc;
+}
+
 int mf_diff_aov_forward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, float *albedo, float *orm,
                         float *alpha) {
-    int rc = check(s, cam, o);
+    int rc = check_aov(s, cam, o);
     if (rc) return rc;
     Est est;
     estimator_of(s, o, NULL, &est);
@@ -222,7 +238,7 @@ int mf_diff_aov_forward(const MfDiffScene *s, const MfCamera *cam, const MfDiffO
 
 int mf_diff_aov_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, const float *dalbedo,
                          const float *dorm, MfDiffGrads *g) {
-    int rc = check(s, cam, o);
+    int rc = check_aov(s, cam, o);
     if (rc) return rc;
     Est est;
     estimator_of(s, o, NULL, &est);

@@ -20,8 +20,8 @@
  * (cosines and the half vector's cosine; the BRDF is isotropic) into the map's texels. Without
  * a map every output is bit-identical to the renderer without this feature.
  * Vertex positions (MfDiffGrads.dpos): each primary hit moves with its triangle's vertices (the
- * ray-plane intersection, render/mf_hitgrad.h), so its UV, the kd/ORM lookups there and the
- * interpolated shading normal change; the normal's adjoint goes through the BRDF's cosines and
+ * ray-plane intersection, render/mf_hitgrad.h), so its UV, the kd/ORM lookups there (or, with
+ * volume textures, the lookups at its position) and the interpolated shading normal change; the normal's adjoint goes through the BRDF's cosines and
  * then through mf_mesh_compute_normals (exact when the mesh's normals are that function of its
  * positions, as for a marching-tets mesh; for a mesh without normals, through the face normal).
  * Not differentiated: the hit's position in shadow-ray origins and point/sun light directions
@@ -70,6 +70,10 @@ typedef struct {
                                 computed per call when a normal map is given */
     const MfRtScene *rt_s;   /* borrowed; sampling copy of the geometry, NULL = rt: gradient checks
                                 of dpos keep it at the unperturbed mesh (mf_estimator.h) */
+    const MfVoltex *vkd, *vorm;     /* borrowed; world-space volume textures (scene/mf_voltex.h, 3
+                                       channels) in place of kd / orm, which may then be NULL (DMTet's
+                                       colour pass: the mesh changes every step, so it has no UVs to keep) */
+    const MfVoltex *vkd_s, *vorm_s; /* borrowed; their sampling copies, NULL = the evaluated ones */
 } MfDiffScene;
 
 typedef struct {
@@ -95,6 +99,8 @@ typedef struct {
     float *denv; /* (eh, ew, 3) +=, or NULL */
     float *dnormal; /* (th, tw, 3) += normal-map texels, or NULL (ignored without a normal map) */
     float *dpos;    /* (nv, 3) += rt's mesh's vertex positions, or NULL; refused with a normal map */
+    float *dvkd;    /* (res^3 * 3) += the kd volume texture's grid, or NULL (ignored without one) */
+    float *dvorm;   /* (res^3 * 3) += the ORM volume texture's grid (channel 0 gets none), or NULL */
 } MfDiffGrads;
 
 /* out must be allocated for cam->w x cam->h (mf_render_out_alloc); fills every AOV, as mf_render. */
@@ -102,7 +108,7 @@ int mf_diff_forward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts 
 int mf_diff_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, const MfDiffAdjoint *adj,
                      MfDiffGrads *g);
 
-/* Material AOVs for the prior term: per pixel, the mean over its primary-ray hits of kd (albedo)
+/* Material AOVs for the prior term (UV textures only; volume textures are refused): per pixel, the mean over its primary-ray hits of kd (albedo)
  * and ORM at the hit's UV, and the coverage. Samples are stratified like the forward pass
  * (seed o->seed; mf_est_primary_hits: the forward pass's first sample); lighting is not evaluated. albedo, orm (h, w, 3), alpha (h, w). */
 int mf_diff_aov_forward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts *o, float *albedo, float *orm,

@@ -126,16 +126,24 @@ typedef struct {
     MfVec3 orm; /* as stored (occlusion, roughness, metallic), before clamping */
 } Mat;
 
-static Mat material_at(const MfTexMaterial *tm, MfVec2 uv) {
+static Mat material_at(const MfTexMaterial *tm, const MfHit *h) {
     Mat r;
     float b[4];
-    if (tm->kd) {
+    const float p[3] = {h->p.x, h->p.y, h->p.z};
+    MfVec2 uv = h->uv;
+    if (tm->vkd) {
+        mf_voltex_forward(tm->vkd, p, 1, b);
+        r.m.kd = mf_v3(b[0], b[1], b[2]);
+    } else if (tm->kd) {
         mf_tex_sample(tm->kd, uv.x, uv.y, MF_WRAP_REPEAT, b);
         r.m.kd = mf_v3(b[0], b[1], b[2]);
     } else {
         r.m.kd = tm->kd_const;
     }
-    if (tm->orm) {
+    if (tm->vorm) {
+        mf_voltex_forward(tm->vorm, p, 1, b);
+        r.orm = mf_v3(b[0], b[1], b[2]);
+    } else if (tm->orm) {
         mf_tex_sample(tm->orm, uv.x, uv.y, MF_WRAP_REPEAT, b);
         r.orm = mf_v3(b[0], b[1], b[2]);
     } else {
@@ -254,11 +262,11 @@ static int shade(Shading *sh, MfVec3 ns, MfVec3 ns_s, int sep, MfRng *rng, MfRay
     /* the sampling BRDF: another material (sampling copies) or another frame (normal map copy) */
     const MfTexMaterial *tms = e->mats_s ? &e->mats_s[sh->id] : NULL;
     const MfTexMaterial *tm = &e->mats[sh->id];
-    int sepm = (tms && (tms->kd != tm->kd || tms->orm != tm->orm)) || sh->hs != h;
+    int sepm = (tms && (tms->kd != tm->kd || tms->orm != tm->orm || tms->vkd != tm->vkd || tms->vorm != tm->vorm)) || sh->hs != h;
     MfBrdfCtx bc_s;
     const MfBrdfCtx *bs = &sh->bc;
     if (sepm || sep) {
-        Mat ms = sepm ? material_at(tms ? tms : tm, sh->hs->uv) : sh->mat;
+        Mat ms = sepm ? material_at(tms ? tms : tm, sh->hs) : sh->mat;
         mf_brdf_prepare(&bc_s, &ms.m, wo_s, lobes);
         bs = &bc_s;
     }
@@ -390,7 +398,7 @@ void mf_est_pixel(const MfEstimator *e, const MfCamera *cam, int x, int y, MfRen
         MfHit hs;
         int geo_s = e->rt_s && e->rt_s != e->rt && mf_rtscene_intersect(e->rt_s, org, dir, 0.0f, INFINITY, &hs);
         int id = (h.mat >= 0 && h.mat < e->nmat) ? h.mat : 0;
-        Shading sh = {.e = e, .h = &h, .hs = geo_s ? &hs : &h, .id = id, .mat = material_at(&e->mats[id], h.uv),
+        Shading sh = {.e = e, .h = &h, .hs = geo_s ? &hs : &h, .id = id, .mat = material_at(&e->mats[id], &h),
                       .wo_w = mf_neg(dir), .a = adj ? &a : NULL, .adj = adj};
         /* shading normal: the material's normal map, or the hit's; and the sampling copy's */
         const MfImage *map = e->tan ? e->mats[id].normal : NULL;
@@ -412,14 +420,20 @@ void mf_est_pixel(const MfEstimator *e, const MfCamera *cam, int x, int y, MfRen
             float gorm[3] = {0.0f, sh.mat.orm.y >= 0.0f && sh.mat.orm.y <= 1.0f ? sh.dr : 0.0f,
                              sh.mat.orm.z >= 0.0f && sh.mat.orm.z <= 1.0f ? sh.dm : 0.0f};
             const MfTexMaterial *tm = &e->mats[0];
-            if (adj->dkd && tm->kd) mf_tex_sample_backward(tm->kd, h.uv.x, h.uv.y, MF_WRAP_REPEAT, gkd, adj->dkd);
-            if (adj->dorm && tm->orm) mf_tex_sample_backward(tm->orm, h.uv.x, h.uv.y, MF_WRAP_REPEAT, gorm, adj->dorm);
+            const int uvkd = tm->kd && !tm->vkd, uvorm = tm->orm && !tm->vorm; /* looked up by UV */
+            if (adj->dkd && uvkd) mf_tex_sample_backward(tm->kd, h.uv.x, h.uv.y, MF_WRAP_REPEAT, gkd, adj->dkd);
+            if (adj->dorm && uvorm) mf_tex_sample_backward(tm->orm, h.uv.x, h.uv.y, MF_WRAP_REPEAT, gorm, adj->dorm);
+            /* volume textures: their grids, and the hit position (for dpos) */
+            const float p[3] = {h.p.x, h.p.y, h.p.z};
+            float dp[3] = {0.0f, 0.0f, 0.0f}, *dpp = adj->dpos && !map ? dp : NULL;
+            if (tm->vkd && (adj->dvkd || dpp)) mf_voltex_backward(tm->vkd, p, 1, gkd, adj->dvkd, dpp);
+            if (tm->vorm && (adj->dvorm || dpp)) mf_voltex_backward(tm->vorm, p, 1, gorm, adj->dvorm, dpp);
             if (sh.want_dn && map) mf_nmap_normal_backward(&nf, map, h.uv, sh.wo_w, sh.dn, adj->dnormal);
-            if (adj->dpos && !map) { /* the hit moves with the vertices: its UV and shading normal */
+            if (adj->dpos && !map) { /* the hit moves with the vertices: its UV, position and shading normal */
                 MfVec2 duv = {0.0f, 0.0f};
-                if (tm->kd) mf_tex_sample_grad_uv(tm->kd, h.uv.x, h.uv.y, MF_WRAP_REPEAT, gkd, 3, &duv.x, &duv.y);
-                if (tm->orm) mf_tex_sample_grad_uv(tm->orm, h.uv.x, h.uv.y, MF_WRAP_REPEAT, gorm, 3, &duv.x, &duv.y);
-                mf_hit_backward(e->mesh, &h, org, dir, duv, sh.dn, adj->dpos, adj->dnrm);
+                if (uvkd) mf_tex_sample_grad_uv(tm->kd, h.uv.x, h.uv.y, MF_WRAP_REPEAT, gkd, 3, &duv.x, &duv.y);
+                if (uvorm) mf_tex_sample_grad_uv(tm->orm, h.uv.x, h.uv.y, MF_WRAP_REPEAT, gorm, 3, &duv.x, &duv.y);
+                mf_hit_backward(e->mesh, &h, org, dir, duv, mf_v3(dp[0], dp[1], dp[2]), sh.dn, adj->dpos, adj->dnrm);
             }
             continue;
         }

@@ -72,6 +72,8 @@ typedef struct {
     float *dorm;    /* borrowed; (th, tw, 3) material 0's ORM texels (R gets none), or NULL */
     float *dnormal; /* borrowed; (th, tw, 3) material 0's normal-map texels, or NULL */
     float *denv;    /* borrowed; (eh, ew, 3) env texels, or NULL */
+    float *dvkd;    /* borrowed; (res^3 * 3) material 0's kd volume texture (MfTexMaterial.vkd), or NULL */
+    float *dvorm;   /* borrowed; (res^3 * 3) its ORM volume texture (channel 0 gets none), or NULL */
     float *dpos;    /* borrowed; (nv, 3) vertex positions through the hit point (mf_hitgrad.h), or NULL */
     float *dnrm;    /* borrowed; (nv, 3) vertex normals through the shading normal; with dpos */
 } MfEstAdjoint;

@@ -12,8 +12,8 @@ static void add3(float *a, uint32_t i, MfVec3 v) {
 /* d(v / |v|) applied to the adjoint g of the unit vector u = v / l */
 static MfVec3 unit_backward(MfVec3 u, float l, MfVec3 g) { return mf_scale(mf_madd(g, u, -mf_dot(u, g)), 1.0f / l); }
 
-void mf_hit_backward(const MfMesh *m, const MfHit *h, MfVec3 org, MfVec3 dir, MfVec2 duv, MfVec3 dns, float *dpos,
-                     float *dnrm) {
+void mf_hit_backward(const MfMesh *m, const MfHit *h, MfVec3 org, MfVec3 dir, MfVec2 duv, MfVec3 dp, MfVec3 dns,
+                     float *dpos, float *dnrm) {
     const uint32_t *f = m->tri + 3 * h->tri;
     MfVec3 p0 = at3(m->pos, f[0]), p1 = at3(m->pos, f[1]), p2 = at3(m->pos, f[2]);
     MfVec3 e1 = mf_sub(p1, p0), e2 = mf_sub(p2, p0), s = mf_sub(org, p0), wo = mf_neg(dir);
@@ -25,6 +25,11 @@ void mf_hit_backward(const MfMesh *m, const MfHit *h, MfVec3 org, MfVec3 dir, Mf
     MfVec3 de1 = mf_v3s(0.0f), de2 = mf_v3s(0.0f);
     if (m->uv)
         for (int k = 0; k < 3; ++k) gb[k] += duv.x * m->uv[2 * f[k]] + duv.y * m->uv[2 * f[k] + 1];
+    const MfVec3 pk[3] = {p0, p1, p2};
+    for (int k = 0; k < 3; ++k) { /* p = sum b_k p_k: directly, and through the b_k below */
+        gb[k] += mf_dot(dp, pk[k]);
+        add3(dpos, f[k], mf_scale(dp, b[k]));
+    }
     MfVec3 ngu = mf_scale(c, 1.0f / lc);
     float flip = mf_dot(ngu, wo) < 0.0f ? -1.0f : 1.0f;
     MfVec3 gu = mf_scale(dns, flip); /* adjoint of the unflipped unit normal */

@@ -5,7 +5,9 @@
  * e2 = p2 - p0, [a, b, c] = a.(b x c)), i.e. the ray-plane intersection expressed in the
  * triangle; moving the vertices moves the hit across the surface, so the interpolated UV (and
  * the textures looked up there) and the interpolated shading normal change. mf_hit_backward
- * maps dLoss/d(uv) and dLoss/d(unit shading normal ns, world) of one hit to the vertices:
+ * maps dLoss/d(uv), dLoss/d(hit position p, world: p = sum b_i p_i is the point on the ray, so
+ * it moves along the ray; volume textures are looked up there) and dLoss/d(unit shading normal
+ * ns, world) of one hit to the vertices:
  *   dpos (nv, 3) += through the barycentrics, and for meshes without normals through the face
  *                   normal (ns = the flipped unit face normal);
  *   dnrm (nv, 3) += dLoss/d(vertex normals), through ns = flip * normalize(sum b_i n_i); chain it
@@ -18,7 +20,7 @@
 
 #include "render/mf_rtscene.h"
 
-void mf_hit_backward(const MfMesh *m, const MfHit *h, MfVec3 org, MfVec3 dir, MfVec2 duv, MfVec3 dns, float *dpos,
-                     float *dnrm);
+void mf_hit_backward(const MfMesh *m, const MfHit *h, MfVec3 org, MfVec3 dir, MfVec2 duv, MfVec3 dp, MfVec3 dns,
+                     float *dpos, float *dnrm);
 
 #endif

@@ -43,6 +43,7 @@
 #include "scene/mf_camera.h"
 #include "scene/mf_envmap.h"
 #include "scene/mf_light.h"
+#include "scene/mf_voltex.h"
 
 typedef struct {
     const MfImage *kd;  /* borrowed; (h, w, >=3) linear base colour, or NULL: kd_const */
@@ -51,6 +52,9 @@ typedef struct {
     MfVec3 orm_const;   /* (occlusion, roughness, metallic) */
     const MfImage *normal; /* borrowed; (h, w, 3) tangent-space normal map (render/mf_normalmap.h,
                               glTF convention), or NULL: the hit's interpolated normal */
+    const MfVoltex *vkd;   /* borrowed; (res^3, 3) world-space volume texture (scene/mf_voltex.h)
+                              looked up at the hit's position, in place of kd / kd_const; or NULL */
+    const MfVoltex *vorm;  /* borrowed; the same for ORM, in place of orm / orm_const; or NULL */
 } MfTexMaterial;
 
 typedef struct {

@@ -102,7 +102,7 @@ void mf_voltex_backward(const MfVoltex *v, const float *pts, int n, const float 
             size_t gi = (cl.base + off) * (size_t)c;
             float dot = 0.0f;
             for (int ch = 0; ch < c; ++ch) {
-                dgrid[gi + ch] += w * d[ch];
+                if (dgrid) dgrid[gi + ch] += w * d[ch];
                 dot += d[ch] * v->grid[gi + ch];
             }
             for (int a = 0; a < 3; ++a) dp[a] += dot * dw[a];

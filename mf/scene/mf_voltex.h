@@ -45,9 +45,9 @@ size_t mf_voltex_size(const MfVoltex *v);
 /* out (n, c) = trilinear lookup at pts (n, 3) world points (clamped to the box). */
 void mf_voltex_forward(const MfVoltex *v, const float *pts, int n, float *out);
 
-/* Adjoint of mf_voltex_forward: given dout (n, c) = dL/dout, accumulates dgrid (res^3 * c) +=
- * dL/dgrid and, when dpts is not NULL, dpts (n, 3) += dL/dpts (0 along clamped axes). Serial
- * (a scatter): deterministic. */
+/* Adjoint of mf_voltex_forward: given dout (n, c) = dL/dout, accumulates, when not NULL, dgrid
+ * (res^3 * c) += dL/dgrid and dpts (n, 3) += dL/dpts (0 along clamped axes). Serial (a
+ * scatter): deterministic. */
 void mf_voltex_backward(const MfVoltex *v, const float *pts, int n, const float *dout, float *dgrid, float *dpts);
 
 /* The TV regulariser above (eps > 0); when dgrid is not NULL, accumulates its gradient
