@@ -15,6 +15,7 @@
 #include "inverse/mf_geom_fit.h"
 #include "inverse/mf_recon_geom.h"
 #include "render/mf_antialias.h"
+#include "render/mf_integrator.h"
 #include "render/mf_rtscene.h"
 #include "mf_test.h"
 #include "mf_test_geom.h"
@@ -145,6 +146,87 @@ MF_TEST(inverse_geom_fit_sphere) {
     for (int v = 0; v < NVIEW; ++v) mf_image_free(&masks[v]);
     free(sdf);
     free(def);
+}
+
+/* references for the colour term: the R1 sphere rendered by mf_render (kd KD_REF, roughness 0.6,
+ * metallic 0) under a constant env of radiance 2, 4 samples per pixel: RGBA, straight colour */
+static const float KD_REF[3] = {0.7f, 0.3f, 0.2f};
+static int make_rgba(const MfCamera *cams, MfImage *imgs) {
+    MfMesh s;
+    MfRtScene *rt = NULL;
+    MfEnvMap env = {0};
+    MfRenderOut out = {0};
+    int rc = mf_mesh_uv_sphere(&s, 128, 64, mf_v3(0, 0, 0), R1);
+    if (rc) return rc;
+    if (!(rc = mf_rtscene_new(&s, &rt))) rc = mf_env_init_constant(&env, 16, 8, mf_v3s(2.0f));
+    MfTexMaterial mat = {.kd_const = mf_v3(KD_REF[0], KD_REF[1], KD_REF[2]), .orm_const = mf_v3(1, 0.6f, 0)};
+    MfRenderInput in = {rt, &s, &mat, 1, &env, NULL, 0};
+    MfRenderOpts ro = {2, 4, 3, MF_LOBE_ALL};
+    for (int v = 0; v < NVIEW && !rc; ++v) {
+        if ((rc = mf_render(&in, &cams[v], &ro, &out, NULL)) || (rc = mf_image_alloc(&imgs[v], IMG, IMG, 4))) break;
+        for (int i = 0; i < IMG * IMG; ++i) {
+            float a = out.alpha[i];
+            for (int c = 0; c < 3; ++c) imgs[v].data[4 * i + c] = a > 0 ? out.rgb[3 * i + c] / a : 0.0f;
+            imgs[v].data[4 * i + 3] = a;
+        }
+        mf_render_out_free(&out);
+    }
+    mf_env_free(&env);
+    mf_rtscene_free(rt);
+    mf_mesh_free(&s);
+    return rc;
+}
+
+MF_TEST(inverse_geom_fit_colour_sphere) {
+    /* the colour term (volume-texture materials and an env, optimised with the SDF); every step
+     * sees all 8 views, so the log compares like with like.
+     * (a) at the right surface with the SDF held (lr_sdf 1e-6), materials and light fit the
+     *     references: the colour loss falls, the same bytes twice;
+     * (b) with the colour weight ~0 the same path (the renderer's antialiased alpha) fits the
+     *     silhouettes from R0, as the mask term does.
+     * Measured (MF_TEST_VERBOSE=1): (a) 0.0555 -> 0.0447 in 20 steps; (b) mask 0.207 -> 0.168. With the colour adjoint negated (a) fails (0.0555 -> 0.07).
+     * Not asserted, because it does not hold: with weight 1 and lr_sdf 0.01 from R1 the surface
+     * drifts (mask 0.0024 -> 0.013, colour 0.055 -> 0.086 in 40 steps): the shading gradients move
+     * the surface to make up for materials not yet fitted. */
+    enum { CI = 20, CI2 = 4 };
+    MfCamera cams[NVIEW];
+    MfImage imgs[NVIEW];
+    memset(imgs, 0, sizeof imgs);
+    CHECK_OK(make_cams(cams));
+    CHECK_OK(make_rgba(cams, imgs));
+    MfTetGrid g = mf_tetgrid_make(RES, mf_v3(0, 0, 0), EXTENT);
+    size_t nv = mf_tetgrid_nverts(&g);
+    float *sdf = malloc(nv * sizeof(float));
+    MfGeomFitStep log[2][CI];
+    MfGeomFitOpts o = {.iters = CI, .lr_sdf = 1e-6f, .color = 1.0f, .seed = 7};
+    for (int run = 0; run < 2; ++run) { /* the second run: its first CI2 steps */
+        sphere_sdf(&g, R1, sdf);
+        int done = -1;
+        o.iters = run ? CI2 : CI;
+        CHECK_OK(mf_geom_fit(&g, sdf, NULL, cams, imgs, NVIEW, &o, log[run], &done));
+        CHECK(done == o.iters);
+    }
+    CHECK_MSG(!memcmp(log[0], log[1], CI2 * sizeof log[0][0]), "two runs with the same seed differ");
+    o.iters = CI;
+    double r0 = log[0][0].rgb, r1 = 0;
+    for (int i = CI - 5; i < CI; ++i) r1 += log[0][i].rgb / 5;
+    if (getenv("MF_TEST_VERBOSE")) printf("    (a) colour loss %.5f -> %.5f (last 5 steps' mean)\n", r0, r1);
+    CHECK_MSG(r0 > 0 && r1 < 0.9 * r0, "(a) colour loss %.5f -> %.5f (want < 0.9x)", r0, r1);
+    o.lr_sdf = 0.01f, o.color = 1e-6f;
+    sphere_sdf(&g, R0, sdf);
+    CHECK_OK(mf_geom_fit(&g, sdf, NULL, cams, imgs, NVIEW, &o, log[0], NULL));
+    double m0 = log[0][0].mask, m1 = 0;
+    for (int i = CI - 5; i < CI; ++i) m1 += log[0][i].mask / 5;
+    if (getenv("MF_TEST_VERBOSE")) printf("    (b) mask loss %.5f -> %.5f\n", m0, m1);
+    CHECK_MSG(m1 < 0.85 * m0, "(b) mask loss %.5f -> %.5f (want < 0.85x)", m0, m1);
+    /* masks without colour are refused by name */
+    MfImage one = {0}, ones[NVIEW];
+    CHECK_OK(mf_image_alloc(&one, IMG, IMG, 1));
+    for (int v = 0; v < NVIEW; ++v) ones[v] = one;
+    CHECK_ERR(mf_geom_fit(&g, sdf, NULL, cams, ones, NVIEW, &o, NULL, NULL), "RGBA");
+    mf_image_free(&one);
+    for (int v = 0; v < NVIEW; ++v) mf_image_free(&imgs[v]);
+    free(sdf);
 }
 
 /* an SDF without a zero crossing: a status naming the step, the field untouched */

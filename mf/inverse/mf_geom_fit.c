@@ -5,8 +5,11 @@
 #include <string.h>
 
 #include "core/mf_error.h"
+#include "core/mf_rng.h"
+#include "inverse/mf_loss.h"
 #include "inverse/mf_optim.h"
 #include "render/mf_antialias.h"
+#include "render/mf_diffrender.h"
 #include "render/mf_rtscene.h"
 
 /* One view: coverage (h, w) from the G-buffer, antialiased; loss sum and dpos (nv, 3) +=
@@ -78,6 +81,83 @@ done:
     return rc;
 }
 
+/* The colour term's unknowns besides the SDF: volume textures whose grids are Adam blocks' values
+ * (borrowed) and the env map (its texels copied from its block after every step). */
+typedef struct {
+    MfVoltex kd, orm;
+    MfEnvMap env;
+} ColorState;
+
+/* One view of the colour term: forward (antialiased), loss, adjoints, backward into dpos and the
+ * state's gradients (dvkd, dvorm, denv). scale: 1 / (views' pixels). */
+static int color_view(const MfRtScene *rt, const ColorState *cs, const MfCamera *cam, const MfImage *ref, int vi, float color,
+                      uint64_t seed, double scale, double *lrgb, double *lmask, float *dpos, float *dvkd, float *dvorm, float *denv) {
+    if (ref->w != cam->w || ref->h != cam->h || ref->c < 4)
+        return mf_fail(MF_EARG, "geometry fit: view %d: the colour term needs an RGBA image of its camera's size (%dx%d, %d channels)",
+                       vi, ref->w, ref->h, ref->c);
+    size_t np = (size_t)cam->w * cam->h;
+    MfRenderOut out = {0};
+    float *buf = malloc(np * 8 * sizeof *buf); /* target (np, 3), drgb (np, 3), mask (np), dalpha (np) */
+    int rc = buf ? mf_render_out_alloc(&out, cam->w, cam->h) : mf_fail(MF_ENOMEM, "geometry fit: out of memory for a view");
+    if (rc) {
+        free(buf);
+        return rc;
+    }
+    float *target = buf, *drgb = buf + 3 * np, *mask = buf + 6 * np, *dalpha = buf + 7 * np;
+    for (size_t i = 0; i < np; ++i) {
+        const float *px = ref->data + i * (size_t)ref->c;
+        mask[i] = px[ref->c - 1];
+        for (int c = 0; c < 3; ++c) target[3 * i + c] = px[c] * mask[i];
+    }
+    MfDiffScene s = {.rt = rt, .vkd = &cs->kd, .vorm = &cs->orm, .env = &cs->env};
+    MfDiffOpts o = {.spp_sqrt = 1, .pixel_samples = 1, .seed = seed, .antialias = 1};
+    if (!(rc = mf_diff_forward(&s, cam, &o, &out))) {
+        *lrgb += mf_loss_logl1_fwd(out.rgb, target, np * 3) * (double)np * scale;
+        *lmask += mf_loss_mse_fwd(out.alpha, mask, np) * (double)np * scale;
+        memset(drgb, 0, np * 3 * sizeof *drgb);
+        memset(dalpha, 0, np * sizeof *dalpha);
+        /* the means' gradients, each view's share of the step's pixels */
+        mf_loss_logl1_bwd(out.rgb, target, np * 3, (float)(color * (double)np * scale), drgb);
+        mf_loss_mse_bwd(out.alpha, mask, np, (float)((double)np * scale), dalpha);
+        MfDiffAdjoint adj = {.drgb = drgb, .dalpha = dalpha};
+        MfDiffGrads gr = {.dpos = dpos, .dvkd = dvkd, .dvorm = dvorm, .denv = denv};
+        o.seed = mf_hash64(seed, 1); /* decorrelated from the forward pass */
+        rc = mf_diff_backward(&s, cam, &o, &adj, &gr);
+    }
+    mf_render_out_free(&out);
+    free(buf);
+    return rc;
+}
+
+/* The colour term (with the mask term) over views: dsdf, ddeform and the state's gradients +=. */
+static int color_grad(const MfTetGrid *g, const float *sdf, const float *deform, const MfCamera *cams, const MfImage *imgs,
+                      const int *views, int nviews, const ColorState *cs, float color, uint64_t seed, float *dsdf,
+                      float *ddeform, float *dvkd, float *dvorm, float *denv, MfGeomFitStep *st) {
+    MfTetMesh tm;
+    int rc = mf_tetgrid_extract(g, sdf, deform, &tm);
+    if (rc) return rc;
+    MfRtScene *rt = NULL;
+    float *dpos = calloc((size_t)tm.mesh.nv * 3, sizeof *dpos);
+    if (!dpos) rc = mf_fail(MF_ENOMEM, "geometry fit: out of memory for %d vertices", tm.mesh.nv);
+    if (!rc) rc = mf_mesh_compute_normals(&tm.mesh);
+    if (!rc) rc = mf_rtscene_new(&tm.mesh, &rt);
+    size_t npix = 0;
+    for (int k = 0; k < nviews; ++k) npix += (size_t)cams[views[k]].w * cams[views[k]].h;
+    double scale = 1.0 / (double)npix;
+    st->rgb = st->mask = 0;
+    for (int k = 0; k < nviews && !rc; ++k)
+        rc = color_view(rt, cs, &cams[views[k]], &imgs[views[k]], views[k], color, mf_hash64(seed, (uint64_t)k), scale, &st->rgb,
+                        &st->mask, dpos, dvkd, dvorm, denv);
+    for (size_t i = 0; !rc && i < (size_t)tm.mesh.nv * 3; ++i)
+        if (!isfinite(dpos[i])) rc = mf_fail(MF_ENAN, "geometry fit: non-finite vertex gradient at vertex %zu", i / 3);
+    if (!rc) mf_tetgrid_backward(g, sdf, deform, &tm, dpos, dsdf, ddeform);
+    st->nt = tm.mesh.nt;
+    mf_rtscene_free(rt);
+    free(dpos);
+    mf_tetmesh_free(&tm);
+    return rc;
+}
+
 static double sigmoid(double x) { return 1.0 / (1.0 + exp(-x)); }
 /* BCE with logits: -(y log s(x) + (1 - y) log(1 - s(x))), stable form */
 static double bce_logits(double x, double y) { return fmax(x, 0.0) - x * y + log1p(exp(-fabs(x))); }
@@ -115,24 +195,74 @@ double mf_geom_sdf_reg(const MfTetGrid *g, const float *sdf, float weight, float
     return (double)weight * sum / (double)count;
 }
 
+/* The colour term's state over g's box: volume textures viewing blocks kd, orm (borrowed grids)
+ * and an env of constant radiance level. */
+static int color_state_init(const MfTetGrid *g, const MfParamBlock *kd, const MfParamBlock *orm, float level, ColorState *cs) {
+    memset(cs, 0, sizeof *cs);
+    const float lo[3] = {g->lo.x, g->lo.y, g->lo.z}, ext = g->cell * (float)g->res;
+    const float hi[3] = {lo[0] + ext, lo[1] + ext, lo[2] + ext};
+    for (int a = 0; a < 3; ++a) cs->kd.lo[a] = cs->orm.lo[a] = lo[a], cs->kd.hi[a] = cs->orm.hi[a] = hi[a];
+    cs->kd.res = cs->orm.res = MF_GEOM_VOL_RES;
+    cs->kd.c = cs->orm.c = 3;
+    cs->kd.grid = kd->p, cs->orm.grid = orm->p;
+    return mf_env_init_constant(&cs->env, MF_GEOM_ENV_W, MF_GEOM_ENV_W / 2, mf_v3s(level));
+}
+
+/* Twice the mean radiance of the references' masked pixels (straight colour, alpha > 0.5). */
+static float reference_level(const MfImage *imgs, int n) {
+    double sum = 0;
+    size_t cnt = 0;
+    for (int v = 0; v < n; ++v) {
+        const MfImage *r = &imgs[v];
+        if (r->c < 4) continue;
+        for (size_t i = 0; i < (size_t)r->w * r->h; ++i) {
+            const float *px = r->data + i * (size_t)r->c;
+            if (px[r->c - 1] > 0.5f) sum += (px[0] + px[1] + px[2]) / 3.0, ++cnt;
+        }
+    }
+    double m = cnt ? 2.0 * sum / (double)cnt : 1.0;
+    return m > 1e-6 && isfinite(m) ? (float)m : 1.0f;
+}
+
 int mf_geom_fit(const MfTetGrid *g, float *sdf, float *deform, const MfCamera *cams, const MfImage *masks, int n,
                 const MfGeomFitOpts *opt, MfGeomFitStep *log, int *done) {
     if (done) *done = 0;
-    if (n < 1 || opt->iters < 1 || !(opt->lr_sdf > 0) || !(opt->lr_deform >= 0) || !(opt->sdf_reg >= 0))
+    if (n < 1 || opt->iters < 1 || !(opt->lr_sdf > 0) || !(opt->lr_deform >= 0) || !(opt->sdf_reg >= 0) || !(opt->color >= 0))
         return mf_fail(MF_EARG, "geometry fit: need views (%d), iters >= 1 (%d), lr_sdf > 0 (%g), lr_deform >= 0 (%g), "
-                                "sdf_reg >= 0 (%g)", n, opt->iters, (double)opt->lr_sdf, (double)opt->lr_deform,
-                       (double)opt->sdf_reg);
-    size_t nv = mf_tetgrid_nverts(g);
-    int use_def = deform && opt->lr_deform > 0;
-    int nb = use_def ? 2 : 1;
+                                "sdf_reg >= 0 (%g), color >= 0 (%g)", n, opt->iters, (double)opt->lr_sdf, (double)opt->lr_deform,
+                       (double)opt->sdf_reg, (double)opt->color);
+    size_t nv = mf_tetgrid_nverts(g), nvol = (size_t)MF_GEOM_VOL_RES * MF_GEOM_VOL_RES * MF_GEOM_VOL_RES * 3;
+    int use_def = deform && opt->lr_deform > 0, use_col = opt->color > 0;
+    /* blocks: sdf, [deform], [kd, orm, env] */
+    int idef = use_def ? 1 : -1, ikd = use_col ? 1 + use_def : -1, iorm = ikd + 1, ienv = ikd + 2;
+    int nb = 1 + use_def + 3 * use_col;
     int bsize = opt->views_per_step > 0 && opt->views_per_step < n ? opt->views_per_step : n;
-    MfParamBlock b[2];
+    MfParamBlock b[5];
     memset(b, 0, sizeof b);
+    ColorState cs;
+    memset(&cs, 0, sizeof cs);
+    float level = use_col ? reference_level(masks, n) : 1.0f;
     int *views = malloc((size_t)bsize * sizeof *views);
     int rc = views ? mf_param_init(&b[0], "sdf", nv, 1, sdf) : mf_fail(MF_ENOMEM, "geometry fit: out of memory");
     if (!rc && use_def) {
-        rc = mf_param_init(&b[1], "deform", nv * 3, 3, deform);
-        b[1].lr_scale = opt->lr_deform / opt->lr_sdf;
+        rc = mf_param_init(&b[idef], "deform", nv * 3, 3, deform);
+        b[idef].lr_scale = opt->lr_deform / opt->lr_sdf;
+    }
+    if (!rc && use_col && !(rc = mf_param_init(&b[ikd], "vol_kd", nvol, 3, NULL)) && !(rc = mf_param_init(&b[iorm], "vol_orm", nvol, 3, NULL))) {
+        for (size_t i = 0; i < nvol; i += 3) {
+            b[ikd].p[i] = b[ikd].p[i + 1] = b[ikd].p[i + 2] = 0.5f;
+            b[iorm].p[i] = 1.0f, b[iorm].p[i + 1] = 0.5f, b[iorm].p[i + 2] = 0.0f;
+        }
+        for (int c = 0; c < 3; ++c) mf_param_set_bounds(&b[ikd], c, 0.0f, 1.0f);
+        mf_param_set_bounds(&b[iorm], 0, 1.0f, 1.0f);
+        mf_param_set_bounds(&b[iorm], 1, 0.08f, 1.0f);
+        mf_param_set_bounds(&b[iorm], 2, 0.0f, 1.0f);
+        b[ikd].lr_scale = b[iorm].lr_scale = MF_GEOM_LR_MAT / opt->lr_sdf;
+        if (!(rc = color_state_init(g, &b[ikd], &b[iorm], level, &cs)) &&
+            !(rc = mf_param_init(&b[ienv], "env", (size_t)cs.env.img.w * cs.env.img.h * 3, 3, cs.env.img.data))) {
+            for (int c = 0; c < 3; ++c) mf_param_set_bounds(&b[ienv], c, 1e-3f * level, INFINITY);
+            b[ienv].lr_scale = MF_GEOM_LR_ENV * level / opt->lr_sdf;
+        }
     }
     MfAdam adam;
     mf_adam_init(&adam, opt->lr_sdf);
@@ -140,21 +270,30 @@ int mf_geom_fit(const MfTetGrid *g, float *sdf, float *deform, const MfCamera *c
     for (; !rc && it < opt->iters; ++it) {
         for (int k = 0; k < bsize; ++k) views[k] = (int)(((long)it * bsize + k) % n);
         for (int k = 0; k < nb; ++k) mf_param_zero_grad(&b[k]);
-        double lm = 0;
-        int nt = 0;
+        MfGeomFitStep st = {0};
         /* deform is passed even when frozen, so the surface is the deformed grid's */
-        rc = mf_geom_mask_grad(g, b[0].p, use_def ? b[1].p : deform, cams, masks, views, bsize, b[0].g,
-                               use_def ? b[1].g : NULL, &lm, &nt);
+        const float *def = use_def ? b[idef].p : deform;
+        float *ddef = use_def ? b[idef].g : NULL;
+        if (use_col)
+            rc = color_grad(g, b[0].p, def, cams, masks, views, bsize, &cs, opt->color, mf_hash64(opt->seed, (uint64_t)it), b[0].g, ddef,
+                            b[ikd].g, b[iorm].g, b[ienv].g, &st);
+        else
+            rc = mf_geom_mask_grad(g, b[0].p, def, cams, masks, views, bsize, b[0].g, ddef, &st.mask, &st.nt);
         if (rc) break;
-        double lr = opt->sdf_reg > 0 ? mf_geom_sdf_reg(g, b[0].p, opt->sdf_reg, b[0].g) : 0;
-        if (log) log[it] = (MfGeomFitStep){.mask = lm, .reg = lr, .nt = nt};
+        st.reg = opt->sdf_reg > 0 ? mf_geom_sdf_reg(g, b[0].p, opt->sdf_reg, b[0].g) : 0;
+        if (log) log[it] = st;
         rc = mf_adam_step(&adam, b, nb, mf_lr_schedule(opt->lr_sdf, it));
+        if (!rc && use_col) { /* the env's texels and sampling tables follow its block */
+            memcpy(cs.env.img.data, b[ienv].p, b[ienv].n * sizeof(float));
+            rc = mf_env_update(&cs.env);
+        }
     }
     if (rc) rc = mf_fail_prefix(rc, "geometry fit: step %d", it);
     if (b[0].p) memcpy(sdf, b[0].p, nv * sizeof *sdf);
-    if (use_def && b[1].p) memcpy(deform, b[1].p, nv * 3 * sizeof *deform);
+    if (use_def && b[idef].p) memcpy(deform, b[idef].p, nv * 3 * sizeof *deform);
     if (done) *done = it;
-    for (int k = 0; k < 2; ++k) mf_param_free(&b[k]);
+    mf_env_free(&cs.env);
+    for (int k = 0; k < 5; ++k) mf_param_free(&b[k]);
     free(views);
     return rc;
 }

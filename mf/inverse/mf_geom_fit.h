@@ -12,10 +12,26 @@
  * whose ends differ in sign,
  *   L_reg = mean of BCE(sigmoid(s_a), [s_b > 0]) + BCE(sigmoid(s_b), [s_a > 0]),
  * which penalises sign changes (floaters, noise) and keeps the values near the surface small.
+ * Colour term (MfGeomFitOpts.color > 0; DMTet's pass 1 with its image loss): the extracted mesh is
+ * rendered by the differentiable renderer (render/mf_diffrender.h, antialiased, 1 pixel-centre
+ * sample, spp_sqrt 1) with kd and ORM from dense volume textures (scene/mf_voltex.h,
+ * MF_GEOM_VOL_RES^3 over the grid's box) under an MF_GEOM_ENV_W x MF_GEOM_ENV_W/2 env map, all
+ * three optimised beside the SDF and thrown away after the fit (pass 2 re-estimates materials
+ * and light on the unwrapped mesh). Per view
+ *   L = color * logl1(rgb, reference rgb premultiplied by its alpha) + (alpha - mask)^2 (means),
+ * so silhouettes, inner occlusion edges (antialiasing) and shading (through each hit's position,
+ * normal and volume lookup: mf_hitgrad.h) move the surface: concavities the masks cannot see
+ * (a cup's inside) get a gradient. Initial state: kd 0.5, roughness 0.5, metallic 0, occlusion
+ * 1 (frozen), a constant env of twice the references' mean masked radiance (a diffuse albedo-0.5
+ * surface under it matches that mean). Learning rates: SDF lr_sdf, volumes MF_GEOM_LR_MAT per
+ * step, env MF_GEOM_LR_ENV x its initial level per step, all with the SDF's decay.
  * Deterministic for a given thread count: the per-view passes are serial, the Embree queries
- * of each pass are parallel but write disjoint pixels. */
+ * of each pass are parallel but write disjoint pixels (the renderer's gradients are reduced in
+ * lane order). */
 #ifndef MF_GEOM_FIT_H
 #define MF_GEOM_FIT_H
+
+#include <stdint.h>
 
 #include "geom/mf_tetgrid.h"
 #include "io/mf_image.h"
@@ -41,17 +57,26 @@ typedef struct {
     float lr_deform;    /* of the deformation (tanh space); 0: the deformation is not optimised */
     float sdf_reg;      /* weight of the sign-change regulariser (0: off) */
     int views_per_step; /* views per step, taken in turn (0: all) */
+    float color;        /* weight of the colour term (0: mask term only; > 0 needs RGBA references) */
+    uint64_t seed;      /* the colour term's Monte Carlo samples */
 } MfGeomFitOpts;
+
+#define MF_GEOM_VOL_RES 32
+#define MF_GEOM_ENV_W 32
+#define MF_GEOM_LR_MAT 0.005f
+#define MF_GEOM_LR_ENV 0.005f
 
 /* Per-step record. */
 typedef struct {
+    double rgb;  /* colour term's logl1 (unweighted) of the step's views, before the step; 0 without it */
     double mask; /* L_mask of the step's views, before the step */
     double reg;  /* weighted L_reg, before the step */
     int nt;      /* triangles of the extracted mesh */
 } MfGeomFitStep;
 
 /* Runs opt->iters Adam steps on sdf (nv,) and, when deform is non-NULL and lr_deform > 0, deform
- * (nv, 3), both updated in place. log: (opt->iters,) or NULL; *done (if not NULL) = steps taken.
+ * (nv, 3), both updated in place; with opt->color > 0 the colour term's unknowns too (above;
+ * masks must then be RGBA: linear colour, straight alpha). log: (opt->iters,) or NULL; *done (if not NULL) = steps taken.
  * On failure (an empty extraction, a non-finite gradient) sdf and deform keep the values of the
  * last completed step, *done says how many, and the message names the step. */
 int mf_geom_fit(const MfTetGrid *g, float *sdf, float *deform, const MfCamera *cams, const MfImage *masks, int n,

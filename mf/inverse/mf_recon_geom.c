@@ -101,9 +101,9 @@ static int write_geom_log(const char *out_dir, const MfGeomFitStep *log, int ste
     char *buf = rc ? NULL : malloc(cap);
     if (!rc && !buf) rc = mf_fail(MF_ENOMEM, "out of memory");
     if (rc) return rc;
-    len += (size_t)snprintf(buf, cap, "step,mask_loss,sdf_reg,triangles\n");
+    len += (size_t)snprintf(buf, cap, "step,mask_loss,sdf_reg,triangles,rgb_loss\n");
     for (int i = 0; i < steps; ++i)
-        len += (size_t)snprintf(buf + len, cap - len, "%d,%.9g,%.9g,%d\n", i, log[i].mask, log[i].reg, log[i].nt);
+        len += (size_t)snprintf(buf + len, cap - len, "%d,%.9g,%.9g,%d,%.9g\n", i, log[i].mask, log[i].reg, log[i].nt, log[i].rgb);
     rc = mf_write_file(path, buf, len);
     free(buf);
     return rc;
@@ -125,13 +125,15 @@ static int build_dmtet(const MfReconGeomOpts *o, const MfCamera *cams, const MfI
     /* mask - 0.5 in [-0.5, 0.5]: as a distance, in cells, so geom_lr is in cells per step */
     for (size_t v = 0; v < nv; ++v) sdf[v] *= g.cell;
     info->hull_s = mf_now() - t0;
-    MfGeomFitOpts fo = {o->geom_iters, o->geom_lr * g.cell, 0, o->geom_sdf_reg, o->geom_views};
+    MfGeomFitOpts fo = {.iters = o->geom_iters, .lr_sdf = o->geom_lr * g.cell, .sdf_reg = o->geom_sdf_reg, .views_per_step = o->geom_views,
+                        .color = o->geom_color, .seed = o->geom_seed};
     if (!rc && o->geom_iters > 0) {
         t0 = mf_now();
         rc = mf_geom_fit(&g, sdf, NULL, cams, masks, n, &fo, log, &info->steps);
         info->geom_s = mf_now() - t0;
         info->step_ms = info->steps ? 1e3 * info->geom_s / info->steps : 0;
         if (info->steps) info->loss_first = log[0].mask, info->loss_last = log[info->steps - 1].mask;
+        if (info->steps) info->rgb_first = log[0].rgb, info->rgb_last = log[info->steps - 1].rgb;
     }
     /* header only at 0 steps, so the folder never keeps an earlier run's log; nothing when the hull
      * failed (a refused run leaves no folder behind) */
@@ -140,9 +142,9 @@ static int build_dmtet(const MfReconGeomOpts *o, const MfCamera *cams, const MfI
         if (!rc) rc = wrc;
     }
     if (!rc)
-        mf_log_info("geometry: DMTet, mask term only (no colour loss): %d^3 grid, %d steps of %d views in %.2f s (%.1f ms/step), "
-                    "mask loss %.5f -> %.5f", o->dmtet_res, info->steps, o->geom_views ? o->geom_views : n, info->geom_s,
-                    info->step_ms, info->loss_first, info->loss_last);
+        mf_log_info("geometry: DMTet, %s: %d^3 grid, %d steps of %d views in %.2f s (%.1f ms/step), "
+                    "mask loss %.5f -> %.5f", o->geom_color > 0 ? "mask and colour terms" : "mask term only (no colour loss)", o->dmtet_res,
+                    info->steps, o->geom_views ? o->geom_views : n, info->geom_s, info->step_ms, info->loss_first, info->loss_last);
     MfMesh m = {0};
     MfHullOpts ho = hull_opts(o);
     if (!rc) rc = mf_vhull_extract_clean(&g, sdf, &ho, &m, NULL, &info->dropped_components);
@@ -230,11 +232,13 @@ void mf_recon_geom_to_json(const MfReconGeomInfo *info, cJSON *obj) {
     cJSON_AddNumberToObject(g, "triangles", info->hull_tris);
     if (info->reused) return;
     if (!strcmp(info->source, "dmtet")) {
-        cJSON_AddNumberToObject(g, "geom_s", info->geom_s);   /* wall s: the mask-term steps */
+        cJSON_AddNumberToObject(g, "geom_s", info->geom_s);   /* wall s: the DMTet steps */
         cJSON_AddNumberToObject(g, "step_ms", info->step_ms); /* wall ms per step */
         cJSON_AddNumberToObject(g, "steps", info->steps);
         cJSON_AddNumberToObject(g, "mask_loss_first", info->loss_first);
         cJSON_AddNumberToObject(g, "mask_loss_last", info->loss_last);
+        cJSON_AddNumberToObject(g, "rgb_loss_first", info->rgb_first); /* the colour term's logl1 (0 without it) */
+        cJSON_AddNumberToObject(g, "rgb_loss_last", info->rgb_last);
         cJSON_AddNumberToObject(g, "dropped_components", info->dropped_components);
         cJSON_AddNumberToObject(g, "grid_extent", info->hull.extent);
         cJSON_AddBoolToObject(g, "touches_border", info->hull.touches_border);

@@ -17,8 +17,9 @@
  *          (geom_views per step, in turn), then extraction and the hull's clean-up (weld, small
  *          components dropped, Taubin, decimation: the hull_* options), unwrapped as vhull ->
  *          <out>/geometry/dmtet.obj; the per-step loss -> <out>/geom_log.csv. Reused with resume
- *          like vhull.obj. Only silhouettes drive it: no colour term, so concavities the masks
- *          do not see stay as the hull left them.
+ *          like vhull.obj. By default only silhouettes drive it, so concavities the masks do
+ *          not see stay as the hull left them; geom_color > 0 adds the colour term
+ *          (mf_geom_fit.h), whose shading gradients reach them.
  * One folder, one run: once the mesh is read or built, what an earlier run with another source
  * left in out_dir (geometry/vhull.obj; geometry/dmtet.obj and geom_log.csv) is removed, with a
  * log line each, so the folder never mixes two runs' geometry; the given mesh itself is never
@@ -50,6 +51,8 @@ typedef struct {
     int geom_views;           /* dmtet: views per step (0: all) */
     float geom_lr;            /* dmtet: SDF learning rate, in grid cells per step */
     float geom_sdf_reg;       /* dmtet: weight of the sign-change regulariser */
+    float geom_color;         /* dmtet: weight of the colour term (mf_geom_fit.h; 0: masks only) */
+    int geom_seed;            /* dmtet: the colour term's Monte Carlo seed */
 } MfReconGeomOpts;
 
 /* The defaults, from the option table. */
@@ -69,6 +72,7 @@ typedef struct {
     double step_ms;              /* dmtet, built: mean wall ms per step */
     int steps;                   /* dmtet, built: steps taken */
     double loss_first, loss_last;/* dmtet, built: mask loss of the first and last step */
+    double rgb_first, rgb_last;  /* dmtet, built: the colour term's logl1 of the first and last step (0 without it) */
     int dropped_components;      /* dmtet, built: components dropped by the clean-up */
 } MfReconGeomInfo;
 

@@ -86,10 +86,13 @@ static const MfOpt k_geom_opts[] = {
     MF_OPT_FLOAT(G, hull_min_component, MF_HULL_DEFAULT_MIN_COMPONENT, 0, 1, "vhull, dmtet: drop components with fewer than this fraction of the largest's triangles"),
     /* the hull_* smoothing, decimation and component options also clean the DMTet mesh; hull_extent is its grid's side */
     MF_OPT_INT(G, dmtet_res, 64, 4, 512, "dmtet: tet grid cubes per axis (side --hull-extent; the SDF starts as the soft visual hull on it)"),
-    MF_OPT_INT(G, geom_iters, 200, 0, 1000000, "dmtet: Adam steps of the mask term (silhouettes only, no colour loss; 0: the hull's SDF extracted as is)"),
+    MF_OPT_INT(G, geom_iters, 200, 0, 1000000, "dmtet: Adam steps of the mask term (and the colour term with --geom-color; 0: the hull's SDF extracted as is)"),
     MF_OPT_INT(G, geom_views, 4, 0, 100000, "dmtet: training views per step, taken in turn (0: all)"),
     MF_OPT_FLOAT(G, geom_lr, 0.05, 1e-6, 100, "dmtet: SDF learning rate, in grid cells per step"),
     MF_OPT_FLOAT(G, geom_sdf_reg, 0, 0, 1000, "dmtet: weight of the sign-change regulariser (nvdiffrec's sdf_reg_loss)"),
+    MF_OPT_FLOAT(G, geom_color, 0, 0, 1000, "dmtet: weight of the colour term (logl1 of an antialiased render with volume-texture materials and "
+                 "an env, optimised with the SDF: shading moves the surface where masks cannot, e.g. a cup's inside; 0: the mask term only)"),
+    MF_OPT_INT(G, geom_seed, 1, 0, 2147483647, "dmtet: the colour term's Monte Carlo seed"),
 };
 #undef G
 const MfOptTable mf_recon_geom_opt_table = MF_OPT_TABLE("Geometry options", k_geom_opts);
