@@ -221,6 +221,7 @@ typedef struct {
     const char *csv;
     Hist hist;
     int ran;    /* steps done in this run */
+    int saved;  /* denoiser step of the weights last saved by this run (-1: none) */
     float *ema; // (denoiser params,) the moving average of the denoiser's weights (o->ema > 0), else NULL
 } Ctx;
 
@@ -440,6 +441,7 @@ static int save_weights(Ctx *c, const MfPrior *p, const Data *d, const MfTrainPr
     if (!rc) rc = save_json(p, c->final, -1, NULL, root);
     if (!rc && keep) rc = save_json(p, o->out_dir, dn_step, "", root);
     if (raw) memcpy(p->dn->params, raw, np * sizeof(float)); /* training goes on from the weights */
+    if (!rc) c->saved = dn_step;
     cJSON_Delete(root);
     free(raw);
     return rc;
@@ -577,6 +579,7 @@ int mf_train_prior(const MfTrainPriorOpts *o, MfTrainPriorResult *res) {
     Ctx c = {0};
     int stop = 0;
     c.o = o;
+    c.saved = -1;
     c.csv = o->loss_csv ? o->loss_csv : "reports/prior/loss.csv";
     if (o->init) {
         if ((rc = mf_prior_load(o->init, &p))) goto out;
@@ -660,7 +663,7 @@ int mf_train_prior(const MfTrainPriorOpts *o, MfTrainPriorResult *res) {
     mf_log_info("train-prior: autoencoder PSNR albedo %.2f dB, ORM %.2f dB, RGB %.2f dB; latent scale %.4f",
                 res->psnr[0], res->psnr[1], res->psnr[2], p->latent_scale);
     if ((rc = train_dn(&c, p, &d, lat, res, &stop)) || stop) goto out;
-    rc = save_weights(&c, p, &d, res, o->steps);
+    if (c.saved != o->steps) rc = save_weights(&c, p, &d, res, o->steps); /* e.g. resumed with no step left */
     if (!rc) rc = hist_write(&c.hist, c.csv);
 out:
     res->stopped = stop;
