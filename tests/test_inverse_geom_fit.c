@@ -184,7 +184,8 @@ MF_TEST(inverse_geom_fit_colour_sphere) {
      *     references: the colour loss falls, the same bytes twice;
      * (b) with the colour weight ~0 the same path (the renderer's antialiased alpha) fits the
      *     silhouettes from R0, as the mask term does.
-     * Measured (MF_TEST_VERBOSE=1): (a) 0.0555 -> 0.0447 in 20 steps; (b) mask 0.207 -> 0.168. With the colour adjoint negated (a) fails (0.0555 -> 0.07).
+     * Measured (MF_TEST_VERBOSE=1): (a) 0.0555 -> 0.0457 in 20 steps; (b) mask 0.207 -> 0.168.
+     * With the colour adjoint negated (a) fails (0.0555 -> 0.072).
      * Not asserted, because it does not hold: with weight 1 and lr_sdf 0.01 from R1 the surface
      * drifts (mask 0.0024 -> 0.013, colour 0.055 -> 0.086 in 40 steps): the shading gradients move
      * the surface to make up for materials not yet fitted. */
