@@ -334,8 +334,8 @@ bench: $(BUILD)/mf
 # the same AOVs as test-3d's) beside the same objects by our renderer (test-3d), the baseline and
 # MaterialFusion run on both with this binary, each split scored by mf eval, then per scene
 # "cycles minus ours" for each method and for MF - baseline (eval/cycles3d_compare.sh) ->
-# CYC3D_REPORT. Needs blender (skipped, exit 0, without it); about 65 min of Cycles rendering and
-# 50 min of reconstruction on 2 cores.
+# CYC3D_REPORT. Needs blender (skipped, exit 0, without it); measured here: 99 min of Cycles
+# rendering (864 views) and about an hour of reconstruction, the 2 cores shared.
 CYC3D_METHODS ?= nvdiffrecmc materialfusion
 CYC3D_REPORT  ?= reports/generalisation/cycles-3d
 CYC3D_RESULTS ?= $(RESULTS)/cyc3d
