@@ -113,6 +113,21 @@ typedef struct {
     int rendered;
 } Ctx;
 
+/* The file that marks view i of a set done (kind as render_set's): the lit training PNG, the
+ * test set's GT ORM (written last of its three), or the relit EXR. */
+static void view_file(char *rel, size_t cap, int kind, const char *env_name, int i) {
+    if (kind == 0) snprintf(rel, cap, "train/r_%03d.png", i);
+    else if (kind == 1) snprintf(rel, cap, "gt/orm/r_%03d.png", i);
+    else snprintf(rel, cap, "relight/%s/r_%03d.exr", env_name, i);
+}
+
+/* A lit view of kind 0 (training PNG, 8-bit sRGB, straight alpha) or 2 (relit EXR, linear float,
+ * premultiplied) from premultiplied rgb and alpha with the given strides. */
+static int write_lit(const char *path, int kind, const float *rgb, int rs, const float *alpha, int as, int width) {
+    return kind == 2 ? write_rgba(path, rgb, rs, alpha, as, 0, width, width, 0, MF_ENC_LINEAR, 32)
+                     : write_rgba(path, rgb, rs, alpha, as, 0, width, width, 1, MF_ENC_SRGB, 8);
+}
+
 /* One lighting condition: views of a camera set, outputs per view. kind: 0 train PNG,
  * 1 test PNG + GT albedo/ORM, 2 relit EXR into relight/<env>/. */
 static int render_set(Ctx *c, const char *env_rel, const char *env_name, int kind) {
@@ -124,9 +139,7 @@ static int render_set(Ctx *c, const char *env_rel, const char *env_name, int kin
     /* which views are missing */
     int missing = 0;
     for (int i = 0; i < n; ++i) {
-        if (kind == 0) snprintf(rel, sizeof rel, "train/r_%03d.png", i);
-        else if (kind == 1) snprintf(rel, sizeof rel, "gt/orm/r_%03d.png", i); /* written last of the three */
-        else snprintf(rel, sizeof rel, "relight/%s/r_%03d.exr", env_name, i);
+        view_file(rel, sizeof rel, kind, env_name, i);
         if (mf_path_join(p, sizeof p, c->sdir, rel) || !mf_file_exists(p)) ++missing;
     }
     if (!missing) {
@@ -160,9 +173,7 @@ static int render_set(Ctx *c, const char *env_rel, const char *env_name, int kin
     MfRenderInput in = {sc->rt, &sc->mesh, &sc->mat, 1, &env, NULL, 0};
     MfRenderOut ro = {0};
     for (int i = 0; i < n && !rc; ++i) {
-        if (kind == 0) snprintf(rel, sizeof rel, "train/r_%03d.png", i);
-        else if (kind == 1) snprintf(rel, sizeof rel, "gt/orm/r_%03d.png", i);
-        else snprintf(rel, sizeof rel, "relight/%s/r_%03d.exr", env_name, i);
+        view_file(rel, sizeof rel, kind, env_name, i);
         if ((rc = mf_path_join(p, sizeof p, c->sdir, rel))) break;
         if (mf_file_exists(p)) { mf_progress_add(c->prog, 1); continue; }
         MfCamera cam;
@@ -196,10 +207,8 @@ static int render_set(Ctx *c, const char *env_rel, const char *env_name, int kin
         }
         const float *rgb = s->povray && kind != 1 ? pov.data : ro.rgb, *alpha = s->povray && kind != 1 ? pov.data + 3 : ro.alpha;
         int rs = s->povray && kind != 1 ? 4 : 3, as = s->povray && kind != 1 ? 4 : 1;
-        if (kind == 2) {
-            rc = write_rgba(p, rgb, rs, alpha, as, 0, s->width, s->width, 0, MF_ENC_LINEAR, 32);
-        } else if (kind == 0) {
-            rc = write_rgba(p, rgb, rs, alpha, as, 0, s->width, s->width, 1, MF_ENC_SRGB, 8);
+        if (kind != 1) {
+            rc = write_lit(p, kind, rgb, rs, alpha, as, s->width);
         } else {
             char q[MF_PATH_MAX];
             snprintf(rel, sizeof rel, "test/r_%03d.png", i);
@@ -216,15 +225,12 @@ static int render_set(Ctx *c, const char *env_rel, const char *env_name, int kin
     }
     if (cyc && !rc) rc = ds_cycles_run(&job);
     for (int i = 0; cyc && i < n && !rc; ++i) {
-        if (kind == 0) snprintf(rel, sizeof rel, "train/r_%03d.png", i);
-        else snprintf(rel, sizeof rel, "relight/%s/r_%03d.exr", env_name, i);
+        view_file(rel, sizeof rel, kind, env_name, i);
         if ((rc = mf_path_join(p, sizeof p, c->sdir, rel)) || mf_file_exists(p)) continue;
         char vname[32];
         snprintf(vname, sizeof vname, "r_%03d", i);
         MfImage cimg = {0}; /* (width, width, 4) linear, premultiplied */
-        if (!(rc = ds_cycles_read(&job, vname, &cimg)))
-            rc = kind == 0 ? write_rgba(p, cimg.data, 4, cimg.data + 3, 4, 0, s->width, s->width, 1, MF_ENC_SRGB, 8)
-                           : write_rgba(p, cimg.data, 4, cimg.data + 3, 4, 0, s->width, s->width, 0, MF_ENC_LINEAR, 32);
+        if (!(rc = ds_cycles_read(&job, vname, &cimg))) rc = write_lit(p, kind, cimg.data, 4, cimg.data + 3, 4, s->width);
         mf_image_free(&cimg);
         if (!rc) ++c->rendered;
     }
