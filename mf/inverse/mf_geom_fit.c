@@ -47,37 +47,58 @@ done:
     return rc;
 }
 
-int mf_geom_mask_grad(const MfTetGrid *g, const float *sdf, const float *deform, const MfCamera *cams,
-                      const MfImage *masks, const int *views, int nviews, float *dsdf, float *ddeform, double *loss,
-                      int *nt) {
-    if (nviews < 1) return mf_fail(MF_EARG, "geometry fit: no views");
+/* One view's loss and vertex gradient: k indexes views[], scale = 1 / (views' pixels). */
+typedef int (*ViewGrad)(void *ctx, const MfRtScene *rt, int k, double scale, float *dpos);
+
+/* The skeleton both terms share: extract the mesh from (sdf, deform), build its Embree scene
+ * (with vertex normals when normals), run fn on each of views (nviews,), check the vertex
+ * gradient, and send it through marching tets into dsdf and ddeform (+=). */
+static int over_views(const MfTetGrid *g, const float *sdf, const float *deform, const MfCamera *cams, const int *views,
+                      int nviews, int normals, ViewGrad fn, void *ctx, float *dsdf, float *ddeform, int *nt) {
     MfTetMesh tm;
     int rc = mf_tetgrid_extract(g, sdf, deform, &tm);
     if (rc) return rc;
     MfRtScene *rt = NULL;
     float *dpos = calloc((size_t)tm.mesh.nv * 3, sizeof *dpos);
-    if (!dpos) {
-        rc = mf_fail(MF_ENOMEM, "geometry fit: out of memory for %d vertices", tm.mesh.nv);
-        goto done;
-    }
-    if ((rc = mf_rtscene_new(&tm.mesh, &rt))) goto done;
+    if (!dpos) rc = mf_fail(MF_ENOMEM, "geometry fit: out of memory for %d vertices", tm.mesh.nv);
+    if (!rc && normals) rc = mf_mesh_compute_normals(&tm.mesh);
+    if (!rc) rc = mf_rtscene_new(&tm.mesh, &rt);
     size_t npix = 0;
     for (int k = 0; k < nviews; ++k) npix += (size_t)cams[views[k]].w * cams[views[k]].h;
-    double sse = 0, scale = 1.0 / (double)npix;
-    for (int k = 0; k < nviews && !rc; ++k) rc = view_grad(rt, &cams[views[k]], &masks[views[k]], views[k], scale, &sse, dpos);
-    if (rc) goto done;
-    for (size_t i = 0; i < (size_t)tm.mesh.nv * 3; ++i)
-        if (!isfinite(dpos[i])) {
-            rc = mf_fail(MF_ENAN, "geometry fit: non-finite vertex gradient at vertex %zu", i / 3);
-            goto done;
-        }
-    mf_tetgrid_backward(g, sdf, deform, &tm, dpos, dsdf, deform ? ddeform : NULL);
-    *loss = sse * scale;
-    if (nt) *nt = tm.mesh.nt;
-done:
+    for (int k = 0; k < nviews && !rc; ++k) rc = fn(ctx, rt, k, 1.0 / (double)npix, dpos);
+    for (size_t i = 0; !rc && i < (size_t)tm.mesh.nv * 3; ++i)
+        if (!isfinite(dpos[i])) rc = mf_fail(MF_ENAN, "geometry fit: non-finite vertex gradient at vertex %zu", i / 3);
+    if (!rc) mf_tetgrid_backward(g, sdf, deform, &tm, dpos, dsdf, deform ? ddeform : NULL);
+    if (!rc && nt) *nt = tm.mesh.nt;
     mf_rtscene_free(rt);
     free(dpos);
     mf_tetmesh_free(&tm);
+    return rc;
+}
+
+typedef struct {
+    const MfCamera *cams;
+    const MfImage *masks;
+    const int *views;
+    double mse; /* sum of the views' squared errors x scale */
+} MaskCtx;
+
+static int mask_view(void *ctx, const MfRtScene *rt, int k, double scale, float *dpos) {
+    MaskCtx *c = ctx;
+    int v = c->views[k];
+    double sse = 0;
+    int rc = view_grad(rt, &c->cams[v], &c->masks[v], v, scale, &sse, dpos);
+    c->mse += sse * scale;
+    return rc;
+}
+
+int mf_geom_mask_grad(const MfTetGrid *g, const float *sdf, const float *deform, const MfCamera *cams,
+                      const MfImage *masks, const int *views, int nviews, float *dsdf, float *ddeform, double *loss,
+                      int *nt) {
+    if (nviews < 1) return mf_fail(MF_EARG, "geometry fit: no views");
+    MaskCtx c = {cams, masks, views, 0};
+    int rc = over_views(g, sdf, deform, cams, views, nviews, 0, mask_view, &c, dsdf, ddeform, nt);
+    if (!rc) *loss = c.mse;
     return rc;
 }
 
@@ -112,12 +133,12 @@ static int color_view(const MfRtScene *rt, const ColorState *cs, const MfCamera 
     MfDiffScene s = {.rt = rt, .vkd = &cs->kd, .vorm = &cs->orm, .env = &cs->env};
     MfDiffOpts o = {.spp_sqrt = 1, .pixel_samples = 1, .seed = seed, .antialias = 1};
     if (!(rc = mf_diff_forward(&s, cam, &o, &out))) {
-        *lrgb += mf_loss_logl1_fwd(out.rgb, target, np * 3) * (double)np * scale;
+        *lrgb += mf_loss_logl1_fwd(out.rgb, target, np * 3, 0.0f) * (double)np * scale;
         *lmask += mf_loss_mse_fwd(out.alpha, mask, np) * (double)np * scale;
         memset(drgb, 0, np * 3 * sizeof *drgb);
         memset(dalpha, 0, np * sizeof *dalpha);
         /* the means' gradients, each view's share of the step's pixels */
-        mf_loss_logl1_bwd(out.rgb, target, np * 3, (float)(color * (double)np * scale), drgb);
+        mf_loss_logl1_bwd(out.rgb, target, np * 3, 0.0f, (float)(color * (double)np * scale), drgb);
         mf_loss_mse_bwd(out.alpha, mask, np, (float)((double)np * scale), dalpha);
         MfDiffAdjoint adj = {.drgb = drgb, .dalpha = dalpha};
         MfDiffGrads gr = {.dpos = dpos, .dvkd = dvkd, .dvorm = dvorm, .denv = denv};
@@ -129,33 +150,31 @@ static int color_view(const MfRtScene *rt, const ColorState *cs, const MfCamera 
     return rc;
 }
 
+typedef struct {
+    const MfCamera *cams;
+    const MfImage *imgs;
+    const int *views;
+    const ColorState *cs;
+    float color;
+    uint64_t seed;
+    float *dvkd, *dvorm, *denv;
+    MfGeomFitStep *st;
+} ColorCtx;
+
+static int color_view_k(void *ctx, const MfRtScene *rt, int k, double scale, float *dpos) {
+    ColorCtx *c = ctx;
+    int v = c->views[k];
+    return color_view(rt, c->cs, &c->cams[v], &c->imgs[v], v, c->color, mf_hash64(c->seed, (uint64_t)k), scale, &c->st->rgb,
+                      &c->st->mask, dpos, c->dvkd, c->dvorm, c->denv);
+}
+
 /* The colour term (with the mask term) over views: dsdf, ddeform and the state's gradients +=. */
 static int color_grad(const MfTetGrid *g, const float *sdf, const float *deform, const MfCamera *cams, const MfImage *imgs,
                       const int *views, int nviews, const ColorState *cs, float color, uint64_t seed, float *dsdf,
                       float *ddeform, float *dvkd, float *dvorm, float *denv, MfGeomFitStep *st) {
-    MfTetMesh tm;
-    int rc = mf_tetgrid_extract(g, sdf, deform, &tm);
-    if (rc) return rc;
-    MfRtScene *rt = NULL;
-    float *dpos = calloc((size_t)tm.mesh.nv * 3, sizeof *dpos);
-    if (!dpos) rc = mf_fail(MF_ENOMEM, "geometry fit: out of memory for %d vertices", tm.mesh.nv);
-    if (!rc) rc = mf_mesh_compute_normals(&tm.mesh);
-    if (!rc) rc = mf_rtscene_new(&tm.mesh, &rt);
-    size_t npix = 0;
-    for (int k = 0; k < nviews; ++k) npix += (size_t)cams[views[k]].w * cams[views[k]].h;
-    double scale = 1.0 / (double)npix;
+    ColorCtx c = {cams, imgs, views, cs, color, seed, dvkd, dvorm, denv, st};
     st->rgb = st->mask = 0;
-    for (int k = 0; k < nviews && !rc; ++k)
-        rc = color_view(rt, cs, &cams[views[k]], &imgs[views[k]], views[k], color, mf_hash64(seed, (uint64_t)k), scale, &st->rgb,
-                        &st->mask, dpos, dvkd, dvorm, denv);
-    for (size_t i = 0; !rc && i < (size_t)tm.mesh.nv * 3; ++i)
-        if (!isfinite(dpos[i])) rc = mf_fail(MF_ENAN, "geometry fit: non-finite vertex gradient at vertex %zu", i / 3);
-    if (!rc) mf_tetgrid_backward(g, sdf, deform, &tm, dpos, dsdf, ddeform);
-    st->nt = tm.mesh.nt;
-    mf_rtscene_free(rt);
-    free(dpos);
-    mf_tetmesh_free(&tm);
-    return rc;
+    return over_views(g, sdf, deform, cams, views, nviews, 1, color_view_k, &c, dsdf, ddeform, &st->nt);
 }
 
 static double sigmoid(double x) { return 1.0 / (1.0 + exp(-x)); }
