@@ -37,6 +37,10 @@ typedef struct {
     const char *args;    /* extra arguments appended to the cell's command */
     const char *refuse;  /* NULL: must succeed; else the option name a refusal must mention */
     double max_delta_db; /* recon, > 0: |relit|, |albedo| and |ORM| dB difference to the reference cell <= this */
+    int spread_bound;    /* recon, 1: the bound of each metric is the larger of max_delta_db and the method's
+                            reference spread over the seed row's seeds (max - min): a run that amplifies
+                            last-bit input changes moves by as much as a new seed (without a seed row:
+                            max_delta_db) */
     double min_render_db; /* render, > 0: PSNR against the reference render >= this */
     int quick;           /* 1: in the subset `make test` runs */
 } EvStabCell;
@@ -49,6 +53,7 @@ typedef struct {
     int exr_files;      /* EXR files scanned */
     double db[3];       /* recon: relit, albedo, ORM PSNR (NaN: not scored / no view scored) */
     double delta[3];    /* recon: db - the reference cell's db (NaN when either is missing) */
+    double bound[3];    /* recon: the |delta| bound applied to each metric (0: none; EvStabCell) */
     double rough[2], metal[2]; /* recon: mean roughness / metallic, {result, truth} (NaN: not read) */
     double render_db;   /* render: worst view PSNR against the reference render (NaN: not compared) */
     long ckpt_values;   /* recon: floats in checkpoint.mfck (mf_ckpt_read; -1: missing or unreadable) */
@@ -88,6 +93,11 @@ typedef struct {
     double mean[EV_SEED_NCMP][2][3], lo[EV_SEED_NCMP][2][3], hi[EV_SEED_NCMP][2][3], spread[2][3];
     int ok;
 } EvStabSeedRow;
+
+/* For the cells with spread_bound: each metric's bound becomes the larger of the cell's
+ * max_delta_db and the method's reference spread in row (a NaN spread leaves max_delta_db), and
+ * the cell's ok is judged again. cells (n,) and res (n,) in the same order; other cells untouched. */
+void ev_stab_spread_bounds(const EvStabCell *const *cells, EvStabResult *res, int n, const EvStabSeedRow *row);
 
 /* Counts the .exr files under `dir` (recursively) and those that hold a non-finite value. */
 int ev_stab_scan_dir(const char *dir, int *exr_files, int *nonfinite);

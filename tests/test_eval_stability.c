@@ -171,3 +171,35 @@ MF_TEST(stability_seed_options_refused) {
     CHECK_ERR(ev_stab_grid("mf", work, work, &o, res, 1, &n, rows, &nrows), "--seed-row-only");
     CHECK(!mf_file_exists(work)); /* refused before anything was written */
 }
+
+/* MaterialFusion's scale cells: bounded by the larger of 0.3 dB and its reference's seed spread
+ * per metric once the seed row has measured it; the baseline's keep 0.3 dB; a NaN spread keeps it. */
+MF_TEST(stability_scale_cells_spread_bound) {
+    int nc;
+    const EvStabCell *cells = ev_stab_cells(&nc), *pick[3] = {NULL, NULL, NULL};
+    for (int i = 0; i < nc; ++i) {
+        if (strcmp(cells[i].variant, "scale_1e2")) continue;
+        if (!strcmp(cells[i].kind, "materialfusion")) pick[0] = pick[2] = &cells[i];
+        if (!strcmp(cells[i].kind, "baseline")) pick[1] = &cells[i];
+    }
+    CHECK(pick[0] && pick[1] && pick[0]->spread_bound && !pick[1]->spread_bound);
+    if (!pick[0] || !pick[1]) return;
+    EvStabResult res[3];
+    memset(res, 0, sizeof res);
+    for (int j = 0; j < 3; ++j) {
+        res[j].ckpt_values = 10;
+        for (int k = 0; k < 3; ++k) res[j].bound[k] = pick[j]->max_delta_db, res[j].delta[k] = -0.31;
+    }
+    res[2].delta[2] = 2.5; /* beyond MaterialFusion's ORM spread */
+    EvStabSeedRow row;
+    memset(&row, 0, sizeof row);
+    const double spread[2][3] = {{0.2, 0.4, 0.1}, {1.8, 2.3, 2.0}};
+    memcpy(row.spread, spread, sizeof spread);
+    ev_stab_spread_bounds(pick, res, 3, &row);
+    CHECK(res[0].ok && res[0].bound[0] == 1.8 && res[0].bound[1] == 2.3 && res[0].bound[2] == 2.0);
+    CHECK(!res[1].ok && res[1].bound[1] == pick[1]->max_delta_db); /* the baseline: -0.31 against 0.3 */
+    CHECK(!res[2].ok);
+    row.spread[1][0] = row.spread[1][1] = row.spread[1][2] = NAN;
+    ev_stab_spread_bounds(pick, res, 1, &row);
+    CHECK(!res[0].ok && res[0].bound[0] == pick[0]->max_delta_db);
+}
