@@ -19,8 +19,8 @@ static double worst_rel(MfTestLoss loss, void *ctx, float *x, size_t n, const fl
         .worst;
 }
 
-typedef struct { const float *x, *ref; size_t n; } PairCtx;
-static double f_logl1(void *c) { const PairCtx *p = c; return mf_loss_logl1_fwd(p->x, p->ref, p->n); }
+typedef struct { const float *x, *ref; size_t n; float floor; } PairCtx;
+static double f_logl1(void *c) { const PairCtx *p = c; return mf_loss_logl1_fwd(p->x, p->ref, p->n, p->floor); }
 static double f_mse(void *c) { const PairCtx *p = c; return mf_loss_mse_fwd(p->x, p->ref, p->n); }
 
 MF_TEST(inverse_loss_logl1_and_mse_gradients) {
@@ -34,16 +34,28 @@ MF_TEST(inverse_loss_logl1_and_mse_gradients) {
         x[i] = mag;
         ref[i] = mag * (mf_rng_float(&r) < 0.5f ? 0.5f : 1.7f);
     }
-    PairCtx c = {x, ref, N};
-    memset(g, 0, sizeof g);
-    mf_loss_logl1_bwd(x, ref, N, 1.0f, g);
-    /* relative step: values span 1e-3..1e3 */
-    double worst = 0;
-    for (int i = 0; i < N; ++i) {
-        double fd = mf_test_fd(f_logl1, &c, x, i, 1e-3f * x[i]);
-        worst = fmax(worst, fabs(fd - g[i]) / fmax(fabs(fd), 1e-4));
+    for (int k = 0; k < 2; ++k) { /* without and with a floor */
+        PairCtx c = {x, ref, N, k ? 0.1f : 0.0f};
+        memset(g, 0, sizeof g);
+        mf_loss_logl1_bwd(x, ref, N, c.floor, 1.0f, g);
+        /* relative step: values span 1e-3..1e3 */
+        double worst = 0;
+        for (int i = 0; i < N; ++i) {
+            double fd = mf_test_fd(f_logl1, &c, x, i, 1e-3f * x[i]);
+            worst = fmax(worst, fabs(fd - g[i]) / fmax(fabs(fd), 1e-4));
+        }
+        CHECK_MSG(worst < 2e-2, "logl1 gradient relative error %g (floor %g)", worst, c.floor);
     }
-    CHECK_MSG(worst < 2e-2, "logl1 gradient relative error %g", worst);
+    /* the floor caps a near-black pixel's weight: without it 1e-4 weighs > 20x a pixel at 0.5,
+     * with 0.1 under 5x */
+    float dark = 1e-4f, mid = 0.5f, rd = 2e-4f, rm = 1.0f, gd = 0, gm = 0;
+    for (int k = 0; k < 2; ++k) {
+        float f = k ? 0.1f : 0.0f;
+        gd = gm = 0;
+        mf_loss_logl1_bwd(&dark, &rd, 1, f, 1.0f, &gd);
+        mf_loss_logl1_bwd(&mid, &rm, 1, f, 1.0f, &gm);
+        CHECK_MSG(k ? fabsf(gd) < 5.0f * fabsf(gm) : fabsf(gd) > 20.0f * fabsf(gm), "floor %g: d(dark) %g, d(mid) %g", f, gd, gm);
+    }
     /* the tone curve: continuous at the sRGB knee, finite, monotone */
     float prev = -1.0f;
     for (int i = 0; i <= 2000; ++i) {
@@ -58,7 +70,7 @@ MF_TEST(inverse_loss_logl1_and_mse_gradients) {
     for (int i = 0; i < N; ++i) x[i] = fminf(x[i], 10.0f), ref[i] = fminf(ref[i], 12.0f);
     memset(g, 0, sizeof g);
     mf_loss_mse_bwd(x, ref, N, 1.0f, g);
-    CHECK_MSG(worst_rel(f_mse, &c, x, N, g, 1e-2f, 1e-3) < 1e-3, "mse gradient");
+    CHECK_MSG(worst_rel(f_mse, &(PairCtx){x, ref, N, 0.0f}, x, N, g, 1e-2f, 1e-3) < 1e-3, "mse gradient");
 }
 
 typedef struct { const float *x; int w, h, ch, c0, nc; const float *mask; } SmoothCtx;

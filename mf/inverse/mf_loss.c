@@ -21,17 +21,19 @@ float mf_logsrgb_deriv(float x) {
     return dt / (x + 1.0f);
 }
 
-double mf_loss_logl1_fwd(const float *pred, const float *ref, size_t n) {
+double mf_loss_logl1_fwd(const float *pred, const float *ref, size_t n, float floor) {
     double s = 0.0;
-    for (size_t i = 0; i < n; ++i) s += fabsf(mf_logsrgb(pred[i]) - mf_logsrgb(ref[i]));
+    for (size_t i = 0; i < n; ++i) s += fabsf(mf_logsrgb(pred[i] + floor) - mf_logsrgb(ref[i] + floor));
     return n ? s / (double)n : 0.0;
 }
 
-void mf_loss_logl1_bwd(const float *pred, const float *ref, size_t n, float scale, float *dpred) {
+void mf_loss_logl1_bwd(const float *pred, const float *ref, size_t n, float floor, float scale, float *dpred) {
     if (!n) return;
     float k = scale / (float)n;
-    for (size_t i = 0; i < n; ++i)
-        dpred[i] += k * sgn(mf_logsrgb(pred[i]) - mf_logsrgb(ref[i])) * mf_logsrgb_deriv(pred[i]);
+    for (size_t i = 0; i < n; ++i) {
+        float p = pred[i] + floor;
+        dpred[i] += k * sgn(mf_logsrgb(p) - mf_logsrgb(ref[i] + floor)) * mf_logsrgb_deriv(p);
+    }
 }
 
 double mf_loss_mse_fwd(const float *pred, const float *ref, size_t n) {

@@ -5,8 +5,11 @@
  * comment. All arrays are float32 and interleaved.
  *
  * Image loss as nvdiffrecmc ("logl1"): l(x) = srgb(log(clamp(x, 0, 65535) + 1)) with srgb
- * the exact piecewise curve, loss = mean |l(pred) - l(ref)| over (N, 3) colour elements,
- * after both are composited over the same random background (mf_loss_composite).
+ * the exact piecewise curve, loss = mean |l(pred + f) - l(ref + f)| over (N, 3) colour elements,
+ * after both are composited over the same random background (mf_loss_composite). The floor f
+ * >= 0 is OURS (nvdiffrecmc: 0): the curve's slope near black is up to ~50x its slope at 0.5,
+ * so without a floor the darkest pixels, whose 8-bit values carry the least information, weigh
+ * most (MfReconOpts.loss_floor).
  * Alpha loss: mean (a_pred - a_ref)^2.
  * Texture smoothness (our texel-space form of nvdiffrecmc's jittered-surface smoothness):
  * mean over texel pairs (right and lower neighbours) of |t(p) - t(q)| for the listed channels,
@@ -29,8 +32,9 @@ void mf_loss_composite(float *out, const float *rgb_premult, const float *alpha,
 float mf_logsrgb(float x);
 float mf_logsrgb_deriv(float x);
 
-double mf_loss_logl1_fwd(const float *pred, const float *ref, size_t n);
-void mf_loss_logl1_bwd(const float *pred, const float *ref, size_t n, float scale, float *dpred);
+/* pred, ref (n,); floor >= 0 is added to both before the curve. */
+double mf_loss_logl1_fwd(const float *pred, const float *ref, size_t n, float floor);
+void mf_loss_logl1_bwd(const float *pred, const float *ref, size_t n, float floor, float scale, float *dpred);
 
 double mf_loss_mse_fwd(const float *pred, const float *ref, size_t n);
 void mf_loss_mse_bwd(const float *pred, const float *ref, size_t n, float scale, float *dpred);

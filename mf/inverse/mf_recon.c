@@ -545,9 +545,9 @@ static int view_step(MfRecon *r, int vi, uint64_t vseed, float scale, IterStats 
     }
     mf_loss_composite(cp, lrgb, out.alpha, bg, npx);
     mf_loss_composite(cr, rrgb, ra, bg, npx);
-    st->image += mf_loss_logl1_fwd(cp, cr, npx * 3) * scale;
+    st->image += mf_loss_logl1_fwd(cp, cr, npx * 3, r->o.loss_floor) * scale;
     st->alpha += mf_loss_mse_fwd(out.alpha, ra, npx) * scale;
-    mf_loss_logl1_bwd(cp, cr, npx * 3, scale, drgb); /* d composite / d rgb_premult = 1 */
+    mf_loss_logl1_bwd(cp, cr, npx * 3, r->o.loss_floor, scale, drgb); /* d composite / d rgb_premult = 1 */
     if (r->o.w_shading > 0.0f) {
         st->reg += r->o.w_shading * mf_reg_shading_fwd(ldif, lspec, out.alpha, npx, r->o.w_spec_ratio) * scale;
         mf_reg_shading_bwd(ldif, lspec, out.alpha, npx, r->o.w_spec_ratio, r->o.w_shading * scale, dd, ds);

@@ -96,6 +96,8 @@ typedef struct {
     float w_env_tv;       /* env log-radiance total variation weight (mf_reg_env_logtv; 0: off) */
     float w_shading;      /* white-light shading regulariser weight */
     float w_spec_ratio;   /* mean(spec) / mean(diffuse) weight inside the shading term */
+    float loss_floor;     /* added to render and image before logl1's curve, in the loop's units (the
+                             views / 2^k near their mean): caps the weight of near-black pixels (mf_loss.h) */
     int normal_map;       /* 1: optimise a tangent-space normal map (tex_res^2, MF_BLOCK_NORMAL);
                              default 0 (measured to lower relighting quality on GT meshes) */
     float w_nrm_perturb;  /* normal-map perturbation weight (L1 from flat; nvdiffrecmc 0.25) */

@@ -19,6 +19,9 @@ static const MfOpt k_opts[] = {
     MF_OPT_FLOAT(R, w_env_tv, 0, 0, 1000, "env smoothness weight: L1 of the log-radiance differences of neighbouring env texels (0: off)"),
     MF_OPT_FLOAT(R, w_shading, 0.15, 0, 1000, "white-light shading regulariser weight"),
     MF_OPT_FLOAT(R, w_spec_ratio, 0.0025, 0, 1000, "mean(spec)/mean(diffuse) weight"),
+    MF_OPT_FLOAT(R, loss_floor, 0, 0, 10,
+                 "added to render and image before the image loss's log-sRGB curve, in the views' units / 2^k near their mean "
+                 "(0: nvdiffrecmc's loss; it caps the weight of near-black pixels)"),
     /* Off by measurement: on test-3d (GT meshes, default budget) the normal map lowered relit
      * PSNR by 3.0 / 0.4 / 4.8 dB (000_cup, 001_vase, 007_mug): on a correct mesh it only adds
      * variance (rarely seen texels random-walk under Adam's per-texel normalisation). */
