@@ -113,8 +113,11 @@ $(BUILD)/libmf.a: $(LIB_OBJ)
 	@rm -f $@
 	ar rcs $@ $^
 
+# linked to a temporary name and renamed: a benchmark running build/mf keeps its binary, and the
+# next run it starts gets the new one whole (the linker rewriting it in place made execs fail)
 $(BUILD)/mf: $(CLI_OBJ) $(BUILD)/libmf.a
-	$(CC) $(LDFLAGS) -o $@ $(CLI_OBJ) $(BUILD)/libmf.a $(LDLIBS)
+	$(CC) $(LDFLAGS) -o $@.tmp $(CLI_OBJ) $(BUILD)/libmf.a $(LDLIBS)
+	mv -f $@.tmp $@
 
 $(BUILD)/mf_tests: $(TEST_OBJ) $(BUILD)/libmf.a
 	$(CC) $(LDFLAGS) -o $@ $(TEST_OBJ) $(BUILD)/libmf.a $(LDLIBS)
