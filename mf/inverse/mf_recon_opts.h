@@ -20,7 +20,9 @@
  *   default stays the configuration they measured. Off, the image is the raw 2^2+2^2-sample
  *   estimate with a decorrelated adjoint; on, kd's adjoint multiplies the denoised light of an
  *   independent render, not the primal's (denoise_decorrelate 1; 0 is nvdiffrecmc's way);
- *   smoothness regularisers act on texel neighbours rather than jittered surface points.
+ *   smoothness regularisers act on texel neighbours rather than jittered surface points;
+ *   logl1 with a floor of 0.1 (0: nvdiffrecmc's loss) added to render and image in the loop's
+ *   exposure units, so near-black pixels stop outweighing the rest (mf_loss.h; README "The methods").
  * baselines/nvdiffrecmc.json holds the same values as a config file (a test checks they agree);
  * BENCH_FULL runs use baselines/nvdiffrecmc_full.json (the published budget). */
 #ifndef MF_RECON_OPTS_H
