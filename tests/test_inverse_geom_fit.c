@@ -230,6 +230,56 @@ MF_TEST(inverse_geom_fit_colour_sphere) {
     free(sdf);
 }
 
+/* A fit stopped at step 5 and resumed from its state file reaches the bytes of an uninterrupted
+ * 8-step fit (SDF, deformation, log), with every block kind (SDF, deformation, the colour term's
+ * volumes and env) and 4 of the 8 views a step; a state written with other options, or holding
+ * more steps than asked for, is refused. Checked to fail: without the Adam moments' load the SDF
+ * differs; without the env's refresh after the load the SDF and the log differ. */
+MF_TEST(inverse_geom_fit_resume) {
+    enum { FULL = 8, HALF = 5 };
+    MfCamera cams[NVIEW];
+    MfImage imgs[NVIEW];
+    memset(imgs, 0, sizeof imgs);
+    CHECK_OK(make_cams(cams));
+    CHECK_OK(make_rgba(cams, imgs));
+    MfTetGrid g = mf_tetgrid_make(RES, mf_v3(0, 0, 0), EXTENT);
+    size_t nv = mf_tetgrid_nverts(&g);
+    float *sdf[2] = {malloc(nv * sizeof(float)), malloc(nv * sizeof(float))};
+    float *def[2] = {calloc(nv * 3, sizeof(float)), calloc(nv * 3, sizeof(float))};
+    MfGeomFitStep log[2][FULL];
+    memset(log, 0, sizeof log);
+    char st[2][512];
+    snprintf(st[0], sizeof st[0], "%s", mf_test_path("geomfit_full.mfck"));
+    snprintf(st[1], sizeof st[1], "%s", mf_test_path("geomfit_half.mfck"));
+    MfGeomFitOpts o = {.iters = FULL, .lr_sdf = 0.01f, .lr_deform = 0.03f, .sdf_reg = 0.01f, .views_per_step = 4,
+                       .color = 0.1f, .seed = 3, .state = st[0], .state_every = 3};
+    for (int r = 0; r < 2; ++r) sphere_sdf(&g, R0, sdf[r]);
+    int done = -1;
+    CHECK_OK(mf_geom_fit(&g, sdf[0], def[0], cams, imgs, NVIEW, &o, log[0], &done));
+    CHECK(done == FULL);
+    /* the interrupted run: 5 steps, then a new call from the same start that resumes */
+    MfGeomFitOpts h = o;
+    h.iters = HALF, h.state = st[1];
+    CHECK_OK(mf_geom_fit(&g, sdf[1], def[1], cams, imgs, NVIEW, &h, log[1], NULL));
+    sphere_sdf(&g, R0, sdf[1]);
+    memset(def[1], 0, nv * 3 * sizeof(float));
+    memset(log[1], 0, sizeof log[1]);
+    h.iters = FULL, h.resume = 1;
+    CHECK_OK(mf_geom_fit(&g, sdf[1], def[1], cams, imgs, NVIEW, &h, log[1], &done));
+    CHECK(done == FULL);
+    CHECK_MSG(!memcmp(sdf[0], sdf[1], nv * sizeof(float)), "the resumed SDF differs from the uninterrupted one");
+    CHECK_MSG(!memcmp(def[0], def[1], nv * 3 * sizeof(float)), "the resumed deformation differs");
+    CHECK_MSG(!memcmp(log[0], log[1], sizeof log[0]), "the resumed log differs");
+    CHECK(log[0][FULL - 1].rgb > 0);
+    /* refusals: other options; more steps held than asked for */
+    h.seed = 4;
+    CHECK_ERR(mf_geom_fit(&g, sdf[1], def[1], cams, imgs, NVIEW, &h, log[1], NULL), "other geometry-fit options");
+    h.seed = 3, h.iters = HALF;
+    CHECK_ERR(mf_geom_fit(&g, sdf[1], def[1], cams, imgs, NVIEW, &h, log[1], NULL), "holds 8 steps");
+    for (int v = 0; v < NVIEW; ++v) mf_image_free(&imgs[v]);
+    for (int r = 0; r < 2; ++r) free(sdf[r]), free(def[r]);
+}
+
 /* an SDF without a zero crossing: a status naming the step, the field untouched */
 MF_TEST(inverse_geom_fit_empty) {
     MfCamera cams[NVIEW];

@@ -1,11 +1,18 @@
 #include "inverse/mf_geom_fit.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include <cJSON.h>
+
 #include "core/mf_error.h"
+#include "core/mf_fs.h"
+#include "core/mf_log.h"
 #include "core/mf_rng.h"
+#include "io/mf_ckpt.h"
+#include "io/mf_json.h"
 #include "inverse/mf_loss.h"
 #include "inverse/mf_optim.h"
 #include "render/mf_antialias.h"
@@ -243,9 +250,106 @@ static float reference_level(const MfImage *imgs, int n) {
     return m > 1e-6 && isfinite(m) ? (float)m : 1.0f;
 }
 
+/* ---- the state file: blocks' values and moments (p, m, v each), step, options and log in the meta ---- */
+
+static int state_specs(const MfParamBlock *b, int nb, MfTensorSpec *specs) {
+    static const char *part[3] = {"p", "m", "v"};
+    for (int k = 0; k < nb; ++k)
+        for (int j = 0; j < 3; ++j) {
+            int shape[1] = {(int)b[k].n};
+            mf_spec_set(&specs[3 * k + j], b[k].name, part[j], 1, shape);
+        }
+    return 3 * nb;
+}
+
+/* The options a state must match, as "key":value pairs of its meta. */
+static int state_opts(const MfGeomFitOpts *o, char *buf, size_t cap) {
+    return snprintf(buf, cap, "\"lr_sdf\":%.9g,\"lr_deform\":%.9g,\"sdf_reg\":%.9g,\"views_per_step\":%d,\"color\":%.9g,\"seed\":%llu",
+                    (double)o->lr_sdf, (double)o->lr_deform, (double)o->sdf_reg, o->views_per_step, (double)o->color,
+                    (unsigned long long)o->seed);
+}
+
+static int state_save(const char *path, const MfParamBlock *b, int nb, const MfAdam *adam, int step, const MfGeomFitOpts *o,
+                      const MfGeomFitStep *log) {
+    MfTensorSpec specs[15];
+    int ns = state_specs(b, nb, specs);
+    size_t total = mf_specs_numel(specs, ns), off = 0, cap = 512 + (size_t)step * 96;
+    float *buf = malloc(total * sizeof *buf + 1);
+    char *meta = malloc(cap);
+    int rc = buf && meta ? MF_OK : mf_fail(MF_ENOMEM, "%s: out of memory", path);
+    for (int k = 0; !rc && k < nb; ++k) {
+        memcpy(buf + off, b[k].p, b[k].n * sizeof *buf), off += b[k].n;
+        memcpy(buf + off, b[k].m, b[k].n * sizeof *buf), off += b[k].n;
+        memcpy(buf + off, b[k].v, b[k].n * sizeof *buf), off += b[k].n;
+    }
+    if (!rc) {
+        size_t len = (size_t)snprintf(meta, cap, "{\"kind\":\"mf-geom-fit\",\"step\":%d,\"adam_t\":%ld,", step, adam->t);
+        len += (size_t)state_opts(o, meta + len, cap - len);
+        len += (size_t)snprintf(meta + len, cap - len, ",\"log\":[");
+        for (int i = 0; i < step; ++i) /* mask, weighted regulariser, triangles, colour: exact in %.17g */
+            len += (size_t)snprintf(meta + len, cap - len, "%s[%.17g,%.17g,%d,%.17g]", i ? "," : "", log[i].mask, log[i].reg,
+                                    log[i].nt, log[i].rgb);
+        snprintf(meta + len, cap - len, "]}");
+        rc = mf_ckpt_save(path, specs, ns, buf, meta);
+    }
+    free(buf), free(meta);
+    return rc;
+}
+
+/* Loads path into the blocks, Adam and log[0..step); *step = the steps it holds. */
+static int state_load(const char *path, MfParamBlock *b, int nb, MfAdam *adam, const MfGeomFitOpts *o, MfGeomFitStep *log,
+                      int *step) {
+    MfTensorSpec specs[15];
+    int ns = state_specs(b, nb, specs);
+    size_t total = mf_specs_numel(specs, ns), off = 0;
+    float *buf = malloc(total * sizeof *buf + 1);
+    char *meta = NULL, want[512];
+    cJSON *root = NULL;
+    const cJSON *rows = NULL;
+    int rc = buf ? mf_ckpt_load(path, specs, ns, buf, &meta) : mf_fail(MF_ENOMEM, "%s: out of memory", path);
+    if (!rc) rc = mf_json_parse(path, meta, strlen(meta), &root);
+    double t = 0;
+    int k = 0, nrows = 0;
+    if (!rc) rc = mf_json_int(path, "state", root, "step", &k);
+    if (!rc) rc = mf_json_number(path, "state", root, "adam_t", &t);
+    if (!rc) rc = mf_json_array(path, "state", root, "log", &rows, &nrows);
+    if (!rc && (k < 0 || k > o->iters || nrows != k))
+        rc = mf_fail(MF_EARG, "%s: holds %d steps (log %d rows), this fit asks for %d: run without --resume to start afresh", path, k,
+                     nrows, o->iters);
+    /* every option that shapes a step must match: compare the meta's pairs as written */
+    state_opts(o, want, sizeof want);
+    if (!rc && !strstr(meta, want)) {
+        const char *its = strstr(meta, "\"lr_sdf\""), *end = its ? strstr(its, ",\"log\"") : NULL;
+        rc = mf_fail(MF_EARG, "%s: written with other geometry-fit options ({%.*s}; this run {%s}): run without --resume to start afresh",
+                     path, its && end ? (int)(end - its) : 0, its ? its : "", want);
+    }
+    for (int i = 0; !rc && i < k; ++i) {
+        const cJSON *r = cJSON_GetArrayItem(rows, i);
+        double v[4];
+        for (int j = 0; j < 4 && !rc; ++j) {
+            const cJSON *x = cJSON_GetArrayItem(r, j);
+            if (cJSON_GetArraySize(r) != 4 || !cJSON_IsNumber(x))
+                rc = mf_fail(MF_EFORMAT, "%s: log row %d is not [mask, reg, triangles, rgb]", path, i);
+            else
+                v[j] = x->valuedouble;
+        }
+        if (!rc) log[i] = (MfGeomFitStep){.mask = v[0], .reg = v[1], .nt = (int)v[2], .rgb = v[3]};
+    }
+    for (int j = 0; !rc && j < nb; ++j) {
+        memcpy(b[j].p, buf + off, b[j].n * sizeof *buf), off += b[j].n;
+        memcpy(b[j].m, buf + off, b[j].n * sizeof *buf), off += b[j].n;
+        memcpy(b[j].v, buf + off, b[j].n * sizeof *buf), off += b[j].n;
+    }
+    if (!rc) adam->t = (long)t, *step = k;
+    cJSON_Delete(root);
+    free(buf), free(meta);
+    return rc;
+}
+
 int mf_geom_fit(const MfTetGrid *g, float *sdf, float *deform, const MfCamera *cams, const MfImage *masks, int n,
                 const MfGeomFitOpts *opt, MfGeomFitStep *log, int *done) {
     if (done) *done = 0;
+    if (opt->resumed) *opt->resumed = 0;
     if (n < 1 || opt->iters < 1 || !(opt->lr_sdf > 0) || !(opt->lr_deform >= 0) || !(opt->sdf_reg >= 0) || !(opt->color >= 0))
         return mf_fail(MF_EARG, "geometry fit: need views (%d), iters >= 1 (%d), lr_sdf > 0 (%g), lr_deform >= 0 (%g), "
                                 "sdf_reg >= 0 (%g), color >= 0 (%g)", n, opt->iters, (double)opt->lr_sdf, (double)opt->lr_deform,
@@ -286,6 +390,19 @@ int mf_geom_fit(const MfTetGrid *g, float *sdf, float *deform, const MfCamera *c
     MfAdam adam;
     mf_adam_init(&adam, opt->lr_sdf);
     int it = 0;
+    /* a state file carries the log, so a fit that keeps one keeps a log (its own when log is NULL) */
+    MfGeomFitStep *own = !rc && opt->state && !log ? calloc((size_t)opt->iters, sizeof *own) : NULL;
+    if (own) log = own;
+    else if (!rc && opt->state && !log) rc = mf_fail(MF_ENOMEM, "geometry fit: out of memory");
+    if (!rc && opt->state && opt->resume && mf_file_exists(opt->state)) {
+        rc = state_load(opt->state, b, nb, &adam, opt, log, &it);
+        if (!rc && use_col) { /* the env's texels and sampling tables follow its block */
+            memcpy(cs.env.img.data, b[ienv].p, b[ienv].n * sizeof(float));
+            rc = mf_env_update(&cs.env);
+        }
+        if (!rc) mf_log_info("geometry fit: resuming from %s at step %d of %d", opt->state, it, opt->iters);
+        if (!rc && opt->resumed) *opt->resumed = it;
+    }
     for (; !rc && it < opt->iters; ++it) {
         for (int k = 0; k < bsize; ++k) views[k] = (int)(((long)it * bsize + k) % n);
         for (int k = 0; k < nb; ++k) mf_param_zero_grad(&b[k]);
@@ -306,6 +423,8 @@ int mf_geom_fit(const MfTetGrid *g, float *sdf, float *deform, const MfCamera *c
             memcpy(cs.env.img.data, b[ienv].p, b[ienv].n * sizeof(float));
             rc = mf_env_update(&cs.env);
         }
+        if (!rc && opt->state && ((opt->state_every > 0 && (it + 1) % opt->state_every == 0) || it + 1 == opt->iters))
+            rc = state_save(opt->state, b, nb, &adam, it + 1, opt, log);
     }
     if (rc) rc = mf_fail_prefix(rc, "geometry fit: step %d", it);
     if (b[0].p) memcpy(sdf, b[0].p, nv * sizeof *sdf);
@@ -313,6 +432,6 @@ int mf_geom_fit(const MfTetGrid *g, float *sdf, float *deform, const MfCamera *c
     if (done) *done = it;
     mf_env_free(&cs.env);
     for (int k = 0; k < 5; ++k) mf_param_free(&b[k]);
-    free(views);
+    free(views), free(own);
     return rc;
 }

@@ -59,6 +59,10 @@ typedef struct {
     int views_per_step; /* views per step, taken in turn (0: all) */
     float color;        /* weight of the colour term (0: mask term only; > 0 needs RGBA references) */
     uint64_t seed;      /* the colour term's Monte Carlo samples */
+    const char *state;  /* NULL: no checkpoints; else the fit's state file (below) */
+    int state_every;    /* steps between state files (the last step always writes one) */
+    int resume;         /* 1: continue from the state file when it exists */
+    int *resumed;       /* output, may be NULL: the steps a resumed state held (0: started afresh) */
 } MfGeomFitOpts;
 
 #define MF_GEOM_VOL_RES 32
@@ -73,6 +77,15 @@ typedef struct {
     double reg;  /* weighted L_reg, before the step */
     int nt;      /* triangles of the extracted mesh */
 } MfGeomFitStep;
+
+/* The state file (opt->state; an MFCK checkpoint, io/mf_ckpt.h, written atomically): every block's
+ * values and Adam moments, Adam's step count, the steps done, the options that shape the steps
+ * (learning rates, regulariser, views per step, colour weight, seed) and the log rows so far in
+ * its meta. Every step depends on the step index, not on opt->iters, so a fit stopped at step k
+ * and resumed from its state reaches the bytes of an uninterrupted one (same build and thread
+ * count), also when the resumed run asks for more steps. A state whose grid size or options
+ * differ, or with more steps done than opt->iters, is refused (MF_EARG naming the file and what
+ * differs); one that does not read is an error too, never silently ignored. */
 
 /* Runs opt->iters Adam steps on sdf (nv,) and, when deform is non-NULL and lr_deform > 0, deform
  * (nv, 3), both updated in place; with opt->color > 0 the colour term's unknowns too (above;

@@ -109,9 +109,12 @@ static int write_geom_log(const char *out_dir, const MfGeomFitStep *log, int ste
     return rc;
 }
 
-/* DMTet's mask term: soft hull (in cell units) -> geom_iters Adam steps -> clean mesh -> unwrap. */
+/* DMTet's mask term: soft hull (in cell units) -> geom_iters Adam steps -> clean mesh -> unwrap.
+ * The fit's state goes to geometry/dmtet_state.mfck every MF_GEOM_STATE_EVERY steps; resume
+ * continues from it; it is removed once dmtet.obj is written (which resume then reuses whole). */
+#define MF_GEOM_STATE_EVERY 25
 static int build_dmtet(const MfReconGeomOpts *o, const MfCamera *cams, const MfImage *masks, int n, int tex_res,
-                       const char *out_dir, const char *path, MfReconGeomInfo *info) {
+                       const char *out_dir, const char *path, int resume, MfReconGeomInfo *info) {
     MfTetGrid g = {0};
     float *sdf = NULL;
     MfGeomFitStep *log = o->geom_iters > 0 ? calloc((size_t)o->geom_iters, sizeof *log) : NULL;
@@ -125,13 +128,16 @@ static int build_dmtet(const MfReconGeomOpts *o, const MfCamera *cams, const MfI
     /* mask - 0.5 in [-0.5, 0.5]: as a distance, in cells, so geom_lr is in cells per step */
     for (size_t v = 0; v < nv; ++v) sdf[v] *= g.cell;
     info->hull_s = mf_now() - t0;
+    char state[MF_PATH_MAX];
+    if (!rc && !(rc = mf_path_join(state, sizeof state, out_dir, "geometry/dmtet_state.mfck"))) rc = mf_mkdirs_for(state);
     MfGeomFitOpts fo = {.iters = o->geom_iters, .lr_sdf = o->geom_lr * g.cell, .sdf_reg = o->geom_sdf_reg, .views_per_step = o->geom_views,
-                        .color = o->geom_color, .seed = o->geom_seed};
+                        .color = o->geom_color, .seed = o->geom_seed, .state = state, .state_every = MF_GEOM_STATE_EVERY,
+                        .resume = resume, .resumed = &info->resumed_at};
     if (!rc && o->geom_iters > 0) {
         t0 = mf_now();
         rc = mf_geom_fit(&g, sdf, NULL, cams, masks, n, &fo, log, &info->steps);
         info->geom_s = mf_now() - t0;
-        info->step_ms = info->steps ? 1e3 * info->geom_s / info->steps : 0;
+        info->step_ms = info->steps > info->resumed_at ? 1e3 * info->geom_s / (info->steps - info->resumed_at) : 0;
         if (info->steps) info->loss_first = log[0].mask, info->loss_last = log[info->steps - 1].mask;
         if (info->steps) info->rgb_first = log[0].rgb, info->rgb_last = log[info->steps - 1].rgb;
     }
@@ -150,6 +156,8 @@ static int build_dmtet(const MfReconGeomOpts *o, const MfCamera *cams, const MfI
     if (!rc) rc = mf_vhull_extract_clean(&g, sdf, &ho, &m, NULL, &info->dropped_components);
     free(sdf), free(log);
     if (!rc) rc = unwrap_write(&m, tex_res, path, info);
+    if (!rc && o->geom_iters > 0 && remove(state) != 0)
+        rc = mf_fail(MF_EIO, "%s: cannot remove the finished fit's state: %s", state, strerror(errno));
     mf_mesh_free(&m);
     return rc == MF_OK ? MF_OK : mf_fail_prefix(rc, "--geometry dmtet");
 }
@@ -166,7 +174,8 @@ static int same_file(const char *a, const char *b) {
  * removes nothing; MF_EARG naming the first such file (a --resume must continue the same run). */
 static int remove_other_geometry(const char *out_dir, const char *source, const char *keep, int check_only) {
     static const struct { const char *file, *owner; } outs[] = {
-        {"geometry/vhull.obj", "vhull"}, {"geometry/dmtet.obj", "dmtet"}, {"geom_log.csv", "dmtet"}};
+        {"geometry/vhull.obj", "vhull"}, {"geometry/dmtet.obj", "dmtet"}, {"geometry/dmtet_state.mfck", "dmtet"},
+        {"geom_log.csv", "dmtet"}};
     char path[MF_PATH_MAX];
     for (size_t i = 0; i < sizeof outs / sizeof outs[0]; ++i) {
         if (!strcmp(outs[i].owner, source)) continue;
@@ -211,7 +220,7 @@ int mf_recon_geom_mesh(const MfReconGeomOpts *o, const char *source, const char 
         if ((rc = remove_other_geometry(out_dir, source, NULL, 0))) mf_mesh_free(mesh);
         return rc;
     }
-    rc = dmtet ? build_dmtet(o, cams, masks, n, tex_res, out_dir, info->mesh_path, info)
+    rc = dmtet ? build_dmtet(o, cams, masks, n, tex_res, out_dir, info->mesh_path, resume, info)
                : build_hull(o, cams, masks, n, tex_res, info->mesh_path, info);
     if (rc) return rc;
     /* read back what was written: a resumed run reuses the file, so both optimise the same bytes */
@@ -235,6 +244,7 @@ void mf_recon_geom_to_json(const MfReconGeomInfo *info, cJSON *obj) {
         cJSON_AddNumberToObject(g, "geom_s", info->geom_s);   /* wall s: the DMTet steps */
         cJSON_AddNumberToObject(g, "step_ms", info->step_ms); /* wall ms per step */
         cJSON_AddNumberToObject(g, "steps", info->steps);
+        cJSON_AddNumberToObject(g, "resumed_at", info->resumed_at); /* steps a resumed fit's state held */
         cJSON_AddNumberToObject(g, "mask_loss_first", info->loss_first);
         cJSON_AddNumberToObject(g, "mask_loss_last", info->loss_last);
         cJSON_AddNumberToObject(g, "rgb_loss_first", info->rgb_first); /* the colour term's logl1 (0 without it) */

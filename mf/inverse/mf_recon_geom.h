@@ -17,11 +17,14 @@
  *          (geom_views per step, in turn), then extraction and the hull's clean-up (weld, small
  *          components dropped, Taubin, decimation: the hull_* options), unwrapped as vhull ->
  *          <out>/geometry/dmtet.obj; the per-step loss -> <out>/geom_log.csv. Reused with resume
- *          like vhull.obj. By default only silhouettes drive it, so concavities the masks do
+ *          like vhull.obj. While the fit runs, its state (SDF, Adam moments, step, log) goes to
+ *          <out>/geometry/dmtet_state.mfck every 25 steps, so a run stopped inside pass 1 resumes
+ *          there (the same bytes as an uninterrupted fit; mf_geom_fit.h); it is removed once
+ *          dmtet.obj is written. By default only silhouettes drive it, so concavities the masks do
  *          not see stay as the hull left them; geom_color > 0 adds the colour term
  *          (mf_geom_fit.h), whose shading gradients reach them.
  * One folder, one run: once the mesh is read or built, what an earlier run with another source
- * left in out_dir (geometry/vhull.obj; geometry/dmtet.obj and geom_log.csv) is removed, with a
+ * left in out_dir (geometry/vhull.obj; geometry/dmtet.obj, dmtet_state.mfck and geom_log.csv) is removed, with a
  * log line each, so the folder never mixes two runs' geometry; the given mesh itself is never
  * removed (--mesh may name an earlier run's hull). The source's own files stay (rewritten, or
  * reused by resume). With resume, another source's files are refused instead (MF_EARG naming
@@ -68,9 +71,10 @@ typedef struct {
                                     (the grid's side after enlarging) and touches_border */
     int hull_tris;               /* vhull: triangles of the unwrapped hull */
     MfUvAtlasInfo atlas;         /* vhull, built: the unwrap's report */
-    double geom_s;               /* dmtet, built: wall s of the mask-term steps */
-    double step_ms;              /* dmtet, built: mean wall ms per step */
+    double geom_s;               /* dmtet, built: wall s of this process's mask-term steps */
+    double step_ms;              /* dmtet, built: mean wall ms per step of this process */
     int steps;                   /* dmtet, built: steps taken */
+    int resumed_at;              /* dmtet, built: steps its state file held (resume; 0: started afresh) */
     double loss_first, loss_last;/* dmtet, built: mask loss of the first and last step */
     double rgb_first, rgb_last;  /* dmtet, built: the colour term's logl1 of the first and last step (0 without it) */
     int dropped_components;      /* dmtet, built: components dropped by the clean-up */
