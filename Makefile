@@ -411,19 +411,20 @@ bench-hull: $(DATA)/test-3d/.rendered | $(BUILD)/mf
 	@mv $(GEOM_REPORT)/.README.md.tmp $(GEOM_REPORT)/README.md
 	@cat $(GEOM_REPORT)/README.md
 
-# Geometry recovery inside mf recon (issue 14 items 10 and 12, the hull part): per test-3d scene
-# (bench-split's SCENES / SCENE_LIMIT pick a subset), the baseline on the given mesh (nvdiffrecmc:
-# the same runs as bench-split's) and on the visual hull of its training masks, unwrapped
-# (nvdiffrecmc-vhull: mf recon --geometry vhull), both with $(RECON_CONFIG); mf eval scores both
-# (geometry.md against the GT mesh, relight.md, materials.md, paired.md: hull minus given) and
-# eval/bench_geom_report.sh writes REPORT/README.md (default reports/bench/geometry-recon) with
-# the hull and unwrap seconds from run.json. DMTet's mask term (--geometry dmtet) has method
-# flags for bench-split (BENCH_METHODS=nvdiffrecmc-dmtet) but no report here yet.
+# Geometry recovery inside mf recon (issue 14 items 10 and 12): per test-3d scene (bench-split's
+# SCENES / SCENE_LIMIT pick a subset), the baseline on the given mesh (nvdiffrecmc: the same runs
+# as bench-split's), on the visual hull of its training masks, unwrapped (nvdiffrecmc-vhull: mf
+# recon --geometry vhull), and on DMTet's pass 1 from that hull (nvdiffrecmc-dmtet: --geometry
+# dmtet), all with $(RECON_CONFIG); mf eval scores them (geometry.md against the GT mesh,
+# relight.md, materials.md, paired.md: each minus given; paired-vs-vhull/: each minus the hull)
+# and eval/bench_geom_report.sh writes REPORT/README.md (default reports/bench/geometry-recon)
+# with the geometry seconds from run.json.
 FLAGS_nvdiffrecmc-vhull := --method nvdiffrecmc --geometry vhull
 FLAGS_nvdiffrecmc-dmtet := --method nvdiffrecmc --geometry dmtet
 bench-geom: REPORT ?= reports/bench/geometry-recon
 bench-geom: $(DATA)/test-3d/.rendered | $(BUILD)/mf
-	$(MAKE) --no-print-directory bench-split BENCH_SPLIT=test-3d BENCH_METHODS="nvdiffrecmc nvdiffrecmc-vhull" REPORT=$(REPORT)
+	$(MAKE) --no-print-directory bench-split BENCH_SPLIT=test-3d BENCH_METHODS="nvdiffrecmc nvdiffrecmc-vhull nvdiffrecmc-dmtet" REPORT=$(REPORT)
+	$(MF) compare $(REPORT)/scenes.csv --ref nvdiffrecmc-vhull -o $(REPORT)/paired-vs-vhull
 	sh eval/bench_geom_report.sh $(RESULTS)/test-3d $(REPORT) "$(strip $(SCENES))" \
 	  'make bench-geom$(if $(filter command line,$(origin SCENES)), SCENES="$(strip $(SCENES))")' > $(REPORT)/.README.md.tmp
 	mv $(REPORT)/.README.md.tmp $(REPORT)/README.md
@@ -431,14 +432,16 @@ bench-geom: $(DATA)/test-3d/.rendered | $(BUILD)/mf
 
 # Speed/error frontier (issue 16): relit/albedo/ORM PSNR against wall time over a ladder of budgets
 # for the baseline and MaterialFusion on 3 test-3d scenes, and the budget flags of mf recon ->
-# reports/frontier/ (eval/bench_frontier.sh; resumable). The default ladder is the reduced one
-# the committed snapshot ran (64 px, spp 2, 50/100/200/400 iterations, both methods); BENCH_FULL=1 runs the
-# ladder up to the published budget (baselines/nvdiffrecmc_full.json: 128 px, spp 8, 5000
-# iterations; days on 2 cores). F_RES, F_SPP, F_ITERS, F_MF_ITERS, SCENES override the ladder.
+# reports/frontier/ (eval/bench_frontier.sh; resumable). The default ladder is the one the
+# committed snapshot ran: the baseline at 64 and 128 px x spp 1, 2, 4 x 50-800 iterations,
+# MaterialFusion at spp 2 (64 and 128 px) x 50-400 iterations, the budget flags at the default
+# budget (128 px, spp 2, 400 iterations); BENCH_FULL=1 runs the ladder up to the published budget
+# (baselines/nvdiffrecmc_full.json: 128 px, spp 8, 5000 iterations; days on 2 cores). F_RES,
+# F_SPP, F_ITERS, F_MF_ITERS, F_MF_LINES, SCENES override the ladder.
 .PHONY: bench-frontier
 bench-frontier: $(BUILD)/mf $(DATA)/test-3d/.rendered
 	MF=$(MF) DATA=$(DATA)/test-3d RESULTS=$(RESULTS)/frontier OUT=reports/frontier \
-	  $(if $(filter 1,$(BENCH_FULL)),F_RES="64 128" F_SPP="2 4 8" F_ITERS="100 400 1000 2000 5000" F_CONFIG=baselines/nvdiffrecmc_full.json F_DEFAULT=none) \
+	  $(if $(filter 1,$(BENCH_FULL)),F_RES="64 128" F_SPP="2 4 8" F_ITERS="100 400 1000 2000 5000" F_MF_ITERS="100 400 1000 2000 5000" F_MF_LINES= F_CONFIG=baselines/nvdiffrecmc_full.json F_DEFAULT=none) \
 	  sh eval/bench_frontier.sh
 
 # Issue 16's adaptive default: the baseline at its default budget with and without the budget

@@ -11,7 +11,8 @@
 # gamma_i = 1 - (i / iters)^p depends on the total, so it gets one run per iteration count.
 #
 # Environment (all optional): MF, DATA (the split folder), RESULTS, OUT, SCENES, METHODS,
-# F_RES, F_SPP, F_ITERS, F_MF_ITERS, F_CONFIG, F_FLAGS (1: the budget-flag rows), F_METAL_SPLITS, F_EVAL_VIEWS, F_EVAL_SPP, F_EVAL_PS.
+# F_RES, F_SPP, F_ITERS, F_MF_ITERS, F_MF_LINES, F_CONFIG, F_FLAGS (1: the budget-flag rows), F_METAL_SPLITS,
+# F_EVAL_VIEWS, F_EVAL_SPP, F_EVAL_PS.
 set -eu
 MF=${MF:-build/mf}
 DATA=${DATA:-data/test-3d}
@@ -19,10 +20,13 @@ RESULTS=${RESULTS:-results/frontier}
 OUT=${OUT:-reports/frontier}
 SCENES=${SCENES:-"000_cup 001_vase 002_bottle"}
 METHODS=${METHODS:-"nvdiffrecmc materialfusion"}
-F_RES=${F_RES:-64}
-F_SPP=${F_SPP:-2}
-F_ITERS=${F_ITERS:-"50 100 200 400"}
-F_MF_ITERS=${F_MF_ITERS:-$F_ITERS} # MaterialFusion's ladder (one run per point)
+F_RES=${F_RES:-"64 128"}
+F_SPP=${F_SPP:-"1 2 4"}
+F_ITERS=${F_ITERS:-"50 100 200 400 800"}
+F_MF_ITERS=${F_MF_ITERS:-"50 100 200 400"} # MaterialFusion's ladder (one run per point)
+# MaterialFusion's (resolution, spp) lines (set and empty: every F_RES x F_SPP line).
+# Its runs cost ~3x the baseline's and one per point, so its spp axis can be left to the baseline.
+F_MF_LINES=${F_MF_LINES-"r64_s2 r128_s2"}
 F_CONFIG=${F_CONFIG:-baselines/nvdiffrecmc.json}
 F_FLAGS=${F_FLAGS:-1}
 F_METAL_SPLITS=${F_METAL_SPLITS:-"test-3d test-3d-pov64"}
@@ -31,8 +35,8 @@ F_METAL_SPLITS=${F_METAL_SPLITS:-"test-3d test-3d-pov64"}
 F_EVAL_VIEWS=${F_EVAL_VIEWS:-4}
 F_EVAL_SPP=${F_EVAL_SPP:-2}
 F_EVAL_PS=${F_EVAL_PS:-2}
-# the default budget of mf recon (baselines/nvdiffrecmc.json) at the ladder's resolution
-F_DEFAULT=${F_DEFAULT:-"r64_s2_i400"}
+# the default budget of mf recon (baselines/nvdiffrecmc.json) on test-3d's 128 px images
+F_DEFAULT=${F_DEFAULT:-"r128_s2_i400"}
 
 max_iters=0
 for i in $F_ITERS; do [ "$i" -gt "$max_iters" ] && max_iters=$i; done
@@ -76,6 +80,7 @@ for m in $METHODS; do
     for s in $SCENES; do
         for r in $F_RES; do
             for p in $F_SPP; do
+                case " ${F_MF_LINES:-r${r}_s${p}} " in *" r${r}_s${p} "*) ;; *) continue ;; esac
                 for i in $F_MF_ITERS; do
                     mkdir -p "$RESULTS/runs/${m}_r${r}_s${p}_i${i}"
                     recon "$RESULTS/runs/${m}_r${r}_s${p}_i${i}/$s" "$s" --method "$m" --res "$r" --spp "$p" \
@@ -116,4 +121,4 @@ if [ -d "$RESULTS/eval/nvdiffrecmc_$F_DEFAULT" ]; then
     "$MF" compare "$OUT/eval/scenes.csv" --ref "nvdiffrecmc_$F_DEFAULT" -o "$OUT/paired"
 fi
 python3 eval/frontier.py report --eval-dir "$OUT/eval" --points "$RESULTS/eval" --out "$OUT" --default "$F_DEFAULT" \
-    --ladder "config $F_CONFIG; scenes $SCENES; methods $METHODS; resolution $F_RES px; spp $F_SPP; baseline iterations $F_ITERS; MaterialFusion iterations $F_MF_ITERS; budget flags on the baseline at $F_DEFAULT; mf eval on $F_EVAL_VIEWS test views per scene with --spp $F_EVAL_SPP --pixel-samples $F_EVAL_PS (its defaults: every view, 4, 4)."
+    --ladder "config $F_CONFIG; scenes $SCENES; methods $METHODS; resolution $F_RES px; spp $F_SPP; baseline iterations $F_ITERS; MaterialFusion iterations $F_MF_ITERS${F_MF_LINES:+ on lines $F_MF_LINES}; budget flags on the baseline at $F_DEFAULT; mf eval on $F_EVAL_VIEWS test views per scene with --spp $F_EVAL_SPP --pixel-samples $F_EVAL_PS (its defaults: every view, 4, 4)."

@@ -1,48 +1,66 @@
 #!/bin/sh
-# make bench-geom's README: the baseline on the given mesh (nvdiffrecmc) beside the baseline on
-# the visual hull (nvdiffrecmc-vhull, mf recon --geometry vhull), per scene, from mf eval's
-# scenes.csv, with the hull and unwrap seconds from each vhull run's run.json.
+# make bench-geom's README: the baseline on the given mesh (nvdiffrecmc), on the visual hull
+# (nvdiffrecmc-vhull, mf recon --geometry vhull) and on DMTet's refinement of it
+# (nvdiffrecmc-dmtet, --geometry dmtet), per scene, from mf eval's scenes.csv, with the geometry
+# seconds from each recovered run's run.json (options.geometry_result).
 # usage: sh eval/bench_geom_report.sh RESULTS_SPLIT_DIR REPORT_DIR "SCENES" "COMMAND" > README.md
 set -eu
 res=$1 rep=$2 scenes=$3 cmd=$4
+methods="nvdiffrecmc nvdiffrecmc-vhull nvdiffrecmc-dmtet"
 [ -f "$rep/scenes.csv" ] || { echo "bench_geom_report: $rep/scenes.csv missing (mf eval did not run)" >&2; exit 1; }
 n=$(echo $scenes | wc -w)
-# hull_s / unwrap_s per scene: "scene hull_s unwrap_s" lines (run.json: options.geometry_result)
-times=$(for s in $scenes; do
-  j=$res/nvdiffrecmc-vhull/$s/run.json
+num() { grep -o "\"$1\":[^,}]*" "$2" | head -1 | cut -d: -f2 | tr -d ' '; }
+# "method scene hull_s geom_s unwrap_s" per recovered run (geom_s: DMTet's steps, vhull: none)
+times=$(for m in nvdiffrecmc-vhull nvdiffrecmc-dmtet; do for s in $scenes; do
+  j=$res/$m/$s/run.json
   [ -f "$j" ] || { echo "bench_geom_report: $j missing" >&2; exit 1; }
-  h=$(grep -o '"hull_s":[^,}]*' "$j" | head -1 | cut -d: -f2 | tr -d ' ')
-  u=$(grep -o '"unwrap_s":[^,}]*' "$j" | head -1 | cut -d: -f2 | tr -d ' ')
-  echo "$s ${h:-nan} ${u:-nan}"
-done)
+  g=$(num geom_s "$j")
+  echo "$m $s $(num hull_s "$j") ${g:--} $(num unwrap_s "$j")"
+done; done)
 cat <<EOF
 # Geometry recovery in mf recon on test-3d ($n of the 9 scenes)
 
 Made by \`$cmd\`: the nvdiffrecmc-style baseline (its default budget,
-baselines/nvdiffrecmc.json) on each scene's given mesh (**given**) and on the visual hull of the
-same 64 training masks at 128 px (**vhull**: \`mf recon --geometry vhull\`: \`mf hull\`'s defaults,
-128^3 grid, 40k triangles, then \`mf unwrap\`'s atlas), scored by \`mf eval\` against the GT mesh
-and the relit test views. $n scene(s) only: the full split (9 scenes, \`make bench-geom\`
-without SCENES) did not fit the session that made this table on a shared 2-core machine.
-DMTet (pass 1, which should fix the hull's cavities) is not implemented.
+baselines/nvdiffrecmc.json) on three meshes of each scene, scored by \`mf eval\` against the GT
+mesh and the relit test views:
+- **given**: the scene's own mesh;
+- **vhull**: the visual hull of the same 64 training masks at 128 px (\`mf recon --geometry
+  vhull\`: \`mf hull\`'s defaults, 128^3 grid, 40k triangles, then \`mf unwrap\`'s atlas);
+- **dmtet**: DMTet's pass 1 from the soft hull on a 64^3 tet grid (\`--geometry dmtet\`: 200 Adam
+  steps of the mask term, 4 views a step; no colour term, which is off by default), cleaned and
+  unwrapped like the hull. Silhouettes cannot carve a cavity, so cup, bowl and mug stay filled.
 
 Chamfer: Stanford-ORB's, x1e3 (object extent 1). Normals: mean angle between the shading normals
-of the two meshes over the test views' pixels that show both. hull s / unwrap s: wall seconds of
-the hull and of the UV atlas inside \`mf recon\` (run.json). Full tables: geometry.md, relight.md,
-materials.md, paired.md (vhull minus given), index.html.
+of the two meshes over the test views' pixels that show both. hull s / DMTet s / unwrap s: wall
+seconds of the hull (dmtet: its soft-hull grid), of the DMTet steps and of the UV atlas inside
+\`mf recon\` (run.json); recon s: the whole run. Full tables: geometry.md, relight.md,
+materials.md, paired.md (each mesh minus given), paired-vs-vhull/paired.md (each minus vhull),
+index.html.
 
-| scene | mesh | Chamfer x1e3 | normals deg | mask IoU | relit PSNR | albedo PSNR | recon s | hull s | unwrap s |
-|---|---|---|---|---|---|---|---|---|---|
+| scene | mesh | Chamfer x1e3 | normals deg | mask IoU | relit PSNR | albedo PSNR | recon s | hull s | DMTet s | unwrap s |
+|---|---|---|---|---|---|---|---|---|---|---|
 EOF
-echo "$times" | awk -v csv="$rep/scenes.csv" -v scenes="$scenes" '
+echo "$times" | awk -v csv="$rep/scenes.csv" -v scenes="$scenes" -v methods="$methods" '
   BEGIN {
     while ((getline line < csv) > 0) { split(line, f, ","); v[f[1] SUBSEP f[3] SUBSEP f[4]] = f[5] } }
-  { hs[$1] = $2; us[$1] = $3 }
+  { hs[$1 SUBSEP $2] = $3; gs[$1 SUBSEP $2] = $4; us[$1 SUBSEP $2] = $5 }
   function val(m, s, k, fmt) { return ((m SUBSEP s SUBSEP k) in v) ? sprintf(fmt, v[m SUBSEP s SUBSEP k]) : "-" }
-  END { n = split(scenes, sc, " ")
+  function sec(a, m, s) { return ((m SUBSEP s) in a) && a[m SUBSEP s] != "-" ? sprintf("%.2f", a[m SUBSEP s]) : "-" }
+  END { n = split(scenes, sc, " "); k = split(methods, me, " ")
     for (i = 1; i <= n; i++) { s = sc[i]
-      for (j = 1; j <= 2; j++) { m = j == 1 ? "nvdiffrecmc" : "nvdiffrecmc-vhull"
-        printf "| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n", s, j == 1 ? "given" : "vhull",
+      for (j = 1; j <= k; j++) { m = me[j]; name = m; sub(/^nvdiffrecmc-?/, "", name)
+        printf "| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n", s, name == "" ? "given" : name,
           val(m, s, "geom_chamfer", "%.3f"), val(m, s, "geom_view_normal_deg", "%.1f"), val(m, s, "geom_mask_iou", "%.4f"),
           val(m, s, "relit_psnr", "%.2f"), val(m, s, "albedo_psnr", "%.2f"), val(m, s, "time_s", "%.0f"),
-          j == 1 ? "-" : sprintf("%.2f", hs[s]), j == 1 ? "-" : sprintf("%.2f", us[s]) } } }'
+          sec(hs, m, s), sec(gs, m, s), sec(us, m, s) } }
+    print "\nMeans over the scenes (a mean is left out, -, when a scene lacks the value):\n"
+    print "| mesh | Chamfer x1e3 | normals deg | mask IoU | relit PSNR | albedo PSNR | recon s |"
+    print "|---|---|---|---|---|---|---|"
+    nk = split("geom_chamfer geom_view_normal_deg geom_mask_iou relit_psnr albedo_psnr time_s", key, " ")
+    split("%.3f %.1f %.4f %.2f %.2f %.0f", fmt, " ")
+    for (j = 1; j <= k; j++) { m = me[j]; name = m; sub(/^nvdiffrecmc-?/, "", name)
+      line = "| " (name == "" ? "given" : name)
+      for (q = 1; q <= nk; q++) { sum = 0; cnt = 0
+        for (i = 1; i <= n; i++) if ((m SUBSEP sc[i] SUBSEP key[q]) in v) { sum += v[m SUBSEP sc[i] SUBSEP key[q]]; cnt++ }
+        line = line " | " (cnt == n ? sprintf(fmt[q], sum / cnt) : "-") }
+      print line " |" } }'

@@ -255,6 +255,51 @@ def knee(pts, tol=0.2):
     return min((r for r in pts if r["relit_psnr"] >= best - tol), key=lambda r: r["wall_s"]), best
 
 
+def pareto(pts):
+    """Points no other point beats on both wall time (lower) and mean relit PSNR (higher), by wall time."""
+    return sorted((r for r in pts if not any(q["wall_s"] <= r["wall_s"] and q["relit_psnr"] >= r["relit_psnr"] and
+                                             (q["wall_s"], q["relit_psnr"]) != (r["wall_s"], r["relit_psnr"]) for q in pts)),
+                  key=lambda r: r["wall_s"])
+
+
+def default_section(rows):
+    """Where each method's default budget sits: its Pareto front over every line (relit PSNR against wall
+    time) and the points that are both cheaper (by 10% or more) and no worse in mean relit PSNR."""
+    L = ["", "## Where the defaults sit", "",
+         "Per method, over every point of every line: the Pareto front (no other point both cheaper and better in "
+         "mean relit PSNR) and the points that dominate the default (at least 10% cheaper and no worse in mean "
+         "relit PSNR; albedo and ORM beside them). Means over the scenes; their CIs (table above) are wide, so "
+         "read small differences as ties.", ""]
+    for m in sorted({r["method"] for r in rows if not r["flag"]}):
+        pts = [r for r in rows if r["method"] == m and not r["flag"]]
+        d = next((r for r in pts if r["default"]), None)
+        front = pareto(pts)
+        L.append("- %s: front %s." % (m, ", ".join("%s (%.0f s, %.2f dB)" % (r["point"], r["wall_s"], r["relit_psnr"])
+                                                     for r in front)))
+        if d is None:
+            L.append("  Its default budget is not a point of this run.")
+            continue
+        dom = [r for r in pts if r["wall_s"] <= 0.9 * d["wall_s"] and r["relit_psnr"] >= d["relit_psnr"]]
+        where = "on the front" if d in front else "off the front"
+        if dom:
+            L.append("  The default (%s, %.0f s, relit %.2f / albedo %.2f / ORM %.2f dB) is %s, dominated by %s." % (
+                d["point"], d["wall_s"], d["relit_psnr"], d["albedo_psnr"], d["orm_psnr"], where,
+                "; ".join("%s (%.2fx its time, relit %+.2f, albedo %+.2f, ORM %+.2f dB)" % (
+                    r["point"], r["wall_s"] / d["wall_s"], r["relit_psnr"] - d["relit_psnr"],
+                    r["albedo_psnr"] - d["albedo_psnr"], r["orm_psnr"] - d["orm_psnr"]) for r in dom)))
+        else:
+            L.append("  The default (%s, %.0f s, relit %.2f / albedo %.2f / ORM %.2f dB) is %s; no point is both at least "
+                     "10%% cheaper and as good in relit PSNR." % (d["point"], d["wall_s"], d["relit_psnr"], d["albedo_psnr"],
+                                                                  d["orm_psnr"], where))
+        better = [r for r in front if r["relit_psnr"] > d["relit_psnr"]]
+        if better:
+            L.append("  Better in relit PSNR on the front: %s." % "; ".join(
+                "%s (%.2fx the time, relit %+.2f, albedo %+.2f, ORM %+.2f dB)" % (
+                    r["point"], r["wall_s"] / d["wall_s"], r["relit_psnr"] - d["relit_psnr"],
+                    r["albedo_psnr"] - d["albedo_psnr"], r["orm_psnr"] - d["orm_psnr"]) for r in better))
+    return L
+
+
 def fmt(m, ci):
     return ("%.2f" % m) + ("" if math.isnan(ci) else " ± %.2f" % ci)
 
@@ -309,6 +354,7 @@ def readme(a, rows, flags):
                      "this shared machine, under different loads, so read its cost from the iteration counts (the "
                      "baseline's points, snapshots of one run, are timed under one load per scene); wall times compared "
                      "across lines carry the same caveat.")
+    L += default_section(rows)
     if flags:
         L += ["", "## Budget flags (each alone, paired per scene with the same budget without it)", "",
               "Wall time ratio: mean over the scenes of the flag's loop wall time over its reference's, both measured "
