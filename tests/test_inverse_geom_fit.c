@@ -177,6 +177,14 @@ static int make_rgba(const MfCamera *cams, MfImage *imgs) {
     return rc;
 }
 
+/* the colour tests' views, RGBA references and grid */
+static MfTetGrid colour_fixture(MfCamera *cams, MfImage *imgs) {
+    memset(imgs, 0, NVIEW * sizeof *imgs);
+    CHECK_OK(make_cams(cams));
+    CHECK_OK(make_rgba(cams, imgs));
+    return mf_tetgrid_make(RES, mf_v3(0, 0, 0), EXTENT);
+}
+
 MF_TEST(inverse_geom_fit_colour_sphere) {
     /* the colour term (volume-texture materials and an env, optimised with the SDF); every step
      * sees all 8 views, so the log compares like with like.
@@ -192,10 +200,7 @@ MF_TEST(inverse_geom_fit_colour_sphere) {
     enum { CI = 20, CI2 = 4 };
     MfCamera cams[NVIEW];
     MfImage imgs[NVIEW];
-    memset(imgs, 0, sizeof imgs);
-    CHECK_OK(make_cams(cams));
-    CHECK_OK(make_rgba(cams, imgs));
-    MfTetGrid g = mf_tetgrid_make(RES, mf_v3(0, 0, 0), EXTENT);
+    MfTetGrid g = colour_fixture(cams, imgs);
     size_t nv = mf_tetgrid_nverts(&g);
     float *sdf = malloc(nv * sizeof(float));
     MfGeomFitStep log[2][CI];
@@ -239,10 +244,7 @@ MF_TEST(inverse_geom_fit_resume) {
     enum { FULL = 8, HALF = 5 };
     MfCamera cams[NVIEW];
     MfImage imgs[NVIEW];
-    memset(imgs, 0, sizeof imgs);
-    CHECK_OK(make_cams(cams));
-    CHECK_OK(make_rgba(cams, imgs));
-    MfTetGrid g = mf_tetgrid_make(RES, mf_v3(0, 0, 0), EXTENT);
+    MfTetGrid g = colour_fixture(cams, imgs);
     size_t nv = mf_tetgrid_nverts(&g);
     float *sdf[2] = {malloc(nv * sizeof(float)), malloc(nv * sizeof(float))};
     float *def[2] = {calloc(nv * 3, sizeof(float)), calloc(nv * 3, sizeof(float))};
