@@ -145,7 +145,7 @@ int ds_write_capture(const DsCaptureSpec *s, const DsObject *o, uint64_t seed, c
         if ((rc = mf_camera_init(&cam, s->w, s->h, DS_CAMERA_ANGLE_X, m, what))) break;
         frame_lens(s, i, fl);
         cam.fx = (float)fl[0], cam.fy = (float)fl[1], cam.cx = (float)fl[2], cam.cy = (float)fl[3];
-        MfRenderOpts ro = {s->spp_sqrt, s->pixel_samples, mf_hash64(seed, 0xCA9000u + (uint64_t)i), MF_LOBE_ALL};
+        MfRenderOpts ro = {.spp_sqrt = s->spp_sqrt, .pixel_samples = s->pixel_samples, .seed = mf_hash64(seed, 0xCA9000u + (uint64_t)i), .lobes = MF_LOBE_ALL};
         MfRenderOut out = {0};
         if (!(rc = mf_render(&in, &cam, &ro, &out, NULL))) rc = write_frame(dir, i, &out);
         mf_render_out_free(&out);

@@ -29,12 +29,16 @@ uint64_t ds_object_seed(DsSeedStream stream, uint64_t seed, uint64_t k) {
 }
 
 DsPriorTrainOpts ds_prior_train_defaults(void) {
-    DsPriorTrainOpts o = {0, 64, 1, 0.0, 12, 128, 2, 4, NULL, 0, DS_STREAM_PRIOR, "prior-train", DS_LIGHTS_BLENDER, 0, DS_RENDERER_OURS, 0, 0, DS_CONTENT_ALL};
+    DsPriorTrainOpts o = {.count = 0, .res = 64, .seed = 1, .time_budget_s = 0.0, .views_per_object = 12, .tex_res = 128, .spp_sqrt = 2,
+                          .pixel_samples = 4, .bounces = 0, .env_dir = NULL, .threads = 0, .stream = DS_STREAM_PRIOR, .split = "prior-train",
+                          .train_lights = DS_LIGHTS_BLENDER, .diffuse = 0, .renderer = DS_RENDERER_OURS, .pov_radiosity = 0, .widen = 0,
+                          .content = DS_CONTENT_ALL};
     return o;
 }
 
 DsPriorTrainOpts ds_test2d_defaults(void) {
-    DsPriorTrainOpts o = {32, 64, 1, 0.0, 4, 128, 4, 4, NULL, 0, DS_STREAM_TEST2D, "test-2d", DS_LIGHTS_BLENDER, 0, DS_RENDERER_OURS, 0, 0, DS_CONTENT_ALL};
+    DsPriorTrainOpts o = ds_prior_train_defaults();
+    o.count = 32, o.views_per_object = 4, o.spp_sqrt = 4, o.stream = DS_STREAM_TEST2D, o.split = "test-2d";
     return o;
 }
 
@@ -266,7 +270,8 @@ static int render_object(const DsPriorTrainOpts *o, const char *out, const Probe
             in.lights = &light;
             in.nlights = 1;
         }
-        MfRenderOpts ropt = {o->spp_sqrt, o->pixel_samples, mf_hash64(oseed, (uint64_t)v + 1000), MF_LOBE_ALL};
+        MfRenderOpts ropt = {.spp_sqrt = o->spp_sqrt, .pixel_samples = o->pixel_samples, .seed = mf_hash64(oseed, (uint64_t)v + 1000),
+                             .lobes = MF_LOBE_ALL, .bounces = o->bounces};
         rc = mf_render(&in, &cam, &ropt, &ro, NULL);
         MfImage pimg = {0}; /* POV-Ray's lit view: (res, res, 4) linear, premultiplied */
         char vname[32];
@@ -370,6 +375,7 @@ static int write_manifest(const DsPriorTrainOpts *o, const char *out, const Prob
     cJSON_AddNumberToObject(r, "tex_res", o->tex_res);
     cJSON_AddNumberToObject(r, "spp_sqrt", o->spp_sqrt);
     cJSON_AddNumberToObject(r, "pixel_samples", o->pixel_samples);
+    if (o->bounces) cJSON_AddNumberToObject(r, "bounces", o->bounces);
     static const char *const kLights[3] = {
         "50% HDR probe rotated about +Z, 25% point light at the camera, 25% sun along the view",
         "50% procedural env map (25% clear sky with sun, 25% lit room; datasets/ds_envgen.h) rotated about +Z, 25% point light at the camera, 25% sun along the view",
@@ -451,6 +457,7 @@ static int content_candidates(const DsPriorTrainOpts *o, int n, int **cand) {
 int ds_gen_prior_train(const DsPriorTrainOpts *o, const char *out_dir, DsGenStats *stats) {
     if (o->res < 8 || o->res > 4096) return mf_fail(MF_EARG, "prior-train: resolution %d outside [8, 4096]", o->res);
     if (o->views_per_object < 1 || o->spp_sqrt < 1 || o->pixel_samples < 1) return mf_fail(MF_EARG, "prior-train: views, spp and pixel samples must be >= 1");
+    if (o->bounces < 0) return mf_fail(MF_EARG, "prior-train: bounces must be >= 0");
     if (o->count <= 0 && o->time_budget_s <= 0) return mf_fail(MF_EARG, "prior-train: give a count or a time budget");
     if (o->renderer != DS_RENDERER_OURS && o->renderer != DS_RENDERER_POVRAY && o->renderer != DS_RENDERER_CYCLES)
         return mf_fail(MF_EARG, "prior-train: unknown renderer %d", (int)o->renderer);

@@ -108,6 +108,8 @@ typedef struct {
     int tex_res;          /* 128 */
     int spp_sqrt;         /* 2 */
     int pixel_samples;    /* 4 */
+    int bounces;          /* 0: direct light only (as every committed split); > 0: indirect bounces of
+                             our renderer's lit views (MfRenderOpts.bounces: interreflection) */
     const char *env_dir;  /* NULL: DS_DEFAULT_ENV_DIR */
     int threads;          /* objects in parallel (<= 0: OpenMP default) */
     DsSeedStream stream;  /* DS_STREAM_PRIOR (test-2d: DS_STREAM_TEST2D) */

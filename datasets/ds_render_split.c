@@ -189,7 +189,7 @@ static int render_set(Ctx *c, const char *env_rel, const char *env_name, int kin
         /* our render: the lit image (unless POV-Ray makes it) and the AOVs */
         int need_ours = !s->povray || kind == 1;
         if (need_ours) {
-            MfRenderOpts o = {s->spp_sqrt, s->pixel_samples > 0 ? s->pixel_samples : 4, mf_hash64(c->seed, (uint64_t)(kind * 100000 + i)), MF_LOBE_ALL};
+            MfRenderOpts o = {.spp_sqrt = s->spp_sqrt, .pixel_samples = s->pixel_samples > 0 ? s->pixel_samples : 4, .seed = mf_hash64(c->seed, (uint64_t)(kind * 100000 + i)), .lobes = MF_LOBE_ALL};
             if (kind == 2) o.seed = mf_hash64(o.seed, mf_fnv1a64(MF_FNV64_INIT, env_name, strlen(env_name)));
             if ((rc = mf_render(&in, &cam, &o, &ro, NULL))) break;
         }
@@ -445,7 +445,7 @@ int ds_compare_renderers(const DsSplitSpec *spec, const char *out_dir, int max_s
                 for (int q = 0; q < 16; ++q) m[q] = sc.test[i].m[q];
                 if ((rc = mf_camera_init(&cam, res, res, sc.angle_x, m, "compare camera"))) break;
                 MfRenderOut ro = {0}, rd = {0};
-                MfRenderOpts o = {4, 4, mf_hash64(77, (uint64_t)i), MF_LOBE_ALL};
+                MfRenderOpts o = {.spp_sqrt = 4, .pixel_samples = 4, .seed = mf_hash64(77, (uint64_t)i), .lobes = MF_LOBE_ALL};
                 double t0 = mf_now();
                 rc = mf_render(&in, &cam, &o, &ro, NULL);
                 t_ours += mf_now() - t0;

@@ -254,7 +254,7 @@ int ev_eval_scene(const char *scene_dir, const char *result_dir, const char *met
     MfRtScene *rt = NULL;
     if ((rc = mf_rtscene_new(&res.mesh, &rt))) goto out;
     MfTexMaterial mat = {.kd = &res.kd, .orm = &res.orm, .kd_const = mf_v3s(0.5f), .orm_const = mf_v3(1, 0.5f, 0), .normal = res.has_normal ? &res.normal : NULL};
-    MfRenderOpts ro = {o->spp_sqrt, o->pixel_samples, o->seed, MF_LOBE_ALL};
+    MfRenderOpts ro = {.spp_sqrt = o->spp_sqrt, .pixel_samples = o->pixel_samples, .seed = o->seed, .lobes = MF_LOBE_ALL};
     Acc relit = {{0}, 0}, alb = {{0}, 0}, orm = {{0}, 0};
     double orm3 = 0.0, orb_h = 0.0, orb_l = 0.0;
     int orb_n = 0, is_orb = dv.format == DS_FMT_STANFORD_ORB;
@@ -429,7 +429,7 @@ int ev_eval_grid_row(const char *scene_dir, const char *result_dir, const EvEval
         if (!(rc = ev_result_load(result_dir, o->mesh_path, &res))) {
             MfRtScene *rt = NULL;
             MfTexMaterial mat = {.kd = &res.kd, .orm = &res.orm, .kd_const = mf_v3s(0.5f), .orm_const = mf_v3(1, 0.5f, 0), .normal = res.has_normal ? &res.normal : NULL};
-            MfRenderOpts ro = {o->spp_sqrt, o->pixel_samples, o->seed, MF_LOBE_ALL};
+            MfRenderOpts ro = {.spp_sqrt = o->spp_sqrt, .pixel_samples = o->pixel_samples, .seed = o->seed, .lobes = MF_LOBE_ALL};
             MfRenderOut out = {0};
             MfEnvMap le;
             int have_le = 0;

@@ -246,7 +246,7 @@ MF_TEST(ds_asset_normal_map_gt_renders) {
         MfRenderInput in = {rt, &m, &mat, 1, &e, NULL, 0};
         MfCamera cam;
         CHECK_OK(mf_camera_init(&cam, 16, 16, tf.camera_angle_x, tf.frames[0].c2w, "test"));
-        MfRenderOpts o = {4, 4, mf_hash64(strtoull(seeds, NULL, 10), 2 * 100000), MF_LOBE_ALL};
+        MfRenderOpts o = {.spp_sqrt = 4, .pixel_samples = 4, .seed = mf_hash64(strtoull(seeds, NULL, 10), 2 * 100000), .lobes = MF_LOBE_ALL};
         o.seed = mf_hash64(o.seed, mf_fnv1a64(MF_FNV64_INIT, env, strlen(env)));
         MfRenderOut ro = {0};
         CHECK_OK(mf_render(&in, &cam, &o, &ro, NULL));

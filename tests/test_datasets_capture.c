@@ -18,7 +18,7 @@
 /* Mean |alpha rendered from cam - view's mask| over the image: how well a camera explains the
  * capture's silhouette. */
 static double silhouette_error(const MfRenderInput *in, const MfCamera *cam, const DsView *v) {
-    MfRenderOpts ro = {1, 16, 7, MF_LOBE_ALL};
+    MfRenderOpts ro = {.spp_sqrt = 1, .pixel_samples = 16, .seed = 7, .lobes = MF_LOBE_ALL};
     MfRenderOut out = {0};
     double e = 0.0;
     if (mf_render(in, cam, &ro, &out, NULL)) return 1e9;

@@ -117,7 +117,7 @@ static void write_nv_views(const char *scene, const char *good, const EvEvalOpts
     CHECK_OK(mf_rtscene_new(&r.mesh, &rt));
     MfTexMaterial mat = {.kd = &r.kd, .orm = &r.orm, .kd_const = mf_v3s(0.5f), .orm_const = mf_v3(1, 0.5f, 0), .normal = NULL};
     MfRenderInput in = {rt, &r.mesh, &mat, 1, &r.env, NULL, 0};
-    MfRenderOpts ro = {o->spp_sqrt, o->pixel_samples, o->seed, MF_LOBE_ALL};
+    MfRenderOpts ro = {.spp_sqrt = o->spp_sqrt, .pixel_samples = o->pixel_samples, .seed = o->seed, .lobes = MF_LOBE_ALL};
     const double c2w[2][16] = {{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 1.5, 0, 0, 0, 1}, {1, 0, 0, 0.1, 0, 1, 0, 0, 0, 0, 1, 1.4, 0, 0, 0, 1}};
     for (int i = 0; i < 2; ++i) {
         MfCamera cam;

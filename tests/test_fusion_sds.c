@@ -35,7 +35,7 @@ static int make_recon_n(MfMesh *mesh, MfRecon **out, int iters, int ckpt_every) 
     mf_env_init_constant(&env, 8, 4, mf_v3s(1.0f));
     MfTexMaterial mat = {.kd = NULL, .orm = NULL, .kd_const = mf_v3(0.6f, 0.4f, 0.3f), .orm_const = mf_v3(1, 0.6f, 0.1f), .normal = NULL};
     MfRenderInput in = {rt, mesh, &mat, 1, &env, NULL, 0};
-    MfRenderOpts ro = {2, 2, 3, MF_LOBE_ALL};
+    MfRenderOpts ro = {.spp_sqrt = 2, .pixel_samples = 2, .seed = 3, .lobes = MF_LOBE_ALL};
     for (int v = 0; v < NV && !rc; ++v) {
         float az = 2.0f * MF_PI * v / NV;
         rc = ref_view(&in, &ro, RES, mf_v3(1.8f * cosf(az), 1.8f * sinf(az), 0.4f), &views[v]);

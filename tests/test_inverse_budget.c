@@ -39,7 +39,7 @@ static int sphere_views(const MfMesh *mesh, int res, float metallic, MfReconView
     if ((rc = mf_env_init(&env, &e))) return rc;
     MfTexMaterial mat = {.kd = NULL, .orm = NULL, .kd_const = mf_v3(0.6f, 0.4f, 0.2f), .orm_const = mf_v3(1.0f, 0.4f, metallic), .normal = NULL};
     MfRenderInput in = {rt, mesh, &mat, 1, &env, NULL, 0};
-    MfRenderOpts ro = {4, 2, 99, MF_LOBE_ALL};
+    MfRenderOpts ro = {.spp_sqrt = 4, .pixel_samples = 2, .seed = 99, .lobes = MF_LOBE_ALL};
     for (int v = 0; v < NV && !rc; ++v) {
         float az = 2.0f * MF_PI * v / NV, el = (v % 2 ? 0.6f : -0.6f);
         MfVec3 eye = mf_v3(1.8f * cosf(az) * cosf(el), 1.8f * sinf(az) * cosf(el), 1.8f * sinf(el));
@@ -364,7 +364,7 @@ MF_TEST(inverse_budget_env_coverage) {
     CHECK_OK(mf_env_init_constant(&env, 16, 8, mf_v3s(0.8f)));
     MfTexMaterial mat = {.kd = NULL, .orm = NULL, .kd_const = mf_v3(0.6f, 0.4f, 0.2f), .orm_const = mf_v3(1.0f, 0.3f, 0.0f), .normal = NULL};
     MfRenderInput in = {rt, &quad, &mat, 1, &env, NULL, 0};
-    MfRenderOpts ro = {2, 1, 7, MF_LOBE_ALL};
+    MfRenderOpts ro = {.spp_sqrt = 2, .pixel_samples = 1, .seed = 7, .lobes = MF_LOBE_ALL};
     double tv[2];
     for (int k = 0; k < 2; ++k) {
         MfReconView q[2];

@@ -161,7 +161,7 @@ static int make_rgba(const MfCamera *cams, MfImage *imgs) {
     if (!(rc = mf_rtscene_new(&s, &rt))) rc = mf_env_init_constant(&env, 16, 8, mf_v3s(2.0f));
     MfTexMaterial mat = {.kd_const = mf_v3(KD_REF[0], KD_REF[1], KD_REF[2]), .orm_const = mf_v3(1, 0.6f, 0)};
     MfRenderInput in = {rt, &s, &mat, 1, &env, NULL, 0};
-    MfRenderOpts ro = {2, 4, 3, MF_LOBE_ALL};
+    MfRenderOpts ro = {.spp_sqrt = 2, .pixel_samples = 4, .seed = 3, .lobes = MF_LOBE_ALL};
     for (int v = 0; v < NVIEW && !rc; ++v) {
         if ((rc = mf_render(&in, &cams[v], &ro, &out, NULL)) || (rc = mf_image_alloc(&imgs[v], IMG, IMG, 4))) break;
         for (int i = 0; i < IMG * IMG; ++i) {

@@ -44,7 +44,7 @@ static int make_views(const MfMesh *mesh, MfReconView *views) {
     if ((rc = mf_env_init(&env, &e))) return rc;
     MfTexMaterial mat = {.kd = NULL, .orm = NULL, .kd_const = mf_v3(GT_KD[0], GT_KD[1], GT_KD[2]), .orm_const = mf_v3(1.0f, 0.7f, 0.0f), .normal = NULL};
     MfRenderInput in = {rt, mesh, &mat, 1, &env, NULL, 0};
-    MfRenderOpts ro = {8, 4, 99, MF_LOBE_ALL};
+    MfRenderOpts ro = {.spp_sqrt = 8, .pixel_samples = 4, .seed = 99, .lobes = MF_LOBE_ALL};
     for (int v = 0; v < NV && !rc; ++v) {
         float az = 2.0f * MF_PI * v / NV, el = (v % 2 ? 0.6f : -0.6f); /* both hemispheres observed */
         MfVec3 eye = mf_v3(1.8f * cosf(az) * cosf(el), 1.8f * sinf(az) * cosf(el), 1.8f * sinf(el));

@@ -283,7 +283,7 @@ MF_TEST(render_diffrender_forward_equals_render) {
         MfDiffScene s = {.rt = f.rt, .kd = &f.kd, .orm = &f.orm, .env = &f.env, .normal = f.use_nm ? &f.nm : NULL};
         MfTexMaterial mat = {.kd = &f.kd, .orm = &f.orm, .normal = s.normal};
         MfRenderInput in = {.rt = f.rt, .mesh = &f.mesh, .mats = &mat, .nmat = 1, .env = &f.env};
-        MfRenderOpts ro = {o.spp_sqrt, o.pixel_samples, o.seed, MF_LOBE_ALL};
+        MfRenderOpts ro = {.spp_sqrt = o.spp_sqrt, .pixel_samples = o.pixel_samples, .seed = o.seed, .lobes = MF_LOBE_ALL};
         MfRenderOut a, b;
         CHECK_OK(mf_render_out_alloc(&a, W, H));
         CHECK_OK(mf_diff_forward(&s, &f.cam, &o, &a));

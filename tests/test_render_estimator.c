@@ -152,7 +152,7 @@ static int render_scaled(float s, MfRenderOut *out) {
     int rc = scaled_scene(&sc, s);
     if (!rc) {
         MfRenderInput in = {.rt = sc.rt, .mesh = &sc.mesh, .mats = &sc.mat, .nmat = 1, .env = &sc.env, .lights = sc.lights, .nlights = 2};
-        MfRenderOpts o = {2, 2, 17, MF_LOBE_ALL};
+        MfRenderOpts o = {.spp_sqrt = 2, .pixel_samples = 2, .seed = 17, .lobes = MF_LOBE_ALL};
         rc = mf_render(&in, &sc.cam, &o, out, NULL);
     }
     scaled_scene_free(&sc);

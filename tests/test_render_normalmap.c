@@ -134,7 +134,7 @@ MF_TEST(normalmap_flat_map_renders_unchanged) {
     MfRenderInput in = {rt, &m, &mat, 1, &env, NULL, 0};
     MfCamera cam;
     CHECK_OK(look_cam(&cam, 16, 16, mf_v3(0.3f, -1.6f, 0.5f), mf_v3(0, 0, 0)));
-    MfRenderOpts o = {2, 1, 3, MF_LOBE_ALL};
+    MfRenderOpts o = {.spp_sqrt = 2, .pixel_samples = 1, .seed = 3, .lobes = MF_LOBE_ALL};
     MfRenderOut a, b, c;
     CHECK_OK(mf_render(&in, &cam, &o, &a, NULL));
     mat.normal = &flat;

@@ -145,7 +145,7 @@ static int bench_render_run(const BenchRenderArgs *a) {
     has_env = 1;
     MfTexMaterial mat = {.kd = NULL, .orm = NULL, .kd_const = {0.6f, 0.5f, 0.4f}, .orm_const = {0.0f, 0.4f, 0.3f}, .normal = NULL};
     MfRenderInput in = {rt, &mesh, &mat, 1, &env, NULL, 0};
-    MfRenderOpts o = {a->spp, a->pixel_samples, 1, MF_LOBE_ALL};
+    MfRenderOpts o = {.spp_sqrt = a->spp, .pixel_samples = a->pixel_samples, .seed = 1, .lobes = MF_LOBE_ALL};
     MfMat4 m = mf_mat4_look_at(mf_v3(0.0f, -1.15f, 0.75f), mf_v3(0, 0, 0), mf_v3(0, 0, 1));
     double c2w[16];
     for (int i = 0; i < 16; ++i) c2w[i] = m.m[i];

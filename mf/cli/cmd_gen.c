@@ -135,7 +135,7 @@ typedef struct {
     const char *out, *family, *split, *env_dir, *compare_povray, *envs, *kind, *train_lights, *renderer, *content, *asset;
     const char *layout, *intrinsics, *distortion;
     int diffuse, widen;
-    int seed, tex_res, train, test, width, count, res, views, spp, pixel_samples, threads, scenes, pov_radiosity, env_width;
+    int seed, tex_res, train, test, width, count, res, views, spp, pixel_samples, bounces, threads, scenes, pov_radiosity, env_width;
     int no_render, render;
     float r_min, r_max, time_budget;
 } GenArgs;
@@ -170,6 +170,8 @@ static const MfOpt k_args[] = {
     MF_OPT_STR(A, env_dir, NULL, "folder of *.exr light probes", .unset = "Blender's studio lights", .meta = "DIR"),
     MF_OPT_INT(A, scenes, 0, 0, 100000, "split: only the first N scenes (0: all)"),
     MF_OPT_INT(A, spp, 0, 1, MF_OPT_SPP_MAX, "n: n^2 env-light + n^2 BSDF samples per pixel sample", .unset = "the split's own; 4 (ingp)"),
+    MF_OPT_INT(A, bounces, 0, 0, 64, "prior-train/test-2d: indirect bounces of our renderer's lit views (0: direct light only, "
+               "as nvdiffrecmc; > 0: interreflection, as path tracers such as Cycles render)"),
     MF_OPT_STR(A, compare_povray, NULL, "split: render the relit test views with both renderers, append a table row to FILE.md",
                .meta = "FILE.md"),
     MF_OPT_INT(A, views, 0, 1, 100000, "--compare-povray: first N test views; prior-train/test-2d: views per object; "
@@ -228,6 +230,7 @@ static int gen_prior_split(const GenArgs *a, int tl) {
     if (a->tex_res > 0) po.tex_res = a->tex_res;
     if (a->spp > 0) po.spp_sqrt = a->spp;
     if (a->pixel_samples > 0) po.pixel_samples = a->pixel_samples;
+    po.bounces = a->bounces;
     po.env_dir = a->env_dir;
     po.train_lights = (DsTrainLights)tl;
     po.threads = a->threads;

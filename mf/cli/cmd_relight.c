@@ -79,7 +79,7 @@ static int relight_run(const char *result, const RelightArgs *a) {
     if (!rc) rc = mf_rtscene_new(&res.mesh, &rt);
     MfTexMaterial mat = {.kd = have_res ? &res.kd : NULL, .orm = have_res ? &res.orm : NULL, .kd_const = mf_v3s(0.5f), .orm_const = mf_v3(1, 0.5f, 0), .normal = have_res && res.has_normal ? &res.normal : NULL};
     MfRenderInput in = {rt, have_res ? &res.mesh : NULL, &mat, 1, have_env ? &env : NULL, NULL, 0};
-    MfRenderOpts ro = {spp, ps, (uint64_t)seed, MF_LOBE_ALL};
+    MfRenderOpts ro = {.spp_sqrt = spp, .pixel_samples = ps, .seed = (uint64_t)seed, .lobes = MF_LOBE_ALL};
     /* every frame's camera and output name first: a bad frame or two frames with the same
      * output name are refused before anything is written */
     typedef struct { char name[256]; MfCamera cam; } Frame;

@@ -17,7 +17,7 @@
 
 typedef struct {
     const char *out, *lobes;
-    int spp, pixel_samples, width, height, seed, png;
+    int spp, pixel_samples, width, height, seed, png, bounces;
 } RenderArgs;
 
 static int render_scene(const char *scene_path, const char *outdir, const RenderArgs *a, int lobes);
@@ -28,6 +28,7 @@ static const MfOpt k_args[] = {
     MF_OPT_INT(A, spp, 0, 1, MF_OPT_SPP_MAX, "n: n^2 env-light + n^2 BSDF samples per pixel sample",
                .unset = "the scene's render.spp_sqrt, else 8"),
     MF_OPT_INT(A, pixel_samples, 0, 1, MF_OPT_PIXEL_SAMPLES_MAX, "primary rays per pixel", .unset = "the scene's, else 4"),
+    MF_OPT_INT(A, bounces, 0, 0, 64, "indirect bounces after the direct light (0: direct light only, as nvdiffrecmc)"),
     MF_OPT_INT(A, width, 0, 1, MF_OPT_RES_MAX, "image width", .unset = "the scene's"),
     MF_OPT_INT(A, height, 0, 1, MF_OPT_RES_MAX, "image height", .unset = "the scene's"),
     MF_OPT_INT(A, seed, -1, 0, 2147483647, "random seed", .unset = "the scene's render.seed"),
@@ -99,11 +100,12 @@ static int render_scene(const char *scene_path, const char *outdir, const Render
         mats[i].normal = sc.mats[i].normal;
     }
     MfRenderInput in = {rt, &sc.mesh, mats, sc.nmat, sc.has_env ? &sc.env : NULL, sc.lights, sc.nlights};
-    MfRenderOpts o = {sc.render.spp_sqrt, sc.render.pixel_samples, sc.render.seed, sc.render.lobes};
+    MfRenderOpts o = {.spp_sqrt = sc.render.spp_sqrt, .pixel_samples = sc.render.pixel_samples, .seed = sc.render.seed, .lobes = sc.render.lobes};
     if (spp) o.spp_sqrt = spp;
     if (ps) o.pixel_samples = ps;
     if (seed >= 0) o.seed = (uint64_t)seed;
     if (lobes > 0) o.lobes = lobes;
+    o.bounces = a->bounces;
     int W = w ? w : sc.width, H = h ? h : sc.height;
     MfProgress prog;
     mf_progress_begin(&prog, "render", (size_t)H * sc.nviews);

@@ -366,6 +366,42 @@ static int shade(Shading *sh, MfVec3 ns, MfVec3 ns_s, int sep, MfRng *rng, MfRay
     return 1;
 }
 
+/* The shading normal at hit h toward wo_w: the material's normal map, else the hit's (forward). */
+static MfVec3 shading_normal(const MfEstimator *e, const MfHit *h, int id, MfVec3 wo_w) {
+    const MfImage *map = e->tan ? e->mats[id].normal : NULL;
+    if (!map) return h->ns;
+    MfNmapFrame nf = mf_nmap_frame(e->mesh, e->tan, h);
+    return mf_nmap_normal(&nf, map, h->uv, wo_w);
+}
+
+/* Forward only: `left` more indirect bounces from a shaded hit (shading normal ns, sh->bc
+ * prepared by shade): one BSDF direction; a mesh hit along it adds f cos / pdf times the
+ * radiance leaving that hit toward sh (its direct light and, recursively, its bounces) to sh's
+ * sums; a miss adds nothing (the env along it is in sh's MIS-weighted direct light). */
+static void bounce(Shading *sh, MfVec3 ns, int left, MfRng *rng, MfRayLog *log) {
+    const MfEstimator *e = sh->e;
+    float u0 = mf_rng_float(rng), u1 = mf_rng_float(rng), u2 = mf_rng_float(rng);
+    MfVec3 wi;
+    float pb;
+    MfBrdfValue f;
+    if (!mf_brdf_ctx_sample(&sh->bc, u0, u1, u2, &wi, &pb, &f) || !(pb > 0.0f) || wi.z <= 0.0f || brdf_zero(&f)) return;
+    MfFrame fr = mf_frame(ns);
+    MfVec3 wi_w = mf_to_world(&fr, wi);
+    if (mf_dot(wi_w, sh->h->ng) <= 0.0f) return;
+    MfVec3 org = mf_est_ray_origin(sh->h, wi_w);
+    raylog_push(log, org, wi_w, 0.0f, INFINITY, 0); /* closest hit, as a primary ray */
+    MfHit h2;
+    if (!mf_rtscene_intersect(e->rt, org, wi_w, 0.0f, INFINITY, &h2)) return;
+    int id = (h2.mat >= 0 && h2.mat < e->nmat) ? h2.mat : 0;
+    Shading s2 = {.e = e, .h = &h2, .hs = &h2, .id = id, .mat = material_at(&e->mats[id], &h2), .wo_w = mf_neg(wi_w)};
+    MfVec3 n2 = shading_normal(e, &h2, id, s2.wo_w);
+    if (!shade(&s2, n2, n2, 0, rng, log)) return;
+    if (left > 1) bounce(&s2, n2, left - 1, rng, log);
+    if (!(e->lobes & MF_LOBE_DIFFUSE)) s2.dif = mf_v3s(0.0f);
+    MfVec3 L = mf_add(mf_mul(mf_scale(s2.mat.m.kd, 1.0f - s2.mat.m.metallic), s2.dif), s2.spec);
+    if (mf_isfinite3(L)) contribute(sh, wi, wi_w, &f, 1.0f / pb, L, 0);
+}
+
 void mf_est_pixel(const MfEstimator *e, const MfCamera *cam, int x, int y, MfRenderOut *out, MfEstAdjoint *adj,
                   MfRayLog *log) {
     size_t i = (size_t)y * cam->w + x;
@@ -414,6 +450,7 @@ void mf_est_pixel(const MfEstimator *e, const MfCamera *cam, int x, int y, MfRen
         }
         sh.want_dn = adj && ((adj->dnormal && map) || (adj->dpos && !map)) && id == 0;
         int lit = shade(&sh, ns, ns_s, sep, &smp.rng, log);
+        if (lit && e->bounces > 0 && !adj) bounce(&sh, ns, e->bounces, &smp.rng, log);
         if (adj) {
             if (!lit || id != 0) continue; /* nothing to add; gradient buffers are material 0's */
             float gkd[3] = {sh.dkd.x, sh.dkd.y, sh.dkd.z};

@@ -12,8 +12,14 @@
  *     the balance heuristic (each sample contributes f L V / (n^2 (p_light + p_bsdf))); n = spp_sqrt;
  *   - point and sun lights (delta lights): one shadow ray each, no MIS.
  * Shadow rays start at mf_est_ray_origin (offset along the geometric normal on the side of the
- * ray by p's rounding-error bound: scale-free). No indirect bounces. Misses contribute nothing
- * (transparent film).
+ * ray by p's rounding-error bound: scale-free). No indirect bounces by default. With bounces = B
+ * > 0 (forward only; the adjoint stays direct-light, as nvdiffrecmc), each hit of a path also
+ * draws one BSDF direction (three more numbers from the pixel's stream, after its direct
+ * light's): a ray that hits the mesh there adds f cos / pdf times the radiance leaving that
+ * hit toward it (its direct light, and its own bounce while fewer than B were taken); a ray
+ * that misses adds nothing, since the env reached along it is counted by the MIS-weighted
+ * direct light already (path tracing with next-event estimation). Images with B = 0 are
+ * unchanged bit for bit. Misses contribute nothing (transparent film).
  *
  * Sampling and evaluation parameters may differ (the differentiable renderer's gradient checks
  * freeze sampling): directions, pdfs and MIS weights come from mats_s / env_s and the sampling
@@ -63,6 +69,7 @@ typedef struct {
     uint64_t seed;
     int centre;                    /* 1: every primary ray through the pixel centre (the random
                                       stream is drawn as without it); for mf_antialias.h */
+    int bounces;                   /* forward only: indirect bounces (0: direct light only; below) */
 } MfEstimator;
 
 /* One thread's adjoint: the pixel adjoints (read) and its gradient buffers (+=). */

@@ -71,7 +71,8 @@ void mf_raylog_free(MfRayLog *log) {
 static MfEstimator estimator_of(const MfRenderInput *in, const MfRenderOpts *opts, const float *tan) {
     MfEstimator e = {.rt = in->rt, .mesh = in->mesh, .mats = in->mats, .nmat = in->nmat, .env = in->env,
                      .lights = in->lights, .nlights = in->nlights, .tan = tan, .spp_sqrt = opts->spp_sqrt,
-                     .pixel_samples = opts->pixel_samples, .lobes = opts->lobes, .seed = opts->seed};
+                     .pixel_samples = opts->pixel_samples, .lobes = opts->lobes, .seed = opts->seed,
+                     .bounces = opts->bounces};
     return e;
 }
 

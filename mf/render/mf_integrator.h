@@ -8,7 +8,9 @@
  *     each sample contributes f L V / (n^2 (p_light + p_bsdf))); n = spp_sqrt;
  *   - point and sun lights (delta lights): one shadow ray each, no MIS.
  * Shadow rays start at p offset along the geometric normal ng on the side of the sampled
- * direction (mf_est_ray_origin). No indirect bounces. Misses contribute nothing (transparent film).
+ * direction (mf_est_ray_origin). No indirect bounces unless MfRenderOpts.bounces > 0 (then a path
+ * continues from each hit by one BSDF sample per bounce, mf_estimator.h). Misses contribute
+ * nothing (transparent film).
  *
  * Outputs (MfRenderOut, per pixel, all (h, w, c) row 0 at the top):
  *   alpha             fraction of pixel samples that hit the mesh (coverage)
@@ -72,10 +74,12 @@ typedef struct {
     int pixel_samples; /* primary rays per pixel (>= 1) */
     uint64_t seed;
     int lobes;         /* MfLobes */
+    int bounces;       /* indirect bounces after the direct light (0: nvdiffrecmc's direct light only);
+                          forward renders only, e.g. data sets with interreflection (mf_estimator.h) */
 } MfRenderOpts;
 
 static inline MfRenderOpts mf_render_opts_default(void) {
-    MfRenderOpts o = {8, 4, 0, MF_LOBE_ALL};
+    MfRenderOpts o = {.spp_sqrt = 8, .pixel_samples = 4, .seed = 0, .lobes = MF_LOBE_ALL};
     return o;
 }
 
