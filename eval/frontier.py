@@ -227,9 +227,9 @@ def plot(out, rows):
     with open(os.path.join(out, "frontier.dat"), "w") as f:
         f.write("\n".join(dat))
     titles = ["%s %dpx spp%d" % k for k in sorted(lines)]
-    gp = ["set terminal pngcairo size 1500,450 font ',10'", "set output 'frontier.png'", "set multiplot layout 1,3",
+    gp = ["set terminal pngcairo size 1500,560 font ',10'", "set output 'frontier.png'", "set multiplot layout 1,3",
           "set logscale x", "set xlabel 'wall time per scene [s] (optimisation loop, mean over scenes)'", "set grid",
-          "set key bottom right"]
+          "set key outside below horizontal maxrows 3"]
     for col, name in ((2, "relit PSNR [dB]"), (3, "albedo PSNR [dB]"), (4, "ORM PSNR [dB]")):
         parts = []
         for i, t in enumerate(titles):
