@@ -366,6 +366,13 @@ static int shade(Shading *sh, MfVec3 ns, MfVec3 ns_s, int sep, MfRng *rng, MfRay
     return 1;
 }
 
+/* The radiance a shaded hit sends toward its viewer, kd (1 - m) D + S; a diffuse lobe the
+ * estimator leaves out is zeroed in the sums first (its AOV too). */
+static MfVec3 radiance_out(const MfEstimator *e, Shading *sh) {
+    if (!(e->lobes & MF_LOBE_DIFFUSE)) sh->dif = mf_v3s(0.0f);
+    return mf_add(mf_mul(mf_scale(sh->mat.m.kd, 1.0f - sh->mat.m.metallic), sh->dif), sh->spec);
+}
+
 /* The shading normal at hit h toward wo_w: the material's normal map, else the hit's (forward). */
 static MfVec3 shading_normal(const MfEstimator *e, const MfHit *h, int id, MfVec3 wo_w) {
     const MfImage *map = e->tan ? e->mats[id].normal : NULL;
@@ -397,8 +404,7 @@ static void bounce(Shading *sh, MfVec3 ns, int left, MfRng *rng, MfRayLog *log) 
     MfVec3 n2 = shading_normal(e, &h2, id, s2.wo_w);
     if (!shade(&s2, n2, n2, 0, rng, log)) return;
     if (left > 1) bounce(&s2, n2, left - 1, rng, log);
-    if (!(e->lobes & MF_LOBE_DIFFUSE)) s2.dif = mf_v3s(0.0f);
-    MfVec3 L = mf_add(mf_mul(mf_scale(s2.mat.m.kd, 1.0f - s2.mat.m.metallic), s2.dif), s2.spec);
+    MfVec3 L = radiance_out(e, &s2);
     if (mf_isfinite3(L)) contribute(sh, wi, wi_w, &f, 1.0f / pb, L, 0);
 }
 
@@ -474,9 +480,7 @@ void mf_est_pixel(const MfEstimator *e, const MfCamera *cam, int x, int y, MfRen
             }
             continue;
         }
-        MfVec3 kdw = mf_scale(sh.mat.m.kd, 1.0f - sh.mat.m.metallic);
-        if (!(e->lobes & MF_LOBE_DIFFUSE)) sh.dif = mf_v3s(0.0f);
-        rgb = mf_add(rgb, mf_add(mf_mul(kdw, sh.dif), sh.spec));
+        rgb = mf_add(rgb, radiance_out(e, &sh));
         dif = mf_add(dif, sh.dif);
         spec = mf_add(spec, sh.spec);
         alb = mf_add(alb, sh.mat.m.kd);
