@@ -252,16 +252,6 @@ static float reference_level(const MfImage *imgs, int n) {
 
 /* ---- the state file: blocks' values and moments (p, m, v each), step, options and log in the meta ---- */
 
-static int state_specs(const MfParamBlock *b, int nb, MfTensorSpec *specs) {
-    static const char *part[3] = {"p", "m", "v"};
-    for (int k = 0; k < nb; ++k)
-        for (int j = 0; j < 3; ++j) {
-            int shape[1] = {(int)b[k].n};
-            mf_spec_set(&specs[3 * k + j], b[k].name, part[j], 1, shape);
-        }
-    return 3 * nb;
-}
-
 /* The options a state must match, as "key":value pairs of its meta. */
 static int state_opts(const MfGeomFitOpts *o, char *buf, size_t cap) {
     return snprintf(buf, cap, "\"lr_sdf\":%.9g,\"lr_deform\":%.9g,\"sdf_reg\":%.9g,\"views_per_step\":%d,\"color\":%.9g,\"seed\":%llu",
@@ -272,16 +262,11 @@ static int state_opts(const MfGeomFitOpts *o, char *buf, size_t cap) {
 static int state_save(const char *path, const MfParamBlock *b, int nb, const MfAdam *adam, int step, const MfGeomFitOpts *o,
                       const MfGeomFitStep *log) {
     MfTensorSpec specs[15];
-    int ns = state_specs(b, nb, specs);
-    size_t total = mf_specs_numel(specs, ns), off = 0, cap = 512 + (size_t)step * 96;
-    float *buf = malloc(total * sizeof *buf + 1);
+    int ns = mf_param_ckpt_specs(b, nb, specs);
+    size_t cap = 512 + (size_t)step * 96;
+    MfParamSnapshot snap = {0};
     char *meta = malloc(cap);
-    int rc = buf && meta ? MF_OK : mf_fail(MF_ENOMEM, "%s: out of memory", path);
-    for (int k = 0; !rc && k < nb; ++k) {
-        memcpy(buf + off, b[k].p, b[k].n * sizeof *buf), off += b[k].n;
-        memcpy(buf + off, b[k].m, b[k].n * sizeof *buf), off += b[k].n;
-        memcpy(buf + off, b[k].v, b[k].n * sizeof *buf), off += b[k].n;
-    }
+    int rc = meta ? mf_param_snapshot_save(&snap, b, nb, adam) : mf_fail(MF_ENOMEM, "%s: out of memory", path);
     if (!rc) {
         size_t len = (size_t)snprintf(meta, cap, "{\"kind\":\"mf-geom-fit\",\"step\":%d,\"adam_t\":%ld,", step, adam->t);
         len += (size_t)state_opts(o, meta + len, cap - len);
@@ -290,9 +275,10 @@ static int state_save(const char *path, const MfParamBlock *b, int nb, const MfA
             len += (size_t)snprintf(meta + len, cap - len, "%s[%.17g,%.17g,%d,%.17g]", i ? "," : "", log[i].mask, log[i].reg,
                                     log[i].nt, log[i].rgb);
         snprintf(meta + len, cap - len, "]}");
-        rc = mf_ckpt_save(path, specs, ns, buf, meta);
+        rc = mf_ckpt_save(path, specs, ns, snap.buf, meta);
     }
-    free(buf), free(meta);
+    mf_param_snapshot_free(&snap);
+    free(meta);
     return rc;
 }
 
@@ -300,8 +286,8 @@ static int state_save(const char *path, const MfParamBlock *b, int nb, const MfA
 static int state_load(const char *path, MfParamBlock *b, int nb, MfAdam *adam, const MfGeomFitOpts *o, MfGeomFitStep *log,
                       int *step) {
     MfTensorSpec specs[15];
-    int ns = state_specs(b, nb, specs);
-    size_t total = mf_specs_numel(specs, ns), off = 0;
+    int ns = mf_param_ckpt_specs(b, nb, specs);
+    size_t total = mf_specs_numel(specs, ns);
     float *buf = malloc(total * sizeof *buf + 1);
     char *meta = NULL, want[512];
     cJSON *root = NULL;
@@ -335,12 +321,11 @@ static int state_load(const char *path, MfParamBlock *b, int nb, MfAdam *adam, c
         }
         if (!rc) log[i] = (MfGeomFitStep){.mask = v[0], .reg = v[1], .nt = (int)v[2], .rgb = v[3]};
     }
-    for (int j = 0; !rc && j < nb; ++j) {
-        memcpy(b[j].p, buf + off, b[j].n * sizeof *buf), off += b[j].n;
-        memcpy(b[j].m, buf + off, b[j].n * sizeof *buf), off += b[j].n;
-        memcpy(b[j].v, buf + off, b[j].n * sizeof *buf), off += b[j].n;
+    if (!rc) { /* buf is in a snapshot's order (mf_param_ckpt_specs) */
+        MfParamSnapshot snap = {.buf = buf, .len = total, .t = (long)t};
+        mf_param_snapshot_restore(&snap, b, nb, adam);
+        *step = k;
     }
-    if (!rc) adam->t = (long)t, *step = k;
     cJSON_Delete(root);
     free(buf), free(meta);
     return rc;

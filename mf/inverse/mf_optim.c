@@ -133,6 +133,16 @@ void mf_param_snapshot_restore(const MfParamSnapshot *s, MfParamBlock *blocks, i
     a->t = s->t;
 }
 
+int mf_param_ckpt_specs(const MfParamBlock *blocks, int nblocks, MfTensorSpec *specs) {
+    static const char *part[3] = {"p", "m", "v"};
+    for (int k = 0; k < nblocks; ++k)
+        for (int j = 0; j < 3; ++j) {
+            int shape[1] = {(int)blocks[k].n};
+            mf_spec_set(&specs[3 * k + j], blocks[k].name, part[j], 1, shape);
+        }
+    return 3 * nblocks;
+}
+
 void mf_param_snapshot_free(MfParamSnapshot *s) {
     if (!s) return;
     free(s->buf);

@@ -20,6 +20,8 @@
 
 #include <stddef.h>
 
+#include "io/mf_ckpt.h"
+
 #define MF_PARAM_MAX_CH 8
 
 typedef struct {
@@ -72,6 +74,9 @@ int mf_param_snapshot_save(MfParamSnapshot *s, const MfParamBlock *blocks, int n
 /* Copies s back into the blocks and Adam. */
 void mf_param_snapshot_restore(const MfParamSnapshot *s, MfParamBlock *blocks, int nblocks, MfAdam *a);
 void mf_param_snapshot_free(MfParamSnapshot *s);
+/* The checkpoint tensors of that state, in MfParamSnapshot.buf's order: for each block
+ * "<name>.p", "<name>.m", "<name>.v", each (n,). specs: (3 * nblocks,); returns 3 * nblocks. */
+int mf_param_ckpt_specs(const MfParamBlock *blocks, int nblocks, MfTensorSpec *specs);
 
 /* Divergence watch on a scalar loss. */
 typedef struct {

@@ -309,30 +309,15 @@ static int sync_env(MfRecon *r) {
 
 /* ---- checkpoints: every block's values and Adam moments, plus the iteration ---- */
 
-static void ckpt_specs(const MfRecon *r, MfTensorSpec *specs) {
-    static const char *part[3] = {"p", "m", "v"};
-    for (int b = 0; b < r->nblocks; ++b)
-        for (int k = 0; k < 3; ++k) {
-            int shape[1] = {(int)r->blocks[b].n};
-            mf_spec_set(&specs[b * 3 + k], r->blocks[b].name, part[k], 1, shape);
-        }
-}
-
 static int save_checkpoint(const MfRecon *r, const char *path, double wall) {
     char bad[96];
     if (mf_params_find_nonfinite(r->blocks, r->nblocks, bad, sizeof bad))
         return mf_fail(MF_ENAN, "%s: not written at iteration %d: %s is not finite", path, r->it, bad);
     MfTensorSpec specs[MF_NBLOCKS * 3];
-    ckpt_specs(r, specs);
-    size_t total = mf_specs_numel(specs, r->nblocks * 3), off = 0;
-    float *buf = malloc(total * sizeof(float) + 1);
-    if (!buf) return mf_fail(MF_ENOMEM, "%s: out of memory", path);
-    for (int b = 0; b < r->nblocks; ++b) {
-        const MfParamBlock *pb = &r->blocks[b];
-        memcpy(buf + off, pb->p, pb->n * sizeof(float)), off += pb->n;
-        memcpy(buf + off, pb->m, pb->n * sizeof(float)), off += pb->n;
-        memcpy(buf + off, pb->v, pb->n * sizeof(float)), off += pb->n;
-    }
+    int ns = mf_param_ckpt_specs(r->blocks, r->nblocks, specs);
+    MfParamSnapshot snap = {0};
+    int rc = mf_param_snapshot_save(&snap, r->blocks, r->nblocks, &r->adam);
+    if (rc) return mf_fail_prefix(rc, "%s", path);
     char meta[1024], grew[16 * 12] = "";
     for (int i = 0, len = 0; i < r->ngrew && i < 16; ++i)
         len += snprintf(grew + len, sizeof grew - (size_t)len, "%s%d", i ? " " : "", r->grew_at[i]);
@@ -344,8 +329,8 @@ static int save_checkpoint(const MfRecon *r, const char *path, double wall) {
              r->it, r->adam.t, wall, r->o.tex_res, r->o.env_w, r->o.env_h, r->lr_scale,
              isfinite(r->guard.loss_min) ? r->guard.loss_min : -1.0, r->nrec_total, r->exposure, r->metal_state,
              r->metal_fraction, r->spp_now, r->grow_prev, r->grow_sum, r->grow_n, grew, r->env_res_w, r->env_res_rough);
-    int rc = mf_ckpt_save(path, specs, r->nblocks * 3, buf, meta);
-    free(buf);
+    rc = mf_ckpt_save(path, specs, ns, snap.buf, meta);
+    mf_param_snapshot_free(&snap);
     return rc;
 }
 
@@ -396,12 +381,12 @@ int mf_recon_load_checkpoint(MfRecon *r, const char *path) {
         if (rc) return rc;
     }
     MfTensorSpec specs[MF_NBLOCKS * 3];
-    ckpt_specs(r, specs);
-    size_t total = mf_specs_numel(specs, r->nblocks * 3), off = 0;
+    int ns = mf_param_ckpt_specs(r->blocks, r->nblocks, specs);
+    size_t total = mf_specs_numel(specs, ns);
     float *buf = malloc(total * sizeof(float) + 1);
     char *meta = NULL;
     if (!buf) return mf_fail(MF_ENOMEM, "%s: out of memory", path);
-    int rc = mf_ckpt_load(path, specs, r->nblocks * 3, buf, &meta);
+    int rc = mf_ckpt_load(path, specs, ns, buf, &meta);
     if (rc) {
         free(buf);
         return mf_fail_prefix(rc, "resume (were texture/env sizes or normal_map changed?)");
@@ -456,14 +441,9 @@ int mf_recon_load_checkpoint(MfRecon *r, const char *path) {
         free(meta);
         return mf_fail(MF_EFORMAT, "%s: lr_scale %g in its header is not a positive number", path, lr_scale);
     }
-    for (int b = 0; b < r->nblocks; ++b) {
-        MfParamBlock *pb = &r->blocks[b];
-        memcpy(pb->p, buf + off, pb->n * sizeof(float)), off += pb->n;
-        memcpy(pb->m, buf + off, pb->n * sizeof(float)), off += pb->n;
-        memcpy(pb->v, buf + off, pb->n * sizeof(float)), off += pb->n;
-    }
+    MfParamSnapshot snap = {.buf = buf, .len = total, .t = t}; /* buf is in a snapshot's order */
+    mf_param_snapshot_restore(&snap, r->blocks, r->nblocks, &r->adam);
     r->it = it;
-    r->adam.t = t;
     r->wall_offset = wall;
     r->lr_scale = lr_scale;
     r->nrec_total = nrec;
