@@ -7,11 +7,11 @@
 #   make bench-nn      conv / residual block vs OpenBLAS sgemm -> reports/perf/ (bench-nn-onednn: vs oneDNN)
 # BUILD=dir selects the build folder (default build; asan uses build-asan; NATIVE=1 build-native).
 #   make NATIVE=1    compile for this machine's CPU (-march=native) into build-native/ (below)
-#   make DNNL=1      the network's convolutions through oneDNN, into build-dnnl/ (below)
+#   make DNNL=0      the network's convolutions on OpenBLAS alone (no oneDNN), into build-blas/ (below)
 
 DEB_PACKAGES := build-essential pkg-config libembree-dev libopenimageio-dev libopenexr-dev \
   libgsl-dev libcjson-dev libopenblas-dev povray blender-data python3-skimage python3-numpy \
-  gnuplot-nox libmeshoptimizer-dev slurm-wlm munge jq
+  gnuplot-nox libmeshoptimizer-dev libdnnl-dev slurm-wlm munge jq
 
 # NATIVE=1: -march=native (this CPU's AVX2 / AVX-512 in our own loops) in its own folder. Such a
 # build runs only on CPUs with the same instructions, so it is never the default and never
@@ -19,12 +19,15 @@ DEB_PACKAGES := build-essential pkg-config libembree-dev libopenimageio-dev libo
 # on a machine whose flags differ (a shared checkout, a copied folder) starts from scratch.
 # The default build targets plain x86-64 (-march=x86-64), so its binaries run on any x86-64 CPU.
 NATIVE   ?= 0
-# DNNL=1: the network's convolutions through oneDNN (Debian's libdnnl-dev; mf/nn/mf_nn_dnnl.c),
-# compiled with -DMF_HAVE_DNNL and linked with -ldnnl, in its own folder (build-dnnl, or
-# build-native-dnnl with NATIVE=1) so objects of the two builds never mix. Off by default: make,
-# make test and CI need no oneDNN. MF_NN_BACKEND=blas|dnnl picks the backend at run time.
-DNNL     ?= 0
-DNNL_SUFFIX := $(if $(filter 1,$(DNNL)),-dnnl)
+# DNNL=1 (the default): the network's convolutions through oneDNN (Debian's libdnnl-dev, which make
+# deps installs; mf/nn/mf_nn_dnnl.c), compiled with -DMF_HAVE_DNNL and linked with -ldnnl; it measured
+# 0.81-0.83 of sgemm on the prior's convolutions and 0.71-0.79 on its residual blocks, against
+# 0.70-0.72 and 0.64-0.65 for the OpenBLAS im2col path (reports/perf/nn-*.md). DNNL=0 builds without oneDNN into its own folder (build-blas, or
+# build-native-blas with NATIVE=1), so objects of the two builds never mix; $(BUILD)/backend records
+# which one a folder holds, and a folder built the other way (an older checkout's build/) is rebuilt.
+# MF_NN_BACKEND=blas|dnnl picks the backend at run time in a DNNL build.
+DNNL     ?= 1
+DNNL_SUFFIX := $(if $(filter 1,$(DNNL)),,-blas)
 ifeq ($(NATIVE),1)
 BUILD    ?= build-native$(DNNL_SUFFIX)
 ARCH     := -march=native
@@ -50,9 +53,10 @@ LDLIBS   := -lembree3 -lOpenImageIO -lOpenImageIO_Util -lOpenEXRCore-3_1 -lImath
             -lcjson -lgsl -lmeshoptimizer -L/usr/lib/x86_64-linux-gnu/openblas-pthread -lopenblas \
             -lstdc++ -lm -lpthread
 LDFLAGS  += -fopenmp $(SAN)
+$(shell mkdir -p $(BUILD) && { [ "$$(cat $(BUILD)/backend 2>/dev/null)" = "dnnl=$(DNNL)" ] || { rm -rf $(BUILD)/obj/mf/nn $(BUILD)/*.a $(BUILD)/mf $(BUILD)/mf_tests; echo "dnnl=$(DNNL)" > $(BUILD)/backend; }; })
 ifeq ($(DNNL),1)
-ifeq ($(wildcard /usr/include/oneapi/dnnl/dnnl.h),)
-$(error DNNL=1: oneDNN not found (/usr/include/oneapi/dnnl/dnnl.h); install it with apt-get install libdnnl-dev)
+ifeq ($(wildcard /usr/include/oneapi/dnnl/dnnl.h)$(filter deps deps-node clean,$(MAKECMDGOALS)),)
+$(error oneDNN not found (/usr/include/oneapi/dnnl/dnnl.h): run make deps (or apt-get install libdnnl-dev), or build without it: make DNNL=0)
 endif
 LDLIBS   += -ldnnl
 $(BUILD)/obj/mf/nn/%.o: CFLAGS += -DMF_HAVE_DNNL
@@ -70,7 +74,7 @@ LIB_OBJ  := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
 CLI_OBJ  := $(CLI_C:%.c=$(BUILD)/obj/%.o)
 TEST_OBJ := $(TEST_C:%.c=$(BUILD)/obj/%.o)
 
-.PHONY: FORCE all deps deps-node deps-fuzz bench-asset fuzz fuzz-lib fuzz-seeds test check-deps asan bench-geom bench-hull bench-render profile-render bench-nn bench-nn-dnnl bench-nn-onednn bench-baseline bench-prior prior-objects train-prior-ft prior-curve train-prior-datasize prior-datasize bench-sds-cost bench-quick bench bench-split bench-split-now bench-runs bench-external recon-runs train-prior train-prior-wide eval-prior calibrate-trust sweep-guidance bench-domain bench-matrix bench-cycles-3d bench-stability bench-stability-stops test-slurm clean
+.PHONY: FORCE all deps deps-node deps-fuzz bench-asset fuzz fuzz-lib fuzz-seeds test check-deps asan bench-geom bench-hull bench-render profile-render bench-nn bench-nn-onednn bench-baseline bench-prior prior-objects train-prior-ft prior-curve train-prior-datasize prior-datasize bench-sds-cost bench-quick bench bench-split bench-split-now bench-runs bench-external recon-runs train-prior train-prior-wide eval-prior calibrate-trust sweep-guidance bench-domain bench-matrix bench-cycles-3d bench-stability bench-stability-stops test-slurm clean
 all: $(BUILD)/mf $(BUILD)/mf_tests
 
 deps:
@@ -198,20 +202,14 @@ profile-render: $(BUILD)/mf
 
 # The network's convolution and residual block against OpenBLAS sgemm at the prior's denoiser
 # shapes (batch 16, 8 groups; mf/prior/weights/prior.mfck), on one thread: ratios of CPU seconds
-# are then not disturbed by the other processes of a shared machine.
+# are then not disturbed by the other processes of a shared machine. In a build with oneDNN (the
+# default) each measurement runs under both conv backends, interleaved round by round.
 NN_1THREAD := OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1
 bench-nn: $(BUILD)/mf
 	$(NN_1THREAD) ./$(BUILD)/mf bench-nn --batch 16 --channels 64 --size 16 --groups 8 --reps 30 -o reports/perf/nn-c64-16x16.md
 	$(NN_1THREAD) ./$(BUILD)/mf bench-nn --batch 16 --channels 128 --size 8 --groups 8 --reps 30 -o reports/perf/nn-c128-8x8.md
-# Both conv backends of a DNNL=1 build (run as make DNNL=1 bench-nn-dnnl), interleaved in one process:
-# bench-nn's two shapes, then bench-prior at one thread -> reports/perf/nn-dnnl-*.md, prior-dnnl.md.
-bench-nn-dnnl: $(BUILD)/mf
-	@[ "$(DNNL)" = 1 ] || { echo "bench-nn-dnnl: needs the oneDNN build: make DNNL=1 bench-nn-dnnl"; exit 1; }
-	$(NN_1THREAD) ./$(BUILD)/mf bench-nn --batch 16 --channels 64 --size 16 --groups 8 --reps 30 -o reports/perf/nn-dnnl-c64-16x16.md
-	$(NN_1THREAD) ./$(BUILD)/mf bench-nn --batch 16 --channels 128 --size 8 --groups 8 --reps 30 -o reports/perf/nn-dnnl-c128-8x8.md
-	$(NN_1THREAD) ./$(BUILD)/mf bench-prior -o reports/perf/prior-dnnl.md
-# oneDNN's convolution against ours (tools/onednn_conv_bench.c). Optional: needs Debian's
-# libdnnl-dev, which make deps does not install and nothing else uses (but make DNNL=1).
+# oneDNN's convolution in the plain NCHW layout against ours (tools/onednn_conv_bench.c; needs
+# Debian's libdnnl-dev, which make deps installs).
 bench-nn-onednn: $(BUILD)/libmf.a
 	@[ -f /usr/include/oneapi/dnnl/dnnl.h ] || { echo "bench-nn-onednn: oneDNN not found (apt-get install libdnnl-dev)"; exit 1; }
 	$(CC) $(CFLAGS) -o $(BUILD)/onednn_conv_bench tools/onednn_conv_bench.c $(BUILD)/libmf.a $(LDLIBS) -ldnnl
@@ -538,7 +536,7 @@ $(GEN2D_SPLITS:%=$(DATA)/%/manifest.json): $(DATA)/%/manifest.json: | $(BUILD)/m
 eval-prior: $(BUILD)/mf $(DATA)/test-2d/manifest.json $(PRIOR_DATA)/manifest.json
 	$(MF) eval-prior $(DATA)/test-2d --train $(PRIOR_DATA) -o reports/prior
 bench-prior: $(BUILD)/mf
-	$(MF) bench-prior -o reports/perf/prior.md
+	$(NN_1THREAD) $(MF) bench-prior -o reports/perf/prior.md
 
 # The prior's own accuracy on the objects of the 3D splits (issue 12): eval-prior on each object's
 # 4 held-out test views of val-3d, test-3d and test-3d-ambig, at the mean targets' setting (4

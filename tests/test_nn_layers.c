@@ -189,7 +189,7 @@ MF_TEST(nn_conv2d_fused_ex) {
 }
 
 /* ---- conv backends: oneDNN against im2col + sgemm ------------------------------------------
- * In a `make DNNL=1` build the same calls through both backends: forward_ex (bias, bias_b, add)
+ * In a build with oneDNN (the default; not `make DNNL=0`) the same calls through both backends: forward_ex (bias, bias_b, add)
  * and backward_ex (din written and accumulated, dw accumulated onto a non-zero start, dbias,
  * dbias_b) agree within DNNL_RTOL of the largest |value| of each output (measured: at most
  * ~5e-7 on these shapes, float rounding of sums in another order). Skipped in a build without
@@ -254,7 +254,7 @@ static double conv_backend_case(int B, int Ci, int Co, int H, int W, int K, int 
 
 MF_TEST(nn_conv2d_dnnl_matches_blas) {
     MfNnBackend was = mf_nn_backend();
-    if (mf_nn_set_backend(MF_NN_DNNL) != MF_OK) MF_SKIP("built without oneDNN (make DNNL=1 builds it)");
+    if (mf_nn_set_backend(MF_NN_DNNL) != MF_OK) MF_SKIP("built without oneDNN (make DNNL=0)");
     /* a biased layer's forward and both backward passes share one cached shape (the thread's
      * cache may hold other tests' shapes) */
     int before = mf_nn_dnnl_entries();

@@ -199,7 +199,7 @@ static int write_report(const BenchNnArgs *a, const BenchNnTimes *m, double *q) 
                  "# mf bench-nn\n\n"
                  "OpenBLAS threads %d, OpenMP threads %d; %d interleaved rounds after one warm-up; 1-minute load\n"
                  "average %.2f at the start, %.2f at the end. Backend: the conv layers' (mf_nn.h: blas = im2col +\n"
-                 "OpenBLAS sgemm, dnnl = oneDNN, in builds made with make DNNL=1). GFLOP/s and seconds: the best\n"
+                 "OpenBLAS sgemm, dnnl = oneDNN, in builds with it: make DNNL=0 builds without). GFLOP/s and seconds: the best\n"
                  "round's CPU seconds; ratios: the median over rounds of each round's ratio of CPU seconds (with\n"
                  "one thread, not counting the time other processes hold the core; their cache traffic still\n"
                  "counts), of wall seconds, and the ratio of the best rounds' wall seconds.\n\n"

@@ -98,8 +98,8 @@ static int write_report(const BenchPriorArgs *a, MfPrior *p, const char *source,
                  "# Prior performance (`make bench-prior`)\n\n"
                  "Measured by `mf bench-prior` in one process (%s; %zu parameters; %d px images, %dx%dx%d latents); "
                  "best of %d interleaved rounds after a warm-up (each round runs the network's measurements under "
-                 "each conv backend in turn: blas = im2col + OpenBLAS sgemm, dnnl = oneDNN, in builds made with "
-                 "make DNNL=1), OPENBLAS_NUM_THREADS=%s, OMP_NUM_THREADS=%s; 1-minute load average %.2f at the "
+                 "each conv backend in turn: blas = im2col + OpenBLAS sgemm, dnnl = oneDNN, in builds with oneDNN: the default; "
+                 "make DNNL=0 builds without), OPENBLAS_NUM_THREADS=%s, OMP_NUM_THREADS=%s; 1-minute load average %.2f at the "
                  "start, %.2f at the end. Network GFLOP/s count the FLOPs of the network's matrix products "
                  "(convolutions as their im2col GEMMs, linears, attention; element-wise layers and AdamW are in "
                  "the time but not in the count).\n\n| measurement |",

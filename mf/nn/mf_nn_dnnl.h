@@ -1,5 +1,5 @@
-/* mf_nn_dnnl: conv2d through oneDNN (Debian's libdnnl-dev), the optional backend of mf_conv2d_*
- * (mf_nn.h; `make DNNL=1` builds it, with -DMF_HAVE_DNNL). Private to mf/nn: the layers call it
+/* mf_nn_dnnl: conv2d through oneDNN (Debian's libdnnl-dev), the default backend of mf_conv2d_*
+ * (mf_nn.h; the default `make` builds it, with -DMF_HAVE_DNNL; `make DNNL=0` does not). Private to mf/nn: the layers call it
  * when mf_nn_backend() is MF_NN_DNNL.
  *
  * Same arrays and semantics as the im2col + sgemm path: activations plain NCHW, weights OIHW,
