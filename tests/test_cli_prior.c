@@ -44,7 +44,33 @@ MF_TEST(prior_cli_predicts_maps) {
     mf_image_free(&im);
     snprintf(args, sizeof args, "prior '%s' -o '%s' --weights '%s' --samples 2 --steps 4 --mv '%s' '%s' '%s'", img, out, w, img, img,
              img);
-    CHECK_MSG(mf_test_run_mf(args, NULL, err, sizeof err) == 0, "mf %s: %s", args, err);
+    char so[MF_PATH_MAX];
+    mf_test_path_to(so, sizeof so, "prior_cli_stdout.txt");
+    CHECK_MSG(mf_test_run_mf(args, so, err, sizeof err) == 0, "mf %s: %s", args, err);
+    /* the printed per-view means are those of the written orm_K.png inside its mask (8-bit: 1/255) */
+    char *txt = NULL;
+    size_t tn = 0;
+    CHECK_OK(mf_read_file(so, &txt, &tn));
+    for (int v = 0; v < 4 && txt; ++v) {
+        char key[32], f2[MF_PATH_MAX], nm[32];
+        snprintf(key, sizeof key, "view %d: mean roughness", v);
+        const char *l = strstr(txt, key);
+        double pr = -1, pm = -1;
+        CHECK_MSG(l && sscanf(l + strlen(key), " %lf, metallic %lf", &pr, &pm) == 2, "no '%s' line in: %s", key, txt);
+        if (v) snprintf(nm, sizeof nm, "orm_%d.png", v);
+        else snprintf(nm, sizeof nm, "orm.png");
+        mf_path_join(f2, sizeof f2, out, nm);
+        MfImage o = {0};
+        CHECK_OK(mf_image_read(f2, MF_ENC_LINEAR, &o));
+        double r = 0, m = 0;
+        int n = 0;
+        for (int i = 0; o.data && i < o.w * o.h; ++i)
+            if (o.data[i * 4 + 3] >= 0.5f) r += o.data[i * 4 + 1], m += o.data[i * 4 + 2], ++n;
+        CHECK_MSG(n == 64 && fabs(r / n - pr) < 0.003 && fabs(m / n - pm) < 0.003, "view %d: printed %.4f %.4f, file %.4f %.4f (%d px)", v,
+                  pr, pm, n ? r / n : 0, n ? m / n : 0, n);
+        mf_image_free(&o);
+    }
+    free(txt);
     const char *names[4] = {"albedo.png", "orm.png", "albedo_3.png", "orm_3.png"};
     for (int k = 0; k < 4; ++k) {
         mf_path_join(f, sizeof f, out, names[k]);

@@ -40,7 +40,8 @@ __attribute__((constructor)) static void prior_usage(void) {
                        "                [--mv IMG2 IMG3 IMG4]\n"
                        "  IMAGE: RGBA (sRGB colour, alpha = mask), box-filtered to the prior's resolution (64 px).\n"
                        "  Writes DIR/albedo.png (sRGB) and DIR/orm.png (linear, R = 1), alpha = the input mask: the mean of\n"
-                       "  N samples of S DDIM steps with classifier-free guidance G.\n"
+                       "  N samples of S DDIM steps with classifier-free guidance G. Prints each view's mean predicted\n"
+                       "  roughness and metallic inside the mask.\n"
                        "  --mv: three more views of the object, denoised jointly; their maps go to DIR/albedo_K.png, orm_K.png.\n",
                        t, 1, NULL);
 }
@@ -101,6 +102,20 @@ static int cmd_prior(int argc, char **argv) {
     return rc;
 }
 
+/* One line per view: the predicted roughness and metallic averaged over the mask (alpha >= 0.5), the
+ * figures a user checks first on a metal or dielectric object (orm: (h, w, 4) linear, alpha = mask). */
+static void print_orm_means(const MfImage *orm, int view) {
+    double r = 0, m = 0;
+    long n = 0;
+    for (long i = 0; i < (long)orm->w * orm->h; ++i) {
+        const float *px = orm->data + i * orm->c;
+        if (orm->c == 4 && px[3] < 0.5f) continue;
+        r += px[1], m += px[2], ++n;
+    }
+    if (n) printf("view %d: mean roughness %.4f, metallic %.4f inside the mask (%ld px)\n", view, r / n, m / n, n);
+    else printf("view %d: empty mask\n", view);
+}
+
 static int prior_run(const PriorArgs *a, const char *const *images, int V) {
     MfPrior *p = NULL;
     if (mf_prior_load_path(a->weights, &p)) return MF_EXIT_FAIL;
@@ -114,6 +129,7 @@ static int prior_run(const PriorArgs *a, const char *const *images, int V) {
     }
     for (int kind = 0; kind < 2 && !rc; ++kind)
         for (int v = 0; v < V && !rc; ++v) rc = write_map(a->out, kind ? "orm" : "albedo", v, kind ? &orm[v] : &alb[v], kind);
+    for (int v = 0; v < V && !rc; ++v) print_orm_means(&orm[v], v);
     for (int v = 0; v < 4; ++v) mf_image_free(&in[v]), mf_image_free(&alb[v]), mf_image_free(&orm[v]);
     mf_prior_free(p);
     if (rc) return MF_EXIT_FAIL;
