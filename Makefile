@@ -279,6 +279,8 @@ FLAGS_mf-ft-cal = --method materialfusion --guidance 1 --sds-target mean --prior
 # the default method with the prior trained on interreflection (mf/prior/weights/prior-bounce.mfck =
 # make train-prior-bounce's prior-4000.mfck; reports/prior/bounce)
 FLAGS_mf-bounce      := --method materialfusion --prior-weights mf/prior/weights/prior-bounce.mfck
+# and with the same recipe's direct-light prior (mf/prior/weights/prior-ft.mfck), its control
+FLAGS_mf-ft          := --method materialfusion --prior-weights mf/prior/weights/prior-ft.mfck
 FLAGS_mf-gamma-const := --method materialfusion --gamma-const 1
 FLAGS_mf-no-rgb      := --method materialfusion --lambda-rgb 0
 FLAGS_mf-no-latent   := --method materialfusion --lambda-latent 0
