@@ -22,8 +22,8 @@ NATIVE   ?= 0
 # DNNL=1 (the default): the network's convolutions through oneDNN (Debian's libdnnl-dev, which make
 # deps installs; mf/nn/mf_nn_dnnl.c), compiled with -DMF_HAVE_DNNL and linked with -ldnnl; it measured
 # 0.81-0.83 of sgemm on the prior's convolutions and 0.71-0.79 on its residual blocks, against
-# 0.70-0.72 and 0.64-0.65 for the OpenBLAS im2col path (reports/perf/nn-*.md). DNNL=0 builds without oneDNN into its own folder (build-blas, or
-# build-native-blas with NATIVE=1), so objects of the two builds never mix; $(BUILD)/backend records
+# 0.70-0.72 and 0.64-0.65 for the OpenBLAS im2col path (reports/perf/nn-*.md). DNNL=0 builds
+# without oneDNN into its own folder (build-blas, or build-native-blas with NATIVE=1), so objects of the two builds never mix; $(BUILD)/backend records
 # which one a folder holds, and a folder built the other way (an older checkout's build/) is rebuilt.
 # MF_NN_BACKEND=blas|dnnl picks the backend at run time in a DNNL build.
 DNNL     ?= 1

@@ -189,11 +189,11 @@ MF_TEST(nn_conv2d_fused_ex) {
 }
 
 /* ---- conv backends: oneDNN against im2col + sgemm ------------------------------------------
- * In a build with oneDNN (the default; not `make DNNL=0`) the same calls through both backends: forward_ex (bias, bias_b, add)
- * and backward_ex (din written and accumulated, dw accumulated onto a non-zero start, dbias,
- * dbias_b) agree within DNNL_RTOL of the largest |value| of each output (measured: at most
- * ~5e-7 on these shapes, float rounding of sums in another order). Skipped in a build without
- * oneDNN. */
+ * In a build with oneDNN (the default; not `make DNNL=0`) the same calls through both backends:
+ * forward_ex (bias, bias_b, add) and backward_ex (din written and accumulated, dw accumulated onto
+ * a non-zero start, dbias, dbias_b) agree within DNNL_RTOL of the largest |value| of each output
+ * (measured: at most ~5e-7 on these shapes, float rounding of sums in another order). Skipped in a
+ * build without oneDNN. */
 #define DNNL_RTOL 1e-5
 
 /* max |a - b| / max |b| over n values */

@@ -8,18 +8,24 @@ set -eu
 mf=$1 data=$2 scene=$3 splits=$4 views=$5 weights=$6
 shift 6
 tmp=$(mktemp -d) && trap 'rm -rf "$tmp"' EXIT
+row() { # SPLIT WEIGHTS CHANNEL VALUES...: one table row, the values and their mean
+  s=$1 w=$2 c=$3
+  shift 3
+  echo "| $s | $w | $c | $(echo "$@" | sed 's/ / | /g') | $(echo "$@" | awk '{s=0; for(i=1;i<=NF;i++) s+=$i; printf "%.3f", s/NF}') |"
+}
 echo "| split | weights | channel | $(echo $views | sed 's/ / | /g') | mean |"
 echo "|---|---|---|$(for v in $views; do printf -- '---:|'; done)---:|"
 for s in $splits; do for w in $weights; do
+  rough="" metal=""
   for v in $views; do
     img=$data/$s/$scene/train/r_$v.png
     [ -f "$img" ] || { echo "$0: $img: no such view" >&2; exit 1; }
-    OMP_NUM_THREADS=1 "$mf" prior "$img" -o "$tmp/o" --weights "$w" "$@" 2>/dev/null | sed -n 's/^view 0: mean roughness \([0-9.]*\), metallic \([0-9.]*\).*/\1 \2/p' >> "$tmp/$s.$v" \
-      || { echo "$0: mf prior failed on $img with $w" >&2; exit 1; }
+    OMP_NUM_THREADS=1 "$mf" prior "$img" -o "$tmp/o" --weights "$w" "$@" > "$tmp/out" 2> "$tmp/err" \
+      || { echo "$0: mf prior failed on $img with $w: $(cat "$tmp/err")" >&2; exit 1; }
+    line=$(sed -n 's/^view 0: mean roughness \([0-9.]*\), metallic \([0-9.]*\).*/\1 \2/p' "$tmp/out")
+    [ -n "$line" ] || { echo "$0: mf prior printed no means for $img (empty mask?)" >&2; exit 1; }
+    rough="$rough ${line% *}" metal="$metal ${line#* }"
   done
-  for c in 1 2; do
-    name=$([ $c = 1 ] && echo roughness || echo metallic)
-    row=$(for v in $views; do tail -n 1 "$tmp/$s.$v" | cut -d' ' -f$c; done | tr '\n' ' ')
-    echo "| $s | $(basename "$w") | $name | $(echo $row | sed 's/ / | /g') | $(echo $row | awk '{s=0; for(i=1;i<=NF;i++) s+=$i; printf "%.3f", s/NF}') |"
-  done
+  row "$s" "$(basename "$w")" roughness $rough
+  row "$s" "$(basename "$w")" metallic $metal
 done; done

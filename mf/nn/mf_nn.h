@@ -15,7 +15,8 @@
  * OpenBLAS's still-spinning workers (measured: conv2d forward+backward 7 GFLOP/s with OpenMP
  * im2col vs 71 GFLOP/s without). Everything is deterministic for a fixed thread count (no
  * atomics, fixed reduction order; OpenBLAS's sgemm is deterministic for fixed sizes/threads).
- * Convolutions run on oneDNN instead in the default build (`make DNNL=0` builds without it; see "conv backend" below).
+ * Convolutions run on oneDNN instead in the default build (`make DNNL=0` builds without it; see
+ * "conv backend" below).
  * Scratch buffers are passed in by the caller; sizes come from the *_floats() helpers. */
 #ifndef MF_NN_H
 #define MF_NN_H
@@ -74,8 +75,8 @@ void mf_conv2d_backward_ex(float *din, int din_acc, float *dw, float *dbias, flo
 /* ---- conv backend ---------------------------------------------------------------------------- */
 
 /* The convolutions above run as im2col + OpenBLAS sgemm (MF_NN_BLAS) or through oneDNN's
- * convolution primitives (MF_NN_DNNL, in builds with oneDNN: the default `make`, not `make DNNL=0`; nn/mf_nn_dnnl.h), in
- * the same NCHW / OIHW layout; the fused terms (bias_b, add, dbias, dbias_b) are the same code in
+ * convolution primitives (MF_NN_DNNL, in builds with oneDNN: the default `make`, not `make DNNL=0`;
+ * nn/mf_nn_dnnl.h), in the same NCHW / OIHW layout; the fused terms (bias_b, add, dbias, dbias_b) are the same code in
  * both. oneDNN's results differ from the sgemm path's in the last bits (relative 1e-6). Process-
  * wide; the default is MF_NN_DNNL where built, else MF_NN_BLAS. If oneDNN fails on a call (no
  * implementation for a shape, out of memory), that call and every later one run on OpenBLAS and a

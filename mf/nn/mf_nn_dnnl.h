@@ -1,6 +1,6 @@
 /* mf_nn_dnnl: conv2d through oneDNN (Debian's libdnnl-dev), the default backend of mf_conv2d_*
- * (mf_nn.h; the default `make` builds it, with -DMF_HAVE_DNNL; `make DNNL=0` does not). Private to mf/nn: the layers call it
- * when mf_nn_backend() is MF_NN_DNNL.
+ * (mf_nn.h; the default `make` builds it, with -DMF_HAVE_DNNL; `make DNNL=0` does not). Private to
+ * mf/nn: the layers call it when mf_nn_backend() is MF_NN_DNNL.
  *
  * Same arrays and semantics as the im2col + sgemm path: activations plain NCHW, weights OIHW,
  * K x K, pad K/2 (right/bottom padding whatever gives Ho = mf_conv2d_out_size), stride 1 or 2.
