@@ -279,8 +279,11 @@ FLAGS_mf-ft-cal = --method materialfusion --guidance 1 --sds-target mean --prior
 # the default method with the prior trained on interreflection (mf/prior/weights/prior-bounce.mfck =
 # make train-prior-bounce's prior-4000.mfck; reports/prior/bounce)
 FLAGS_mf-bounce      := --method materialfusion --prior-weights mf/prior/weights/prior-bounce.mfck
-# and with the same recipe's direct-light prior (mf/prior/weights/prior-ft.mfck), its control
+# and with the same recipe's direct-light prior (mf/prior/weights/prior-ft.mfck), its control; since
+# the switch (docs/analyses/prior.md) the default prior, named here for the reports made before it
 FLAGS_mf-ft          := --method materialfusion --prior-weights mf/prior/weights/prior-ft.mfck
+# the first wave's prior (mf/prior/weights/prior.mfck), the default before the switch
+FLAGS_mf-v1          := --method materialfusion --prior-weights mf/prior/weights/prior.mfck
 FLAGS_mf-gamma-const := --method materialfusion --gamma-const 1
 FLAGS_mf-no-rgb      := --method materialfusion --lambda-rgb 0
 FLAGS_mf-no-latent   := --method materialfusion --lambda-latent 0
@@ -499,8 +502,9 @@ bench-external:
 	  done; $(MF) eval $$d --results $(RESULTS)/$$v --dataset $$v -o $(REPORT)/$$v || exit 1; fi; done
 
 # ---- the material prior: training data, training (resumable), 2D table, speed ----
-# train-prior reproduces the committed weights (docs/analyses/prior.md) and copies them to
-# PRIOR_WEIGHTS, the default path `mf prior` and the library load.
+# train-prior reproduces the first wave's weights (v1, docs/analyses/prior.md) and copies them to
+# PRIOR_WEIGHTS; train-prior-ft continues them into PRIOR_FT_WEIGHTS, the default prior of `mf recon`,
+# `mf prior` and `mf eval-prior` (MF_PRIOR_WEIGHTS_DEFAULT in mf/prior/mf_prior.h).
 PRIOR_DATA       ?= $(DATA)/prior-train
 PRIOR_CKPT       ?= $(DATA)/prior-ckpt
 PRIOR_WEIGHTS    ?= mf/prior/weights/prior.mfck
@@ -558,15 +562,18 @@ prior-objects: $(BUILD)/mf $(DATA)/test-3d/.rendered $(DATA)/val-3d/.rendered $(
 	  --pair test-3d-ambig reports/prior/objects/test-3d-ambig/objects.csv reports/bench/test-3d-ambig-mv/scenes.csv \
 	  mf-mean-g1trust-mv nvdiffrecmc
 
-# Training on from the committed prior (issue 12 item 2): the denoiser continues from its weights for
-# PRIOR_FT_STEPS more steps on every sample of prior-train (the committed run saw 6000), the learning
-# rate falling along a cosine; the weights kept every 1000 steps (PRIOR_FT_CKPT/prior-<step>.mfck).
+# Training on from v1 (issue 12 item 2): the denoiser continues from its weights for PRIOR_FT_STEPS
+# more steps on every sample of prior-train (v1's run saw 6000), the learning rate falling along a
+# cosine; the weights kept every 1000 steps (PRIOR_FT_CKPT/prior-<step>.mfck), the last copied to
+# PRIOR_FT_WEIGHTS (the default prior since it was chosen on val-3d, docs/analyses/prior.md).
 PRIOR_FT_CKPT  ?= $(DATA)/prior-ft
+PRIOR_FT_WEIGHTS ?= mf/prior/weights/prior-ft.mfck
 PRIOR_FT_STEPS ?= 4000
 PRIOR_FT_ARGS  ?= --init $(PRIOR_WEIGHTS) --ae-steps 0 --steps $(PRIOR_FT_STEPS) --dn-samples 0 --batch 16 --seed 2 \
   --lr-cosine --keep-every 1000
 train-prior-ft: $(BUILD)/mf $(PRIOR_DATA)/manifest.json
 	$(MF) train-prior $(PRIOR_DATA) -o $(PRIOR_FT_CKPT) $(PRIOR_FT_ARGS) --loss-csv reports/prior/curve/ft-loss.csv --resume
+	cp $(PRIOR_FT_CKPT)/prior-$(PRIOR_FT_STEPS).mfck $(PRIOR_FT_WEIGHTS)
 # The prior's held-out curve over training steps (issue 12 item 2): eval-prior at the mean targets'
 # setting (PRIOR_OBJ_ARGS) on the validation splits (never a test split) for each point of
 # CURVE_POINTS (label=denoiser steps=weights), then per-object means, paired over objects against the

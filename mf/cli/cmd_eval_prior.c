@@ -24,7 +24,7 @@ typedef struct {
 static const MfOpt k_args[] = {
     MF_OPT_STR(A, out, NULL, "output folder (required)", .alias = "-o", .meta = "OUT_DIR"),
     MF_OPT_STR(A, weights, NULL, "prior weights, a .mfck file or its folder", .meta = "CKPT",
-               .unset = "$MF_PRIOR_WEIGHTS, else mf/prior/weights/prior.mfck"),
+               .unset = "$MF_PRIOR_WEIGHTS, else " MF_PRIOR_WEIGHTS_DEFAULT),
     MF_OPT_STR(A, train, "data/prior-train", "training split for the mean-ORM baseline (its complete samples)", .meta = "DIR"),
     MF_OPT_INT(A, samples, 10, 1, 10000, "samples averaged per prediction"),
     MF_OPT_INT(A, steps, 50, 1, MF_DIFF_T, "DDIM steps per sample"),

@@ -22,7 +22,7 @@ typedef struct {
 static const MfOpt k_args[] = {
     MF_OPT_STR(A, out, NULL, "output folder (required)", .alias = "-o", .meta = "DIR"),
     MF_OPT_STR(A, weights, NULL, "a prior.mfck file or the folder holding it", .meta = "CKPT",
-               .unset = "$MF_PRIOR_WEIGHTS, else the committed mf/prior/weights/prior.mfck of the current directory or of "
+               .unset = "$MF_PRIOR_WEIGHTS, else the committed " MF_PRIOR_WEIGHTS_DEFAULT " of the current directory or of "
                         "the repository holding this mf binary"),
     MF_OPT_INT(A, samples, 10, 1, 10000, "samples averaged"),
     MF_OPT_INT(A, steps, 50, 1, MF_DIFF_T, "DDIM steps per sample"),

@@ -41,7 +41,7 @@ static const MfOpt k_args[] = {
                .choices = "all|+x|-x|+y|-y|+z|-z"),
     MF_OPT_BOOL(A, resume, 0, "continue from RESULT_DIR/checkpoint.mfck"),
     MF_OPT_STR(A, prior_weights, NULL, "materialfusion: prior weights, a .mfck file or its folder",
-               .unset = "$MF_PRIOR_WEIGHTS, else mf/prior/weights/prior.mfck", .meta = "F"),
+               .unset = "$MF_PRIOR_WEIGHTS, else " MF_PRIOR_WEIGHTS_DEFAULT, .meta = "F"),
 };
 #undef A
 static const MfOptTable k_args_table = MF_OPT_TABLE("Command options", k_args);
