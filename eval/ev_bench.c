@@ -107,7 +107,7 @@ int ev_scene_dirs(const char *dir, EvName **names, int *n) { return list_dirs(di
 
 /* Wall seconds, peak RSS and the prior's seconds (MaterialFusion: options.prior_s) of a result
  * folder's run.json (0 when absent; prior may be NULL). With prov, appends the run's provenance as
- * a markdown row: method, scene, revision, seed, threads, time, memory, argv. */
+ * a markdown row: method, scene, revision, prior weights, seed, threads, time, memory, argv. */
 static void run_cost(const char *result_dir, double *wall, double *rss, double *prior, MfStrBuf *prov, const char *method,
                      const char *scene) {
     char p[MF_PATH_MAX];
@@ -123,9 +123,13 @@ static void run_cost(const char *result_dir, double *wall, double *rss, double *
     if (prior && ps == ps) *prior = ps;
     if (prov) {
         const cJSON *rev = cJSON_GetObjectItem(root, "git_revision"), *av = cJSON_GetObjectItem(root, "argv");
-        mf_sb_printf(prov, "| %s | %s | %s | %.0f | %.0f | %.1f | %.0f | `", method, scene, cJSON_IsString(rev) ? rev->valuestring : "?",
-                     cJSON_GetNumberValue(cJSON_GetObjectItem(root, "seed")), cJSON_GetNumberValue(cJSON_GetObjectItem(root, "threads")),
-                     *wall, *rss / 1048576.0);
+        const cJSON *opts = cJSON_GetObjectItem(root, "options");
+        const char *kind = cJSON_GetStringValue(cJSON_GetObjectItem(opts, "method"));
+        const char *weights = cJSON_GetStringValue(cJSON_GetObjectItem(opts, "prior_weights"));
+        int uses_prior = kind && !strcmp(kind, "materialfusion"); /* the baseline records the default, unused */
+        mf_sb_printf(prov, "| %s | %s | %s | %s | %.0f | %.0f | %.1f | %.0f | `", method, scene, cJSON_IsString(rev) ? rev->valuestring : "?",
+                     uses_prior && weights ? weights : "–", cJSON_GetNumberValue(cJSON_GetObjectItem(root, "seed")),
+                     cJSON_GetNumberValue(cJSON_GetObjectItem(root, "threads")), *wall, *rss / 1048576.0);
         const cJSON *a;
         cJSON_ArrayForEach(a, av) if (cJSON_IsString(a)) mf_sb_printf(prov, "%s%s", a == av->child ? "" : " ", a->valuestring);
         mf_sb_printf(prov, "` |\n");
@@ -481,9 +485,10 @@ int ev_bench_run(const EvBench *b, const EvEvalOpts *o) {
     if (!rc) {
         mf_sb_printf(&B->prov, "# Provenance\n\nWritten by `mf eval` (revision %s):\n\n    mf", b->revision);
         for (int i = 0; i < b->argc; ++i) mf_sb_printf(&B->prov, " %s", b->argv[i]);
-        mf_sb_printf(&B->prov, "\n\nEach scored run (from its run.json): the revision that produced it, seed, OpenMP threads, wall "
-                               "time, peak memory and the exact command.\n\n| method | scene | revision | seed | threads | wall s | "
-                               "peak MB | command |\n|---|---|---|---:|---:|---:|---:|---|\n");
+        mf_sb_printf(&B->prov, "\n\nEach scored run (from its run.json): the revision that produced it, the prior weights it "
+                               "loaded (MaterialFusion), seed, OpenMP threads, wall time, peak memory and the exact command.\n\n"
+                               "| method | scene | revision | prior | seed | threads | wall s | peak MB | command |\n"
+                               "|---|---|---|---|---:|---:|---:|---:|---|\n");
         rc = score_all(B);
     }
     if (!rc) rc = write_report(B);
