@@ -74,7 +74,7 @@ LIB_OBJ  := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
 CLI_OBJ  := $(CLI_C:%.c=$(BUILD)/obj/%.o)
 TEST_OBJ := $(TEST_C:%.c=$(BUILD)/obj/%.o)
 
-.PHONY: FORCE all deps deps-node deps-fuzz bench-asset fuzz fuzz-lib fuzz-seeds test check-deps asan bench-geom bench-hull bench-render profile-render bench-nn bench-nn-onednn bench-baseline bench-prior prior-objects train-prior-ft train-prior-bounce prior-bounce-curve prior-bounce-views prior-curve train-prior-datasize prior-datasize bench-sds-cost bench-quick bench bench-split bench-split-now bench-runs bench-external recon-runs train-prior train-prior-wide eval-prior calibrate-trust sweep-guidance bench-domain bench-matrix bench-cycles-3d bench-stability bench-stability-stops test-slurm clean
+.PHONY: FORCE all deps deps-node deps-fuzz bench-asset fuzz fuzz-lib fuzz-seeds test check-deps asan bench-geom bench-hull bench-render profile-render bench-nn bench-nn-onednn bench-baseline bench-prior prior-objects train-prior-ft train-prior-bounce prior-bounce-curve prior-bounce-views prior-curve train-prior-datasize prior-datasize bench-sds-cost bench-quick bench bench-split bench-split-now bench-runs bench-summary bench-external recon-runs train-prior train-prior-wide eval-prior calibrate-trust sweep-guidance bench-domain bench-matrix bench-cycles-3d bench-stability bench-stability-stops test-slurm clean
 all: $(BUILD)/mf $(BUILD)/mf_tests
 
 deps:
@@ -333,10 +333,25 @@ bench: $(BUILD)/mf
 	$(MAKE) --no-print-directory bench-split BENCH_SPLIT=test-3d-ambig BENCH_METHODS="$(BENCH_METHODS_SHORT)" \
 	  REPORT=reports/bench/test-3d-ambig
 	$(MAKE) --no-print-directory bench-cycles-3d
+	$(if $(filter slurm,$(SCHED)),@echo "bench: run make bench-summary BENCH_SUMMARY_SPLITS=\"$(BENCH_SPLITS_CANONICAL)\" when the jobs are done",$(MAKE) --no-print-directory bench-summary BENCH_SUMMARY_SPLITS="$(BENCH_SPLITS_CANONICAL)")
 	$(call sched-job,bench-external) $(MAKE) --no-print-directory bench-external REPORT=reports/bench
 	$(call sched-job,eval-prior) $(MAKE) --no-print-directory eval-prior
 	$(call sched-job,bench-stability) $(MAKE) --no-print-directory bench-stability
 	$(call sched-job,bench-stability-stops) $(MAKE) --no-print-directory bench-stability-stops
+
+# One table over the splits (issue 12 item 5): each method minus the baseline, read from each report's
+# paired.csv and runs.md (eval/bench_summary.py) -> reports/bench/README.md. The default list is the
+# newest committed report of each split (the *-ft ones: made with the default prior since the switch);
+# make bench passes the folders it has just written.
+BENCH_SPLITS_CANONICAL = test-3d=reports/bench/test-3d test-3d-diffuse=reports/bench/test-3d-diffuse \
+  views8=reports/bench/views8 test-3d-pov64=reports/bench/test-3d-pov64 views4side=reports/bench/views4side \
+  test-3d-ambig=reports/bench/test-3d-ambig test-3d-cyc=$(CYC3D_REPORT)/test-3d-cyc
+BENCH_SUMMARY_SPLITS ?= test-3d=reports/bench/test-3d-ft views8=reports/bench/views8-ft \
+  test-3d-pov64=reports/bench/test-3d-pov64-ft test-3d-ambig=reports/bench/test-3d-ambig-ft \
+  test-3d-cyc=$(CYC3D_REPORT)/test-3d-cyc-bounce test-3d-diffuse=reports/bench/test-3d-diffuse \
+  views4side=reports/bench/views4side
+bench-summary:
+	python3 eval/bench_summary.py -o reports/bench/README.md $(foreach p,$(BENCH_SUMMARY_SPLITS),--split $(subst =, ,$(p)))
 
 # The 3D renderer cell of issue 12's matrix: test-3d's objects, cameras and probes lit by Blender
 # Cycles (test-3d-cyc: training and relit views by Cycles, 3 relighting lights; GT albedo/ORM are

@@ -1,0 +1,134 @@
+#!/usr/bin/env python3
+"""One table over the benchmark splits: each method minus the baseline, from each report (stdlib).
+
+Reads REPORT/paired.csv (`mf eval`: per metric the paired mean difference, its 95% CI, wins and
+the paired tests' p over scenes) and REPORT/runs.md (each scored run's revision, prior weights and
+command) of every split given, and writes one markdown table: relit, albedo and ORM PSNR (full
+frame) and the wall-time ratio of every method against the reference, with the prior weights and
+revisions that produced the runs. Nothing is recomputed: the numbers are the reports' own.
+
+A run's prior: runs.md's prior column (mf eval since f8ac161); for older reports the command's
+--prior-weights, else the default at the run's revision (prior.mfck before PRIOR_SWITCH, the
+commit that made prior-ft.mfck the default; decided with git when the revision is known to it).
+
+usage: bench_summary.py -o OUT.md [--ref nvdiffrecmc] [--caption TEXT] --split LABEL REPORT [--split ...]
+"""
+import argparse
+import csv
+import os
+import re
+import subprocess
+import sys
+
+METRICS = [("relit_psnr", "relit"), ("albedo_psnr", "albedo"), ("orm_psnr", "ORM")]
+PRIOR_SWITCH = "f24e29f"
+DEFAULT_BEFORE, DEFAULT_AFTER = "mf/prior/weights/prior.mfck", "mf/prior/weights/prior-ft.mfck"
+
+
+def read_paired(path, ref):
+    """{method: {metric: row}} for the rows against ref (trivial guesses left out)."""
+    out = {}
+    with open(path, newline="") as f:
+        for r in csv.DictReader(f):
+            if r["ref"] == ref and not r["method"].startswith("trivial"):
+                out.setdefault(r["method"], {})[r["metric"]] = r
+    return out
+
+
+def after_switch(rev, cache={}):
+    """True / False when git knows rev (a '-dirty' suffix dropped), None when it cannot tell."""
+    rev = rev.replace("-dirty", "")
+    if rev not in cache:
+        try:
+            r = subprocess.run(["git", "merge-base", "--is-ancestor", PRIOR_SWITCH, rev],
+                               capture_output=True, check=False)
+            cache[rev] = {0: True, 1: False}.get(r.returncode)
+        except OSError:
+            cache[rev] = None
+    return cache[rev]
+
+
+def read_runs(path):
+    """{method: (set of revisions, set of priors)} from runs.md's run table."""
+    runs = {}
+    if not os.path.exists(path):
+        return runs
+    with open(path) as f:
+        lines = [ln for ln in f if ln.startswith("| ")]
+    if not lines:
+        return runs
+    head = [c.strip() for c in lines[0].strip().strip("|").split("|")]
+    for ln in lines[1:]:
+        cells = [c.strip() for c in ln.strip().strip("|").split("|")]
+        if len(cells) < len(head) or cells[0] == "method" or set(cells[0]) <= set("-:"):
+            continue
+        row = dict(zip(head, cells))
+        rev, cmd = row.get("revision", "?"), row.get("command", "")
+        if "materialfusion" not in cmd:
+            prior = None
+        elif "prior" in row:
+            prior = row["prior"]
+        else:
+            m = re.search(r"--prior-weights\s+(\S+)", cmd)
+            switched = after_switch(rev)
+            prior = m.group(1) if m else {True: DEFAULT_AFTER, False: DEFAULT_BEFORE}.get(switched, "default (unknown)")
+        revs, priors = runs.setdefault(row["method"], (set(), set()))
+        revs.add(rev)
+        if prior:
+            priors.add(os.path.basename(prior.strip("`")))
+    return runs
+
+
+def cell(r):
+    if r is None:
+        return "–"
+    mean, lo, hi = float(r["mean"]), float(r["lo"]), float(r["hi"])
+    bold = "**" if lo > 0 or hi < 0 else ""
+    return f"{bold}{mean:+.2f}{bold} [{lo:+.2f}, {hi:+.2f}] {r['wins']}/{r['n']}, p {float(r['p_t']):.3f}"
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("-o", required=True)
+    ap.add_argument("--ref", default="nvdiffrecmc")
+    ap.add_argument("--caption", default="")
+    ap.add_argument("--split", nargs=2, action="append", metavar=("LABEL", "REPORT"), required=True)
+    a = ap.parse_args()
+    rows, missing = [], []
+    for label, rep in a.split:
+        pc = os.path.join(rep, "paired.csv")
+        if not os.path.exists(pc):
+            missing.append(f"{label} ({pc} not found: run its bench first)")
+            continue
+        paired, runs = read_paired(pc, a.ref), read_runs(os.path.join(rep, "runs.md"))
+        for method, m in sorted(paired.items(), key=lambda kv: (kv[0] != "materialfusion", kv[0])):
+            revs, priors = runs.get(method, (set(), set()))
+            tx = m.get("time_x")
+            time = f"{1 + float(tx['mean']):.2f}×" if tx else "–"
+            rows.append(f"| {label} | `{rep}` | {method} | {', '.join(sorted(priors)) or '–'} | "
+                        + " | ".join(cell(m.get(k)) for k, _ in METRICS)
+                        + f" | {time} | {', '.join(sorted(revs)) or '?'} |")
+    text = ["# Benchmark summary: every method minus the baseline, per split", "",
+            "Generated by `make bench-summary` (eval/bench_summary.py) from each report's paired.csv and "
+            "runs.md; do not edit.", ""]
+    if a.caption:
+        text += [a.caption, ""]
+    text += [f"Each cell: mean paired difference against `{a.ref}` over the split's scenes (PSNR in dB, "
+             "full frame, relit and albedo scale-aligned), its 95% CI (Student t), wins / scenes and the paired "
+             "t-test's p; **bold** where the CI excludes 0. Time: mean wall-time ratio to the baseline on the "
+             "same scenes (a cost only where the report's runs were made scene-major; see its runs.md). "
+             "Prior: the weights MaterialFusion loaded.", "",
+             "| split | report | method | prior | relit | albedo | ORM | time | revisions |",
+             "|---|---|---|---|---|---|---|---:|---|"]
+    text += rows
+    if missing:
+        text += ["", "Not in this table: " + "; ".join(missing) + "."]
+    tmp = a.o + ".tmp"
+    with open(tmp, "w") as f:
+        f.write("\n".join(text) + "\n")
+    os.replace(tmp, a.o)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
