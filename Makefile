@@ -23,8 +23,9 @@ NATIVE   ?= 0
 # deps installs; mf/nn/mf_nn_dnnl.c), compiled with -DMF_HAVE_DNNL and linked with -ldnnl; it measured
 # 0.81-0.83 of sgemm on the prior's convolutions and 0.71-0.79 on its residual blocks, against
 # 0.70-0.72 and 0.64-0.65 for the OpenBLAS im2col path (reports/perf/nn-*.md). DNNL=0 builds
-# without oneDNN into its own folder (build-blas, or build-native-blas with NATIVE=1), so objects of the two builds never mix; $(BUILD)/backend records
-# which one a folder holds, and a folder built the other way (an older checkout's build/) is rebuilt.
+# without oneDNN into its own folder (build-blas, or build-native-blas with NATIVE=1), so objects of
+# the two builds never mix; $(BUILD)/backend records which one a folder holds, and a folder built
+# the other way (an older checkout's build/) is rebuilt.
 # MF_NN_BACKEND=blas|dnnl picks the backend at run time in a DNNL build.
 DNNL     ?= 1
 DNNL_SUFFIX := $(if $(filter 1,$(DNNL)),,-blas)
@@ -697,7 +698,8 @@ bench-sds-cost: $(BUILD)/mf
 # test-2d (our renderer, the standard objects), test-2d-diffuse (ours, the same objects made diffuse:
 # metallic 0, roughness >= 0.6) and test-2d-pov (POV-Ray's lit views of those diffuse objects: same
 # seed, so the same cameras and lights, view for view; GT albedo/ORM are our AOVs in both), each
-# scored by mf eval-prior with the default prior (the committed tables: v1, made before the switch); then one table (mf domain-table, eval/ev_domain.h).
+# scored by mf eval-prior with the default prior (the committed tables: v1, made before the
+# switch); then one table (mf domain-table, eval/ev_domain.h).
 # DOMAIN_TRAIN: the first 240 samples of prior-train (seed 1), read only for eval-prior's
 # training-set-mean ORM baseline (not in the matrix). DOMAIN_EVAL_ARGS: samples per view and no
 # multi-view pass (the committed reports/prior table: 10 samples and MV), so it fits a shared 2-core

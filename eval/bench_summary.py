@@ -69,8 +69,7 @@ def read_runs(path):
             prior = row["prior"]
         else:
             m = re.search(r"--prior-weights\s+(\S+)", cmd)
-            switched = after_switch(rev)
-            prior = m.group(1) if m else {True: DEFAULT_AFTER, False: DEFAULT_BEFORE}.get(switched, "default (unknown)")
+            prior = m.group(1) if m else {True: DEFAULT_AFTER, False: DEFAULT_BEFORE}.get(after_switch(rev), "default (unknown)")
         revs, priors = runs.setdefault(row["method"], (set(), set()))
         revs.add(rev)
         if prior:

@@ -76,9 +76,9 @@ void mf_conv2d_backward_ex(float *din, int din_acc, float *dw, float *dbias, flo
 
 /* The convolutions above run as im2col + OpenBLAS sgemm (MF_NN_BLAS) or through oneDNN's
  * convolution primitives (MF_NN_DNNL, in builds with oneDNN: the default `make`, not `make DNNL=0`;
- * nn/mf_nn_dnnl.h), in the same NCHW / OIHW layout; the fused terms (bias_b, add, dbias, dbias_b) are the same code in
- * both. oneDNN's results differ from the sgemm path's in the last bits (relative 1e-6). Process-
- * wide; the default is MF_NN_DNNL where built, else MF_NN_BLAS. If oneDNN fails on a call (no
+ * nn/mf_nn_dnnl.h), in the same NCHW / OIHW layout; the fused terms (bias_b, add, dbias, dbias_b)
+ * are the same code in both. oneDNN's results differ from the sgemm path's in the last bits
+ * (relative 1e-6). Process-wide; the default is MF_NN_DNNL where built, else MF_NN_BLAS. If oneDNN fails on a call (no
  * implementation for a shape, out of memory), that call and every later one run on OpenBLAS and a
  * warning says why (results stay right). mf_nn_gemm_flops counts a oneDNN convolution as the
  * FLOPs of the GEMMs it replaces. */

@@ -78,8 +78,9 @@ int mf_prior_load(const char *path, MfPrior **out);
 
 /* The default weights: $MF_PRIOR_WEIGHTS when set (a .mfck file or a folder holding prior.mfck);
  * else MF_PRIOR_WEIGHTS_DEFAULT (the committed prior-ft.mfck: `make train-prior-ft`, which continues
- * the first wave's prior.mfck on all of prior-train; chosen on val-3d, docs/analyses/prior.md) relative to the current directory when that file exists; else the
- * same path relative to the repository of the running executable (<exe dir>/../, i.e. build/mf).
+ * the first wave's prior.mfck on all of prior-train; chosen on val-3d, docs/analyses/prior.md)
+ * relative to the current directory when that file exists; else the same path relative to the
+ * repository of the running executable (<exe dir>/../, i.e. build/mf).
  * Writes the chosen path into buf (n bytes); the file need not exist (loading then names it). */
 #define MF_PRIOR_WEIGHTS_ENV "MF_PRIOR_WEIGHTS"
 #define MF_PRIOR_WEIGHTS_DEFAULT "mf/prior/weights/prior-ft.mfck"
