@@ -236,6 +236,8 @@ GEN_ARGS_test-3d-pov64 := --split test-3d-diffuse --train 24 --width 64
 # val-3d: test-3d's recipe with another seed (other objects of the same families, other materials
 # and probes' draws) — the split on which the SDS weights may be chosen, never test-3d itself.
 GEN_ARGS_val-3d := --split test-3d --seed 2
+# val-3d-pov64: test-3d-pov64's recipe with val-3d's seed (the 64 px cross-renderer split's validation twin)
+GEN_ARGS_val-3d-pov64 := --split test-3d-diffuse --train 24 --width 64 --seed 2
 $(DATA)/%/.rendered: | $(BUILD)/mf
 	$(MF) gen $(or $(GEN_ARGS_$*),--split $*) -o $(DATA)/$* --render
 	touch $@
@@ -322,17 +324,24 @@ bench-baseline: $(BUILD)/mf $(DATA)/$(BENCH_SPLIT)/.rendered
 # where a prior must matter (8 training views; 4 training views all on the +x side of the object,
 # so its far side is seen by none; POV-Ray images at 64 px with 24 views; test-3d-ambig: material
 # ambiguity); test-3d lit by Blender Cycles where blender exists (bench-cycles-3d); then the 2D prior table. BENCH_FULL=1: the published budget.
+# Its splits, one report folder reports/bench/NAME each: NAME's data split (BENCH_DATA_NAME,
+# default NAME), results folder (BENCH_RESULTS_NAME, default RESULTS), extra recon flags
+# (BENCH_EXTRA_NAME, default RECON_EXTRA) and methods (BENCH_METHODS_NAME, default BENCH_METHODS).
+BENCH_SPLITS := test-3d test-3d-diffuse views8 test-3d-pov64 views4side test-3d-ambig
+BENCH_DATA_views8 := test-3d
+BENCH_RESULTS_views8 = $(RESULTS)/views8
+BENCH_EXTRA_views8 := --max-views 8
+BENCH_METHODS_views8 = $(BENCH_METHODS_SHORT)
+BENCH_METHODS_test-3d-pov64 = $(BENCH_METHODS_SHORT)
+BENCH_DATA_views4side := test-3d
+BENCH_RESULTS_views4side = $(RESULTS)/views4side
+BENCH_EXTRA_views4side := --max-views 4 --side +x
+BENCH_METHODS_views4side = $(BENCH_METHODS_SHORT)
+BENCH_METHODS_test-3d-ambig = $(BENCH_METHODS_SHORT)
 bench: $(BUILD)/mf
-	$(MAKE) --no-print-directory bench-split BENCH_SPLIT=test-3d REPORT=reports/bench/test-3d
-	$(MAKE) --no-print-directory bench-split BENCH_SPLIT=test-3d-diffuse REPORT=reports/bench/test-3d-diffuse
-	$(MAKE) --no-print-directory bench-split BENCH_SPLIT=test-3d RESULTS=$(RESULTS)/views8 RECON_EXTRA="--max-views 8" \
-	  BENCH_METHODS="$(BENCH_METHODS_SHORT)" REPORT=reports/bench/views8
-	$(MAKE) --no-print-directory bench-split BENCH_SPLIT=test-3d-pov64 BENCH_METHODS="$(BENCH_METHODS_SHORT)" \
-	  REPORT=reports/bench/test-3d-pov64
-	$(MAKE) --no-print-directory bench-split BENCH_SPLIT=test-3d RESULTS=$(RESULTS)/views4side RECON_EXTRA="--max-views 4 --side +x" \
-	  BENCH_METHODS="$(BENCH_METHODS_SHORT)" REPORT=reports/bench/views4side
-	$(MAKE) --no-print-directory bench-split BENCH_SPLIT=test-3d-ambig BENCH_METHODS="$(BENCH_METHODS_SHORT)" \
-	  REPORT=reports/bench/test-3d-ambig
+	$(foreach n,$(BENCH_SPLITS),$(MAKE) --no-print-directory bench-split BENCH_SPLIT=$(or $(BENCH_DATA_$n),$n) \
+	  RESULTS=$(or $(BENCH_RESULTS_$n),$(RESULTS)) RECON_EXTRA="$(or $(BENCH_EXTRA_$n),$(RECON_EXTRA))" BENCH_METHODS="$(or $(BENCH_METHODS_$n),$(BENCH_METHODS))" \
+	  REPORT=reports/bench/$n &&) true
 	$(MAKE) --no-print-directory bench-cycles-3d
 	$(if $(filter slurm,$(SCHED)),@echo "bench: run make bench-summary BENCH_SUMMARY_SPLITS=\"$(BENCH_SPLITS_CANONICAL)\" when the jobs are done",$(MAKE) --no-print-directory bench-summary BENCH_SUMMARY_SPLITS="$(BENCH_SPLITS_CANONICAL)")
 	$(call sched-job,bench-external) $(MAKE) --no-print-directory bench-external REPORT=reports/bench
@@ -344,9 +353,7 @@ bench: $(BUILD)/mf
 # paired.csv and runs.md (eval/bench_summary.py) -> reports/bench/README.md. The default list is the
 # newest committed report of each split (the *-ft ones: made with the default prior since the switch);
 # make bench passes the folders it has just written.
-BENCH_SPLITS_CANONICAL = test-3d=reports/bench/test-3d test-3d-diffuse=reports/bench/test-3d-diffuse \
-  views8=reports/bench/views8 test-3d-pov64=reports/bench/test-3d-pov64 views4side=reports/bench/views4side \
-  test-3d-ambig=reports/bench/test-3d-ambig test-3d-cyc=$(CYC3D_REPORT)/test-3d-cyc
+BENCH_SPLITS_CANONICAL = $(foreach n,$(BENCH_SPLITS),$n=reports/bench/$n) test-3d-cyc=$(CYC3D_REPORT)/test-3d-cyc
 BENCH_SUMMARY_SPLITS ?= test-3d=reports/bench/test-3d-ft views8=reports/bench/views8-ft \
   test-3d-pov64=reports/bench/test-3d-pov64-ft test-3d-ambig=reports/bench/test-3d-ambig-ft \
   test-3d-cyc=$(CYC3D_REPORT)/test-3d-cyc-bounce test-3d-diffuse=reports/bench/test-3d-diffuse \

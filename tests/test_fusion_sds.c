@@ -82,6 +82,7 @@ static MfSds *tiny_sds(const MfSdsOpts *o) {
 static MfSdsOpts opts2(void) {
     MfSdsOpts o = mf_sds_opts_default();
     o.k_views = 2;
+    o.every = 4; /* 128 px images' interval: auto (0) would give 256 for these 16 px views */
     return o;
 }
 
@@ -322,6 +323,30 @@ MF_TEST(fusion_sds_hook_every) {
     CHECK(l > 0.0);
     CHECK_NEAR(h3, (1.0 - 3.0 / (double)N) * l, 1e-6 * fabs(h3) + 1e-12);
     free(g0);
+    sds_done(&f);
+}
+
+/* --sds-every 0: the interval follows the training images' pixels (4 at 128^2, at least 4), is
+ * fixed at the first hook call and refreshes there as a given interval would. */
+MF_TEST(fusion_sds_every_auto) {
+    CHECK(mf_sds_every_auto(128, 128) == 4 && mf_sds_every_auto(256, 256) == 4 && mf_sds_every_auto(64, 64) == 16);
+    CHECK(mf_sds_every_auto(96, 96) == 8 && mf_sds_every_auto(32, 32) == 64 && mf_sds_every_auto(128, 96) == 6);
+    CHECK(mf_sds_every_auto(0, 0) == 1000000 && mf_sds_every_auto(1, 1) == 65536);
+    SdsFix f;
+    MfRecon *r = sds_fix(&f);
+    MfSdsOpts o = opts2(), o256 = opts2();
+    o.every = 0, o256.every = 256;
+    MfSds *s = sds_term(&f, &o), *s256 = sds_term(&f, &o256);
+    if (!r || !s || !s256) return;
+    CHECK(mf_sds_every(s) == 0);
+    int batch[2] = {0, 1};
+    double h[2][3];
+    for (int it = 0; it < 3; ++it) {
+        CHECK_OK(mf_sds_hook(s, r, it, batch, 2, &h[0][it]));
+        CHECK_OK(mf_sds_hook(s256, r, it, batch, 2, &h[1][it]));
+    }
+    CHECK(mf_sds_every(s) == 256); /* 16 x 16 views: ceil(4 * 128^2 / 256) */
+    for (int it = 0; it < 3; ++it) CHECK(h[0][it] > 0.0 && h[0][it] == h[1][it]);
     sds_done(&f);
 }
 

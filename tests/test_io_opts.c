@@ -140,7 +140,7 @@ MF_TEST(opts_defaults_unchanged) {
     CHECK(o.denoise == 0 && o.denoise_sigma == 2.0f && o.denoise_decorrelate == 1 && o.snapshot_every == 50 && o.checkpoint_every == 50 && o.seed == 1);
     MfSdsOpts s = mf_sds_opts_default();
     CHECK(s.k_views == 4 && s.lambda_latent == 0.02f && s.lambda_rgb == 0.5f && s.gamma_p == 1.0f && s.gamma_const == 0 && s.guidance == 3.0f &&
-          s.t_min == 20 && s.t_max == 980 && s.aov_samples == 4 && s.seed == 7 && s.every == 4);
+          s.t_min == 20 && s.t_max == 980 && s.aov_samples == 4 && s.seed == 7 && s.every == 0);
     EvEvalOpts e = ev_eval_opts_default();
     CHECK(e.spp_sqrt == 4 && e.pixel_samples == 4 && e.align == EV_ALIGN_MEAN && e.seed == 0x5eedULL && e.max_views == 0 && e.max_lights == 0 &&
           !e.mesh_path);

@@ -363,6 +363,7 @@ static int cmd_recon_run(int argc, char **argv, const MfOptParse *p, ReconArgs *
         mf_stage_lap(&setup, &sc);
         rc = mf_recon_run(r, is_mf ? &hook : NULL, out);
         a->mesh = gi.mesh_path, a->prior_weights = weights; /* as resolved */
+        if (sds) so.every = mf_sds_every(sds);
         rc = write_run(rc, argc, argv, out, a, &o, &so, r, sds, go, &gi, setup, start);
     }
     mf_recon_free(r);

@@ -37,8 +37,8 @@ struct MfSds {
 
 int mf_sds_new(MfPrior *prior, const MfSdsOpts *o, MfSds **out) {
     if (o->k_views < 1 || o->k_views > MF_SDS_MAX_VIEWS || o->t_min < 1 || o->t_max > 999 || o->t_min > o->t_max ||
-        o->aov_samples < 1 || o->every < 1)
-        return mf_fail(MF_EARG, "SDS options: k_views %d (1..%d), t in [%d, %d] (1..999), aov_samples %d, every %d (>= 1) are invalid",
+        o->aov_samples < 1 || o->every < 0)
+        return mf_fail(MF_EARG, "SDS options: k_views %d (1..%d), t in [%d, %d] (1..999), aov_samples %d, every %d (>= 0) are invalid",
                        o->k_views, MF_SDS_MAX_VIEWS, o->t_min, o->t_max, o->aov_samples, o->every);
     if (o->weight < MF_SDS_WEIGHT_NONE || o->weight > MF_SDS_WEIGHT_VIEWS)
         return mf_fail(MF_EARG, "SDS options: weight %d is not none (0), conflict (1), coverage (2), spread (3) or views (4)",
@@ -65,6 +65,13 @@ int mf_sds_new(MfPrior *prior, const MfSdsOpts *o, MfSds **out) {
     *out = s;
     return MF_OK;
 }
+
+int mf_sds_every_auto(int w, int h) {
+    double k = ceil(4.0 * 128.0 * 128.0 / ((double)w * h));
+    return !(k < 1e6) ? 1000000 : k < 4.0 ? 4 : (int)k; /* also a size of 0 */
+}
+
+int mf_sds_every(const MfSds *s) { return s ? s->o.every : 0; }
 
 double mf_sds_seconds(const MfSds *s) { return s ? s->seconds : 0.0; }
 void mf_sds_times(const MfSds *s, MfSdsTimes *t) {
@@ -657,6 +664,11 @@ int mf_sds_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double 
     *loss = 0.0;
     if (gamma <= 0.0 || (s->o.lambda_latent == 0.0f && s->o.lambda_rgb == 0.0f)) return MF_OK;
     MfParamBlock *kd = mf_recon_block(r, MF_BLOCK_KD), *orm = mf_recon_block(r, MF_BLOCK_ORM);
+    if (s->o.every == 0) {
+        const MfCamera *c = &mf_recon_view(r, 0)->cam;
+        s->o.every = mf_sds_every_auto(c->w, c->h);
+        mf_log_info("prior term: every %d iterations (--sds-every 0: %dx%d training images)", s->o.every, c->w, c->h);
+    }
     /* refresh at multiples of `every` and of the checkpoint period (a resumed run starts at one:
      * it refreshes where the uninterrupted run did, so --resume stays exact) */
     int ce = ro->checkpoint_every;

@@ -89,7 +89,8 @@ typedef struct {
     int every;           /* the term (prior work: render, encode, guided DDIM, decode, encoder
                             backward) is computed every `every` iterations and at checkpoint
                             multiples; its texel gradient is held and applied (times gamma_i) at
-                            every iteration in between (measured default: mf_sds_opts.c). */
+                            every iteration in between (measured default: mf_sds_opts.c); 0: auto,
+                            mf_sds_every_auto of the first view's size, fixed at the first hook call. */
     int rgb01;           /* 1: L_rgb on [0, 1] maps (official code); 0: on the prior's [-1, 1] maps (4x) */
     int weight;          /* MF_SDS_WEIGHT_NONE, _CONFLICT, _COVERAGE, _SPREAD or _VIEWS (trust, see above) */
     int draws;           /* noise draws per target at the batch's t: the target is their mean (1: the paper) */
@@ -122,6 +123,12 @@ typedef struct MfSds MfSds;
 
 /* Takes ownership of prior. */
 int mf_sds_new(MfPrior *prior, const MfSdsOpts *o, MfSds **out);
+/* --sds-every 0 for w x h training images: the prior's work per refresh does not depend on the
+ * images' size, the renderer's per iteration grows with their pixels, so the interval keeps the
+ * prior's share of the time it has at 128 x 128 (4): ceil(4 * 128^2 / (w h)), at least 4. */
+int mf_sds_every_auto(int w, int h);
+/* The refresh interval in use (the resolved one once the hook has run; 0 before, when auto). */
+int mf_sds_every(const MfSds *s);
 void mf_sds_free(MfSds *s);
 /* Wall seconds this process spent in the prior's work (the refreshes: AOV render, encode, guided
  * DDIM, decode, encoder backward), for the cost report. */

@@ -10,11 +10,14 @@ static const MfOpt k_opts[] = {
     MF_OPT_INT(S, gamma_const, 0, 0, 1, "1: gamma_i = 1 throughout"),
     MF_OPT_INT(S, k_views, 4, 1, MF_SDS_MAX_VIEWS,
                "views that get the prior term per step (the batch's, then others drawn at random; paper: 4)"),
-    /* Default 4: on the tiny CI scene relit PSNR 23.24 (every 1), 22.86 (2), 22.19 (4) vs 19.34
-     * for the baseline; scaling a gradient applied only every 4th iteration by 4 instead gave
-     * 19.75 (Adam's moments do not like spikes). README "MaterialFusion". */
-    MF_OPT_NAMED(S, "sds_every", every, MF_OPT_INT, 4, 1, 1000000,
-                 "recompute the prior term every K iterations, hold its gradient between"),
+    /* Default 0 (auto, mf_sds_every_auto: 4 at 128 px). 4 at 128 px: on the tiny CI scene relit
+     * PSNR 23.24 (every 1), 22.86 (2), 22.19 (4) vs 19.34 for the baseline; scaling a gradient
+     * applied only every 4th iteration by 4 instead gave 19.75 (Adam's moments do not like
+     * spikes). Longer below 128 px, where the prior's fixed cost would dominate: README
+     * "MaterialFusion". */
+    MF_OPT_NAMED(S, "sds_every", every, MF_OPT_INT, 0, 0, 1000000,
+                 "recompute the prior term every K iterations, hold its gradient between (0: 4 at 128x128 training images "
+                 "and more below, in proportion to the fewer pixels: 16 at 64x64)"),
     MF_OPT_FLOAT(S, guidance, 3, 0, 100, "classifier-free guidance scale of the DDIM targets"),
     MF_OPT_INT(S, t_min, 20, 1, 999, "smallest diffusion timestep drawn (t_min <= t_max)"),
     MF_OPT_INT(S, t_max, 980, 1, 999, "largest diffusion timestep drawn"),
