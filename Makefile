@@ -351,12 +351,14 @@ bench: $(BUILD)/mf
 
 # One table over the splits (issue 12 item 5): each method minus the baseline, read from each report's
 # paired.csv and runs.md (eval/bench_summary.py) -> reports/bench/README.md. The default list is the
-# newest committed report of each split (the *-ft ones: made with the default prior since the switch);
+# newest committed report of each split (the *-ft ones: made with the default prior since the switch;
+# test-3d-pov64-auto: the default --sds-every 0, beside -ft's fixed interval 4);
 # make bench passes the folders it has just written.
 BENCH_SPLITS_CANONICAL = $(foreach n,$(BENCH_SPLITS),$n=reports/bench/$n) test-3d-cyc=$(CYC3D_REPORT)/test-3d-cyc
 BENCH_SUMMARY_SPLITS ?= test-3d=reports/bench/test-3d-ft views8=reports/bench/views8-ft \
-  test-3d-pov64=reports/bench/test-3d-pov64-ft test-3d-ambig=reports/bench/test-3d-ambig-ft \
-  test-3d-cyc=$(CYC3D_REPORT)/test-3d-cyc-bounce test-3d-diffuse=reports/bench/test-3d-diffuse \
+  test-3d-pov64=reports/bench/test-3d-pov64-auto test-3d-pov64=reports/bench/test-3d-pov64-ft \
+  test-3d-ambig=reports/bench/test-3d-ambig-ft \
+  test-3d-cyc=$(CYC3D_REPORT)/test-3d-cyc-bounce test-3d-diffuse=reports/bench/test-3d-diffuse-ft \
   views4side=reports/bench/views4side
 bench-summary:
 	python3 eval/bench_summary.py -o reports/bench/README.md $(foreach p,$(BENCH_SUMMARY_SPLITS),--split $(subst =, ,$(p)))
