@@ -26,7 +26,7 @@
  * "Geometry"): generation, the recon budget shared by all three runs, and each mode's own. */
 #define CI_GEN "gen --split tiny --scenes 7 --train 24 --width 40 --r-min 2.2 --r-max 2.8"
 #define CI_RECON "--iters 60 --tex-res 64 --env-w 32 --env-h 16 --hull-target-tris 5000 --hull-res 64"
-#define CI_DMTET "--geometry dmtet --dmtet-res 32 --geom-iters 12 --geom-views 0"
+#define CI_DMTET "--geometry dmtet --dmtet-res 32 --geom-iters 12 --geom-views 0 --geom-lr 0.05"
 #define CI_STEPS 12
 
 /* Measured with the settings above (OMP_NUM_THREADS 1 and 2 give the same bytes): Chamfer x1e3,
