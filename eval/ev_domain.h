@@ -20,7 +20,7 @@
 #include "eval/ev_paired.h"
 #include "eval/ev_table.h"
 
-#define EV_DOMAIN_MAX_CELLS 16
+#define EV_DOMAIN_MAX_CELLS 32
 
 typedef struct {
     const char *label; /* borrowed; row name, e.g. "POV-Ray-diffuse" (no ',' or '|') */

@@ -86,3 +86,23 @@ MF_TEST(ev_domain_bad_input) {
     CHECK_ERR(ev_domain_load(&t, bad, 1), "label");
     ev_table_free(&t);
 }
+
+/* make bench-matrix's compare table: 3 priors x 8 cells load; one cell over the limit is refused */
+MF_TEST(ev_domain_cell_limit) {
+    enum { N = EV_DOMAIN_MAX_CELLS + 1 };
+    static char labels[N][16];
+    EvDomainCell cells[N];
+    const char *csv = write_cell("dom_many.csv", 20, 15, 17);
+    for (int c = 0; c < N; ++c) {
+        snprintf(labels[c], sizeof labels[c], "p%d:c%d", c / 8, c % 8);
+        cells[c] = (EvDomainCell){labels[c], csv};
+    }
+    CHECK(EV_DOMAIN_MAX_CELLS >= 24);
+    EvTable t;
+    ev_table_init(&t);
+    CHECK_OK(ev_domain_load(&t, cells, 24));
+    ev_table_free(&t);
+    ev_table_init(&t);
+    CHECK_ERR(ev_domain_load(&t, cells, N), "cells");
+    ev_table_free(&t);
+}
