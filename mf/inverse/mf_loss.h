@@ -39,6 +39,12 @@ void mf_loss_logl1_bwd(const float *pred, const float *ref, size_t n, float floo
 double mf_loss_mse_fwd(const float *pred, const float *ref, size_t n);
 void mf_loss_mse_bwd(const float *pred, const float *ref, size_t n, float scale, float *dpred);
 
+/* Uniform Laplacian of a mesh's vertices pos (nv, 3), neighbours in CSR (off (nv + 1,), adj): sum over
+ * vertices with neighbours of |p_i - mean of its neighbours|^2 (a neighbour listed twice counts twice).
+ * bwd: dpos (nv, 3) += scale x its gradient. */
+double mf_reg_laplacian_fwd(const float *pos, int nv, const int *off, const int *adj);
+void mf_reg_laplacian_bwd(const float *pos, int nv, const int *off, const int *adj, float scale, float *dpos);
+
 /* tex (h, w, ch); channels [c0, c0 + nc) are regularised; mask (h, w) or NULL (all texels). */
 double mf_reg_smooth_fwd(const float *tex, int w, int h, int ch, int c0, int nc, const float *mask);
 /* Env-map smoothness of the unseen directions (env_auto): env (h, w, 3) radiance, cover (h, w)

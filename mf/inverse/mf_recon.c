@@ -60,6 +60,14 @@ struct MfRecon {
     double grow_prev, grow_sum; /* spp_grow: mean image loss of the last whole window (-1: none), sum of this one */
     int grow_n;                 /* spp_grow: iterations in this window so far */
     int grew_at[16], ngrew;     /* spp_grow: iterations where spp_now grew */
+    /* vertex_lr > 0: the mesh moved by the image loss (verts_init, verts_step) */
+    MfMesh own;                 /* the mutable copy r->mesh points to */
+    MfMesh wmesh;               /* welded: (nw) vertices, own's triangles re-indexed; its normals */
+    int *wmap;                  /* (nv,) own's vertex -> welded vertex */
+    int *adj_off, *adj;         /* welded adjacency (CSR over the triangles' edges) */
+    float *dpos;                /* (nv, 3) the iteration's dLoss/dpos of own */
+    MfParamBlock pos;           /* (nw, 3) welded positions */
+    MfAdam adam_pos;
 };
 
 long mf_peak_rss_bytes(void) {
@@ -138,6 +146,102 @@ static int env_coverage(MfRecon *r, const MfReconView *views, int nviews) {
     return MF_OK;
 }
 
+/* ---- moving vertices (vertex_lr > 0) ---- */
+
+/* qsort_r order of vertex indices by position (pos (nv, 3) the context). */
+static int cmp_pos(const void *a, const void *b, void *pos) {
+    const float *p = (const float *)pos + 3 * *(const int *)a, *q = (const float *)pos + 3 * *(const int *)b;
+    for (int k = 0; k < 3; ++k)
+        if (p[k] != q[k]) return p[k] < q[k] ? -1 : 1;
+    return 0;
+}
+
+/* own = a copy of m; its vertices welded by exact position (the copies a UV atlas splits at its
+ * seams) into wmesh, whose positions are the optimised block and whose area-weighted normals are
+ * copied back, so seams neither open nor crease; the welded mesh's edge adjacency for the
+ * Laplacian. */
+static int verts_init(MfRecon *r, const MfMesh *m) {
+    int nv = m->nv, rc = mf_mesh_alloc(&r->own, nv, m->nt, 1, 1);
+    if (rc) return rc;
+    memcpy(r->own.pos, m->pos, (size_t)nv * 3 * sizeof(float));
+    memcpy(r->own.uv, m->uv, (size_t)nv * 2 * sizeof(float));
+    memcpy(r->own.tri, m->tri, (size_t)m->nt * 3 * sizeof(uint32_t));
+    if (m->mat) { /* material ids and names, as the mesh had them */
+        if (!(r->own.mat = malloc((size_t)m->nt * sizeof *r->own.mat))) return mf_fail(MF_ENOMEM, "out of memory");
+        memcpy(r->own.mat, m->mat, (size_t)m->nt * sizeof *m->mat);
+    }
+    if (m->mat_names && m->nmat > 0) {
+        if (!(r->own.mat_names = calloc((size_t)m->nmat, sizeof *r->own.mat_names))) return mf_fail(MF_ENOMEM, "out of memory");
+        r->own.nmat = m->nmat;
+        for (int k = 0; k < m->nmat; ++k)
+            if (m->mat_names[k] && !(r->own.mat_names[k] = strdup(m->mat_names[k]))) return mf_fail(MF_ENOMEM, "out of memory");
+    }
+    int *ord = malloc((size_t)nv * sizeof *ord);
+    r->wmap = malloc((size_t)nv * sizeof *r->wmap);
+    r->dpos = calloc((size_t)nv * 3, sizeof *r->dpos);
+    if (!ord || !r->wmap || !r->dpos) return free(ord), mf_fail(MF_ENOMEM, "out of memory");
+    for (int v = 0; v < nv; ++v) ord[v] = v;
+    qsort_r(ord, (size_t)nv, sizeof *ord, cmp_pos, m->pos);
+    int nw = 0;
+    for (int k = 0; k < nv; ++k) {
+        if (k > 0 && cmp_pos(&ord[k - 1], &ord[k], m->pos) != 0) ++nw;
+        r->wmap[ord[k]] = nw;
+    }
+    nw = nv ? nw + 1 : 0;
+    free(ord);
+    if ((rc = mf_mesh_alloc(&r->wmesh, nw, m->nt, 1, 0))) return rc;
+    for (int v = 0; v < nv; ++v) memcpy(r->wmesh.pos + 3 * r->wmap[v], m->pos + 3 * v, 3 * sizeof(float));
+    for (int t = 0; t < 3 * m->nt; ++t) r->wmesh.tri[t] = (uint32_t)r->wmap[m->tri[t]];
+    /* adjacency: both directions of every triangle edge (shared edges twice: uniform weights) */
+    r->adj_off = calloc((size_t)nw + 1, sizeof *r->adj_off);
+    r->adj = malloc((size_t)m->nt * 6 * sizeof *r->adj);
+    if (!r->adj_off || !r->adj) return mf_fail(MF_ENOMEM, "out of memory");
+    for (int t = 0; t < m->nt; ++t)
+        for (int k = 0; k < 3; ++k) r->adj_off[r->wmesh.tri[3 * t + k] + 1] += 2;
+    for (int i = 0; i < nw; ++i) r->adj_off[i + 1] += r->adj_off[i];
+    int *fill = calloc((size_t)nw, sizeof *fill);
+    if (!fill) return mf_fail(MF_ENOMEM, "out of memory");
+    for (int t = 0; t < m->nt; ++t)
+        for (int k = 0; k < 3; ++k) {
+            int a = (int)r->wmesh.tri[3 * t + k], b = (int)r->wmesh.tri[3 * t + (k + 1) % 3], c = (int)r->wmesh.tri[3 * t + (k + 2) % 3];
+            r->adj[r->adj_off[a] + fill[a]++] = b;
+            r->adj[r->adj_off[a] + fill[a]++] = c;
+        }
+    free(fill);
+    if ((rc = mf_param_init(&r->pos, "pos", (size_t)nw * 3, 3, r->wmesh.pos))) return rc;
+    mf_adam_init(&r->adam_pos, r->o.vertex_lr);
+    if ((rc = mf_mesh_compute_normals(&r->wmesh))) return rc;
+    for (int v = 0; v < nv; ++v) memcpy(r->own.nrm + 3 * v, r->wmesh.nrm + 3 * r->wmap[v], 3 * sizeof(float));
+    mf_log_info("recon: vertices move (--vertex-lr %g, --vertex-laplacian %g): %d vertices, %d welded across UV seams", (double)r->o.vertex_lr,
+                (double)r->o.vertex_laplacian, nv, nw);
+    return MF_OK;
+}
+
+/* One Adam step of the welded positions on the iteration's image gradient (r->dpos, gathered over
+ * the seam copies) plus vertex_laplacian x (1 - it / iters) / nw x the uniform Laplacian
+ * (mf_reg_laplacian); own, its normals and the Embree scene (rebuilt) follow. */
+static int verts_step(MfRecon *r, int it) {
+    int nw = r->wmesh.nv, nv = r->own.nv;
+    float *g = r->pos.g, *p = r->pos.p;
+    memset(g, 0, (size_t)nw * 3 * sizeof *g);
+    for (int v = 0; v < nv; ++v)
+        for (int k = 0; k < 3; ++k) g[3 * r->wmap[v] + k] += r->dpos[3 * v + k];
+    memset(r->dpos, 0, (size_t)nv * 3 * sizeof *r->dpos);
+    double lam = (double)r->o.vertex_laplacian * (1.0 - (double)it / r->o.iters) / nw;
+    mf_reg_laplacian_bwd(p, nw, r->adj_off, r->adj, (float)lam, g);
+    int rc = mf_adam_step(&r->adam_pos, &r->pos, 1, r->o.vertex_lr * mf_lr_schedule(1.0f, it));
+    if (rc) return rc;
+    memcpy(r->wmesh.pos, p, (size_t)nw * 3 * sizeof *p);
+    if ((rc = mf_mesh_compute_normals(&r->wmesh))) return rc;
+    for (int v = 0; v < nv; ++v) {
+        memcpy(r->own.pos + 3 * v, r->wmesh.pos + 3 * r->wmap[v], 3 * sizeof(float));
+        memcpy(r->own.nrm + 3 * v, r->wmesh.nrm + 3 * r->wmap[v], 3 * sizeof(float));
+    }
+    mf_rtscene_free(r->rt);
+    r->rt = NULL;
+    return mf_rtscene_new(&r->own, &r->rt);
+}
+
 int mf_recon_new(const MfMesh *mesh, MfReconView *views, int nviews, const MfReconOpts *opts, MfRecon **out) {
     if (!mesh->uv) return mf_fail(MF_EARG, "the mesh has no UVs: reconstruction needs a UV-mapped mesh (unwrap it first: mf unwrap IN.obj -o OUT.obj)");
     if (nviews < 1) return mf_fail(MF_EARG, "no training views");
@@ -146,6 +250,9 @@ int mf_recon_new(const MfMesh *mesh, MfReconView *views, int nviews, const MfRec
     if (opts->tex_auto && opts->tex_auto_min > opts->tex_auto_max)
         return mf_fail(MF_EARG, "reconstruction options: tex_auto_min %d is above tex_auto_max %d", opts->tex_auto_min,
                        opts->tex_auto_max);
+    if (opts->vertex_lr > 0 && opts->normal_map)
+        return mf_fail(MF_EARG, "reconstruction options: vertex_lr %g with normal_map 1: moving vertices under a normal map is not "
+                                "supported (the vertex gradient is refused with a map)", (double)opts->vertex_lr);
     if (opts->early_stop && nviews < 2)
         return mf_fail(MF_EARG, "reconstruction options: early_stop holds out views and needs at least 2 (there is %d)", nviews);
     if (opts->spp_sqrt == 1 && !opts->denoise)
@@ -165,7 +272,9 @@ int mf_recon_new(const MfMesh *mesh, MfReconView *views, int nviews, const MfRec
     r->spp_now = opts->spp_sqrt;
     r->grow_prev = -1.0;
     mf_divguard_init(&r->guard, opts->div_factor, opts->div_patience);
-    rc = mf_rtscene_new(mesh, &r->rt);
+    rc = MF_OK;
+    if (opts->vertex_lr > 0 && !(rc = verts_init(r, mesh))) r->mesh = mesh = &r->own;
+    if (!rc) rc = mf_rtscene_new(mesh, &r->rt);
     if (!rc && opts->tex_auto && !(rc = mf_budget_texel_side(r->rt, mesh, views, nviews, &r->texel_side, NULL))) {
         r->o.tex_res = mf_budget_pow2_side(r->texel_side, opts->tex_auto_min, opts->tex_auto_max);
         mf_log_info("recon: tex_auto: median %.1f texels per side for 1 pixel per texel over the %d views: tex_res %d",
@@ -241,6 +350,8 @@ int mf_recon_new(const MfMesh *mesh, MfReconView *views, int nviews, const MfRec
 void mf_recon_free(MfRecon *r) {
     if (!r) return;
     mf_rtscene_free(r->rt);
+    mf_mesh_free(&r->own), mf_mesh_free(&r->wmesh), mf_param_free(&r->pos);
+    free(r->wmap), free(r->adj_off), free(r->adj), free(r->dpos);
     for (int b = 0; b < MF_NBLOCKS; ++b) mf_param_free(&r->blocks[b]);
     mf_env_free(&r->env);
     mf_bilateral_free(&r->dn);
@@ -376,6 +487,9 @@ static int env_size_of_checkpoint(MfRecon *r, const char *path) {
 }
 
 int mf_recon_load_checkpoint(MfRecon *r, const char *path) {
+    if (r->o.vertex_lr > 0)
+        return mf_fail(MF_EARG, "%s: cannot resume with vertex_lr %g: a checkpoint holds no vertex positions (run without --resume)",
+                       path, (double)r->o.vertex_lr);
     if (r->o.env_res_auto) {
         int rc = env_size_of_checkpoint(r, path);
         if (rc) return rc;
@@ -542,7 +656,8 @@ static int view_step(MfRecon *r, int vi, uint64_t vseed, float scale, IterStats 
     bo.seed = mf_hash64(vseed, 3); /* decorrelated from the primal samples */
     MfDiffAdjoint adj = {.drgb = drgb, .ddiffuse = dd, .dspecular = ds};
     MfDiffGrads g = {.dkd = r->blocks[MF_BLOCK_KD].g, .dorm = r->blocks[MF_BLOCK_ORM].g, .denv = r->blocks[MF_BLOCK_ENV].g,
-                     .dnormal = r->o.normal_map ? r->blocks[MF_BLOCK_NORMAL].g : NULL};
+                     .dnormal = r->o.normal_map ? r->blocks[MF_BLOCK_NORMAL].g : NULL,
+                     .dpos = r->o.vertex_lr > 0 ? r->dpos : NULL};
     if (r->o.denoise) {
         /* through the recombination and F^T: per-pixel light adjoints, and the material AOVs'
          * adjoints (kd (1 - m) multiplies the denoised diffuse light per pixel) */
@@ -929,6 +1044,7 @@ int mf_recon_run(MfRecon *r, const MfReconHook *hook, const char *out_dir) {
             else if (mf_params_find_nonfinite(r->blocks, r->nblocks, bad, sizeof bad))
                 snprintf(why, sizeof why, "after the Adam step %s (a gradient beyond ~1.8e19 overflows g^2)", bad);
         }
+        if (!rc && !why[0] && r->o.vertex_lr > 0) rc = verts_step(r, it);
         if (rc || (why[0] && (rc = recover(r, it, why, ckpt)))) break;
         r->it = it + 1;
         mf_stage_lap(&r->times.step, &ck);

@@ -25,7 +25,16 @@
  *   6. Adam step with bounds: kd in [0,1], ORM R = 1 (frozen), G in [0.08,1], B in [0,1],
  *      light >= 0.01 (in the exposure's working units, below), normal-map texels in [0,1] (initialised flat, (0.5, 0.5, 1)). A non-finite gradient is an event of the guard
  *      below (recover, or stop with the last good checkpoint kept and no texture written from
- *      the bad state).
+ *      the bad state);
+ *   7. with vertex_lr > 0 (off by default; issue 14's pass 2 moving the mesh): the renderer's
+ *      vertex gradient (MfDiffGrads.dpos: the hits' positions, UVs and interpolated normals) is
+ *      gathered onto the mesh's vertices welded across its UV seams, the uniform Laplacian
+ *      (mf_reg_laplacian, weight vertex_laplacian x (1 - it / iters) / welded vertices, as
+ *      nvdiffrecmc's 3000 x (1 - t)) is added, and a separate Adam (vertex_lr, the textures'
+ *      decay) moves them; normals are recomputed on the welded mesh and the Embree scene rebuilt.
+ *      The result's mesh.obj/scene.glb are the moved mesh. Not in checkpoints (resume is refused)
+ *      nor in the guard's last good state (a recovery rolls back the textures and light only);
+ *      no normal map (refused).
  * Guard (mf_optim.h): after the loss of an iteration is known and again after the Adam step, the
  * run checks for (a) a non-finite loss, (b) divergence: the loss above div_factor (default 4) x
  * its running minimum for div_patience (default 10) iterations in a row, (c) a non-finite
@@ -102,6 +111,10 @@ typedef struct {
                              default 0 (measured to lower relighting quality on GT meshes) */
     float w_nrm_perturb;  /* normal-map perturbation weight (L1 from flat; nvdiffrecmc 0.25) */
     float w_nrm_smooth;   /* normal-map smoothness weight (nvdiffrecmc 0.025) */
+    float vertex_lr;      /* > 0: the mesh's vertices move too (Adam at this rate on the positions welded
+                             across UV seams; normals follow; Embree rebuilt every step); 0: fixed.
+                             No resume (a checkpoint holds no positions); no normal map */
+    float vertex_laplacian; /* the moving vertices' uniform Laplacian weight, x (1 - it / iters) / vertices */
     float init_kd, init_rough, init_metal, init_light;
     int denoise;          /* 1: bilateral denoiser of the demodulated light (mf_denoise.h) */
     float denoise_sigma;  /* its spatial sigma in pixels (nvdiffrecmc: 2, 23x23 window) */
