@@ -1,7 +1,6 @@
 #include "inverse/mf_loss.h"
 
 #include <math.h>
-#include <stdlib.h>
 
 static inline float sgn(float x) { return (float)((x > 0.0f) - (x < 0.0f)); }
 
@@ -213,40 +212,38 @@ void mf_reg_shading_bwd(const float *diffuse, const float *spec, const float *co
     }
 }
 
-/* L_i = p_i - mean of its neighbours (0 for a vertex without any), (nv, 3) into L. */
-static void laplacian_of(const float *pos, int nv, const int *off, const int *adj, double *L) {
-    for (int i = 0; i < nv; ++i) {
-        int d = off[i + 1] - off[i];
-        for (int k = 0; k < 3; ++k) {
-            double m = 0.0;
-            for (int e = off[i]; e < off[i + 1]; ++e) m += pos[3 * adj[e] + k];
-            L[3 * i + k] = d ? pos[3 * i + k] - m / d : 0.0;
-        }
+/* L_i = p_i - mean of its neighbours (0 for a vertex without any) into L[3]. */
+static void laplacian_at(const float *pos, const int *off, const int *adj, int i, double *L) {
+    int d = off[i + 1] - off[i];
+    for (int k = 0; k < 3; ++k) {
+        double m = 0.0;
+        for (int e = off[i]; e < off[i + 1]; ++e) m += pos[3 * adj[e] + k];
+        L[k] = d ? pos[3 * i + k] - m / d : 0.0;
     }
 }
 
 double mf_reg_laplacian_fwd(const float *pos, int nv, const int *off, const int *adj) {
-    double *L = malloc((size_t)nv * 3 * sizeof *L + 1), s = 0.0;
-    if (!L) return NAN;
-    laplacian_of(pos, nv, off, adj, L);
-    for (size_t i = 0; i < (size_t)nv * 3; ++i) s += L[i] * L[i];
-    free(L);
+    double s = 0.0, L[3];
+    for (int i = 0; i < nv; ++i) {
+        laplacian_at(pos, off, adj, i, L);
+        s += L[0] * L[0] + L[1] * L[1] + L[2] * L[2];
+    }
     return s;
 }
 
 void mf_reg_laplacian_bwd(const float *pos, int nv, const int *off, const int *adj, float scale, float *dpos) {
-    double *L = malloc((size_t)nv * 3 * sizeof *L + 1);
-    if (!L) return;
-    laplacian_of(pos, nv, off, adj, L);
     /* d/dp_i sum_j |L_j|^2 = 2 L_i - 2 sum over i's neighbour entries j of L_j / deg_j (adjacency is
-     * symmetric: j lists i as often as i lists j) */
-    for (int i = 0; i < nv; ++i)
+     * symmetric: j lists i as often as i lists j); L_j recomputed per entry, nothing allocated */
+    double Li[3], Lj[3];
+    for (int i = 0; i < nv; ++i) {
+        if (off[i + 1] == off[i]) continue;
+        laplacian_at(pos, off, adj, i, Li);
+        double g[3] = {2.0 * Li[0], 2.0 * Li[1], 2.0 * Li[2]};
         for (int e = off[i]; e < off[i + 1]; ++e) {
-            int j = adj[e], dj = off[j + 1] - off[j];
-            for (int k = 0; k < 3; ++k) dpos[3 * i + k] -= (float)(2.0 * scale * L[3 * j + k] / dj);
+            int j = adj[e];
+            laplacian_at(pos, off, adj, j, Lj);
+            for (int k = 0; k < 3; ++k) g[k] -= 2.0 * Lj[k] / (off[j + 1] - off[j]);
         }
-    for (int i = 0; i < nv; ++i)
-        if (off[i + 1] > off[i])
-            for (int k = 0; k < 3; ++k) dpos[3 * i + k] += (float)(2.0 * scale * L[3 * i + k]);
-    free(L);
+        for (int k = 0; k < 3; ++k) dpos[3 * i + k] += (float)(scale * g[k]);
+    }
 }
