@@ -507,8 +507,8 @@ static double normal_error(const MfMesh *m) {
 /* --vertex-lr: a bumpy sphere's vertices move toward the sphere its views show (the normals turn
  * toward the sphere's: with the default Laplacian 0.0132 -> 0.0037 in 80 steps, with the image
  * term alone 0.0090), stay finite, and the copies split at UV seams move together; the result's
- * mesh.obj is the moved mesh; a normal map and resume are refused. With the Laplacian's gradient
- * negated the error rises to 0.044. */
+ * mesh.obj is the moved mesh; a normal map is refused. With the Laplacian's gradient negated the
+ * error rises to 0.044. */
 MF_TEST(inverse_recon_vertices_move) {
     MfMesh gt, bumpy;
     CHECK_OK(mf_shape_uv_sphere(&gt, mf_v3(0, 0, 0), 0.5f, 24, 12));
@@ -549,7 +549,6 @@ MF_TEST(inverse_recon_vertices_move) {
     if (f) fclose(f);
     CHECK_MSG(fabsf(v0[0] - m->pos[0]) < 1e-6f && fabsf(v0[1] - m->pos[1]) < 1e-6f && fabsf(v0[2] - m->pos[2]) < 1e-6f,
               "mesh.obj's first vertex (%g %g %g) is not the moved mesh's (%g %g %g)", v0[0], v0[1], v0[2], m->pos[0], m->pos[1], m->pos[2]);
-    CHECK_ERR(mf_recon_load_checkpoint(r, mf_test_path("recon_vertices/checkpoint.mfck")), "holds no vertex positions");
     mf_recon_free(r);
     /* the image term alone (no Laplacian) turns the normals toward the views' sphere too: 0.0132 ->
      * 0.0090 when measured; with the vertex gradient's sign flipped it would not */
@@ -567,4 +566,59 @@ MF_TEST(inverse_recon_vertices_move) {
     CHECK_ERR(mf_recon_new(&bumpy, v2, NV, &o, &r), "normal_map 1");
     for (int i = 0; i < NV; ++i) mf_image_free(&views[i].ref), mf_image_free(&v2[i].ref);
     mf_mesh_free(&gt), mf_mesh_free(&bumpy);
+}
+
+static int stop_hook(void *ctx, MfRecon *r, int it, const int *batch, int nb, double *loss) {
+    (void)ctx, (void)r, (void)batch, (void)nb;
+    *loss = 0.0;
+    return it == 5 ? mf_fail(MF_EARG, "stopped by the test at iteration %d", it) : MF_OK;
+}
+
+/* --vertex-lr resumes exactly: a 12-iteration run stopped after its checkpoint at 5, a new recon
+ * loading it, and the 7 more equal 12 in one run (every block and every vertex position, bit for bit); a checkpoint without positions is
+ * refused by a run that moves vertices. */
+MF_TEST(inverse_recon_vertices_resume_is_exact) {
+    MfMesh mesh;
+    CHECK_OK(mf_shape_uv_sphere(&mesh, mf_v3(0, 0, 0), 0.5f, 16, 8));
+    MfReconOpts o = short_opts(12);
+    o.vertex_lr = 5e-4f;
+    char hd[512], fd[512], ck[1024];
+    snprintf(fd, sizeof fd, "%s", mf_test_path("vfull"));
+    snprintf(hd, sizeof hd, "%s", mf_test_path("vhalf"));
+    MfRecon *full = recon_of(&mesh, &o), *half = NULL;
+    if (full) CHECK_OK(mf_recon_run(full, NULL, fd));
+    /* the same 12-iteration run, stopped by its hook in iteration 6 after the checkpoint of 5 (the
+     * Laplacian's weight follows it / iters, so a 5-iteration run would be another run) */
+    MfReconOpts oh = o;
+    oh.checkpoint_every = 5;
+    half = recon_of(&mesh, &oh);
+    MfReconHook stop = {.fn = stop_hook, .ctx = NULL};
+    if (half) CHECK_ERR(mf_recon_run(half, &stop, hd), "stopped by the test");
+    mf_recon_free(half);
+    half = recon_of(&mesh, &o); /* a new process would start here */
+    snprintf(ck, sizeof ck, "%s/checkpoint.mfck", hd);
+    if (half) CHECK_OK(mf_recon_load_checkpoint(half, ck));
+    if (half) CHECK_OK(mf_recon_run(half, NULL, hd));
+    const char *d = full && half ? first_diff_block(full, half) : NULL;
+    CHECK_MSG(!d, "block %s differs after resume", d);
+    if (full && half) {
+        const MfMesh *a = mf_rtscene_mesh(mf_recon_rtscene(full)), *b = mf_rtscene_mesh(mf_recon_rtscene(half));
+        double moved = 0;
+        for (int i = 0; i < 3 * mesh.nv; ++i) moved = fmax(moved, fabs(a->pos[i] - mesh.pos[i]));
+        CHECK_MSG(a->nv == b->nv && !memcmp(a->pos, b->pos, (size_t)a->nv * 3 * sizeof(float)) &&
+                      !memcmp(a->nrm, b->nrm, (size_t)a->nv * 3 * sizeof(float)) && moved > 1e-4,
+                  "vertex positions or normals differ after resume (largest move %g)", moved);
+    }
+    /* a checkpoint written without moving vertices holds no positions */
+    MfReconOpts of = short_opts(3);
+    MfRecon *fixed = recon_of(&mesh, &of);
+    if (fixed) CHECK_OK(mf_recon_run(fixed, NULL, mf_test_path("vfixed")));
+    mf_recon_free(fixed);
+    snprintf(ck, sizeof ck, "%s/checkpoint.mfck", mf_test_path("vfixed"));
+    MfRecon *moving = recon_of(&mesh, &o);
+    if (moving) CHECK_ERR(mf_recon_load_checkpoint(moving, ck), "vertex_lr");
+    mf_recon_free(moving);
+    mf_recon_free(full);
+    mf_recon_free(half);
+    mf_mesh_free(&mesh);
 }

@@ -217,6 +217,29 @@ static int verts_init(MfRecon *r, const MfMesh *m) {
     return MF_OK;
 }
 
+/* The welded positions (r->pos) to the welded mesh, its normals, own and the Embree scene (rebuilt). */
+static int verts_apply(MfRecon *r) {
+    int nw = r->wmesh.nv, nv = r->own.nv;
+    memcpy(r->wmesh.pos, r->pos.p, (size_t)nw * 3 * sizeof(float));
+    int rc = mf_mesh_compute_normals(&r->wmesh);
+    if (rc) return rc;
+    for (int v = 0; v < nv; ++v) {
+        memcpy(r->own.pos + 3 * v, r->wmesh.pos + 3 * r->wmap[v], 3 * sizeof(float));
+        memcpy(r->own.nrm + 3 * v, r->wmesh.nrm + 3 * r->wmap[v], 3 * sizeof(float));
+    }
+    mf_rtscene_free(r->rt);
+    r->rt = NULL;
+    return mf_rtscene_new(&r->own, &r->rt);
+}
+
+/* The blocks a checkpoint holds: the textures' and env's (and normal map's), then, with moving
+ * vertices, their welded positions (shallow copies into all (MF_NBLOCKS + 1,)); returns the count. */
+static int ckpt_blocks(const MfRecon *r, MfParamBlock *all) {
+    for (int b = 0; b < r->nblocks; ++b) all[b] = r->blocks[b];
+    if (r->o.vertex_lr > 0) all[r->nblocks] = r->pos;
+    return r->nblocks + (r->o.vertex_lr > 0);
+}
+
 /* One Adam step of the welded positions on the iteration's image gradient (r->dpos, gathered over
  * the seam copies) plus vertex_laplacian x (1 - it / iters) / nw x the uniform Laplacian
  * (mf_reg_laplacian); own, its normals and the Embree scene (rebuilt) follow. */
@@ -230,16 +253,7 @@ static int verts_step(MfRecon *r, int it) {
     double lam = (double)r->o.vertex_laplacian * (1.0 - (double)it / r->o.iters) / nw;
     mf_reg_laplacian_bwd(p, nw, r->adj_off, r->adj, (float)lam, g);
     int rc = mf_adam_step(&r->adam_pos, &r->pos, 1, r->o.vertex_lr * mf_lr_schedule(1.0f, it));
-    if (rc) return rc;
-    memcpy(r->wmesh.pos, p, (size_t)nw * 3 * sizeof *p);
-    if ((rc = mf_mesh_compute_normals(&r->wmesh))) return rc;
-    for (int v = 0; v < nv; ++v) {
-        memcpy(r->own.pos + 3 * v, r->wmesh.pos + 3 * r->wmap[v], 3 * sizeof(float));
-        memcpy(r->own.nrm + 3 * v, r->wmesh.nrm + 3 * r->wmap[v], 3 * sizeof(float));
-    }
-    mf_rtscene_free(r->rt);
-    r->rt = NULL;
-    return mf_rtscene_new(&r->own, &r->rt);
+    return rc ? rc : verts_apply(r);
 }
 
 int mf_recon_new(const MfMesh *mesh, MfReconView *views, int nviews, const MfReconOpts *opts, MfRecon **out) {
@@ -422,12 +436,14 @@ static int sync_env(MfRecon *r) {
 
 static int save_checkpoint(const MfRecon *r, const char *path, double wall) {
     char bad[96];
-    if (mf_params_find_nonfinite(r->blocks, r->nblocks, bad, sizeof bad))
+    MfParamBlock all[MF_NBLOCKS + 1];
+    int nall = ckpt_blocks(r, all);
+    if (mf_params_find_nonfinite(all, nall, bad, sizeof bad))
         return mf_fail(MF_ENAN, "%s: not written at iteration %d: %s is not finite", path, r->it, bad);
-    MfTensorSpec specs[MF_NBLOCKS * 3];
-    int ns = mf_param_ckpt_specs(r->blocks, r->nblocks, specs);
+    MfTensorSpec specs[(MF_NBLOCKS + 1) * 3];
+    int ns = mf_param_ckpt_specs(all, nall, specs);
     MfParamSnapshot snap = {0};
-    int rc = mf_param_snapshot_save(&snap, r->blocks, r->nblocks, &r->adam);
+    int rc = mf_param_snapshot_save(&snap, all, nall, &r->adam);
     if (rc) return mf_fail_prefix(rc, "%s", path);
     char meta[1024], grew[16 * 12] = "";
     for (int i = 0, len = 0; i < r->ngrew && i < 16; ++i)
@@ -436,10 +452,11 @@ static int save_checkpoint(const MfRecon *r, const char *path, double wall) {
              "{\"kind\":\"mf-recon\",\"iteration\":%d,\"adam_t\":%ld,\"wall_s\":%.17g,\"tex_res\":%d,\"env_w\":%d,\"env_h\":%d,"
              "\"lr_scale\":%.9g,\"loss_min\":%.17g,\"recoveries\":%d,\"exposure\":%.9g,\"metal_state\":%d,\"metal_fraction\":%.17g,"
              "\"spp_now\":%d,\"grow_prev\":%.17g,\"grow_sum\":%.17g,\"grow_n\":%d,\"grew_at\":\"%s\",\"env_res_w\":%d,"
-             "\"env_res_rough\":%.17g}",
+             "\"env_res_rough\":%.17g,\"vertex_adam_t\":%ld}",
              r->it, r->adam.t, wall, r->o.tex_res, r->o.env_w, r->o.env_h, r->lr_scale,
              isfinite(r->guard.loss_min) ? r->guard.loss_min : -1.0, r->nrec_total, r->exposure, r->metal_state,
-             r->metal_fraction, r->spp_now, r->grow_prev, r->grow_sum, r->grow_n, grew, r->env_res_w, r->env_res_rough);
+             r->metal_fraction, r->spp_now, r->grow_prev, r->grow_sum, r->grow_n, grew, r->env_res_w, r->env_res_rough,
+             r->o.vertex_lr > 0 ? r->adam_pos.t : -1L);
     rc = mf_ckpt_save(path, specs, ns, snap.buf, meta);
     mf_param_snapshot_free(&snap);
     return rc;
@@ -487,15 +504,14 @@ static int env_size_of_checkpoint(MfRecon *r, const char *path) {
 }
 
 int mf_recon_load_checkpoint(MfRecon *r, const char *path) {
-    if (r->o.vertex_lr > 0)
-        return mf_fail(MF_EARG, "%s: cannot resume with vertex_lr %g: a checkpoint holds no vertex positions (run without --resume)",
-                       path, (double)r->o.vertex_lr);
     if (r->o.env_res_auto) {
         int rc = env_size_of_checkpoint(r, path);
         if (rc) return rc;
     }
-    MfTensorSpec specs[MF_NBLOCKS * 3];
-    int ns = mf_param_ckpt_specs(r->blocks, r->nblocks, specs);
+    MfParamBlock all[MF_NBLOCKS + 1];
+    int nall = ckpt_blocks(r, all);
+    MfTensorSpec specs[(MF_NBLOCKS + 1) * 3];
+    int ns = mf_param_ckpt_specs(all, nall, specs);
     size_t total = mf_specs_numel(specs, ns);
     float *buf = malloc(total * sizeof(float) + 1);
     char *meta = NULL;
@@ -503,7 +519,7 @@ int mf_recon_load_checkpoint(MfRecon *r, const char *path) {
     int rc = mf_ckpt_load(path, specs, ns, buf, &meta);
     if (rc) {
         free(buf);
-        return mf_fail_prefix(rc, "resume (were texture/env sizes or normal_map changed?)");
+        return mf_fail_prefix(rc, "resume (were texture/env sizes, normal_map or vertex_lr changed?)");
     }
     int it = -1;
     long t = -1;
@@ -517,16 +533,24 @@ int mf_recon_load_checkpoint(MfRecon *r, const char *path) {
     }
     if (pw) sscanf(pw, "\"wall_s\":%lf", &wall);
     /* a non-finite value never resumes: name the tensor (block.part) and element */
-    for (int b = 0, o = 0; b < r->nblocks; ++b)
+    for (int b = 0, o = 0; b < nall; ++b)
         for (int k = 0; k < 3; ++k)
-            for (size_t i = 0; i < r->blocks[b].n; ++i, ++o)
+            for (size_t i = 0; i < all[b].n; ++i, ++o)
                 if (!isfinite(buf[o])) {
                     float v = buf[o];
                     free(buf);
                     free(meta);
                     return mf_fail(MF_ENAN, "%s: tensor %s.%c element %zu is %g; refusing to resume from it", path,
-                                   r->blocks[b].name, "pmv"[k], i, v);
+                                   all[b].name, "pmv"[k], i, v);
                 }
+    long vt = -1;
+    const char *pv = meta ? strstr(meta, "\"vertex_adam_t\":") : NULL;
+    if (pv) sscanf(pv, "\"vertex_adam_t\":%ld", &vt);
+    if (r->o.vertex_lr > 0 && vt < 0) {
+        free(buf);
+        free(meta);
+        return mf_fail(MF_EFORMAT, "%s: holds no vertex positions' optimiser state (written without vertex_lr?)", path);
+    }
     /* the guard's state (absent in checkpoints of older builds: defaults) */
     float lr_scale = 1.0f;
     double loss_min = -1.0;
@@ -556,7 +580,16 @@ int mf_recon_load_checkpoint(MfRecon *r, const char *path) {
         return mf_fail(MF_EFORMAT, "%s: lr_scale %g in its header is not a positive number", path, lr_scale);
     }
     MfParamSnapshot snap = {.buf = buf, .len = total, .t = t}; /* buf is in a snapshot's order */
-    mf_param_snapshot_restore(&snap, r->blocks, r->nblocks, &r->adam);
+    mf_param_snapshot_restore(&snap, all, nall, &r->adam);
+    if (r->o.vertex_lr > 0) { /* the positions' values and moments came with it; the mesh follows */
+        r->adam_pos.t = vt;
+        int arc = verts_apply(r);
+        if (arc) {
+            free(buf);
+            free(meta);
+            return arc;
+        }
+    }
     r->it = it;
     r->wall_offset = wall;
     r->lr_scale = lr_scale;

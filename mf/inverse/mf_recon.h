@@ -32,9 +32,10 @@
  *      (mf_reg_laplacian, weight vertex_laplacian x (1 - it / iters) / welded vertices, as
  *      nvdiffrecmc's 3000 x (1 - t)) is added, and a separate Adam (vertex_lr, the textures'
  *      decay) moves them; normals are recomputed on the welded mesh and the Embree scene rebuilt.
- *      The result's mesh.obj/scene.glb are the moved mesh. Not in checkpoints (resume is refused)
- *      nor in the guard's last good state (a recovery rolls back the textures and light only);
- *      no normal map (refused).
+ *      The result's mesh.obj/scene.glb are the moved mesh. Checkpoints hold the welded positions
+ *      and their moments (tensor "pos", header "vertex_adam_t"), so a resumed run reaches the
+ *      uninterrupted run's bytes; they are not in the guard's last good state (a recovery rolls
+ *      back the textures and light only); no normal map (refused).
  * Guard (mf_optim.h): after the loss of an iteration is known and again after the Adam step, the
  * run checks for (a) a non-finite loss, (b) divergence: the loss above div_factor (default 4) x
  * its running minimum for div_patience (default 10) iterations in a row, (c) a non-finite
@@ -113,7 +114,7 @@ typedef struct {
     float w_nrm_smooth;   /* normal-map smoothness weight (nvdiffrecmc 0.025) */
     float vertex_lr;      /* > 0: the mesh's vertices move too (Adam at this rate on the positions welded
                              across UV seams; normals follow; Embree rebuilt every step); 0: fixed.
-                             No resume (a checkpoint holds no positions); no normal map */
+                             Positions are checkpointed; no normal map */
     float vertex_laplacian; /* the moving vertices' uniform Laplacian weight, x (1 - it / iters) / vertices */
     float init_kd, init_rough, init_metal, init_light;
     int denoise;          /* 1: bilateral denoiser of the demodulated light (mf_denoise.h) */
