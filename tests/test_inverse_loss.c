@@ -224,24 +224,18 @@ MF_TEST(inverse_adam_converges_with_bounds) {
 typedef struct { const float *pos; int nv; const int *off, *adj; } LapCtx;
 static double f_lap(void *c) { const LapCtx *l = c; return mf_reg_laplacian_fwd(l->pos, l->nv, l->off, l->adj); }
 
-/* The moving vertices' Laplacian (mf_recon --vertex-lr): an octahedron's 6 vertices (both
- * directions of each triangle's edges, as mf_recon lists them) and one vertex without neighbours.
- * The regular octahedron's value is exact; the gradient matches central differences, sums to
- * zero (a translation changes nothing) and leaves the lone vertex alone. */
+/* The moving vertices' Laplacian (mf_recon --vertex-lr): an octahedron's 6 vertices and one vertex
+ * without neighbours, the lists from mf_reg_laplacian_adjacency (as mf_recon builds them). The
+ * regular octahedron's value is exact; the gradient matches central differences, sums to zero (a
+ * translation changes nothing) and leaves the lone vertex alone. */
 MF_TEST(inverse_reg_laplacian_gradient) {
-    static const int tri[8][3] = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4}, {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
+    static const uint32_t tri[8][3] = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4}, {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
     enum { NVX = 7 };
     float pos[NVX * 3] = {1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1, 3, 3, 3}, g[NVX * 3];
-    int off[NVX + 1] = {0}, adj[8 * 6], fill[NVX] = {0};
-    for (int t = 0; t < 8; ++t)
-        for (int k = 0; k < 3; ++k) off[tri[t][k] + 1] += 2;
-    for (int i = 0; i < NVX; ++i) off[i + 1] += off[i];
-    for (int t = 0; t < 8; ++t)
-        for (int k = 0; k < 3; ++k) {
-            int a = tri[t][k];
-            adj[off[a] + fill[a]++] = tri[t][(k + 1) % 3];
-            adj[off[a] + fill[a]++] = tri[t][(k + 2) % 3];
-        }
+    int *off = NULL, *adj = NULL;
+    CHECK_OK(mf_reg_laplacian_adjacency(&tri[0][0], 8, NVX, &off, &adj));
+    if (!off) return;
+    CHECK(off[NVX] == 48 && off[6] == off[NVX]); /* 8 triangles x 6 entries; the lone vertex has none */
     LapCtx c = {pos, NVX, off, adj};
     /* each vertex's 4 neighbours are the equator around it, centred at the origin: L_i = p_i */
     CHECK_MSG(fabs(f_lap(&c) - 6.0) < 1e-6, "regular octahedron: %g, want 6", f_lap(&c));
@@ -257,4 +251,5 @@ MF_TEST(inverse_reg_laplacian_gradient) {
         CHECK_MSG(fabs(s) < 1e-5, "gradient sums to %g along axis %d", s, k);
         CHECK(g[18 + k] == 0.0f);
     }
+    free(off), free(adj);
 }

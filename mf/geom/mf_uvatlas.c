@@ -728,17 +728,7 @@ static int build_output(const MfMesh *in, const Mesh *m, const int *chart, const
         out->tri[i] = (uint32_t)((const uint64_t *)bsearch(&q, key, nk, sizeof *key, cmp_u64) - key);
     }
     free(key);
-    if (in->mat) {
-        if (!(out->mat = malloc((size_t)in->nt * sizeof *out->mat))) return mf_fail(MF_ENOMEM, "out of memory");
-        memcpy(out->mat, in->mat, (size_t)in->nt * sizeof *out->mat);
-    }
-    if (in->mat_names && in->nmat > 0) {
-        if (!(out->mat_names = calloc((size_t)in->nmat, sizeof *out->mat_names))) return mf_fail(MF_ENOMEM, "out of memory");
-        out->nmat = in->nmat;
-        for (int i = 0; i < in->nmat; ++i)
-            if (in->mat_names[i] && !(out->mat_names[i] = strdup(in->mat_names[i]))) return mf_fail(MF_ENOMEM, "out of memory");
-    } else out->nmat = in->nmat;
-    return MF_OK;
+    return mf_mesh_copy_materials(out, in);
 }
 
 /* A chart thinner than 1/64 of its length (a sliver, most often a single triangle) is stretched

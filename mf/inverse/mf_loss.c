@@ -1,6 +1,9 @@
 #include "inverse/mf_loss.h"
 
 #include <math.h>
+#include <stdlib.h>
+
+#include "core/mf_error.h"
 
 static inline float sgn(float x) { return (float)((x > 0.0f) - (x < 0.0f)); }
 
@@ -246,4 +249,23 @@ void mf_reg_laplacian_bwd(const float *pos, int nv, const int *off, const int *a
         }
         for (int k = 0; k < 3; ++k) dpos[3 * i + k] += (float)(scale * g[k]);
     }
+}
+
+int mf_reg_laplacian_adjacency(const uint32_t *tri, int nt, int nv, int **off, int **adj) {
+    int *o = calloc((size_t)nv + 1, sizeof *o), *a = malloc((size_t)nt * 6 * sizeof *a + 1), *fill = calloc((size_t)nv + 1, sizeof *fill);
+    if (!o || !a || !fill) {
+        free(o), free(a), free(fill);
+        return mf_fail(MF_ENOMEM, "out of memory for the adjacency of %d vertices", nv);
+    }
+    for (int t = 0; t < 3 * nt; ++t) o[tri[t] + 1] += 2;
+    for (int i = 0; i < nv; ++i) o[i + 1] += o[i];
+    for (int t = 0; t < nt; ++t)
+        for (int k = 0; k < 3; ++k) {
+            uint32_t v = tri[3 * t + k];
+            a[o[v] + fill[v]++] = (int)tri[3 * t + (k + 1) % 3];
+            a[o[v] + fill[v]++] = (int)tri[3 * t + (k + 2) % 3];
+        }
+    free(fill);
+    *off = o, *adj = a;
+    return MF_OK;
 }

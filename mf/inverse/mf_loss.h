@@ -23,6 +23,8 @@
 #ifndef MF_LOSS_H
 #define MF_LOSS_H
 
+#include <stdint.h>
+
 #include <stddef.h>
 
 /* out (N, 3) = rgb_premult (N, 3) + (1 - alpha (N,)) * bg (N, 3). */
@@ -43,6 +45,10 @@ void mf_loss_mse_bwd(const float *pred, const float *ref, size_t n, float scale,
  * vertices with neighbours of |p_i - mean of its neighbours|^2 (a neighbour listed twice counts twice).
  * bwd: dpos (nv, 3) += scale x its gradient. */
 double mf_reg_laplacian_fwd(const float *pos, int nv, const int *off, const int *adj);
+/* The neighbour lists they take, for nv vertices and triangles tri (nt, 3): both directions of every
+ * triangle's edges (an edge two triangles share counts twice, so a closed mesh's weights stay
+ * uniform). *off (nv + 1,) and *adj (6 nt,) are malloc'd; the caller frees both. */
+int mf_reg_laplacian_adjacency(const uint32_t *tri, int nt, int nv, int **off, int **adj);
 void mf_reg_laplacian_bwd(const float *pos, int nv, const int *off, const int *adj, float scale, float *dpos);
 
 /* tex (h, w, ch); channels [c0, c0 + nc) are regularised; mask (h, w) or NULL (all texels). */

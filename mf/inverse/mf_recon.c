@@ -166,16 +166,7 @@ static int verts_init(MfRecon *r, const MfMesh *m) {
     memcpy(r->own.pos, m->pos, (size_t)nv * 3 * sizeof(float));
     memcpy(r->own.uv, m->uv, (size_t)nv * 2 * sizeof(float));
     memcpy(r->own.tri, m->tri, (size_t)m->nt * 3 * sizeof(uint32_t));
-    if (m->mat) { /* material ids and names, as the mesh had them */
-        if (!(r->own.mat = malloc((size_t)m->nt * sizeof *r->own.mat))) return mf_fail(MF_ENOMEM, "out of memory");
-        memcpy(r->own.mat, m->mat, (size_t)m->nt * sizeof *m->mat);
-    }
-    if (m->mat_names && m->nmat > 0) {
-        if (!(r->own.mat_names = calloc((size_t)m->nmat, sizeof *r->own.mat_names))) return mf_fail(MF_ENOMEM, "out of memory");
-        r->own.nmat = m->nmat;
-        for (int k = 0; k < m->nmat; ++k)
-            if (m->mat_names[k] && !(r->own.mat_names[k] = strdup(m->mat_names[k]))) return mf_fail(MF_ENOMEM, "out of memory");
-    }
+    if ((rc = mf_mesh_copy_materials(&r->own, m))) return rc;
     int *ord = malloc((size_t)nv * sizeof *ord);
     r->wmap = malloc((size_t)nv * sizeof *r->wmap);
     r->dpos = calloc((size_t)nv * 3, sizeof *r->dpos);
@@ -192,22 +183,7 @@ static int verts_init(MfRecon *r, const MfMesh *m) {
     if ((rc = mf_mesh_alloc(&r->wmesh, nw, m->nt, 1, 0))) return rc;
     for (int v = 0; v < nv; ++v) memcpy(r->wmesh.pos + 3 * r->wmap[v], m->pos + 3 * v, 3 * sizeof(float));
     for (int t = 0; t < 3 * m->nt; ++t) r->wmesh.tri[t] = (uint32_t)r->wmap[m->tri[t]];
-    /* adjacency: both directions of every triangle edge (shared edges twice: uniform weights) */
-    r->adj_off = calloc((size_t)nw + 1, sizeof *r->adj_off);
-    r->adj = malloc((size_t)m->nt * 6 * sizeof *r->adj);
-    if (!r->adj_off || !r->adj) return mf_fail(MF_ENOMEM, "out of memory");
-    for (int t = 0; t < m->nt; ++t)
-        for (int k = 0; k < 3; ++k) r->adj_off[r->wmesh.tri[3 * t + k] + 1] += 2;
-    for (int i = 0; i < nw; ++i) r->adj_off[i + 1] += r->adj_off[i];
-    int *fill = calloc((size_t)nw, sizeof *fill);
-    if (!fill) return mf_fail(MF_ENOMEM, "out of memory");
-    for (int t = 0; t < m->nt; ++t)
-        for (int k = 0; k < 3; ++k) {
-            int a = (int)r->wmesh.tri[3 * t + k], b = (int)r->wmesh.tri[3 * t + (k + 1) % 3], c = (int)r->wmesh.tri[3 * t + (k + 2) % 3];
-            r->adj[r->adj_off[a] + fill[a]++] = b;
-            r->adj[r->adj_off[a] + fill[a]++] = c;
-        }
-    free(fill);
+    if ((rc = mf_reg_laplacian_adjacency(r->wmesh.tri, m->nt, nw, &r->adj_off, &r->adj))) return rc;
     if ((rc = mf_param_init(&r->pos, "pos", (size_t)nw * 3, 3, r->wmesh.pos))) return rc;
     mf_adam_init(&r->adam_pos, r->o.vertex_lr);
     if ((rc = mf_mesh_compute_normals(&r->wmesh))) return rc;

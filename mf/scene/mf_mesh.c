@@ -198,3 +198,17 @@ int mf_mesh_uv_sphere(MfMesh *m, int nu, int nv, MfVec3 c, float r) {
     *m = s;
     return MF_OK;
 }
+
+int mf_mesh_copy_materials(MfMesh *dst, const MfMesh *src) {
+    if (src->mat) {
+        if (!(dst->mat = malloc((size_t)src->nt * sizeof *dst->mat))) return mf_fail(MF_ENOMEM, "out of memory");
+        memcpy(dst->mat, src->mat, (size_t)src->nt * sizeof *dst->mat);
+    }
+    dst->nmat = src->nmat;
+    if (src->mat_names && src->nmat > 0) {
+        if (!(dst->mat_names = calloc((size_t)src->nmat, sizeof *dst->mat_names))) return mf_fail(MF_ENOMEM, "out of memory");
+        for (int i = 0; i < src->nmat; ++i)
+            if (src->mat_names[i] && !(dst->mat_names[i] = strdup(src->mat_names[i]))) return mf_fail(MF_ENOMEM, "out of memory");
+    }
+    return MF_OK;
+}

@@ -38,6 +38,9 @@ void mf_mesh_normalize(MfMesh *m, float extent);
 /* A UV sphere (latitude-longitude tessellation) of nu x nv quads, centre c, radius r, with unit
  * normals and UVs (u = longitude / 2pi, v = 1 - colatitude / pi, +Z pole at v = 1). */
 int mf_mesh_uv_sphere(MfMesh *m, int nu, int nv, MfVec3 c, float r);
+/* Copies src's per-triangle material ids, nmat and material names into dst, whose triangles are
+ * src's in the same order (dst's material fields empty before). */
+int mf_mesh_copy_materials(MfMesh *dst, const MfMesh *src);
 /* Appends b to a (material ids of b offset by a->nmat). */
 int mf_mesh_append(MfMesh *a, const MfMesh *b);
 
