@@ -346,6 +346,10 @@ static int cmd_recon_run(int argc, char **argv, const MfOptParse *p, ReconArgs *
         mf_mesh_free(&mesh);
         return MF_EXIT_FAIL;
     }
+    if (o.vertex_lr < 0) {
+        o.vertex_lr = mf_recon_geom_vertex_lr(gi.source, &mesh, o.normal_map);
+        if (o.vertex_lr > 0) mf_log_info("recon: --geometry %s: the vertices move (--vertex-lr %g, the default on a recovered mesh; 0 fixes them)", gi.source, (double)o.vertex_lr);
+    }
     MfSds *sds = NULL;
     MfRecon *r = NULL;
     int exit_code = is_mf ? load_sds(weights, &so, &sds) : MF_EXIT_OK;

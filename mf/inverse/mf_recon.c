@@ -253,6 +253,7 @@ int mf_recon_new(const MfMesh *mesh, MfReconView *views, int nviews, const MfRec
     if (!r) return mf_fail(MF_ENOMEM, "out of memory");
     r->mesh = mesh;
     r->o = *opts;
+    if (r->o.vertex_lr < 0) r->o.vertex_lr = 0; /* unresolved default: fixed */
     r->lr_scale = 1.0f;
     r->metal_state = -1;
     r->metal_fraction = -1.0;

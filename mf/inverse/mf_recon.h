@@ -26,7 +26,8 @@
  *      light >= 0.01 (in the exposure's working units, below), normal-map texels in [0,1] (initialised flat, (0.5, 0.5, 1)). A non-finite gradient is an event of the guard
  *      below (recover, or stop with the last good checkpoint kept and no texture written from
  *      the bad state);
- *   7. with vertex_lr > 0 (off by default; issue 14's pass 2 moving the mesh): the renderer's
+ *   7. with vertex_lr > 0 (issue 14's pass 2 moving the mesh; mf recon's default on a recovered
+ *      mesh, mf_recon_geom_vertex_lr; a given mesh stays fixed): the renderer's
  *      vertex gradient (MfDiffGrads.dpos: the hits' positions, UVs and interpolated normals) is
  *      gathered onto the mesh's vertices welded across its UV seams, the uniform Laplacian
  *      (mf_reg_laplacian, weight vertex_laplacian x (1 - it / iters) / welded vertices, as
@@ -114,7 +115,8 @@ typedef struct {
     float w_nrm_smooth;   /* normal-map smoothness weight (nvdiffrecmc 0.025) */
     float vertex_lr;      /* > 0: the mesh's vertices move too (Adam at this rate on the positions welded
                              across UV seams; normals follow; Embree rebuilt every step); 0: fixed.
-                             Positions are checkpointed; no normal map */
+                             Positions are checkpointed; no normal map. -1 (the default): the caller's
+                             to resolve (mf recon: mf_recon_geom_vertex_lr); mf_recon_new takes it as 0 */
     float vertex_laplacian; /* the moving vertices' uniform Laplacian weight, x (1 - it / iters) / vertices */
     float init_kd, init_rough, init_metal, init_light;
     int denoise;          /* 1: bilateral denoiser of the demodulated light (mf_denoise.h) */

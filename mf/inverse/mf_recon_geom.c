@@ -26,6 +26,14 @@ int mf_recon_geom_resolve(const MfReconGeomOpts *o, int mesh_exists, const char 
     return MF_OK;
 }
 
+float mf_recon_geom_vertex_lr(const char *source, const MfMesh *mesh, int normal_map) {
+    if (!strcmp(source, "given") || normal_map) return 0.0f;
+    MfVec3 lo, hi;
+    mf_mesh_bounds(mesh, &lo, &hi);
+    float side = fmaxf(hi.x - lo.x, fmaxf(hi.y - lo.y, hi.z - lo.z));
+    return MF_RECON_GEOM_VERTEX_LR * (isfinite(side) && side > 0.0f ? side : 1.0f);
+}
+
 /* The given mesh: it must have UVs. */
 static int read_given(const char *path, MfMesh *mesh) {
     if (mf_mesh_read(path, mesh)) return mf_fail_prefix(MF_EIO, "mesh (supply one with --mesh, or build one with --geometry vhull)");

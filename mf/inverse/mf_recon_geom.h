@@ -84,6 +84,13 @@ typedef struct {
  * mesh_exists, else vhull (logged). */
 int mf_recon_geom_resolve(const MfReconGeomOpts *o, int mesh_exists, const char **source);
 
+/* --vertex-lr's default (-1) resolved for a mesh from *source: 0 (fixed) for a given mesh or with a
+ * normal map; on a recovered one (vhull, dmtet) MF_RECON_GEOM_VERTEX_LR x the mesh's largest
+ * bounding-box side. The rate was chosen on val-3d's hulls (extent 1) and measured on test-3d
+ * (reports/bench/geometry-vertices: relit +0.27 dB, 9/9 scenes, p 0.011). */
+#define MF_RECON_GEOM_VERTEX_LR 2e-5f
+float mf_recon_geom_vertex_lr(const char *source, const MfMesh *mesh, int normal_map);
+
 /* The mesh to optimise on, into *mesh (with UVs), per *source (mf_recon_geom_resolve):
  * given reads given_path; vhull builds from cams (n,) and masks (n,) (last channel = mask, sizes
  * matching the cameras) and writes out_dir/geometry/vhull.obj (reused with resume). tex_res: the

@@ -30,7 +30,7 @@ static const MfOpt k_opts[] = {
     MF_OPT_INT(R, normal_map, 0, 0, 1, "1: also optimise a tangent-space normal map (writes normal.png)"),
     MF_OPT_FLOAT(R, w_nrm_perturb, 0.25, 0, 1000, "normal-map perturbation weight (L1 from flat)"),
     MF_OPT_FLOAT(R, w_nrm_smooth, 0.025, 0, 1000, "normal-map smoothness weight"),
-    MF_OPT_FLOAT(R, vertex_lr, 0, 0, 1, "> 0: the vertices move too, at this Adam rate (world units per step; welded across UV seams, normals follow, checkpointed; refuses --normal-map 1; 0: the mesh is fixed)"),
+    MF_OPT_FLOAT(R, vertex_lr, -1, -1, 1, "> 0: the vertices move too, at this Adam rate (world units per step; welded across UV seams, normals follow, checkpointed; refuses --normal-map 1); 0: the mesh is fixed; -1: 2e-5 x the mesh's largest side on a recovered mesh (--geometry vhull|dmtet, no normal map), else 0"),
     MF_OPT_FLOAT(R, vertex_laplacian, 30000, 0, 1e9, "--vertex-lr: uniform Laplacian weight on the moving vertices, x (1 - it / iters) / vertex count"),
     MF_OPT_FLOAT(R, init_kd, 0.5, 0, 1, "initial albedo"),
     MF_OPT_FLOAT(R, init_rough, 0.5, 0, 1, "initial roughness"),
