@@ -15,6 +15,7 @@
 #include "eval/ev_bench.h"
 #include "eval/ev_metrics.h"
 #include "eval/ev_report.h"
+#include "io/mf_json.h"
 
 const char *const ev_prior2d_methods[EV_PRIOR2D_NM] = {"StableMaterial", "StableMaterialMV", "Input image", "Retinex",
                                                        "Train-mean ORM"};
@@ -238,17 +239,17 @@ static int object_table(const EvTable *t, const EvPrior2dSplit *s, EvTable *o) {
 
 int ev_prior2d_write(const char *out, const EvTable *t, const EvPrior2dSplit *s, const EvPrior2dPreds *p,
                      const EvPrior2dInfo *in) {
-    char path[MF_PATH_MAX], caption[768];
+    char path[MF_PATH_MAX], caption[768 + MF_PATH_MAX];
     const char *ds[1] = {s->dataset};
     int rc = mf_mkdirs(out);
     if (!rc) {
         snprintf(caption, sizeof caption,
-                 "Prior 2D evaluation (paper Table 3) on %s: %d objects x %d views at %d px; mean of %d samples "
+                 "Prior 2D evaluation (paper Table 3) on %s, prior %s: %d objects x %d views at %d px; mean of %d samples "
                  "(%d DDIM steps, guidance %.1f) per view; albedo aligned per channel (ratio of means, linear) "
                  "inside the mask, then sRGB; ORM = roughness and metallic; metrics inside the mask; mean over "
                  "views with 95%% CI. Baselines need no training (Retinex sigma %.1f px; training-set mean "
                  "roughness %.3f, metallic %.3f).",
-                 in->test_dir, s->n / s->V, s->V, s->R, in->samples, in->steps, in->guidance, in->retinex_sigma,
+                 in->test_dir, in->weights ? in->weights : "?", s->n / s->V, s->V, s->R, in->samples, in->steps, in->guidance, in->retinex_sigma,
                  in->train_roughness, in->train_metallic);
         mf_path_join(path, sizeof path, out, "table2d.md");
         rc = ev_table_write_markdown(t, path, caption, ev_prior2d_methods, EV_PRIOR2D_NM, ds, 1, ev_prior2d_metrics, EV_PRIOR2D_NK);
@@ -258,18 +259,26 @@ int ev_prior2d_write(const char *out, const EvTable *t, const EvPrior2dSplit *s,
         rc = ev_table_write_csv(t, path);
     }
     if (!rc) {
-        char js[1024];
-        int l = snprintf(js, sizeof js,
-                         "{\"test_dir\":\"%s\",\"objects\":%d,\"views\":%d,\"resolution\":%d,\"samples\":%d,"
-                         "\"ddim_steps\":%d,\"guidance\":%.3f,\"seed\":%d,\"retinex_sigma\":%.3f,"
-                         "\"train_mean_roughness\":%.5f,\"train_mean_metallic\":%.5f,"
-                         "\"stablematerial_wall_s\":%.1f,\"stablematerialmv_wall_s\":%.1f,"
-                         "\"trust_roughness\":%.4f,\"trust_metallic\":%.4f}\n",
-                         in->test_dir, s->n / s->V, s->V, s->R, in->samples, in->steps, in->guidance, in->seed,
-                         in->retinex_sigma, in->train_roughness, in->train_metallic, in->sm_wall_s, in->mv_wall_s, in->trust[0],
-                         in->trust[1]);
+        cJSON *j = cJSON_CreateObject();
+        cJSON_AddStringToObject(j, "test_dir", in->test_dir);
+        cJSON_AddStringToObject(j, "weights", in->weights ? in->weights : "");
+        cJSON_AddNumberToObject(j, "objects", s->n / s->V);
+        cJSON_AddNumberToObject(j, "views", s->V);
+        cJSON_AddNumberToObject(j, "resolution", s->R);
+        cJSON_AddNumberToObject(j, "samples", in->samples);
+        cJSON_AddNumberToObject(j, "ddim_steps", in->steps);
+        cJSON_AddNumberToObject(j, "guidance", in->guidance);
+        cJSON_AddNumberToObject(j, "seed", in->seed);
+        cJSON_AddNumberToObject(j, "retinex_sigma", in->retinex_sigma);
+        cJSON_AddNumberToObject(j, "train_mean_roughness", in->train_roughness);
+        cJSON_AddNumberToObject(j, "train_mean_metallic", in->train_metallic);
+        cJSON_AddNumberToObject(j, "stablematerial_wall_s", in->sm_wall_s);
+        cJSON_AddNumberToObject(j, "stablematerialmv_wall_s", in->mv_wall_s);
+        cJSON_AddNumberToObject(j, "trust_roughness", in->trust[0]);
+        cJSON_AddNumberToObject(j, "trust_metallic", in->trust[1]);
         mf_path_join(path, sizeof path, out, "table2d.json");
-        rc = mf_write_file(path, js, (size_t)l);
+        rc = j ? mf_json_save(path, j) : mf_fail(MF_ENOMEM, "out of memory");
+        cJSON_Delete(j);
     }
     if (!rc && s->names) {
         EvTable o;
@@ -280,7 +289,7 @@ int ev_prior2d_write(const char *out, const EvTable *t, const EvPrior2dSplit *s,
             rc = ev_table_write_csv(&o, path);
         }
         if (!rc) {
-            char cap2[1024];
+            char cap2[1024 + MF_PATH_MAX];
             snprintf(cap2, sizeof cap2, "%s\n\nPer object: each object's mean over its %d views, then the mean over the %d "
                      "objects with its 95%% CI over objects (objects.csv: the per-object values).", caption, s->V, s->n / s->V);
             mf_path_join(path, sizeof path, out, "objects.md");

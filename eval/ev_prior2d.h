@@ -71,6 +71,7 @@ void ev_prior2d_trust(const EvTable *t, const char *dataset, int m, double trust
 /* The settings the table's caption and table2d.json state. */
 typedef struct {
     const char *test_dir;
+    const char *weights; /* the prior's weights file as resolved */
     int samples, steps, seed;
     float guidance, retinex_sigma, train_roughness, train_metallic;
     double sm_wall_s, mv_wall_s; /* wall seconds of the two prior methods */

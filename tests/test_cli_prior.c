@@ -12,6 +12,7 @@
 #include "eval/ev_table.h"
 #include "io/mf_image.h"
 #include "io/mf_ckpt.h"
+#include "io/mf_json.h"
 #include "nn/mf_nn.h"
 #include "prior/mf_prior.h"
 #include "prior/mf_prior_train.h"
@@ -141,9 +142,16 @@ MF_TEST(prior_eval_cli_writes_table) {
     CHECK_MSG(t.n == 4 * (7 + 7 + 3 + 3 + 4), "%zu records", t.n);
     CHECK(ev_table_stat(&t, "Train-mean ORM", "test-2d", "metal_mse").n == 4);
     mf_path_join(f, sizeof f, out, "table2d.json");
-    CHECK_OK(mf_read_file(f, &txt, &len));
-    CHECK(txt && strstr(txt, "\"trust_roughness\":") && strstr(txt, "\"trust_metallic\":"));
-    free(txt);
+    cJSON *js = NULL;
+    CHECK_OK(mf_json_load(f, &js));
+    const char *jw = NULL;
+    double tr = -1, tm = -1;
+    CHECK_OK(mf_json_string(f, "", js, "weights", &jw));
+    CHECK_MSG(jw && !strcmp(jw, w), "table2d.json weights '%s', ran '%s'", jw ? jw : "", w);
+    CHECK_OK(mf_json_number(f, "", js, "trust_roughness", &tr));
+    CHECK_OK(mf_json_number(f, "", js, "trust_metallic", &tm));
+    CHECK(tr >= 0 && tr <= 1 && tm >= 0 && tm <= 1);
+    cJSON_Delete(js);
     EvStat a = ev_table_stat(&t, "Input image", "test-2d", "albedo_psnr");
     CHECK(a.n == 4 && a.mean > 5);
     ev_table_free(&t);

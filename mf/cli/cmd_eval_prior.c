@@ -112,9 +112,11 @@ static int eval_prior_run(EvalPriorArgs *a) {
     MfPrior *p = NULL;
     EvTable t;
     ev_table_init(&t);
-    char first[MF_PATH_MAX]; /* a 2D split's first input image */
+    char first[MF_PATH_MAX], wdefault[MF_PATH_MAX]; /* a 2D split's first input image; the default weights */
+    mf_prior_default_weights(wdefault, sizeof wdefault);
+    info.weights = a->weights ? a->weights : wdefault;
     int rc = ds_prior2d_path(a->dir, "rgb", 0, first, sizeof first);
-    if (!rc) rc = mf_prior_load_path(a->weights, &p);
+    if (!rc) rc = mf_prior_load_path(info.weights, &p);
     if (!rc) rc = mf_file_exists(first) ? ev_prior2d_load(a->dir, a->max_objects, &s)
                                       : ev_prior2d_load_scenes(a->dir, p->cfg.ae.res, a->views, a->max_objects, &s);
     if (!rc) rc = train_orm_mean(a->train, &info.train_roughness, &info.train_metallic);
