@@ -10,12 +10,12 @@ methods="nvdiffrecmc nvdiffrecmc-vhull nvdiffrecmc-dmtet"
 [ -f "$rep/scenes.csv" ] || { echo "bench_geom_report: $rep/scenes.csv missing (mf eval did not run)" >&2; exit 1; }
 n=$(echo $scenes | wc -w)
 num() { grep -o "\"$1\":[^,}]*" "$2" | head -1 | cut -d: -f2 | tr -d ' '; }
-# "method scene hull_s geom_s unwrap_s" per recovered run (geom_s: DMTet's steps, vhull: none)
+# "method scene hull_s geom_s unwrap_s vertex_lr" per recovered run (geom_s: DMTet's steps, vhull: none)
 times=$(for m in nvdiffrecmc-vhull nvdiffrecmc-dmtet; do for s in $scenes; do
   j=$res/$m/$s/run.json
   [ -f "$j" ] || { echo "bench_geom_report: $j missing" >&2; exit 1; }
   g=$(num geom_s "$j")
-  echo "$m $s $(num hull_s "$j") ${g:--} $(num unwrap_s "$j")"
+  echo "$m $s $(num hull_s "$j") ${g:--} $(num unwrap_s "$j") $(num vertex_lr "$j")"
 done; done)
 cat <<EOF
 # Geometry recovery in mf recon on test-3d ($n of the 9 scenes)
@@ -30,6 +30,11 @@ mesh and the relit test views:
   steps of the mask term, 4 views a step; no colour term, which is off by default), cleaned and
   unwrapped like the hull. Silhouettes cannot carve a cavity, so cup, bowl and mug stay filled.
 
+On vhull and dmtet the mesh's vertices then move with the textures (\`--vertex-lr\`'s default on a
+recovered mesh: 2e-5 x the mesh's largest side, with the Laplacian; column vertex lr, from
+run.json; 0: fixed). The given mesh stays fixed. The same hulls with fixed vertices:
+reports/bench/geometry-vertices.
+
 Chamfer: Stanford-ORB's, x1e3 (object extent 1). Normals: mean angle between the shading normals
 of the two meshes over the test views' pixels that show both. hull s / DMTet s / unwrap s: wall
 seconds of the hull (dmtet: its soft-hull grid), of the DMTet steps and of the UV atlas inside
@@ -37,22 +42,22 @@ seconds of the hull (dmtet: its soft-hull grid), of the DMTet steps and of the U
 materials.md, paired.md (each mesh minus given), paired-vs-vhull/paired.md (each minus vhull),
 index.html.
 
-| scene | mesh | Chamfer x1e3 | normals deg | mask IoU | relit PSNR | albedo PSNR | recon s | hull s | DMTet s | unwrap s |
-|---|---|---|---|---|---|---|---|---|---|---|
+| scene | mesh | Chamfer x1e3 | normals deg | mask IoU | relit PSNR | albedo PSNR | recon s | hull s | DMTet s | unwrap s | vertex lr |
+|---|---|---|---|---|---|---|---|---|---|---|---|
 EOF
 echo "$times" | awk -v csv="$rep/scenes.csv" -v scenes="$scenes" -v methods="$methods" '
   BEGIN {
     while ((getline line < csv) > 0) { split(line, f, ","); v[f[1] SUBSEP f[3] SUBSEP f[4]] = f[5] } }
-  { hs[$1 SUBSEP $2] = $3; gs[$1 SUBSEP $2] = $4; us[$1 SUBSEP $2] = $5 }
+  { hs[$1 SUBSEP $2] = $3; gs[$1 SUBSEP $2] = $4; us[$1 SUBSEP $2] = $5; vl[$1 SUBSEP $2] = $6 }
   function val(m, s, k, fmt) { return ((m SUBSEP s SUBSEP k) in v) ? sprintf(fmt, v[m SUBSEP s SUBSEP k]) : "-" }
   function sec(a, m, s) { return ((m SUBSEP s) in a) && a[m SUBSEP s] != "-" ? sprintf("%.2f", a[m SUBSEP s]) : "-" }
   END { n = split(scenes, sc, " "); k = split(methods, me, " ")
     for (i = 1; i <= n; i++) { s = sc[i]
       for (j = 1; j <= k; j++) { m = me[j]; name = m; sub(/^nvdiffrecmc-?/, "", name)
-        printf "| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n", s, name == "" ? "given" : name,
+        printf "| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n", s, name == "" ? "given" : name,
           val(m, s, "geom_chamfer", "%.3f"), val(m, s, "geom_view_normal_deg", "%.1f"), val(m, s, "geom_mask_iou", "%.4f"),
           val(m, s, "relit_psnr", "%.2f"), val(m, s, "albedo_psnr", "%.2f"), val(m, s, "time_s", "%.0f"),
-          sec(hs, m, s), sec(gs, m, s), sec(us, m, s) } }
+          sec(hs, m, s), sec(gs, m, s), sec(us, m, s), ((m SUBSEP s) in vl) && vl[m SUBSEP s] != "" ? sprintf("%.2g", vl[m SUBSEP s]) : "-" } }
     print "\nMeans over the scenes (a mean is left out, -, when a scene lacks the value):\n"
     print "| mesh | Chamfer x1e3 | normals deg | mask IoU | relit PSNR | albedo PSNR | recon s |"
     print "|---|---|---|---|---|---|---|"
