@@ -13,6 +13,7 @@
 #include "core/mf_error.h"
 #include "core/mf_fs.h"
 #include "datasets/ds_split.h"
+#include "inverse/mf_recon_geom.h"
 #include "io/mf_json.h"
 #include "io/mf_obj.h"
 #include "mf_test.h"
@@ -76,7 +77,7 @@ MF_TEST(recon_geometry_vhull_tiny) {
     CHECK_OK(mf_obj_read(q, &used));
     CHECK_MSG(hull.uv && hull.nt > 100 && hull.nt <= 5000 && used.nt == hull.nt && used.nv == hull.nv, "hull %d tris (uv %d), result mesh %d",
               hull.nt, hull.uv != NULL, used.nt);
-    /* on a recovered mesh the vertices move by default (--vertex-lr -1: 2e-5 x the largest side),
+    /* on a recovered mesh the vertices move by default (--vertex-lr -1: MF_RECON_GEOM_VERTEX_LR x the largest side),
      * each coordinate by at most about the rate a step (Adam), so at most sqrt(3) x rate x 20 steps */
     double moved = 0.0;
     for (int i = 0; i < hull.nv && used.nv == hull.nv; ++i) {
@@ -86,7 +87,8 @@ MF_TEST(recon_geometry_vhull_tiny) {
     MfVec3 lo, hi;
     mf_mesh_bounds(&hull, &lo, &hi);
     double side = fmax(hi.x - lo.x, fmax(hi.y - lo.y, hi.z - lo.z));
-    CHECK_MSG(moved > 0.0 && moved <= 1.01 * sqrt(3.0) * 20 * 2e-5 * side, "vertices moved at most %g (rate 2e-5 x side %g, 20 steps)", moved, side);
+    CHECK_MSG(moved > 0.0 && moved <= 1.01 * sqrt(3.0) * 20 * MF_RECON_GEOM_VERTEX_LR * side,
+              "vertices moved at most %g (rate %g x side %g, 20 steps)", moved, (double)MF_RECON_GEOM_VERTEX_LR, side);
     mf_mesh_free(&hull), mf_mesh_free(&used);
     /* the same hull as the default run's (deterministic) */
     snprintf(q, sizeof q, "%s/default/geometry/vhull.obj", other);
