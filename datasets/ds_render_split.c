@@ -296,6 +296,36 @@ int ds_render_split(const DsSplitSpec *s, const char *out_dir, int *rendered) {
     return rc;
 }
 
+/* ---- NeRF-Synthetic layout ---- */
+
+int ds_split_nerf_layout(const char *out_dir) {
+    static const char *const keep[] = {"transforms_train.json", "transforms_test.json", "train", "test"};
+    char p[MF_PATH_MAX];
+    cJSON *list = NULL;
+    const cJSON *scenes;
+    int ns = 0, rc = mf_path_join(p, sizeof p, out_dir, "split.json");
+    if (rc || (rc = mf_json_load(p, &list))) return rc;
+    if ((rc = mf_json_array(p, "", list, "scenes", &scenes, &ns))) { cJSON_Delete(list); return rc; }
+    for (int k = 0; k < ns && !rc; ++k) {
+        const cJSON *jn = cJSON_GetObjectItem(cJSON_GetArrayItem(scenes, k), "name");
+        char sdir[MF_PATH_MAX];
+        if (!cJSON_IsString(jn)) { rc = mf_fail(MF_EFORMAT, "%s: scenes[%d]: name missing", p, k); break; }
+        if ((rc = mf_path_join(sdir, sizeof sdir, out_dir, jn->valuestring))) break;
+        DIR *d = opendir(sdir);
+        if (!d) { rc = mf_fail(MF_EIO, "%s: cannot open the scene folder", sdir); break; }
+        struct dirent *e;
+        while (!rc && (e = readdir(d))) {
+            int kept = !strcmp(e->d_name, ".") || !strcmp(e->d_name, "..");
+            for (size_t i = 0; i < sizeof keep / sizeof keep[0] && !kept; ++i) kept = !strcmp(e->d_name, keep[i]);
+            char f[MF_PATH_MAX];
+            if (!kept && !(rc = mf_path_join(f, sizeof f, sdir, e->d_name))) rc = mf_remove_tree(f);
+        }
+        closedir(d);
+    }
+    cJSON_Delete(list);
+    return rc;
+}
+
 /* ---- manifest ---- */
 
 static int cmp_str(const void *a, const void *b) { return strcmp(*(char *const *)a, *(char *const *)b); }
@@ -363,6 +393,7 @@ int ds_split_manifest(const DsSplitSpec *s, const char *out_dir, uint64_t seed, 
     cJSON_AddNumberToObject(r, "spp_sqrt", s->spp_sqrt);
     cJSON_AddNumberToObject(r, "pixel_samples", s->pixel_samples > 0 ? s->pixel_samples : 4);
     cJSON_AddBoolToObject(r, "diffuse", s->diffuse);
+    if (s->nerf_layout) cJSON_AddStringToObject(r, "layout", "nerf-synthetic (transforms_{train,test}.json, train/, test/; no mesh, no ground truth)");
     cJSON_AddStringToObject(r, "renderer", !rendered ? "none (layout only; render with mf render or --render)" : s->povray ? "povray (lit views), mf (GT albedo/ORM AOVs)" : s->cycles ? "blender cycles (train and relit views), mf (test views under the training light, GT albedo/ORM AOVs)" : "mf");
     cJSON_AddNumberToObject(r, "views_rendered_this_run", views_rendered);
     cJSON_AddNumberToObject(r, "wall_time_s", wall_s);

@@ -40,6 +40,8 @@ typedef struct {
                        under the training light and the GT AOVs stay ours, with either */
     int pov_radiosity; /* POV-Ray radiosity count (0: DS_SPLIT_POV_RADIOSITY) */
     const char *asset; /* NULL: procedural objects; else one scene, 000_<stem>, from this glTF asset (ds_asset.h) */
+    int nerf_layout;   /* 1: the rendered split is cut to NeRF-Synthetic's layout (ds_split_nerf_layout);
+                          the manifest says so */
     float r_min, r_max; /* camera distance range (default 1.5-2.0 as specified; note: with
                            camera_angle_x 0.6911 and extent-1 objects, 17% of such views crop
                            the object at the frame border, 0% at 2.2-2.8) */
@@ -73,6 +75,14 @@ int ds_write_split(DsSplitSpec *s, const char *out_dir, const char *env_dir, uin
  * views whose file exists are skipped (all writes are atomic), a scene is marked complete by
  * <scene>/.rendered. *rendered (may be NULL) = views rendered by this call. */
 int ds_render_split(const DsSplitSpec *s, const char *out_dir, int *rendered);
+
+/* Cuts a rendered split to NeRF-Synthetic's layout: each scene folder of out_dir/split.json keeps
+ * transforms_train.json, transforms_test.json, train/ and test/ (RGBA PNGs) and loses the rest
+ * (mesh, textures, gt/, relight/, render JSONs, the .rendered marker): a mesh-less scene with no
+ * ground truth, as a user of such a set has it. Its images are the full split's bytes, so a
+ * full split made with the same arguments scores results on it. A rerun of mf gen rewrites and
+ * re-renders what was removed, then cuts again. */
+int ds_split_nerf_layout(const char *out_dir);
 
 /* Writes out_dir/manifest.json: split, seed, counts, render settings, wall time and views/s of
  * this run, and "files": {"<relative path>": "<FNV-1a 64 hex>"} for every file under out_dir

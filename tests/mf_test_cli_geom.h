@@ -3,8 +3,9 @@
  *
  * geom_result: run.json's options.geometry_result.<key> as a number (NAN when absent), and its
  *              "source" into src (may be NULL).
- * bare_copy:   the NeRF-Synthetic layout of a generated scene's views (transforms and train/,
- *              test/ images) in bare, without mesh.obj or any ground truth; 0 on success. */
+ * gen_nerf:    `mf gen GEN_ARGS --layout nerf-synthetic -o DIR`: the split's scenes as NeRF-Synthetic
+ *              has them (transforms and train/, test/ images; no mesh.obj, no ground truth), the
+ *              images the bytes of the full split made with GEN_ARGS; 0 when it ran. */
 #ifndef MF_TEST_CLI_GEOM_H
 #define MF_TEST_CLI_GEOM_H
 
@@ -28,9 +29,8 @@ static inline double geom_result(const char *run_dir, const char *key, char *src
     return r;
 }
 
-static inline int bare_copy(const char *scene, const char *bare) {
-    return mf_test_sh("mkdir -p %s && cp -r %s/transforms_train.json %s/transforms_test.json %s/train %s/test %s/", bare, scene,
-                      scene, scene, scene, bare);
+static inline int gen_nerf(const char *mf, const char *gen_args, const char *dir) {
+    return mf_test_sh("%s %s --layout nerf-synthetic -o %s 2>/dev/null", mf, gen_args, dir);
 }
 
 #endif

@@ -1,9 +1,9 @@
 /* mf recon --geometry (mf/inverse/mf_recon_geom.h) through the `mf` command (MF_BIN) on the tiny
- * split: a NeRF-Synthetic-layout copy of one scene without its mesh (transforms, train/ and test/
- * PNGs) is reconstructed on its visual hull — the default without a mesh, and --geometry vhull;
+ * split: the scene as `mf gen --layout nerf-synthetic` writes it, without its mesh (transforms, train/
+ * and test/ PNGs) is reconstructed on its visual hull — the default without a mesh, and --geometry vhull;
  * --resume reuses geometry/vhull.obj and reaches the uninterrupted run's bytes. The geometry's
  * quality is T8's (test_cli_recon_geom_ci.c, a fixture whose views carve). --geometry dmtet (DMTet's mask term
- * from the hull) on the same copy: recon_geometry_dmtet_tiny. */
+ * from the hull) on the same mesh-less scene: recon_geometry_dmtet_tiny. */
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -36,17 +36,30 @@ MF_TEST(recon_geometry_vhull_tiny) {
     char d[1024], scene[1100], bare[1100], res[1100], other[1100], p[1300], q[1300], err[8192], args[4096];
     mf_test_path_to(d, sizeof d, "recon_geom");
     snprintf(scene, sizeof scene, "%s/000_cup", d);
-    snprintf(bare, sizeof bare, "%s/bare", d);
+    snprintf(bare, sizeof bare, "%s/nerf/000_cup", d);
     snprintf(res, sizeof res, "%s/results", d);
     snprintf(other, sizeof other, "%s/other", d);
     CHECK(mf_test_sh("%s gen --split tiny --scenes 1 -o %s 2>/dev/null", mf, d) == 0);
-    /* the NeRF-Synthetic layout of the same views, without mesh.obj (or any ground truth) */
-    CHECK(bare_copy(scene, bare) == 0);
+    /* the NeRF-Synthetic layout of the same split (mf gen --layout nerf-synthetic): the same
+     * image bytes, no mesh.obj and no ground truth */
+    snprintf(p, sizeof p, "%s/nerf", d);
+    CHECK(gen_nerf(mf, "gen --split tiny --scenes 1", p) == 0);
+    snprintf(p, sizeof p, "%s/mesh.obj", bare);
+    snprintf(q, sizeof q, "%s/gt", bare);
+    CHECK(!mf_file_exists(p) && !mf_file_exists(q));
+    snprintf(p, sizeof p, "%s/train/r_007.png", bare);
+    snprintf(q, sizeof q, "%s/train/r_007.png", scene);
+    CHECK(same_file(p, q));
+    /* without images there is nothing to keep: refused, nothing written */
+    snprintf(p, sizeof p, "%s/nerf_norender", d);
+    snprintf(args, sizeof args, "gen --split tiny --layout nerf-synthetic --no-render -o %s", p);
+    int rc = mf_test_run_mf(args, NULL, err, sizeof err);
+    CHECK_MSG(rc == 2 && strstr(err, "nerf-synthetic") && !mf_file_exists(p), "--layout nerf-synthetic --no-render: exit %d, '%s'", rc, err);
 
     /* refused combinations: nothing written */
     snprintf(p, sizeof p, "%s/dmtet", other);
     snprintf(args, sizeof args, "recon %s -o %s/dmtet --geometry vhull --mesh %s/mesh.obj", bare, other, scene);
-    int rc = mf_test_run_mf(args, NULL, err, sizeof err);
+    rc = mf_test_run_mf(args, NULL, err, sizeof err);
     CHECK_MSG(rc == 2 && strstr(err, "--mesh"), "--geometry vhull --mesh: exit %d, '%s'", rc, err);
     snprintf(args, sizeof args, "recon %s -o %s/dmtet --geometry vhull --side +x", bare, other);
     rc = mf_test_run_mf(args, NULL, err, sizeof err);
@@ -137,7 +150,7 @@ static int read_geom_log(const char *path, double *first, double *last) {
     return rows;
 }
 
-/* --geometry dmtet on the same mesh-less copy: bad values refused naming the option; a short
+/* --geometry dmtet on the same mesh-less scene: bad values refused naming the option; a short
  * fit runs end to end (dmtet.obj with UVs is the mesh optimised on, geom_log.csv's mask loss
  * falls, run.json has the timing); --resume reuses dmtet.obj. */
 MF_TEST(recon_geometry_dmtet_tiny) {
@@ -147,10 +160,11 @@ MF_TEST(recon_geometry_dmtet_tiny) {
     char d[1024], scene[1100], bare[1100], run[1100], p[1300], q[1300], err[8192], args[4096];
     mf_test_path_to(d, sizeof d, "recon_dmtet");
     snprintf(scene, sizeof scene, "%s/000_cup", d);
-    snprintf(bare, sizeof bare, "%s/bare", d);
+    snprintf(bare, sizeof bare, "%s/nerf/000_cup", d);
     snprintf(run, sizeof run, "%s/run", d);
     CHECK(mf_test_sh("%s gen --split tiny --scenes 1 -o %s 2>/dev/null", mf, d) == 0);
-    CHECK(bare_copy(scene, bare) == 0);
+    snprintf(p, sizeof p, "%s/nerf", d);
+    CHECK(gen_nerf(mf, "gen --split tiny --scenes 1", p) == 0);
 
     const char *bad[] = {"--dmtet-res 3", "--geom-iters -1"}, *name[] = {"dmtet-res", "geom-iters"};
     for (int k = 0; k < 2; ++k) {

@@ -4,8 +4,8 @@
  * even 24 frames leave blocks of the grid's corners uncovered (000_cup hull: Chamfer x1e3 115 with
  * 8 views, 85 with 24; 2.25 with 8 views from 2.2-2.8). test_cli_recon_geom.c keeps the tiny split
  * for the CLI behaviour (refusals, defaults, --resume). Here the tiny split is generated with 24
- * training views at 40 px from 2.2-2.8 units, and two of its scenes are reconstructed from a
- * NeRF-Synthetic-layout copy without their mesh: 006_torus (convex outside, a hole that only
+ * training views at 40 px from 2.2-2.8 units, and two of its scenes are reconstructed from the
+ * same split in NeRF-Synthetic's layout (mf gen --layout nerf-synthetic: no mesh, no ground truth): 006_torus (convex outside, a hole that only
  * carving opens) and 000_cup (a cavity no silhouette carves). Per scene: the given mesh,
  * --geometry vhull and --geometry dmtet at the same budget, scored by mf eval against the scene's
  * GT mesh and relit views. */
@@ -74,13 +74,13 @@ MF_TEST(recon_geometry_carve_ci) {
     snprintf(res, sizeof res, "%s/results", d);
     snprintf(rep, sizeof rep, "%s/report", d);
     CHECK(mf_test_sh("%s " CI_GEN " -o %s 2>/dev/null", mf, data) == 0);
+    snprintf(p, sizeof p, "%s/nerf", d); /* the same split in NeRF-Synthetic's layout: no mesh, no ground truth */
+    CHECK(gen_nerf(mf, CI_GEN, p) == 0);
 
     const int ns = (int)(sizeof k_measured / sizeof k_measured[0]);
     for (int s = 0; s < ns; ++s) {
         const char *sc = k_measured[s].scene;
-        snprintf(bare, sizeof bare, "%s/bare_%s", d, sc);
-        snprintf(p, sizeof p, "%s/%s", data, sc);
-        CHECK(bare_copy(p, bare) == 0);
+        snprintf(bare, sizeof bare, "%s/nerf/%s", d, sc);
         snprintf(args, sizeof args, "recon %s/%s -o %s/given/%s " CI_RECON, data, sc, res, sc);
         int rc = mf_test_run_mf(args, NULL, err, sizeof err);
         CHECK_MSG(rc == 0, "%s given: exit %d, '%s'", sc, rc, err);

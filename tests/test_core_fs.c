@@ -150,3 +150,27 @@ MF_TEST(hostile_stale_temporaries) {
     CHECK(mf_file_exists(p));
     CHECK(mf_file_exists(pj2(out, "albedo.png")) && mf_file_exists(pj2(out, "env.exr")));
 }
+
+/* mf_remove_tree (mf gen --layout nerf-synthetic cuts scenes with it): a nested folder goes, a
+ * symbolic link inside it is removed without following it (its target stays), a missing path is
+ * no error, and a single file is removed too. */
+MF_TEST(core_fs_remove_tree) {
+    char root[1024], p[1200], keep[1200];
+    mf_test_path_to(root, sizeof root, "remove_tree");
+    snprintf(p, sizeof p, "%s/a/b/c", root);
+    CHECK_OK(mf_mkdirs(p));
+    snprintf(p, sizeof p, "%s/a/b/c/f.txt", root);
+    CHECK_OK(mf_write_file(p, "x", 1));
+    snprintf(p, sizeof p, "%s/a/g.txt", root);
+    CHECK_OK(mf_write_file(p, "y", 1));
+    snprintf(keep, sizeof keep, "%s/outside.txt", root);
+    CHECK_OK(mf_write_file(keep, "z", 1));
+    snprintf(p, sizeof p, "%s/a/b/link", root);
+    CHECK(symlink(keep, p) == 0);
+    snprintf(p, sizeof p, "%s/a", root);
+    CHECK_OK(mf_remove_tree(p));
+    CHECK(!mf_file_exists(p) && mf_file_exists(keep));
+    CHECK_OK(mf_remove_tree(p)); /* already gone */
+    CHECK_OK(mf_remove_tree(keep));
+    CHECK(!mf_file_exists(keep));
+}

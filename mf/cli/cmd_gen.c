@@ -50,6 +50,9 @@
     "    base colour and occlusion/roughness/metallic textures become gt/kd.png, gt/orm.png, its normalTexture\n" \
     "    gt/normal.png, used by the renders; emission and other unrendered features are warned about and\n" \
     "    listed in split.json and gt/object.json as not_rendered).\n" \
+    "  --layout nerf-synthetic: each scene then cut to NeRF-Synthetic's layout (transforms_{train,test}.json,\n" \
+    "    train/, test/: no mesh, no ground truth), for the mesh-less path (mf recon --geometry vhull|dmtet);\n" \
+    "    the images are the full split's bytes, so the full split made with the same arguments scores it.\n" \
     "  --compare-povray FILE.md: render the relit test views (first --views N, at --res R) with both\n" \
     "    renderers and append a table row (PSNR, mean relative error) to FILE.md.\n" \
     "  Probes: *.exr of --env-dir (default Blender's studio lights).\n" \
@@ -155,7 +158,9 @@ static const MfOpt k_args[] = {
                "--split test-3d-diffuse --train 24 --width 64, into its own DIR); --layout ingp: image width (height 3/4 of it)",
                .unset = "the split's own; 64 (ingp)"),
     MF_OPT_STR(A, layout, "bvault", "one object: bvault (mesh, textures and cameras, no images) or ingp (an instant-ngp / "
-               "nerfstudio capture: transforms.json with intrinsics, RGB frames, masks, mesh.obj; rendered)", .choices = "bvault|ingp"),
+               "nerfstudio capture: transforms.json with intrinsics, RGB frames, masks, mesh.obj; rendered); a scene split: "
+               "bvault (everything) or nerf-synthetic (each scene cut to transforms_{train,test}.json, train/, test/: no mesh, "
+               "no ground truth; the images are the bvault split's bytes)", .choices = "bvault|ingp|nerf-synthetic"),
     MF_OPT_STR(A, intrinsics, NULL, "--layout ingp: the global lens in pixels (odd frames: focal lengths x1.25, principal point "
                "mirrored)", .unset = "fl_x 0.9x the 0.6911 lens, fl_y 1.1 fl_x, cx 0.55 w, cy 0.45 h", .meta = "FL_X,FL_Y,CX,CY"),
     MF_OPT_STR(A, distortion, NULL, "--layout ingp: OpenCV lens distortion written into transforms.json (not applied to the "
@@ -289,10 +294,13 @@ static int gen_split(const GenArgs *a) {
     if (a->width > 0) spec.width = a->width;
     spec.pov_radiosity = a->pov_radiosity;
     spec.asset = a->asset;
+    spec.nerf_layout = !strcmp(a->layout, "nerf-synthetic");
+    if (spec.nerf_layout) spec.n_relight = 0; /* cut anyway; the probes' draw does not depend on it */
     double t0 = mf_now();
     int nv = 0;
     if (ds_write_split(&spec, out, a->env_dir, (uint64_t)a->seed)) return MF_EXIT_FAIL;
     if (render && ds_render_split(&spec, out, &nv)) return MF_EXIT_FAIL;
+    if (spec.nerf_layout && ds_split_nerf_layout(out)) return MF_EXIT_FAIL;
     double wall = mf_now() - t0;
     if (ds_split_manifest(&spec, out, (uint64_t)a->seed, render, nv, wall)) return MF_EXIT_FAIL;
     if (a->compare_povray && gen_compare_povray(a, &spec)) return MF_EXIT_FAIL;
@@ -368,8 +376,12 @@ static int gen_run(const GenArgs *a) {
         mf_fail(MF_EARG, "--train-lights applies to --split prior-train or test-2d");
         return MF_EXIT_USAGE;
     }
-    int ingp = !strcmp(a->layout, "ingp");
+    int ingp = !strcmp(a->layout, "ingp"), nerf = !strcmp(a->layout, "nerf-synthetic");
     if (ingp && split) { mf_fail(MF_EARG, "--layout ingp writes one object's capture; it does not apply to --split"); return MF_EXIT_USAGE; }
+    if (nerf && (!split || prior_split || a->no_render)) {
+        mf_fail(MF_EARG, "--layout nerf-synthetic applies to a rendered scene split (--split tiny|small|full|test-3d|...; not with --no-render)");
+        return MF_EXIT_USAGE;
+    }
     if (!ingp && (a->intrinsics || a->distortion)) {
         mf_fail(MF_EARG, "--%s applies to --layout ingp", a->intrinsics ? "intrinsics" : "distortion");
         return MF_EXIT_USAGE;

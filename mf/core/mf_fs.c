@@ -72,6 +72,27 @@ int mf_remove_stale_tmp(const char *dir, int depth, int *removed) {
     return rc;
 }
 
+int mf_remove_tree(const char *path) {
+    struct stat st;
+    if (lstat(path, &st) != 0) return errno == ENOENT ? MF_OK : mf_fail(MF_EIO, "%s: %s", path, strerror(errno));
+    if (S_ISDIR(st.st_mode)) {
+        DIR *d = opendir(path);
+        if (!d) return mf_fail(MF_EIO, "%s: cannot open the folder: %s", path, strerror(errno));
+        int rc = MF_OK;
+        struct dirent *e;
+        while (!rc && (e = readdir(d))) {
+            if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, "..")) continue;
+            char sub[MF_PATH_MAX];
+            rc = mf_path_join(sub, sizeof sub, path, e->d_name);
+            if (!rc) rc = mf_remove_tree(sub);
+        }
+        closedir(d);
+        if (rc) return rc;
+    }
+    if (remove(path) != 0) return mf_fail(MF_EIO, "%s: cannot remove: %s", path, strerror(errno));
+    return MF_OK;
+}
+
 int mf_commit_file(const char *tmp, const char *path) {
     if (rename(tmp, path) != 0) {
         int e = errno;

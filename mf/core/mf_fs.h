@@ -22,6 +22,9 @@ int mf_is_tmp_name(const char *name, long *pid);
  * whose PID is a live process, this one included, is kept: it may be another run's file in
  * progress. *removed (may be NULL) counts the files removed. A missing dir is not an error. */
 int mf_remove_stale_tmp(const char *dir, int depth, int *removed);
+/* rm -r path: a file, or a folder and everything under it (symbolic links are removed, not
+ * followed). A missing path is not an error; MF_EIO names what could not be removed. */
+int mf_remove_tree(const char *path);
 /* rename(tmp, path); on failure removes tmp and sets the error. */
 int mf_commit_file(const char *tmp, const char *path);
 void mf_discard_file(const char *tmp);
