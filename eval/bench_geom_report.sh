@@ -68,4 +68,29 @@ echo "$times" | awk -v csv="$rep/scenes.csv" -v scenes="$scenes" -v methods="$me
       for (q = 1; q <= nk; q++) { sum = 0; cnt = 0
         for (i = 1; i <= n; i++) if ((m SUBSEP sc[i] SUBSEP key[q]) in v) { sum += v[m SUBSEP sc[i] SUBSEP key[q]]; cnt++ }
         line = line " | " (cnt == n ? sprintf(fmt[q], sum / cnt) : "-") }
-      print line " |" } }'
+      print line " |" }
+    # issue 14'"'"'s "Numbers" checked on these scenes (a check needs its scenes; "-": not among them)
+    G = "nvdiffrecmc"; H = "nvdiffrecmc-vhull"; D = "nvdiffrecmc-dmtet"
+    print "\nIssue 14'"'"'s numbers on these scenes (yes / no, with the values that fail):\n"
+    print "| check | vhull | dmtet |"
+    print "|---|---|---|"
+    for (j = 2; j <= 3; j++) { m = j == 2 ? H : D; sg = 0; sm = 0; cnt = 0; near[j] = ""; nn[j] = 0
+      for (i = 1; i <= n; i++) { s = sc[i]; fam = s; sub(/^[0-9]+_/, "", fam)
+        if (!((m SUBSEP s SUBSEP "relit_psnr") in v) || !((G SUBSEP s SUBSEP "relit_psnr") in v)) continue
+        d = v[m SUBSEP s SUBSEP "relit_psnr"] - v[G SUBSEP s SUBSEP "relit_psnr"]
+        sg += v[G SUBSEP s SUBSEP "relit_psnr"]; sm += v[m SUBSEP s SUBSEP "relit_psnr"]; cnt++
+        if (fam == "torus" || fam == "superquadric" || fam == "bottle" || fam == "box") { nn[j]++; if (d < -1) near[j] = near[j] sprintf(" %s %+.2f", fam, d) } }
+      bar[j] = cnt ? (sm / cnt >= sg / cnt - 2 ? "yes" : "no") sprintf(" (%.2f vs %.2f)", sm / cnt, sg / cnt - 2) : "-"
+      within[j] = nn[j] ? (near[j] == "" ? "yes" : "no:" near[j]) : "-" }
+    print "| relit mean >= given - 2 dB | " bar[2] " | " bar[3] " |"
+    print "| relit within 1 dB of given on torus, superquadric, bottle, box | " within[2] " | " within[3] " |"
+    cav = ""; ncav = 0; oth = ""; noth = 0; iou = ""; niou = 0
+    for (i = 1; i <= n; i++) { s = sc[i]; fam = s; sub(/^[0-9]+_/, "", fam)
+      if (!((D SUBSEP s SUBSEP "geom_chamfer") in v) || !((H SUBSEP s SUBSEP "geom_chamfer") in v)) continue
+      r = v[D SUBSEP s SUBSEP "geom_chamfer"] / v[H SUBSEP s SUBSEP "geom_chamfer"]; nd = v[D SUBSEP s SUBSEP "geom_view_normal_deg"]
+      if (fam == "cup" || fam == "bowl" || fam == "mug") { ncav++; if (r > 0.5 || nd > 12) cav = cav sprintf(" %s x%.2f %.1f deg", fam, r, nd) }
+      else { noth++; if (r > 1.2 || nd > 5) oth = oth sprintf(" %s x%.2f %.1f deg", fam, r, nd) }
+      niou++; if (v[D SUBSEP s SUBSEP "geom_mask_iou"] < 0.98) iou = iou sprintf(" %s %.4f", fam, v[D SUBSEP s SUBSEP "geom_mask_iou"]) }
+    print "| DMTet, cup / bowl / mug: Chamfer <= 0.5x the hull'"'"'s, normals <= 12 deg | - | " (ncav ? (cav == "" ? "yes" : "no:" cav) : "-") " |"
+    print "| DMTet, the others: Chamfer <= 1.2x the hull'"'"'s, normals <= 5 deg | - | " (noth ? (oth == "" ? "yes" : "no:" oth) : "-") " |"
+    print "| DMTet: mask IoU >= 0.98 | - | " (niou ? (iou == "" ? "yes" : "no:" iou) : "-") " |" }'
