@@ -23,9 +23,8 @@
 #ifndef MF_LOSS_H
 #define MF_LOSS_H
 
-#include <stdint.h>
-
 #include <stddef.h>
+#include <stdint.h>
 
 /* out (N, 3) = rgb_premult (N, 3) + (1 - alpha (N,)) * bg (N, 3). */
 void mf_loss_composite(float *out, const float *rgb_premult, const float *alpha, const float *bg, size_t npx);
