@@ -241,14 +241,25 @@ static int render_set(Ctx *c, const char *env_rel, const char *env_name, int kin
     return rc;
 }
 
+/* out_dir/split.json (its path into p, cap MF_PATH_MAX) loaded into *list (the caller deletes it)
+ * and its "scenes" array into *scenes, *ns; on failure nothing is left to free. */
+static int split_scenes(const char *out_dir, char *p, cJSON **list, const cJSON **scenes, int *ns) {
+    *list = NULL;
+    int rc = mf_path_join(p, MF_PATH_MAX, out_dir, "split.json");
+    if (rc || (rc = mf_json_load(p, list))) return rc;
+    if ((rc = mf_json_array(p, "", *list, "scenes", scenes, ns))) {
+        cJSON_Delete(*list);
+        *list = NULL;
+    }
+    return rc;
+}
+
 int ds_render_split(const DsSplitSpec *s, const char *out_dir, int *rendered) {
     char p[MF_PATH_MAX];
-    cJSON *list = NULL;
-    int rc = mf_path_join(p, sizeof p, out_dir, "split.json");
-    if (rc || (rc = mf_json_load(p, &list))) return rc;
+    cJSON *list;
     const cJSON *scenes;
-    int ns = 0;
-    if ((rc = mf_json_array(p, "", list, "scenes", &scenes, &ns))) { cJSON_Delete(list); return rc; }
+    int ns = 0, rc = split_scenes(out_dir, p, &list, &scenes, &ns);
+    if (rc) return rc;
     MfProgress prog;
     mf_progress_begin(&prog, s->name, (size_t)ns * (size_t)(s->n_train + s->n_test * (1 + s->n_relight)));
     int total = 0;
@@ -301,11 +312,10 @@ int ds_render_split(const DsSplitSpec *s, const char *out_dir, int *rendered) {
 int ds_split_nerf_layout(const char *out_dir) {
     static const char *const keep[] = {"transforms_train.json", "transforms_test.json", "train", "test"};
     char p[MF_PATH_MAX];
-    cJSON *list = NULL;
+    cJSON *list;
     const cJSON *scenes;
-    int ns = 0, rc = mf_path_join(p, sizeof p, out_dir, "split.json");
-    if (rc || (rc = mf_json_load(p, &list))) return rc;
-    if ((rc = mf_json_array(p, "", list, "scenes", &scenes, &ns))) { cJSON_Delete(list); return rc; }
+    int ns = 0, rc = split_scenes(out_dir, p, &list, &scenes, &ns);
+    if (rc) return rc;
     for (int k = 0; k < ns && !rc; ++k) {
         const cJSON *jn = cJSON_GetObjectItem(cJSON_GetArrayItem(scenes, k), "name");
         char sdir[MF_PATH_MAX];
@@ -439,12 +449,10 @@ static void accumulate(const float *a, int as, const float *aa, int aas, const f
 int ds_compare_renderers(const DsSplitSpec *spec, const char *out_dir, int max_scenes, int max_views, int res, DsRenderCompare *out) {
     memset(out, 0, sizeof *out);
     char p[MF_PATH_MAX];
-    cJSON *list = NULL;
-    int rc = mf_path_join(p, sizeof p, out_dir, "split.json");
-    if (rc || (rc = mf_json_load(p, &list))) return rc;
+    cJSON *list;
     const cJSON *scenes;
-    int ns = 0;
-    if ((rc = mf_json_array(p, "", list, "scenes", &scenes, &ns))) { cJSON_Delete(list); return rc; }
+    int ns = 0, rc = split_scenes(out_dir, p, &list, &scenes, &ns);
+    if (rc) return rc;
     if (max_scenes > 0 && ns > max_scenes) ns = max_scenes;
     double t_ours = 0, t_pov = 0;
     for (int k = 0; k < ns && !rc; ++k) {

@@ -5,8 +5,9 @@
  * 8 views, 85 with 24; 2.25 with 8 views from 2.2-2.8). test_cli_recon_geom.c keeps the tiny split
  * for the CLI behaviour (refusals, defaults, --resume). Here the tiny split is generated with 24
  * training views at 40 px from 2.2-2.8 units, and two of its scenes are reconstructed from the
- * same split in NeRF-Synthetic's layout (mf gen --layout nerf-synthetic: no mesh, no ground truth): 006_torus (convex outside, a hole that only
- * carving opens) and 000_cup (a cavity no silhouette carves). Per scene: the given mesh,
+ * same split in NeRF-Synthetic's layout (mf gen --layout nerf-synthetic: no mesh, no ground
+ * truth): 006_torus (convex outside, a hole that only carving opens) and 000_cup (a cavity no
+ * silhouette carves). Per scene: the given mesh,
  * --geometry vhull and --geometry dmtet at the same budget, scored by mf eval against the scene's
  * GT mesh and relit views. */
 #include <math.h>
