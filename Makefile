@@ -428,7 +428,7 @@ bench-hull: $(DATA)/test-3d/.rendered | $(BUILD)/mf
 	@awk -F, -v issue="$(GEOM_ISSUE_CHAMFER)" 'BEGIN { n = split(issue, kv, " "); for (i = 1; i <= n; i++) { split(kv[i], p, "="); q[p[1]] = p[2] } \
 	  print "# Visual hull on test-3d\n"; \
 	  print "Made by `make bench-hull` (`mf hull DATA --eval`: 64 training masks at 128 px, 128^3 grid, marching tets,"; \
-	  print "weld and clean-up, 10 Taubin iterations, meshoptimizer decimation to 40k triangles). Chamfer: Stanford-ORB"; \
+	  print "weld and clean-up, 400 Taubin iterations, meshoptimizer decimation to 40k triangles). Chamfer: Stanford-ORB"; \
 	  print "(GT vertices vs 30k area samples, mean squared nearest distance each way, averaged, x1e3; object extent 1)."; \
 	  print "Normals, points: mean angle between GT vertex normals and hull face normals of the same nearest pairs"; \
 	  print "(counts hidden surfaces: inner walls). Normals, views: mean angle between the two meshes shading normals"; \

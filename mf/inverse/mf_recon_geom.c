@@ -79,7 +79,7 @@ static int unwrap_write(MfMesh *m, int tex_res, const char *path, MfReconGeomInf
     return rc;
 }
 
-/* The hull_* options: the hull's grid and clean-up (the DMTet mesh's clean-up too). */
+/* The hull_* options: the hull's grid and clean-up (the DMTet mesh's too, with dmtet_smooth). */
 static MfHullOpts hull_opts(const MfReconGeomOpts *o) {
     return (MfHullOpts){o->hull_res, o->hull_extent, o->hull_smooth, o->hull_target_tris, o->hull_min_component};
 }
@@ -161,6 +161,7 @@ static int build_dmtet(const MfReconGeomOpts *o, const MfCamera *cams, const MfI
                     info->steps, o->geom_views ? o->geom_views : n, info->geom_s, info->step_ms, info->loss_first, info->loss_last);
     MfMesh m = {0};
     MfHullOpts ho = hull_opts(o);
+    ho.smooth_iters = o->dmtet_smooth;
     if (!rc) rc = mf_vhull_extract_clean(&g, sdf, &ho, &m, NULL, &info->dropped_components);
     free(sdf), free(log);
     if (!rc) rc = unwrap_write(&m, tex_res, path, info);

@@ -50,6 +50,7 @@ typedef struct {
     int hull_target_tris;
     float hull_min_component;
     int dmtet_res;            /* dmtet: grid cubes per axis */
+    int dmtet_smooth;         /* dmtet: Taubin iterations of the extracted mesh (hull_smooth is the hull's) */
     int geom_iters;           /* dmtet: Adam steps of the mask term */
     int geom_views;           /* dmtet: views per step (0: all) */
     float geom_lr;            /* dmtet: SDF learning rate, in grid cells per step */
