@@ -161,7 +161,8 @@ static int build_dmtet(const MfReconGeomOpts *o, const MfCamera *cams, const MfI
                     info->steps, o->geom_views ? o->geom_views : n, info->geom_s, info->step_ms, info->loss_first, info->loss_last);
     MfMesh m = {0};
     MfHullOpts ho = hull_opts(o);
-    ho.smooth_iters = o->dmtet_smooth;
+    ho.smooth_iters = info->smooth_iters = o->dmtet_smooth >= 0 ? o->dmtet_smooth
+                                              : (int)lround(100.0 * o->dmtet_res * o->dmtet_res / (64.0 * 64.0));
     if (!rc) rc = mf_vhull_extract_clean(&g, sdf, &ho, &m, NULL, &info->dropped_components);
     free(sdf), free(log);
     if (!rc) rc = unwrap_write(&m, tex_res, path, info);
@@ -259,6 +260,7 @@ void mf_recon_geom_to_json(const MfReconGeomInfo *info, cJSON *obj) {
         cJSON_AddNumberToObject(g, "rgb_loss_first", info->rgb_first); /* the colour term's logl1 (0 without it) */
         cJSON_AddNumberToObject(g, "rgb_loss_last", info->rgb_last);
         cJSON_AddNumberToObject(g, "dropped_components", info->dropped_components);
+        cJSON_AddNumberToObject(g, "smooth_iters", info->smooth_iters); /* Taubin iterations of the extracted mesh */
         cJSON_AddNumberToObject(g, "grid_extent", info->hull.extent);
         cJSON_AddBoolToObject(g, "touches_border", info->hull.touches_border);
         cJSON_AddNumberToObject(g, "charts", info->atlas.charts);

@@ -50,7 +50,7 @@ typedef struct {
     int hull_target_tris;
     float hull_min_component;
     int dmtet_res;            /* dmtet: grid cubes per axis */
-    int dmtet_smooth;         /* dmtet: Taubin iterations of the extracted mesh (hull_smooth is the hull's) */
+    int dmtet_smooth;         /* dmtet: Taubin iterations of the extracted mesh (-1: 100 (res/64)^2; hull_smooth is the hull's) */
     int geom_iters;           /* dmtet: Adam steps of the mask term */
     int geom_views;           /* dmtet: views per step (0: all) */
     float geom_lr;            /* dmtet: SDF learning rate, in grid cells per step */
@@ -79,6 +79,7 @@ typedef struct {
     double loss_first, loss_last;/* dmtet, built: mask loss of the first and last step */
     double rgb_first, rgb_last;  /* dmtet, built: the colour term's logl1 of the first and last step (0 without it) */
     int dropped_components;      /* dmtet, built: components dropped by the clean-up */
+    int smooth_iters;            /* dmtet, built: Taubin iterations used (dmtet_smooth resolved) */
 } MfReconGeomInfo;
 
 /* Resolves o->geometry into *source ("given", "vhull" or "dmtet"): NULL means given when
