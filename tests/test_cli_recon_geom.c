@@ -206,6 +206,9 @@ MF_TEST(recon_geometry_dmtet_tiny) {
     CHECK_MSG(!strcmp(src, "dmtet") && geom_s > 0 && step_ms > 0 && geom_result(run, "steps", NULL, 0) == 30 &&
                   geom_result(run, "unwrap_s", NULL, 0) > 0,
               "run.json: source '%s', geom_s %g, step_ms %g", src, geom_s, step_ms);
+    /* --dmtet-smooth -1 (the default) follows the grid: 100 x (32 / 64)^2 */
+    CHECK_MSG(geom_result(run, "smooth_iters", NULL, 0) == 25, "run.json: smooth_iters %g, want 25 at 32^3",
+              geom_result(run, "smooth_iters", NULL, 0));
     /* the fit's state file (for a resume inside pass 1, inverse_geom_fit_resume) is gone once dmtet.obj exists */
     snprintf(q, sizeof q, "%s/geometry/dmtet_state.mfck", run);
     CHECK_MSG(!mf_file_exists(q) && geom_result(run, "resumed_at", NULL, 0) == 0, "dmtet_state.mfck left (%d) or resumed_at %g",

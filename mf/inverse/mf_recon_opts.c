@@ -92,12 +92,12 @@ static const MfOpt k_geom_opts[] = {
     MF_OPT_INT(G, hull_target_tris, MF_HULL_DEFAULT_TARGET_TRIS, 0, 100000000, "vhull, dmtet: decimate to at most this many triangles (0: keep all)"),
     MF_OPT_FLOAT(G, hull_min_component, MF_HULL_DEFAULT_MIN_COMPONENT, 0, 1, "vhull, dmtet: drop components with fewer than this fraction of the largest's triangles"),
     /* the hull_* decimation and component options also clean the DMTet mesh; hull_extent is its grid's side */
+    MF_OPT_INT(G, dmtet_res, 64, 4, 512, "dmtet: tet grid cubes per axis (side --hull-extent; the SDF starts as the soft visual hull on it)"),
     /* -1: 100 at the default 64^3, chosen on val-3d (relit +0.14 dB [+0.09, +0.20] against 10, the
      * former value; docs/analyses/hull-smoothing.md), scaled by (res / 64)^2 for other grids: an
      * iteration acts per mesh edge, and the length it smooths grows as the edge x sqrt(iterations);
      * 100 at 64^3 is the hull's 400 at 128^3 by the same rule. Only 64^3 was validated. */
     MF_OPT_INT(G, dmtet_smooth, -1, -1, 10000, "dmtet: Taubin smoothing iterations of the extracted mesh (-1: 100 x (dmtet_res / 64)^2, rounded)"),
-    MF_OPT_INT(G, dmtet_res, 64, 4, 512, "dmtet: tet grid cubes per axis (side --hull-extent; the SDF starts as the soft visual hull on it)"),
     MF_OPT_INT(G, geom_iters, 200, 0, 1000000, "dmtet: Adam steps of the mask term (and the colour term with --geom-color; 0: the hull's SDF extracted as is)"),
     MF_OPT_INT(G, geom_views, 4, 0, 100000, "dmtet: training views per step, taken in turn (0: all)"),
     /* 0.01: on val-3d's box, superquadric and torus (hull start, 64^3, 200 mask-term steps) 0.05
