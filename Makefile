@@ -425,10 +425,12 @@ bench-hull: $(DATA)/test-3d/.rendered | $(BUILD)/mf
 	  mkdir -p $(RESULTS)/geometry/$$s; \
 	  $(MF) hull $${d%/} -o $(RESULTS)/geometry/$$s/vhull.obj --eval >> $(GEOM_REPORT)/.hull.csv.tmp || exit 1; done
 	@mv $(GEOM_REPORT)/.hull.csv.tmp $(GEOM_REPORT)/hull.csv
-	@awk -F, -v issue="$(GEOM_ISSUE_CHAMFER)" 'BEGIN { n = split(issue, kv, " "); for (i = 1; i <= n; i++) { split(kv[i], p, "="); q[p[1]] = p[2] } \
+	@cfg=$$($(MF) hull --print-config | tr -d ' \t,'); opt() { echo "$$cfg" | sed -n "s/^\"$$1\"://p"; }; \
+	awk -F, -v issue="$(GEOM_ISSUE_CHAMFER)" -v res="$$(opt res)" -v smooth="$$(opt smooth)" -v tris="$$(opt target_tris)" \
+	  'BEGIN { n = split(issue, kv, " "); for (i = 1; i <= n; i++) { split(kv[i], p, "="); q[p[1]] = p[2] } \
 	  print "# Visual hull on test-3d\n"; \
-	  print "Made by `make bench-hull` (`mf hull DATA --eval`: 64 training masks at 128 px, 128^3 grid, marching tets,"; \
-	  print "weld and clean-up, 400 Taubin iterations, meshoptimizer decimation to 40k triangles). Chamfer: Stanford-ORB"; \
+	  print "Made by `make bench-hull` (`mf hull DATA --eval`: 64 training masks at 128 px, " res "^3 grid, marching tets,"; \
+	  print "weld and clean-up, " smooth " Taubin iterations, meshoptimizer decimation to " tris " triangles). Chamfer: Stanford-ORB"; \
 	  print "(GT vertices vs 30k area samples, mean squared nearest distance each way, averaged, x1e3; object extent 1)."; \
 	  print "Normals, points: mean angle between GT vertex normals and hull face normals of the same nearest pairs"; \
 	  print "(counts hidden surfaces: inner walls). Normals, views: mean angle between the two meshes shading normals"; \
