@@ -451,7 +451,8 @@ bench-hull: $(DATA)/test-3d/.rendered | $(BUILD)/mf
 # dmtet), all with $(RECON_CONFIG); mf eval scores them (geometry.md against the GT mesh,
 # relight.md, materials.md, paired.md: each minus given; paired-vs-vhull/: each minus the hull)
 # and eval/bench_geom_report.sh writes REPORT/README.md (default reports/bench/geometry-recon)
-# with the geometry seconds from run.json.
+# with the geometry seconds and the vessel choice from run.json, and the cavities' Chamfer against
+# bench-hull's closed hull ($(GEOM_REPORT)/hull.csv).
 FLAGS_nvdiffrecmc-vhull := --method nvdiffrecmc --geometry vhull
 FLAGS_nvdiffrecmc-dmtet := --method nvdiffrecmc --geometry dmtet
 bench-geom: REPORT ?= reports/bench/geometry-recon
@@ -459,7 +460,7 @@ bench-geom: $(DATA)/test-3d/.rendered | $(BUILD)/mf
 	$(MAKE) --no-print-directory bench-split BENCH_SPLIT=test-3d BENCH_METHODS="nvdiffrecmc nvdiffrecmc-vhull nvdiffrecmc-dmtet" REPORT=$(REPORT)
 	$(MF) compare $(REPORT)/scenes.csv --ref nvdiffrecmc-vhull -o $(REPORT)/paired-vs-vhull
 	sh eval/bench_geom_report.sh $(RESULTS)/test-3d $(REPORT) "$(strip $(SCENES))" \
-	  'make bench-geom$(if $(filter command line,$(origin SCENES)), SCENES="$(strip $(SCENES))")' > $(REPORT)/.README.md.tmp
+	  'make bench-geom$(if $(filter command line,$(origin SCENES)), SCENES="$(strip $(SCENES))")' $(GEOM_REPORT)/hull.csv > $(REPORT)/.README.md.tmp
 	mv $(REPORT)/.README.md.tmp $(REPORT)/README.md
 	@cat $(REPORT)/README.md
 

@@ -3,6 +3,8 @@
  *
  * geom_result: run.json's options.geometry_result.<key> as a number (NAN when absent), and its
  *              "source" into src (may be NULL).
+ * vessel_chosen: run.json's options.geometry_result.vessel.chosen ("open" | "closed") into out
+ *              ("" when the run had no opening to test).
  * gen_nerf:    `mf gen GEN_ARGS --layout nerf-synthetic -o DIR`: the split's scenes as NeRF-Synthetic
  *              has them (transforms and train/, test/ images; no mesh.obj, no ground truth), the
  *              images the bytes of the full split made with GEN_ARGS; 0 when it ran. */
@@ -27,6 +29,18 @@ static inline double geom_result(const char *run_dir, const char *key, char *src
     double r = cJSON_IsNumber(v) ? v->valuedouble : NAN;
     cJSON_Delete(j);
     return r;
+}
+
+static inline void vessel_chosen(const char *run_dir, char *out, size_t cap) {
+    char p[MF_PATH_MAX + 16];
+    snprintf(p, sizeof p, "%s/run.json", run_dir);
+    out[0] = '\0';
+    cJSON *j = NULL;
+    if (mf_json_load(p, &j)) return;
+    const cJSON *g = cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(j, "options"), "geometry_result");
+    const cJSON *c = cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(g, "vessel"), "chosen");
+    if (cJSON_IsString(c)) snprintf(out, cap, "%s", c->valuestring);
+    cJSON_Delete(j);
 }
 
 static inline int gen_nerf(const char *mf, const char *gen_args, const char *dir) {

@@ -86,7 +86,7 @@ MF_TEST(geom_vhull_sphere_box_cut) {
         CHECK_MSG(seen_out > 1000, "shape %d: the cut view sees the whole shape (%d inner vertices out of frame)", shape, seen_out);
         CHECK_MSG(carved == 0, "shape %d: the cut view carves %d inner vertices", shape, carved);
         if (shape == 0) { /* the whole pipeline: a closed, smoothed, decimated hull */
-            MfHullOpts ho = {48, 1.0f, 10, 2000, 0.01f};
+            MfHullOpts ho = {48, 1.0f, 10, 2000, 0.01f, 0.0f};
             MfMesh hm = {0};
             MfHullInfo hi;
             MfManifoldInfo mi;

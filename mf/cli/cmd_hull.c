@@ -9,14 +9,15 @@
 #include "core/mf_log.h"
 #include "datasets/ds_load.h"
 #include "eval/ev_geom.h"
+#include "geom/mf_vessel.h"
 #include "geom/mf_vhull.h"
 #include "io/mf_obj.h"
 #include "io/mf_opts.h"
 
 typedef struct {
     const char *out, *split;
-    int res, smooth, target_tris, max_views, eval, samples, seed;
-    float extent, min_component;
+    int res, smooth, target_tris, max_views, eval, samples, seed, vessel;
+    float extent, min_component, vessel_wall;
 } HullArgs;
 
 #define A HullArgs
@@ -29,6 +30,9 @@ static const MfOpt k_args[] = {
     MF_OPT_INT(A, target_tris, MF_HULL_DEFAULT_TARGET_TRIS, 0, 100000000, "decimate to at most this many triangles (0: keep all)"),
     MF_OPT_FLOAT(A, min_component, MF_HULL_DEFAULT_MIN_COMPONENT, 0, 1, "drop components with fewer than this fraction of the largest's triangles"),
     MF_OPT_INT(A, max_views, 0, 0, 100000, "use the first N views (0: all)"),
+    MF_OPT_ENUM(A, vessel, 0, "closed|open", "closed: the hull as the masks give it; open: carved as an open vessel where the hull has a large flat top "
+                "facing the cameras (mf_vessel.h; mf recon --vessel auto lets the images decide)"),
+    MF_OPT_FLOAT(A, vessel_wall, MF_VESSEL_DEFAULT_WALL, 1e-4, 0.5, "--vessel open: wall thickness, x the hull's largest side"),
     MF_OPT_BOOL(A, eval, 0, "score against the data set's GT mesh and test views (Chamfer x1e3, normal errors, mask IoU)"),
     MF_OPT_INT(A, samples, 30000, 1, 100000000, "--eval: area samples of the hull"),
     MF_OPT_INT(A, seed, 1, 0, 2147483647, "--eval: sampling seed"),
@@ -64,7 +68,7 @@ static int hull_run(const char *data, const HullArgs *a) {
     MfMesh m = {0}, gt = {0};
     int rc = cams && masks ? MF_OK : mf_fail(MF_ENOMEM, "%s: out of memory", data);
     for (int v = 0; v < dv.n && rc == MF_OK; ++v) cams[v] = dv.views[v].cam, masks[v] = dv.views[v].rgba;
-    MfHullOpts ho = {a->res, a->extent, a->smooth, a->target_tris, a->min_component};
+    MfHullOpts ho = {a->res, a->extent, a->smooth, a->target_tris, a->min_component, a->vessel ? a->vessel_wall : 0.0f};
     MfHullInfo hi;
     double t0 = mf_now();
     if (rc == MF_OK && (rc = mf_vhull_mesh(cams, masks, dv.n, &ho, &m, &hi)) != MF_OK) mf_fail_prefix(rc, "%s", data);

@@ -6,6 +6,7 @@
 #include "core/mf_error.h"
 #include "core/mf_log.h"
 #include "geom/mf_meshproc.h"
+#include "geom/mf_vessel.h"
 
 /* Bilinear mask (last channel) at continuous pixel position (px, py) inside [0, w] x [0, h]. */
 static float mask_at(const MfImage *m, float px, float py) {
@@ -133,8 +134,15 @@ int mf_vhull_mesh(const MfCamera *cams, const MfImage *masks, int n, const MfHul
     if (rc == MF_OK) rc = mf_vhull_grid(cams, masks, n, opt->res, opt->extent, &g, &f, &r.touches_border);
     if (rc != MF_OK) return mf_fail_prefix(rc, "visual hull");
     r.extent = g.cell * (float)g.res;
+    MfVesselAxis va = {0};
+    if (opt->vessel_wall > 0 && (rc = mf_vessel_axis(&g, f, cams, n, &va)) == MF_OK && va.candidate)
+        rc = mf_vessel_carve(&g, f, va.axis, opt->vessel_wall, &r.vessel_carved);
+    r.vessel_candidate = va.candidate;
+    if (opt->vessel_wall > 0 && rc == MF_OK)
+        mf_log_info("vessel: top %.3f of the cross-section, tilt %.1f deg, axis (%.3f, %.3f, %.3f): %s", va.cap_frac, va.tilt_deg,
+                    va.axis.x, va.axis.y, va.axis.z, va.candidate ? "carved" : "no opening");
     MfMesh m = {0};
-    rc = mf_vhull_extract_clean(&g, f, opt, &m, &r.extracted_tris, &r.dropped_components);
+    if (rc == MF_OK) rc = mf_vhull_extract_clean(&g, f, opt, &m, &r.extracted_tris, &r.dropped_components);
     free(f);
     if (rc != MF_OK) return mf_fail_prefix(rc, "visual hull");
     *out = m;

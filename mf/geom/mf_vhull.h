@@ -43,6 +43,8 @@ typedef struct {
     int smooth_iters;   /* Taubin lambda 0.5 / mu -0.53 iterations (0: none) */
     int target_tris;    /* decimate to at most this many triangles (0: no decimation) */
     float min_component;/* drop components with fewer than this fraction of the largest's triangles */
+    float vessel_wall;  /* > 0: carve an open vessel where the hull has an opening (mf_vessel), walls
+                           this fraction of the hull's largest side thick; 0: the hull as the masks give it */
 } MfHullOpts;
 
 typedef struct {
@@ -51,6 +53,8 @@ typedef struct {
     int touches_border; /* 1: the hull still touches the (enlarged) grid border: a warning was logged */
     int dropped_components;
     int extracted_tris; /* triangles before clean-up and decimation */
+    int vessel_candidate; /* vessel_wall > 0: 1 when an opening was found and carved */
+    size_t vessel_carved; /* its carved grid vertices */
 } MfHullInfo;
 
 /* The soft hull's field (mf_vhull) on a res^3 grid of side extent centred at the origin, into *grid
@@ -64,7 +68,8 @@ int mf_vhull_grid(const MfCamera *cams, const MfImage *masks, int n, int res, fl
 /* The hull as a clean mesh: refuses (MF_EARG, saying why) fewer than 3 masked views; builds the
  * field on the grid (mf_vhull_grid: enlarged 1.5x once when the hull touches its border),
  * extracts by marching tets (an empty hull is an error, never an empty mesh), welds, drops
- * degenerate triangles and small components, smooths, decimates (mf_meshproc). */
+ * degenerate triangles and small components, smooths, decimates (mf_meshproc); with
+ * opt->vessel_wall > 0 the field is carved first where mf_vessel_axis finds an opening. */
 int mf_vhull_mesh(const MfCamera *cams, const MfImage *masks, int n, const MfHullOpts *opt, MfMesh *out, MfHullInfo *info);
 /* The clean-up half of mf_vhull_mesh, for any field on g (the hull's, or a fitted SDF): extracts
  * by marching tets (no deformation), welds, drops degenerate triangles and components under

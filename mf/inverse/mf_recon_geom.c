@@ -10,6 +10,7 @@
 
 #include "core/mf_error.h"
 #include "core/mf_log.h"
+#include "inverse/mf_budget.h"
 #include "inverse/mf_geom_fit.h"
 #include "io/mf_gltf_read.h"
 #include "io/mf_obj.h"
@@ -81,22 +82,73 @@ static int unwrap_write(MfMesh *m, int tex_res, const char *path, MfReconGeomInf
 
 /* The hull_* options: the hull's grid and clean-up (the DMTet mesh's too, with dmtet_smooth). */
 static MfHullOpts hull_opts(const MfReconGeomOpts *o) {
-    return (MfHullOpts){o->hull_res, o->hull_extent, o->hull_smooth, o->hull_target_tris, o->hull_min_component};
+    /* no vessel_wall: mf recon carves in extract_write, where --vessel auto keeps both meshes */
+    return (MfHullOpts){o->hull_res, o->hull_extent, o->hull_smooth, o->hull_target_tris, o->hull_min_component, 0.0f};
 }
 
-/* Hull (mf_vhull_mesh, as mf hull), unwrapped and written to path. */
+/* <out>/geometry/<source><suffix>.obj */
+static int geom_path(char *path, size_t cap, const char *out_dir, const char *source, const char *suffix) {
+    char name[64];
+    snprintf(name, sizeof name, "geometry/%s%s.obj", source, suffix);
+    return mf_path_join(path, cap, out_dir, name);
+}
+
+/* The field's clean mesh (mf_vhull_extract_clean), unwrapped, to path; with --vessel auto|open and
+ * a candidate opening (mf_vessel_axis), the carved mesh too: open writes it to path instead of
+ * the closed one; auto writes both, to <source>-closed.obj and <source>-open.obj, and leaves the
+ * choice pending (mf_recon_geom_vessel_choose). field is changed (carved) when a candidate exists. */
+static int extract_write(const MfReconGeomOpts *o, const MfTetGrid *g, float *field, const MfHullOpts *ho, const MfCamera *cams,
+                         int n, int tex_res, const char *out_dir, const char *path, int *extracted, int *dropped,
+                         MfReconGeomInfo *info) {
+    MfMesh m = {0}, open = {0};
+    int rc = mf_vhull_extract_clean(g, field, ho, &m, extracted, dropped);
+    if (!rc && o->vessel != MF_VESSEL_CLOSED) rc = mf_vessel_axis(g, field, cams, n, &info->vessel);
+    if (rc || o->vessel == MF_VESSEL_CLOSED || !info->vessel.candidate) {
+        if (!rc && o->vessel != MF_VESSEL_CLOSED)
+            mf_log_info("geometry: vessel: no opening to test (top %.2f of the cross-section, tilt %.1f deg; needs >= %.2f, <= %.0f deg)",
+                        info->vessel.cap_frac, info->vessel.tilt_deg, MF_VESSEL_MIN_CAP, MF_VESSEL_MAX_TILT_DEG);
+        if (!rc) rc = unwrap_write(&m, tex_res, path, info);
+        mf_mesh_free(&m);
+        return rc;
+    }
+    rc = mf_vessel_carve(g, field, info->vessel.axis, o->vessel_wall, &info->vessel_carved);
+    if (!rc) rc = mf_vhull_extract_clean(g, field, ho, &open, NULL, NULL);
+    MfVec3 a = info->vessel.axis;
+    if (!rc)
+        mf_log_info("geometry: vessel: a flat top (%.2f of the cross-section) facing the cameras, axis (%.3f, %.3f, %.3f); carved "
+                    "%zu grid vertices (walls %g of the hull's side)", info->vessel.cap_frac, a.x, a.y, a.z, info->vessel_carved,
+                    (double)o->vessel_wall);
+    char pc[MF_PATH_MAX], po[MF_PATH_MAX];
+    if (!rc && o->vessel == MF_VESSEL_OPEN) {
+        info->vessel_chosen = "open";
+        rc = unwrap_write(&open, tex_res, path, info);
+    } else if (!rc && !(rc = geom_path(pc, sizeof pc, out_dir, info->source, "-closed")) &&
+               !(rc = geom_path(po, sizeof po, out_dir, info->source, "-open"))) {
+        double t = 0;
+        if (!(rc = unwrap_write(&m, tex_res, pc, info))) t = info->unwrap_s, rc = unwrap_write(&open, tex_res, po, info);
+        info->unwrap_s += t;
+        info->vessel_pending = !rc;
+    }
+    mf_mesh_free(&m), mf_mesh_free(&open);
+    return rc;
+}
+
+/* Hull (the grid of mf_vhull_grid, as mf hull), unwrapped and written to path (extract_write). */
 static int build_hull(const MfReconGeomOpts *o, const MfCamera *cams, const MfImage *masks, int n, int tex_res,
-                      const char *path, MfReconGeomInfo *info) {
+                      const char *out_dir, const char *path, MfReconGeomInfo *info) {
     MfHullOpts ho = hull_opts(o);
-    MfMesh hull = {0};
+    MfTetGrid g;
+    float *f = NULL;
     double t0 = mf_now();
-    int rc = mf_vhull_mesh(cams, masks, n, &ho, &hull, &info->hull);
-    info->hull_s = mf_now() - t0;
-    if (rc == MF_OK)
-        mf_log_info("geometry: visual hull of %d masked views, %d -> %d triangles in %.2f s", info->hull.masked_views,
-                    info->hull.extracted_tris, hull.nt, info->hull_s);
-    if (rc == MF_OK) rc = unwrap_write(&hull, tex_res, path, info);
-    mf_mesh_free(&hull);
+    int rc = mf_vhull_check_masks(masks, n, &info->hull.masked_views);
+    if (!rc) rc = mf_vhull_grid(cams, masks, n, ho.res, ho.extent, &g, &f, &info->hull.touches_border);
+    if (!rc) info->hull.extent = g.cell * (float)g.res;
+    if (!rc) rc = extract_write(o, &g, f, &ho, cams, n, tex_res, out_dir, path, &info->hull.extracted_tris,
+                                &info->hull.dropped_components, info);
+    free(f);
+    info->hull_s = mf_now() - t0 - info->unwrap_s;
+    if (!rc) mf_log_info("geometry: visual hull of %d masked views, %d triangles extracted, in %.2f s", info->hull.masked_views,
+                         info->hull.extracted_tris, info->hull_s);
     return rc == MF_OK ? MF_OK : mf_fail_prefix(rc, "--geometry vhull");
 }
 
@@ -159,16 +211,13 @@ static int build_dmtet(const MfReconGeomOpts *o, const MfCamera *cams, const MfI
         mf_log_info("geometry: DMTet, %s: %d^3 grid, %d steps of %d views in %.2f s (%.1f ms/step), "
                     "mask loss %.5f -> %.5f", o->geom_color > 0 ? "mask and colour terms" : "mask term only (no colour loss)", o->dmtet_res,
                     info->steps, o->geom_views ? o->geom_views : n, info->geom_s, info->step_ms, info->loss_first, info->loss_last);
-    MfMesh m = {0};
     MfHullOpts ho = hull_opts(o);
     ho.smooth_iters = info->smooth_iters = o->dmtet_smooth >= 0 ? o->dmtet_smooth
                                               : (int)lround(100.0 * o->dmtet_res * o->dmtet_res / (64.0 * 64.0));
-    if (!rc) rc = mf_vhull_extract_clean(&g, sdf, &ho, &m, NULL, &info->dropped_components);
+    if (!rc) rc = extract_write(o, &g, sdf, &ho, cams, n, tex_res, out_dir, path, NULL, &info->dropped_components, info);
     free(sdf), free(log);
-    if (!rc) rc = unwrap_write(&m, tex_res, path, info);
     if (!rc && o->geom_iters > 0 && remove(state) != 0)
         rc = mf_fail(MF_EIO, "%s: cannot remove the finished fit's state: %s", state, strerror(errno));
-    mf_mesh_free(&m);
     return rc == MF_OK ? MF_OK : mf_fail_prefix(rc, "--geometry dmtet");
 }
 
@@ -184,8 +233,9 @@ static int same_file(const char *a, const char *b) {
  * removes nothing; MF_EARG naming the first such file (a --resume must continue the same run). */
 static int remove_other_geometry(const char *out_dir, const char *source, const char *keep, int check_only) {
     static const struct { const char *file, *owner; } outs[] = {
-        {"geometry/vhull.obj", "vhull"}, {"geometry/dmtet.obj", "dmtet"}, {"geometry/dmtet_state.mfck", "dmtet"},
-        {"geom_log.csv", "dmtet"}};
+        {"geometry/vhull.obj", "vhull"}, {"geometry/vhull-closed.obj", "vhull"}, {"geometry/vhull-open.obj", "vhull"},
+        {"geometry/dmtet.obj", "dmtet"}, {"geometry/dmtet-closed.obj", "dmtet"}, {"geometry/dmtet-open.obj", "dmtet"},
+        {"geometry/dmtet_state.mfck", "dmtet"}, {"geom_log.csv", "dmtet"}};
     char path[MF_PATH_MAX];
     for (size_t i = 0; i < sizeof outs / sizeof outs[0]; ++i) {
         if (!strcmp(outs[i].owner, source)) continue;
@@ -231,13 +281,85 @@ int mf_recon_geom_mesh(const MfReconGeomOpts *o, const char *source, const char 
         return rc;
     }
     rc = dmtet ? build_dmtet(o, cams, masks, n, tex_res, out_dir, info->mesh_path, resume, info)
-               : build_hull(o, cams, masks, n, tex_res, info->mesh_path, info);
+               : build_hull(o, cams, masks, n, tex_res, out_dir, info->mesh_path, info);
     if (rc) return rc;
-    /* read back what was written: a resumed run reuses the file, so both optimise the same bytes */
-    if ((rc = mf_mesh_read(info->mesh_path, mesh))) return rc;
+    /* read back what was written: a resumed run reuses the file, so both optimise the same bytes
+     * (a pending vessel choice: the closed mesh, until mf_recon_geom_vessel_choose) */
+    char closed[MF_PATH_MAX], open[MF_PATH_MAX];
+    if ((rc = geom_path(closed, sizeof closed, out_dir, source, "-closed")) || (rc = geom_path(open, sizeof open, out_dir, source, "-open")))
+        return rc;
+    /* no choice pending: an earlier auto run's pair in this folder is not this run's */
+    for (int k = 0; k < 2 && !info->vessel_pending; ++k)
+        if (mf_file_exists(k ? open : closed) && remove(k ? open : closed) != 0)
+            return mf_fail(MF_EIO, "%s: cannot remove an earlier run's vessel mesh: %s", k ? open : closed, strerror(errno));
+    if ((rc = mf_mesh_read(info->vessel_pending ? closed : info->mesh_path, mesh))) return rc;
     info->hull_tris = mesh->nt;
     if ((rc = remove_other_geometry(out_dir, source, NULL, 0))) mf_mesh_free(mesh);
     return rc;
+}
+
+/* A trial fit of mesh: iters iterations of ro with views 0, 8, 16, ... held out, in dir (removed
+ * after); *psnr: their PSNR at the end (mf_recon's hold-out score: per-channel scale, sRGB). */
+static int trial_fit(const MfMesh *mesh, const MfReconView *views, int n, const MfReconOpts *ro, int iters, const char *dir,
+                     double *psnr) {
+    MfReconOpts t = *ro;
+    t.iters = iters, t.early_stop = 1, t.holdout_every = 8, t.es_every = iters, t.es_patience = 1000000;
+    t.snapshot_every = 0, t.checkpoint_every = 0;
+    MfReconView *cp = calloc((size_t)n, sizeof *cp);
+    int rc = cp ? MF_OK : mf_fail(MF_ENOMEM, "out of memory for the trial's views");
+    for (int i = 0; !rc && i < n; ++i) {
+        const MfImage *v = &views[i].ref;
+        cp[i].cam = views[i].cam;
+        if (!(rc = mf_image_alloc(&cp[i].ref, v->w, v->h, v->c)))
+            memcpy(cp[i].ref.data, v->data, (size_t)v->w * v->h * v->c * sizeof *v->data);
+    }
+    MfRecon *r = NULL;
+    if (!rc) rc = mf_recon_new(mesh, cp, n, &t, &r);
+    for (int i = 0; cp && i < n; ++i) mf_image_free(&cp[i].ref); /* moved into r on success */
+    free(cp);
+    if (!rc) rc = mf_recon_run(r, NULL, dir);
+    const MfEarlyStop *es = r ? mf_recon_early_stop(r) : NULL;
+    if (!rc) rc = es && es->n > 0 ? MF_OK : mf_fail(MF_EARG, "the trial fit held no view out (%d views)", n);
+    if (!rc) *psnr = es->psnr[es->n - 1];
+    mf_recon_free(r);
+    int rrc = mf_remove_tree(dir);
+    return rc ? rc : rrc;
+}
+
+int mf_recon_geom_vessel_choose(const MfReconGeomOpts *o, MfReconGeomInfo *info, const MfReconView *views, int nviews,
+                                const MfReconOpts *ro, const char *out_dir, MfMesh *mesh) {
+    if (!info->vessel_pending) return MF_OK;
+    char po[MF_PATH_MAX], dir[MF_PATH_MAX];
+    MfMesh open = {0};
+    int rc = geom_path(po, sizeof po, out_dir, info->source, "-open");
+    if (!rc) rc = mf_mesh_read(po, &open);
+    const MfMesh *m[2] = {mesh, &open};
+    static const char *name[2] = {"closed", "open"};
+    int iters = o->vessel_trial_iters >= 0 ? o->vessel_trial_iters : ro->iters / 4;
+    iters = iters > 0 ? iters : 1;
+    double t0 = mf_now();
+    for (int k = 0; k < 2 && !rc; ++k) {
+        char sub[32];
+        snprintf(sub, sizeof sub, "geometry/trial-%s", name[k]);
+        if (!(rc = mf_path_join(dir, sizeof dir, out_dir, sub)))
+            rc = trial_fit(m[k], views, nviews, ro, iters, dir, &info->vessel_psnr[k]);
+    }
+    int pick = !rc && info->vessel_psnr[1] > info->vessel_psnr[0] + MF_VESSEL_MARGIN_DB;
+    info->vessel_trial_iters = iters;
+    if (!rc) {
+        info->vessel_chosen = name[pick];
+        mf_log_info("geometry: vessel: trial fits of %d iterations in %.1f s, held-out PSNR closed %.3f dB, open %.3f dB: keeping the %s mesh",
+                    iters, mf_now() - t0, info->vessel_psnr[0], info->vessel_psnr[1], name[pick]);
+        rc = mf_obj_write(info->mesh_path, m[pick], NULL);
+    }
+    if (!rc && pick) {
+        mf_mesh_free(mesh);
+        *mesh = open;
+    } else {
+        mf_mesh_free(&open);
+    }
+    info->vessel_pending = 0;
+    return rc ? mf_fail_prefix(rc, "--vessel auto") : MF_OK;
 }
 
 void mf_recon_geom_to_json(const MfReconGeomInfo *info, cJSON *obj) {
@@ -250,6 +372,21 @@ void mf_recon_geom_to_json(const MfReconGeomInfo *info, cJSON *obj) {
     cJSON_AddNumberToObject(g, "unwrap_s", info->unwrap_s); /* wall s: the UV atlas */
     cJSON_AddNumberToObject(g, "triangles", info->hull_tris);
     if (info->reused) return;
+    if (info->vessel.candidate) {
+        cJSON *v = cJSON_AddObjectToObject(g, "vessel");
+        cJSON *ax = cJSON_AddArrayToObject(v, "axis");
+        float a[3] = {info->vessel.axis.x, info->vessel.axis.y, info->vessel.axis.z};
+        for (int k = 0; k < 3; ++k) cJSON_AddItemToArray(ax, cJSON_CreateNumber(a[k]));
+        cJSON_AddNumberToObject(v, "cap_fraction", info->vessel.cap_frac);
+        cJSON_AddNumberToObject(v, "tilt_deg", info->vessel.tilt_deg);
+        cJSON_AddNumberToObject(v, "carved_vertices", (double)info->vessel_carved);
+        if (info->vessel_psnr[0] != 0.0 || info->vessel_psnr[1] != 0.0) {
+            cJSON_AddNumberToObject(v, "holdout_psnr_closed", info->vessel_psnr[0]);
+            cJSON_AddNumberToObject(v, "holdout_psnr_open", info->vessel_psnr[1]);
+        }
+        if (info->vessel_trial_iters) cJSON_AddNumberToObject(v, "trial_iters", info->vessel_trial_iters);
+        cJSON_AddStringToObject(v, "chosen", info->vessel_chosen ? info->vessel_chosen : "");
+    }
     if (!strcmp(info->source, "dmtet")) {
         cJSON_AddNumberToObject(g, "geom_s", info->geom_s);   /* wall s: the DMTet steps */
         cJSON_AddNumberToObject(g, "step_ms", info->step_ms); /* wall ms per step */

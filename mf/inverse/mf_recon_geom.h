@@ -23,8 +23,17 @@
  *          dmtet.obj is written. By default only silhouettes drive it, so concavities the masks do
  *          not see stay as the hull left them; geom_color > 0 adds the colour term
  *          (mf_geom_fit.h), whose shading gradients reach them.
+ *   vessel (vhull and dmtet; --vessel auto|open|closed, default auto): silhouettes cannot carve a
+ *          cavity, so the field is also tested as an open vessel (mf_vessel.h). When the hull has
+ *          a large flat top facing the cameras, auto extracts both the closed mesh and the field
+ *          carved below that top (walls vessel_wall x the hull's side), writes them to
+ *          <out>/geometry/<source>-closed.obj and -open.obj, and mf_recon_geom_vessel_choose fits
+ *          each for a quarter of the run's iterations with every 8th training view held out; the
+ *          carved mesh becomes geometry/<source>.obj only when its held-out PSNR is higher by
+ *          more than MF_VESSEL_MARGIN_DB. open carves without the test, closed never carves.
+ *          run.json's geometry_result.vessel records the axis, the trial PSNRs and the choice.
  * One folder, one run: once the mesh is read or built, what an earlier run with another source
- * left in out_dir (geometry/vhull.obj; geometry/dmtet.obj, dmtet_state.mfck and geom_log.csv) is removed, with a
+ * left in out_dir (geometry/vhull*.obj; geometry/dmtet*.obj, dmtet_state.mfck and geom_log.csv) is removed, with a
  * log line each, so the folder never mixes two runs' geometry; the given mesh itself is never
  * removed (--mesh may name an earlier run's hull). The source's own files stay (rewritten, or
  * reused by resume). With resume, another source's files are refused instead (MF_EARG naming
@@ -37,7 +46,9 @@
 
 #include "core/mf_fs.h"
 #include "geom/mf_uvatlas.h"
+#include "geom/mf_vessel.h"
 #include "geom/mf_vhull.h"
+#include "inverse/mf_recon.h"
 #include "io/mf_image.h"
 #include "scene/mf_camera.h"
 #include "scene/mf_mesh.h"
@@ -57,6 +68,9 @@ typedef struct {
     float geom_sdf_reg;       /* dmtet: weight of the sign-change regulariser */
     float geom_color;         /* dmtet: weight of the colour term (mf_geom_fit.h; 0: masks only) */
     int geom_seed;            /* dmtet: the colour term's Monte Carlo seed */
+    int vessel;               /* vhull, dmtet: MfVesselMode (mf_vessel.h) */
+    float vessel_wall;        /* the carved mesh's wall, x the hull's largest side */
+    int vessel_trial_iters;   /* auto: iterations of each trial fit (-1: a quarter of the run's) */
 } MfReconGeomOpts;
 
 /* The defaults, from the option table. */
@@ -80,6 +94,12 @@ typedef struct {
     double rgb_first, rgb_last;  /* dmtet, built: the colour term's logl1 of the first and last step (0 without it) */
     int dropped_components;      /* dmtet, built: components dropped by the clean-up */
     int smooth_iters;            /* dmtet, built: Taubin iterations used (dmtet_smooth resolved) */
+    MfVesselAxis vessel;         /* vhull/dmtet, built, --vessel auto|open: the opening found (candidate 0: none) */
+    size_t vessel_carved;        /* grid vertices the carved mesh removed */
+    int vessel_pending;          /* auto with a candidate: both meshes written, mf_recon_geom_vessel_choose to choose */
+    double vessel_psnr[2];       /* auto: held-out PSNR of the closed and the open trial fit */
+    int vessel_trial_iters;      /* auto: iterations of each trial fit (resolved) */
+    const char *vessel_chosen;   /* "closed" | "open" once decided; NULL: no candidate, or --vessel closed */
 } MfReconGeomInfo;
 
 /* Resolves o->geometry into *source ("given", "vhull" or "dmtet"): NULL means given when
@@ -102,6 +122,19 @@ float mf_recon_geom_vertex_lr(const char *source, const MfMesh *mesh, int normal
 int mf_recon_geom_mesh(const MfReconGeomOpts *o, const char *source, const char *given_path, const MfCamera *cams,
                        const MfImage *masks, int n, int tex_res, const char *out_dir, int resume, MfMesh *mesh,
                        MfReconGeomInfo *info);
+
+/* --vessel auto with a candidate opening (info->vessel_pending): mf_recon_geom_mesh wrote the
+ * closed mesh to geometry/<source>-closed.obj (it is in *mesh) and the carved one to
+ * geometry/<source>-open.obj, and left geometry/<source>.obj unwritten. This fits each for
+ * o->vessel_trial_iters iterations (-1: ro->iters / 4, at least 1) with the run's options ro (no
+ * prior term) and views 0, 8, 16,
+ * ... held out (ro's early_stop hold-out; the fits' files, under geometry/trial, are removed),
+ * keeps the open mesh only when its held-out PSNR beats the closed one's by more than
+ * MF_VESSEL_MARGIN_DB, writes the chosen mesh to geometry/<source>.obj and puts it in *mesh, so
+ * a resumed run reuses it. Nothing to do (MF_OK) when no choice is pending. views: (nviews,), as
+ * mf_recon_new takes them (they are copied, not moved). */
+int mf_recon_geom_vessel_choose(const MfReconGeomOpts *o, MfReconGeomInfo *info, const MfReconView *views, int nviews,
+                                const MfReconOpts *ro, const char *out_dir, MfMesh *mesh);
 
 /* run.json: geometry source, mesh path, hull_s, unwrap_s, reuse, the hull/unwrap reports and
  * (dmtet) geom_s, step_ms, steps, first/last mask loss. */

@@ -1,0 +1,54 @@
+/* mf_vessel: the open-vessel hypothesis for a visual hull.
+ *
+ * Silhouettes cannot carve a cavity: the visual hull of a cup, bowl or mug is closed by a flat cap
+ * at its rim. This module states the other hypothesis explicitly: the object is a vessel open on
+ * the cap's side, with walls of a given thickness. mf_vessel_axis finds a candidate opening (a
+ * large flat top facing the cameras); mf_vessel_carve removes, from a hull field on an mf_tetgrid
+ * grid, every inside vertex farther than the wall thickness from the hull's outside below the cap,
+ * connected to the cap. Whether the carved hull is the better one is for the images to say
+ * (mf recon --vessel auto compares the two fits, mf_recon_geom.h); neither function decides it. */
+#ifndef MF_VESSEL_H
+#define MF_VESSEL_H
+
+#include <stddef.h>
+
+#include "geom/mf_tetgrid.h"
+#include "scene/mf_camera.h"
+
+/* Defaults (written once, here): the wall thickness as a fraction of the hull's largest side (0.03:
+ * the generated cups' and mugs' walls, 0.035 of a side about 1.1; a bowl's are thinner), the
+ * smallest cap (its area over the hull's cross-section across the axis) and the largest tilt of
+ * the fitted cap from the cameras' mean direction. */
+#define MF_VESSEL_DEFAULT_WALL 0.03f
+#define MF_VESSEL_MIN_CAP 0.25f
+#define MF_VESSEL_MAX_TILT_DEG 30.0f
+/* mf recon --vessel auto keeps the open mesh only when its trial fit's held-out PSNR beats the
+ * closed one's by more than this (dB): without clear evidence, the hull the masks give is kept. */
+#define MF_VESSEL_MARGIN_DB 0.1
+
+typedef enum { MF_VESSEL_AUTO, MF_VESSEL_OPEN, MF_VESSEL_CLOSED } MfVesselMode;
+#define MF_VESSEL_MODES "auto|open|closed"
+
+typedef struct {
+    MfVec3 axis;     /* unit normal of the cap, pointing out of the opening */
+    float cap_frac;  /* cap area / the hull's cross-section area across axis */
+    float tilt_deg;  /* angle between axis and the cameras' mean direction */
+    int candidate;   /* 1: a cap large and flat enough, facing the cameras (axis is set) */
+} MfVesselAxis;
+
+/* field: (mf_tetgrid_nverts(g),), > 0 inside (mf_vhull's). cams: (n,). Finds the cameras' mean
+ * direction from the hull's centroid (none when the cameras surround the object evenly: no
+ * candidate), fits a plane (PCA, GSL) to the hull's boundary vertices near its top along that
+ * direction, twice, and measures the cap. MF_EARG on an empty field. */
+int mf_vessel_axis(const MfTetGrid *g, const float *field, const MfCamera *cams, int n, MfVesselAxis *out);
+
+/* Carves field in place: inside vertices whose Euclidean distance (exact, separable transform) to
+ * the nearest outside vertex lying more than 1.5 cells below the top along axis exceeds the wall
+ * (wall_frac x the largest side of the inside vertices' bounding box, at least 1.5 cells: a
+ * thinner one would carve every inside vertex), and which connect
+ * (6-neighbours) to the top, are set to the field's smallest value (mf_vhull's -0.5, or a fitted
+ * SDF's most outside). *carved (may be NULL): their count. MF_EARG on wall_frac <= 0 or an empty
+ * field; MF_ENOMEM. */
+int mf_vessel_carve(const MfTetGrid *g, float *field, MfVec3 axis, float wall_frac, size_t *carved);
+
+#endif
