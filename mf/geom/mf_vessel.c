@@ -130,8 +130,8 @@ static int on_boundary(const float *field, size_t i, size_t n) {
 
 /* Unit normal of the least-squares plane through the boundary vertices within 3 cells of the top
  * along axis (the eigenvector of their covariance with the smallest eigenvalue, GSL), turned to
- * axis's side; *count: those vertices. */
-static int fit_cap(const MfTetGrid *g, const float *field, MfVec3 axis, MfVec3 *normal, size_t *count) {
+ * axis's side. */
+static int fit_cap(const MfTetGrid *g, const float *field, MfVec3 axis, MfVec3 *normal) {
     size_t nv = mf_tetgrid_nverts(g), n = (size_t)g->res + 1, k = 0;
     float top = top_height(g, field, axis) - 3.0f * g->cell;
     double s[3] = {0}, ss[3][3] = {{0}};
@@ -146,7 +146,6 @@ static int fit_cap(const MfTetGrid *g, const float *field, MfVec3 axis, MfVec3 *
         }
         ++k;
     }
-    *count = k;
     if (k < 3) return mf_fail(MF_EARG, "vessel: fewer than 3 vertices at the hull's top");
     gsl_matrix *cov = gsl_matrix_alloc(3, 3), *vec = gsl_matrix_alloc(3, 3);
     gsl_vector *val = gsl_vector_alloc(3);
@@ -175,9 +174,10 @@ static size_t cross_section(const MfTetGrid *g, const float *field, MfVec3 axis)
     uint8_t *seen = calloc(m * m, 1);
     if (!seen) return 0;
     float half = 0.5f * g->cell * (float)m;
+    MfVec3 centre = mf_add(g->lo, mf_v3s(0.5f * g->cell * (float)g->res));
     for (size_t i = 0; i < nv; ++i) {
         if (!(field[i] > 0)) continue;
-        MfVec3 p = mf_sub(mf_tetgrid_base(g, i), mf_add(g->lo, mf_scale(mf_v3(1, 1, 1), 0.5f * g->cell * (float)g->res)));
+        MfVec3 p = mf_sub(mf_tetgrid_base(g, i), centre);
         long a = lroundf((mf_dot(p, u) + half) / g->cell), b = lroundf((mf_dot(p, v) + half) / g->cell);
         if (a < 0 || b < 0 || (size_t)a >= m || (size_t)b >= m) continue;
         if (!seen[a * m + b]) seen[a * m + b] = 1, ++area;
@@ -199,11 +199,10 @@ int mf_vessel_axis(const MfTetGrid *g, const float *field, const MfCamera *cams,
     /* cameras all round (a sphere of views): no side to look into */
     if (n < 1 || mf_len(m) < 0.2f * (float)n) return MF_OK;
     MfVec3 d0 = mf_norm(m), axis = d0;
-    size_t cap = 0;
     /* refit until the axis settles: a tilted cap's top layer along d0 holds a part of its rim */
     for (int it = 0; it < 10; ++it) {
         MfVec3 prev = axis;
-        int rc = fit_cap(g, field, prev, &axis, &cap);
+        int rc = fit_cap(g, field, prev, &axis);
         if (rc) return rc;
         if (mf_dot(axis, prev) > cosf(0.1f * MF_PI / 180.0f)) break;
     }
@@ -218,4 +217,10 @@ int mf_vessel_axis(const MfTetGrid *g, const float *field, const MfCamera *cams,
     out->cap_frac = xs ? (float)layer / (float)xs : 0.0f;
     out->candidate = out->cap_frac >= MF_VESSEL_MIN_CAP && out->tilt_deg <= MF_VESSEL_MAX_TILT_DEG;
     return MF_OK;
+}
+
+int mf_vessel_open(const MfTetGrid *g, float *field, const MfCamera *cams, int n, float wall_frac, MfVesselAxis *axis, size_t *carved) {
+    if (carved) *carved = 0;
+    int rc = mf_vessel_axis(g, field, cams, n, axis);
+    return rc || !axis->candidate ? rc : mf_vessel_carve(g, field, axis->axis, wall_frac, carved);
 }

@@ -39,7 +39,8 @@ typedef struct {
 /* field: (mf_tetgrid_nverts(g),), > 0 inside (mf_vhull's). cams: (n,). Finds the cameras' mean
  * direction from the hull's centroid (none when the cameras surround the object evenly: no
  * candidate), fits a plane (PCA, GSL) to the hull's boundary vertices near its top along that
- * direction, twice, and measures the cap. MF_EARG on an empty field. */
+ * direction, again along the fitted normal until it moves by less than 0.1 deg (at most 10 fits),
+ * and measures the cap. MF_EARG on an empty field. */
 int mf_vessel_axis(const MfTetGrid *g, const float *field, const MfCamera *cams, int n, MfVesselAxis *out);
 
 /* Carves field in place: inside vertices whose Euclidean distance (exact, separable transform) to
@@ -50,5 +51,10 @@ int mf_vessel_axis(const MfTetGrid *g, const float *field, const MfCamera *cams,
  * SDF's most outside). *carved (may be NULL): their count. MF_EARG on wall_frac <= 0 or an empty
  * field; MF_ENOMEM. */
 int mf_vessel_carve(const MfTetGrid *g, float *field, MfVec3 axis, float wall_frac, size_t *carved);
+
+/* Both: finds the opening (mf_vessel_axis, into *axis) and, when it is a candidate, carves field
+ * (mf_vessel_carve; *carved, may be NULL, is 0 otherwise). The one entry of mf hull --vessel open
+ * and mf recon --vessel. */
+int mf_vessel_open(const MfTetGrid *g, float *field, const MfCamera *cams, int n, float wall_frac, MfVesselAxis *axis, size_t *carved);
 
 #endif

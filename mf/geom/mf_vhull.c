@@ -135,8 +135,7 @@ int mf_vhull_mesh(const MfCamera *cams, const MfImage *masks, int n, const MfHul
     if (rc != MF_OK) return mf_fail_prefix(rc, "visual hull");
     r.extent = g.cell * (float)g.res;
     MfVesselAxis va = {0};
-    if (opt->vessel_wall > 0 && (rc = mf_vessel_axis(&g, f, cams, n, &va)) == MF_OK && va.candidate)
-        rc = mf_vessel_carve(&g, f, va.axis, opt->vessel_wall, &r.vessel_carved);
+    if (opt->vessel_wall > 0) rc = mf_vessel_open(&g, f, cams, n, opt->vessel_wall, &va, &r.vessel_carved);
     r.vessel_candidate = va.candidate;
     if (opt->vessel_wall > 0 && rc == MF_OK)
         mf_log_info("vessel: top %.3f of the cross-section, tilt %.1f deg, axis (%.3f, %.3f, %.3f): %s", va.cap_frac, va.tilt_deg,

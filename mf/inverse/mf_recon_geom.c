@@ -102,7 +102,7 @@ static int extract_write(const MfReconGeomOpts *o, const MfTetGrid *g, float *fi
                          MfReconGeomInfo *info) {
     MfMesh m = {0}, open = {0};
     int rc = mf_vhull_extract_clean(g, field, ho, &m, extracted, dropped);
-    if (!rc && o->vessel != MF_VESSEL_CLOSED) rc = mf_vessel_axis(g, field, cams, n, &info->vessel);
+    if (!rc && o->vessel != MF_VESSEL_CLOSED) rc = mf_vessel_open(g, field, cams, n, o->vessel_wall, &info->vessel, &info->vessel_carved);
     if (rc || o->vessel == MF_VESSEL_CLOSED || !info->vessel.candidate) {
         if (!rc && o->vessel != MF_VESSEL_CLOSED)
             mf_log_info("geometry: vessel: no opening to test (top %.2f of the cross-section, tilt %.1f deg; needs >= %.2f, <= %.0f deg)",
@@ -111,8 +111,7 @@ static int extract_write(const MfReconGeomOpts *o, const MfTetGrid *g, float *fi
         mf_mesh_free(&m);
         return rc;
     }
-    rc = mf_vessel_carve(g, field, info->vessel.axis, o->vessel_wall, &info->vessel_carved);
-    if (!rc) rc = mf_vhull_extract_clean(g, field, ho, &open, NULL, NULL);
+    rc = mf_vhull_extract_clean(g, field, ho, &open, NULL, NULL);
     MfVec3 a = info->vessel.axis;
     if (!rc)
         mf_log_info("geometry: vessel: a flat top (%.2f of the cross-section) facing the cameras, axis (%.3f, %.3f, %.3f); carved "
@@ -380,11 +379,11 @@ void mf_recon_geom_to_json(const MfReconGeomInfo *info, cJSON *obj) {
         cJSON_AddNumberToObject(v, "cap_fraction", info->vessel.cap_frac);
         cJSON_AddNumberToObject(v, "tilt_deg", info->vessel.tilt_deg);
         cJSON_AddNumberToObject(v, "carved_vertices", (double)info->vessel_carved);
-        if (info->vessel_psnr[0] != 0.0 || info->vessel_psnr[1] != 0.0) {
+        if (info->vessel_trial_iters) { /* auto: the trials ran */
             cJSON_AddNumberToObject(v, "holdout_psnr_closed", info->vessel_psnr[0]);
             cJSON_AddNumberToObject(v, "holdout_psnr_open", info->vessel_psnr[1]);
+            cJSON_AddNumberToObject(v, "trial_iters", info->vessel_trial_iters);
         }
-        if (info->vessel_trial_iters) cJSON_AddNumberToObject(v, "trial_iters", info->vessel_trial_iters);
         cJSON_AddStringToObject(v, "chosen", info->vessel_chosen ? info->vessel_chosen : "");
     }
     if (!strcmp(info->source, "dmtet")) {
