@@ -13,12 +13,12 @@ methods="nvdiffrecmc nvdiffrecmc-vhull nvdiffrecmc-dmtet"
 n=$(echo $scenes | wc -w)
 num() { grep -o "\"$1\":[^,}]*" "$2" | head -1 | cut -d: -f2 | tr -d ' '; }
 # "method scene hull_s geom_s unwrap_s vertex_lr vessel" per recovered run (geom_s: DMTet's steps, vhull:
-# none; vessel: --vessel auto's choice, open or closed, "-" without an opening to test)
+# none; vessel: --vessel auto's choice, closed, open or open-thick, "-" without an opening to test)
 times=$(for m in nvdiffrecmc-vhull nvdiffrecmc-dmtet; do for s in $scenes; do
   j=$res/$m/$s/run.json
   [ -f "$j" ] || { echo "bench_geom_report: $j missing" >&2; exit 1; }
   g=$(num geom_s "$j")
-  ves=$(grep -o '"chosen":[^,}]*' "$j" | head -1 | tr -dc 'a-z' | sed 's/^chosen//')
+  ves=$(grep -o '"chosen":[^,}]*' "$j" | head -1 | tr -dc 'a-z-' | sed 's/^chosen//')
   echo "$m $s $(num hull_s "$j") ${g:--} $(num unwrap_s "$j") $(num vertex_lr "$j") ${ves:--}"
 done; done)
 cat <<EOF
@@ -36,9 +36,10 @@ mesh and the relit test views:
 
 Silhouettes cannot carve a cavity. Where the hull has a large flat top facing the cameras, \`mf
 recon\`'s default \`--vessel auto\` also carves it as an open vessel (mf/geom/mf_vessel.h: walls
-0.03 of the hull's side) and keeps the carved mesh only when a trial fit on it (a quarter of the
-iterations, every 8th training view held out) beats the closed mesh's on the held-out views by
-more than 0.1 dB. Column vessel: the mesh kept (open, closed; -: no such top).
+0.03 of the hull's side; where that is under 3 grid cells, as on DMTet's 64^3 grid, also with
+3-cell walls) and keeps a carved mesh only when a trial fit on it (a quarter of the iterations,
+every 8th training view held out) beats the closed mesh's on the held-out views by more than 0.1
+dB. Column vessel: the mesh kept (closed, open, open-thick: the 3-cell walls; -: no such top).
 
 On vhull and dmtet the mesh's vertices then move with the textures (\`--vertex-lr\`'s default on a
 recovered mesh: 2e-5 x the mesh's largest side, with the Laplacian; column vertex lr, from

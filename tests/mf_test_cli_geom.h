@@ -3,7 +3,7 @@
  *
  * geom_result: run.json's options.geometry_result.<key> as a number (NAN when absent), and its
  *              "source" into src (may be NULL).
- * vessel_chosen: run.json's options.geometry_result.vessel.chosen ("open" | "closed") into out
+ * vessel_chosen: run.json's options.geometry_result.vessel.chosen ("closed" | "open" | "open-thick") into out
  *              ("" when the run had no opening to test).
  * gen_nerf:    `mf gen GEN_ARGS --layout nerf-synthetic -o DIR`: the split's scenes as NeRF-Synthetic
  *              has them (transforms and train/, test/ images; no mesh.obj, no ground truth), the

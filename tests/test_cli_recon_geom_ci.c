@@ -40,17 +40,21 @@
  * 27.97 on torus, 1.814 / 14.9 / 0.982 / 19.30 on cup). The cup's columns again on 2026-11-29,
  * when --vessel auto became the default and kept its carved mesh (closed, they were 1.830 / 13.2 /
  * 0.981 / 19.60 for the hull and 1.830 / 14.4 / 0.979 / 19.36 for DMTet); the torus is a candidate
- * too (its flat top), and its trial fits keep the closed mesh. */
+ * too (its flat top), and its trial fits keep the closed mesh. The hull's cup columns again when
+ * --vessel auto also tried 3-cell walls where the stated ones are thinner (mf_vessel.h; at the
+ * hull's 64^3 here, 1.62 cells): its trial took them (held-out 16.35 closed, 16.69 open, 17.35
+ * open-thick dB; with 1.62-cell walls it was 0.2647 / 7.4 / 0.981 / 20.22). DMTet's 32^3 stated wall
+ * (0.8 cells) is under half of 3, so it has no thick trial. */
 typedef struct {
     const char *scene;
     double given_relit;
     double chamfer[2], normal_deg[2], iou[2], relit[2]; /* [0] vhull, [1] dmtet */
-    const char *vessel;                                 /* --vessel auto's choice, both modes */
+    const char *vessel[2];                              /* --vessel auto's choice */
 } CiMeasured;
 
 static const CiMeasured k_measured[] = {
-    {"006_torus", 28.74, {0.0854, 0.1100}, {8.6, 13.2}, {0.991, 0.969}, {28.48, 28.36}, "closed"},
-    {"000_cup", 20.93, {0.2647, 0.2575}, {7.4, 9.6}, {0.981, 0.977}, {20.22, 20.18}, "open"},
+    {"006_torus", 28.74, {0.0854, 0.1100}, {8.6, 13.2}, {0.991, 0.969}, {28.48, 28.36}, {"closed", "closed"}},
+    {"000_cup", 20.93, {0.2490, 0.2575}, {6.2, 9.6}, {0.982, 0.977}, {20.58, 20.18}, {"open-thick", "open"}},
 };
 /* The closed hull's cup Chamfer x1e3 (above): issue 14 asks the carved cavity for <= 0.5x of it. */
 #define CI_CUP_CLOSED_CHAMFER 1.830
@@ -139,8 +143,15 @@ MF_TEST(recon_geometry_carve_ci) {
             char chosen[16];
             snprintf(p, sizeof p, "%s/%s/%s", res, mode[k], m->scene);
             vessel_chosen(p, chosen, sizeof chosen);
-            CHECK_MSG(!strcmp(chosen, m->vessel), "%s %s: --vessel auto chose '%s', measured '%s'", m->scene, mode[k], chosen, m->vessel);
-            CHECK_MSG(strcmp(m->vessel, "open") || ch <= 0.5 * CI_CUP_CLOSED_CHAMFER, "%s %s: carved, Chamfer x1e3 %g > 0.5 x the closed hull's %g",
+            CHECK_MSG(!strcmp(chosen, m->vessel[k]), "%s %s: --vessel auto chose '%s', measured '%s'", m->scene, mode[k], chosen,
+                      m->vessel[k]);
+            /* a thick trial ran: its mesh is kept beside the others, its fit's folder is gone */
+            for (int f = 0; !strcmp(m->vessel[k], "open-thick") && f < 2; ++f) {
+                char q[1500];
+                snprintf(q, sizeof q, f ? "%s/geometry/trial-open-thick" : "%s/geometry/%s-open-thick.obj", p, mode[k]);
+                CHECK_MSG(mf_file_exists(q) == !f, "%s: %s", q, f ? "left behind" : "missing");
+            }
+            CHECK_MSG(strncmp(m->vessel[k], "open", 4) || ch <= 0.5 * CI_CUP_CLOSED_CHAMFER, "%s %s: carved, Chamfer x1e3 %g > 0.5 x the closed hull's %g",
                       m->scene, mode[k], ch, CI_CUP_CLOSED_CHAMFER);
             double gap = m->given_relit - m->relit[k];
             CHECK_MSG(isfinite(rl) && rl >= given - (gap + CI_RELIT_DB), "%s %s: relit PSNR %g < given %g - (measured gap %.2f + %g) dB",

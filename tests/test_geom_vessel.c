@@ -68,8 +68,12 @@ MF_TEST(geom_vessel_carve_matches_brute_force) {
         float c[3] = {p.x, p.y, p.z};
         for (int a = 0; f[i] > 0 && a < 3; ++a) lo[a] = fminf(lo[a], c[a]), hi[a] = fmaxf(hi[a], c[a]);
     }
-    float side = fmaxf(hi[0] - lo[0], fmaxf(hi[1] - lo[1], hi[2] - lo[2])); /* the carve's wall is a fraction of it */
-    CHECK_OK(mf_vessel_carve(&g, f, up, wall / side, &carved));
+    /* the wall for a fraction: of the inside's largest side, in cells, with its floor */
+    float side = fmaxf(hi[0] - lo[0], fmaxf(hi[1] - lo[1], hi[2] - lo[2]));
+    float wc = mf_vessel_wall_cells(&g, f, 0.25f, MF_VESSEL_MIN_CELLS);
+    CHECK_MSG(fabsf(wc - 0.25f * side / g.cell) < 1e-4f && wc > MF_VESSEL_MIN_CELLS, "wall %g cells, want %g", wc, 0.25f * side / g.cell);
+    CHECK(mf_vessel_wall_cells(&g, f, 0.001f, MF_VESSEL_THICK_CELLS) == MF_VESSEL_THICK_CELLS);
+    CHECK_OK(mf_vessel_carve(&g, f, up, wall / g.cell, &carved));
     size_t expect = 0, wrong = 0;
     for (size_t i = 0; i < nv; ++i) {
         MfVec3 p = mf_tetgrid_base(&g, i);
@@ -123,14 +127,15 @@ MF_TEST(geom_vessel_axis_candidates) {
     }
 }
 
-/* Bad input: a wall of 0 and an empty field are refused, saying why. */
+/* Bad input: a wall under MF_VESSEL_MIN_CELLS and an empty field are refused, saying why. */
 MF_TEST(geom_vessel_refuses_bad_input) {
     MfTetGrid g = mf_tetgrid_make(8, mf_v3s(0), 1.0f);
     size_t nv = mf_tetgrid_nverts(&g);
     float *f = shape_field(&g, 1, mf_v3(0, 0, 1));
     CHECK_ERR(mf_vessel_carve(&g, f, mf_v3(0, 0, 1), 0.0f, NULL), "wall");
+    CHECK_ERR(mf_vessel_carve(&g, f, mf_v3(0, 0, 1), 1.4f, NULL), "thinner");
     for (size_t i = 0; i < nv; ++i) f[i] = -0.5f;
-    CHECK_ERR(mf_vessel_carve(&g, f, mf_v3(0, 0, 1), 0.1f, NULL), "empty");
+    CHECK_ERR(mf_vessel_carve(&g, f, mf_v3(0, 0, 1), 2.0f, NULL), "empty");
     MfCamera c[4];
     cameras(c, 4, 0);
     MfVesselAxis va;

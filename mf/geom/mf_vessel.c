@@ -67,22 +67,27 @@ static float top_height(const MfTetGrid *g, const float *field, MfVec3 axis) {
     return h;
 }
 
-int mf_vessel_carve(const MfTetGrid *g, float *field, MfVec3 axis, float wall_frac, size_t *carved) {
-    if (!(wall_frac > 0)) return mf_fail(MF_EARG, "vessel: wall thickness %g must be > 0", wall_frac);
-    float hmax = top_height(g, field, axis);
-    if (!isfinite(hmax)) return mf_fail(MF_EARG, "vessel: the hull is empty");
-    int N = g->res + 1;
-    size_t nv = mf_tetgrid_nverts(g);
+float mf_vessel_wall_cells(const MfTetGrid *g, const float *field, float wall_frac, float min_cells) {
     float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    size_t nv = mf_tetgrid_nverts(g);
     for (size_t i = 0; i < nv; ++i) {
         if (!(field[i] > 0)) continue;
         MfVec3 p = mf_tetgrid_base(g, i);
         float c[3] = {p.x, p.y, p.z};
         for (int a = 0; a < 3; ++a) lo[a] = fminf(lo[a], c[a]), hi[a] = fmaxf(hi[a], c[a]);
     }
-    /* at least 1.5 cells: every inside vertex is a cell or more from the outside, so a thinner wall
-     * would carve the whole hull */
-    float wall = fmaxf(wall_frac * fmaxf(hi[0] - lo[0], fmaxf(hi[1] - lo[1], hi[2] - lo[2])), 1.5f * g->cell);
+    float side = fmaxf(hi[0] - lo[0], fmaxf(hi[1] - lo[1], hi[2] - lo[2]));
+    return fmaxf(wall_frac * side / g->cell, min_cells); /* empty: -inf, so min_cells */
+}
+
+int mf_vessel_carve(const MfTetGrid *g, float *field, MfVec3 axis, float wall_cells, size_t *carved) {
+    if (!(wall_cells >= MF_VESSEL_MIN_CELLS))
+        return mf_fail(MF_EARG, "vessel: a wall of %g cells is thinner than %g: it would carve every inside vertex", wall_cells,
+                       MF_VESSEL_MIN_CELLS);
+    float hmax = top_height(g, field, axis);
+    if (!isfinite(hmax)) return mf_fail(MF_EARG, "vessel: the hull is empty");
+    int N = g->res + 1;
+    size_t nv = mf_tetgrid_nverts(g);
     float *d = malloc(nv * sizeof *d);
     uint8_t *mark = calloc(nv, 1);
     size_t *stack = malloc(nv * sizeof *stack);
@@ -92,7 +97,7 @@ int mf_vessel_carve(const MfTetGrid *g, float *field, MfVec3 axis, float wall_fr
     for (size_t i = 0; !rc && i < nv; ++i)
         d[i] = field[i] <= 0 && mf_dot(mf_tetgrid_base(g, i), axis) < top ? 0.0f : INFINITY;
     if (!rc) rc = edt3(d, N);
-    float w2 = (wall / g->cell) * (wall / g->cell);
+    float w2 = wall_cells * wall_cells;
     size_t ns = 0, nc = 0;
     for (size_t i = 0; !rc && i < nv; ++i) {
         if (!(field[i] > 0 && d[i] > w2)) continue;
@@ -222,5 +227,7 @@ int mf_vessel_axis(const MfTetGrid *g, const float *field, const MfCamera *cams,
 int mf_vessel_open(const MfTetGrid *g, float *field, const MfCamera *cams, int n, float wall_frac, MfVesselAxis *axis, size_t *carved) {
     if (carved) *carved = 0;
     int rc = mf_vessel_axis(g, field, cams, n, axis);
-    return rc || !axis->candidate ? rc : mf_vessel_carve(g, field, axis->axis, wall_frac, carved);
+    if (rc || !axis->candidate) return rc;
+    if (!(wall_frac > 0)) return mf_fail(MF_EARG, "vessel: wall thickness %g must be > 0", wall_frac);
+    return mf_vessel_carve(g, field, axis->axis, mf_vessel_wall_cells(g, field, wall_frac, MF_VESSEL_MIN_CELLS), carved);
 }

@@ -43,17 +43,31 @@ typedef struct {
  * and measures the cap. MF_EARG on an empty field. */
 int mf_vessel_axis(const MfTetGrid *g, const float *field, const MfCamera *cams, int n, MfVesselAxis *out);
 
+/* Walls, in cells: a wall thinner than MF_VESSEL_MIN_CELLS would carve every inside vertex (each
+ * is a cell or more from the outside). mf recon --vessel auto also tries walls of
+ * MF_VESSEL_THICK_CELLS when the stated fraction gives fewer, but not more than
+ * MF_VESSEL_THICK_MAX_X times as many: at DMTet's 64^3 the stated 1.6-cell walls lost every
+ * validation trial after the extracted mesh's smoothing and 3-cell ones won most, while at 32^3,
+ * where the stated wall is 0.8 cells, 3 cells are far thicker than the object's walls (the CI
+ * cup's Chamfer 0.26 -> 1.30; docs/analyses/vessel.md). */
+#define MF_VESSEL_MIN_CELLS 1.5f
+#define MF_VESSEL_THICK_CELLS 3.0f
+#define MF_VESSEL_THICK_MAX_X 2.0f
+
+/* The wall for wall_frac, in cells of g: wall_frac x the largest side of the bounding box of
+ * field's inside vertices, at least min_cells (also on an empty field). */
+float mf_vessel_wall_cells(const MfTetGrid *g, const float *field, float wall_frac, float min_cells);
+
 /* Carves field in place: inside vertices whose Euclidean distance (exact, separable transform) to
- * the nearest outside vertex lying more than 1.5 cells below the top along axis exceeds the wall
- * (wall_frac x the largest side of the inside vertices' bounding box, at least 1.5 cells: a
- * thinner one would carve every inside vertex), and which connect
- * (6-neighbours) to the top, are set to the field's smallest value (mf_vhull's -0.5, or a fitted
- * SDF's most outside). *carved (may be NULL): their count. MF_EARG on wall_frac <= 0 or an empty
- * field; MF_ENOMEM. */
-int mf_vessel_carve(const MfTetGrid *g, float *field, MfVec3 axis, float wall_frac, size_t *carved);
+ * the nearest outside vertex lying more than 1.5 cells below the top along axis exceeds wall_cells
+ * cells, and which connect (6-neighbours) to the top, are set to the field's smallest value
+ * (mf_vhull's -0.5, or a fitted SDF's most outside). *carved (may be NULL): their count. MF_EARG on
+ * wall_cells < MF_VESSEL_MIN_CELLS or an empty field; MF_ENOMEM. */
+int mf_vessel_carve(const MfTetGrid *g, float *field, MfVec3 axis, float wall_cells, size_t *carved);
 
 /* Both: finds the opening (mf_vessel_axis, into *axis) and, when it is a candidate, carves field
- * (mf_vessel_carve; *carved, may be NULL, is 0 otherwise). The one entry of mf hull --vessel open
+ * (mf_vessel_carve, walls mf_vessel_wall_cells(wall_frac, MF_VESSEL_MIN_CELLS); *carved, may be
+ * NULL, is 0 otherwise). The one entry of mf hull --vessel open
  * and mf recon --vessel. */
 int mf_vessel_open(const MfTetGrid *g, float *field, const MfCamera *cams, int n, float wall_frac, MfVesselAxis *axis, size_t *carved);
 

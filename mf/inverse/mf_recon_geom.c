@@ -61,7 +61,8 @@ static int reuse_hull(const char *path, MfMesh *mesh) {
     return ok;
 }
 
-/* Smooth normals, unwrap (mf_uvatlas, as mf unwrap), written atomically to path; m is freed. */
+/* Smooth normals, unwrap (mf_uvatlas, as mf unwrap), written atomically to path; m is freed;
+ * info->unwrap_s += its time. */
 static int unwrap_write(MfMesh *m, int tex_res, const char *path, MfReconGeomInfo *info) {
     MfUvAtlasOpts uo = mf_uvatlas_defaults();
     uo.tex_res = tex_res;
@@ -70,11 +71,12 @@ static int unwrap_write(MfMesh *m, int tex_res, const char *path, MfReconGeomInf
     int rc = mf_mesh_compute_normals(m);
     double t1 = mf_now();
     if (rc == MF_OK) rc = mf_uvatlas(m, &uo, &out, &info->atlas);
-    info->unwrap_s = mf_now() - t1;
+    double dt = mf_now() - t1;
+    info->unwrap_s += dt;
     if (rc == MF_OK && info->atlas.forced_single)
         mf_log_warn("geometry: unwrap: %d triangles became charts of their own", info->atlas.forced_single);
     if (rc == MF_OK && (rc = mf_mkdirs_for(path)) == MF_OK) rc = mf_obj_write(path, &out, NULL);
-    if (rc == MF_OK) mf_log_info("geometry: %d triangles unwrapped into %d charts in %.2f s -> %s", out.nt, info->atlas.charts, info->unwrap_s, path);
+    if (rc == MF_OK) mf_log_info("geometry: %d triangles unwrapped into %d charts in %.2f s -> %s", out.nt, info->atlas.charts, dt, path);
     mf_mesh_free(m);
     mf_mesh_free(&out);
     return rc;
@@ -93,16 +95,22 @@ static int geom_path(char *path, size_t cap, const char *out_dir, const char *so
     return mf_path_join(path, cap, out_dir, name);
 }
 
+/* The meshes --vessel auto compares, and their files' suffixes: the closed one, the field carved
+ * with the stated wall, and carved with walls of MF_VESSEL_THICK_CELLS (only when the stated wall
+ * is thinner). */
+static const char *const k_vessel_name[MF_VESSEL_MESHES] = {"closed", "open", "open-thick"};
+
 /* The field's clean mesh (mf_vhull_extract_clean), unwrapped, to path; with --vessel auto|open and
- * a candidate opening (mf_vessel_axis), the carved mesh too: open writes it to path instead of
- * the closed one; auto writes both, to <source>-closed.obj and <source>-open.obj, and leaves the
- * choice pending (mf_recon_geom_vessel_choose). field is changed (carved) when a candidate exists. */
+ * a candidate opening (mf_vessel_axis), the carved meshes too: open writes the one with the stated
+ * wall to path instead of the closed one; auto writes each to <source>-<k_vessel_name>.obj and
+ * leaves the choice pending (mf_recon_geom_vessel_choose). field is changed (carved) when a
+ * candidate exists. */
 static int extract_write(const MfReconGeomOpts *o, const MfTetGrid *g, float *field, const MfHullOpts *ho, const MfCamera *cams,
                          int n, int tex_res, const char *out_dir, const char *path, int *extracted, int *dropped,
                          MfReconGeomInfo *info) {
     MfMesh m = {0}, open = {0};
-    int rc = mf_vhull_extract_clean(g, field, ho, &m, extracted, dropped);
-    if (!rc && o->vessel != MF_VESSEL_CLOSED) rc = mf_vessel_open(g, field, cams, n, o->vessel_wall, &info->vessel, &info->vessel_carved);
+    int rc = mf_vhull_extract_clean(g, field, ho, &m, extracted, dropped), automode = o->vessel == MF_VESSEL_AUTO;
+    if (!rc && o->vessel != MF_VESSEL_CLOSED) rc = mf_vessel_axis(g, field, cams, n, &info->vessel);
     if (rc || o->vessel == MF_VESSEL_CLOSED || !info->vessel.candidate) {
         if (!rc && o->vessel != MF_VESSEL_CLOSED)
             mf_log_info("geometry: vessel: no opening to test (top %.2f of the cross-section, tilt %.1f deg; needs >= %.2f, <= %.0f deg)",
@@ -111,24 +119,39 @@ static int extract_write(const MfReconGeomOpts *o, const MfTetGrid *g, float *fi
         mf_mesh_free(&m);
         return rc;
     }
-    rc = mf_vhull_extract_clean(g, field, ho, &open, NULL, NULL);
+    /* walls: the stated fraction of the hull's side (at least MF_VESSEL_MIN_CELLS) and, under auto
+     * where that is thinner than MF_VESSEL_THICK_CELLS but at least half of it, that many cells,
+     * carved from a copy of the uncarved field */
+    float w = mf_vessel_wall_cells(g, field, o->vessel_wall, 0.0f);
+    info->vessel_n = 2 + (automode && w < MF_VESSEL_THICK_CELLS && MF_VESSEL_THICK_CELLS <= MF_VESSEL_THICK_MAX_X * w);
+    info->vessel_wall_cells[0] = fmaxf(w, MF_VESSEL_MIN_CELLS);
+    info->vessel_wall_cells[1] = info->vessel_n > 2 ? MF_VESSEL_THICK_CELLS : 0.0f;
+    size_t nv = mf_tetgrid_nverts(g);
+    float *copy = info->vessel_n > 2 ? malloc(nv * sizeof *copy) : NULL;
+    if (info->vessel_n > 2 && !copy) rc = mf_fail(MF_ENOMEM, "vessel: out of memory for a copy of the field");
+    if (copy) memcpy(copy, field, nv * sizeof *copy);
+    char p[MF_PATH_MAX];
+    if (!rc && automode && !(rc = geom_path(p, sizeof p, out_dir, info->source, "-closed"))) rc = unwrap_write(&m, tex_res, p, info);
+    mf_mesh_free(&m);
     MfVec3 a = info->vessel.axis;
-    if (!rc)
-        mf_log_info("geometry: vessel: a flat top (%.2f of the cross-section) facing the cameras, axis (%.3f, %.3f, %.3f); carved "
-                    "%zu grid vertices (walls %g of the hull's side)", info->vessel.cap_frac, a.x, a.y, a.z, info->vessel_carved,
-                    (double)o->vessel_wall);
-    char pc[MF_PATH_MAX], po[MF_PATH_MAX];
-    if (!rc && o->vessel == MF_VESSEL_OPEN) {
-        info->vessel_chosen = "open";
-        rc = unwrap_write(&open, tex_res, path, info);
-    } else if (!rc && !(rc = geom_path(pc, sizeof pc, out_dir, info->source, "-closed")) &&
-               !(rc = geom_path(po, sizeof po, out_dir, info->source, "-open"))) {
-        double t = 0;
-        if (!(rc = unwrap_write(&m, tex_res, pc, info))) t = info->unwrap_s, rc = unwrap_write(&open, tex_res, po, info);
-        info->unwrap_s += t;
-        info->vessel_pending = !rc;
+    for (int k = 0; !rc && k + 1 < info->vessel_n; ++k) {
+        float *f = k ? copy : field;
+        char suffix[32];
+        snprintf(suffix, sizeof suffix, "-%s", k_vessel_name[k + 1]);
+        rc = mf_vessel_carve(g, f, a, info->vessel_wall_cells[k], &info->vessel_carved[k]);
+        if (!rc) rc = mf_vhull_extract_clean(g, f, ho, &open, NULL, NULL);
+        if (!rc)
+            mf_log_info("geometry: vessel: a flat top (%.2f of the cross-section) facing the cameras, axis (%.3f, %.3f, %.3f); carved "
+                        "%zu grid vertices (walls %.2f cells: %g of the hull's side, at least %g cells)", info->vessel.cap_frac, a.x, a.y,
+                        a.z, info->vessel_carved[k], (double)info->vessel_wall_cells[k], (double)o->vessel_wall,
+                        (double)(k ? MF_VESSEL_THICK_CELLS : MF_VESSEL_MIN_CELLS));
+        if (!rc && automode) rc = geom_path(p, sizeof p, out_dir, info->source, suffix);
+        if (!rc) rc = unwrap_write(&open, tex_res, automode ? p : path, info);
+        mf_mesh_free(&open);
     }
-    mf_mesh_free(&m), mf_mesh_free(&open);
+    free(copy);
+    if (!rc && automode) info->vessel_pending = 1;
+    if (!rc && !automode) info->vessel_chosen = k_vessel_name[1];
     return rc;
 }
 
@@ -233,7 +256,8 @@ static int same_file(const char *a, const char *b) {
 static int remove_other_geometry(const char *out_dir, const char *source, const char *keep, int check_only) {
     static const struct { const char *file, *owner; } outs[] = {
         {"geometry/vhull.obj", "vhull"}, {"geometry/vhull-closed.obj", "vhull"}, {"geometry/vhull-open.obj", "vhull"},
-        {"geometry/dmtet.obj", "dmtet"}, {"geometry/dmtet-closed.obj", "dmtet"}, {"geometry/dmtet-open.obj", "dmtet"},
+        {"geometry/vhull-open-thick.obj", "vhull"}, {"geometry/dmtet.obj", "dmtet"}, {"geometry/dmtet-closed.obj", "dmtet"},
+        {"geometry/dmtet-open.obj", "dmtet"}, {"geometry/dmtet-open-thick.obj", "dmtet"},
         {"geometry/dmtet_state.mfck", "dmtet"}, {"geom_log.csv", "dmtet"}};
     char path[MF_PATH_MAX];
     for (size_t i = 0; i < sizeof outs / sizeof outs[0]; ++i) {
@@ -284,14 +308,16 @@ int mf_recon_geom_mesh(const MfReconGeomOpts *o, const char *source, const char 
     if (rc) return rc;
     /* read back what was written: a resumed run reuses the file, so both optimise the same bytes
      * (a pending vessel choice: the closed mesh, until mf_recon_geom_vessel_choose) */
-    char closed[MF_PATH_MAX], open[MF_PATH_MAX];
-    if ((rc = geom_path(closed, sizeof closed, out_dir, source, "-closed")) || (rc = geom_path(open, sizeof open, out_dir, source, "-open")))
-        return rc;
-    /* no choice pending: an earlier auto run's pair in this folder is not this run's */
-    for (int k = 0; k < 2 && !info->vessel_pending; ++k)
-        if (mf_file_exists(k ? open : closed) && remove(k ? open : closed) != 0)
-            return mf_fail(MF_EIO, "%s: cannot remove an earlier run's vessel mesh: %s", k ? open : closed, strerror(errno));
-    if ((rc = mf_mesh_read(info->vessel_pending ? closed : info->mesh_path, mesh))) return rc;
+    /* an earlier auto run's meshes in this folder that this run did not write are not this run's */
+    char vp[MF_VESSEL_MESHES][MF_PATH_MAX];
+    for (int k = 0; k < MF_VESSEL_MESHES; ++k) {
+        char suffix[32];
+        snprintf(suffix, sizeof suffix, "-%s", k_vessel_name[k]);
+        if ((rc = geom_path(vp[k], sizeof vp[k], out_dir, source, suffix))) return rc;
+        if ((!info->vessel_pending || k >= info->vessel_n) && mf_file_exists(vp[k]) && remove(vp[k]) != 0)
+            return mf_fail(MF_EIO, "%s: cannot remove an earlier run's vessel mesh: %s", vp[k], strerror(errno));
+    }
+    if ((rc = mf_mesh_read(info->vessel_pending ? vp[0] : info->mesh_path, mesh))) return rc;
     info->hull_tris = mesh->nt;
     if ((rc = remove_other_geometry(out_dir, source, NULL, 0))) mf_mesh_free(mesh);
     return rc;
@@ -328,35 +354,37 @@ static int trial_fit(const MfMesh *mesh, const MfReconView *views, int n, const 
 int mf_recon_geom_vessel_choose(const MfReconGeomOpts *o, MfReconGeomInfo *info, const MfReconView *views, int nviews,
                                 const MfReconOpts *ro, const char *out_dir, MfMesh *mesh) {
     if (!info->vessel_pending) return MF_OK;
-    char po[MF_PATH_MAX], dir[MF_PATH_MAX];
-    MfMesh open = {0};
-    int rc = geom_path(po, sizeof po, out_dir, info->source, "-open");
-    if (!rc) rc = mf_mesh_read(po, &open);
-    const MfMesh *m[2] = {mesh, &open};
-    static const char *name[2] = {"closed", "open"};
-    int iters = o->vessel_trial_iters >= 0 ? o->vessel_trial_iters : ro->iters / 4;
+    char p[MF_PATH_MAX];
+    MfMesh open[MF_VESSEL_MESHES - 1] = {{0}};
+    const MfMesh *m[MF_VESSEL_MESHES] = {mesh, &open[0], &open[1]};
+    int iters = o->vessel_trial_iters >= 0 ? o->vessel_trial_iters : ro->iters / 4, rc = MF_OK, pick = 0;
     iters = iters > 0 ? iters : 1;
     double t0 = mf_now();
-    for (int k = 0; k < 2 && !rc; ++k) {
-        char sub[32];
-        snprintf(sub, sizeof sub, "geometry/trial-%s", name[k]);
-        if (!(rc = mf_path_join(dir, sizeof dir, out_dir, sub)))
-            rc = trial_fit(m[k], views, nviews, ro, iters, dir, &info->vessel_psnr[k]);
+    for (int k = 0; k < info->vessel_n && !rc; ++k) {
+        char suffix[32], name[64];
+        snprintf(suffix, sizeof suffix, "-%s", k_vessel_name[k]);
+        if (k && !(rc = geom_path(p, sizeof p, out_dir, info->source, suffix))) rc = mf_mesh_read(p, &open[k - 1]);
+        snprintf(name, sizeof name, "geometry/trial-%s", k_vessel_name[k]);
+        if (!rc && !(rc = mf_path_join(p, sizeof p, out_dir, name))) rc = trial_fit(m[k], views, nviews, ro, iters, p, &info->vessel_psnr[k]);
+        /* an open mesh is kept only when it beats the closed one by the margin, and the other open one */
+        if (!rc && k && info->vessel_psnr[k] > info->vessel_psnr[0] + MF_VESSEL_MARGIN_DB && info->vessel_psnr[k] > info->vessel_psnr[pick])
+            pick = k;
     }
-    int pick = !rc && info->vessel_psnr[1] > info->vessel_psnr[0] + MF_VESSEL_MARGIN_DB;
     info->vessel_trial_iters = iters;
     if (!rc) {
-        info->vessel_chosen = name[pick];
-        mf_log_info("geometry: vessel: trial fits of %d iterations in %.1f s, held-out PSNR closed %.3f dB, open %.3f dB: keeping the %s mesh",
-                    iters, mf_now() - t0, info->vessel_psnr[0], info->vessel_psnr[1], name[pick]);
+        info->vessel_chosen = k_vessel_name[pick];
+        mf_log_info("geometry: vessel: trial fits of %d iterations in %.1f s, held-out PSNR closed %.3f dB, open %.3f dB%s%.3f%s: keeping "
+                    "the %s mesh", iters, mf_now() - t0, info->vessel_psnr[0], info->vessel_psnr[1],
+                    info->vessel_n > 2 ? ", open-thick " : "", info->vessel_n > 2 ? info->vessel_psnr[2] : 0.0,
+                    info->vessel_n > 2 ? " dB" : "", k_vessel_name[pick]);
         rc = mf_obj_write(info->mesh_path, m[pick], NULL);
     }
     if (!rc && pick) {
         mf_mesh_free(mesh);
-        *mesh = open;
-    } else {
-        mf_mesh_free(&open);
+        *mesh = open[pick - 1];
+        open[pick - 1] = (MfMesh){0};
     }
+    for (int k = 0; k < MF_VESSEL_MESHES - 1; ++k) mf_mesh_free(&open[k]);
     info->vessel_pending = 0;
     return rc ? mf_fail_prefix(rc, "--vessel auto") : MF_OK;
 }
@@ -378,10 +406,16 @@ void mf_recon_geom_to_json(const MfReconGeomInfo *info, cJSON *obj) {
         for (int k = 0; k < 3; ++k) cJSON_AddItemToArray(ax, cJSON_CreateNumber(a[k]));
         cJSON_AddNumberToObject(v, "cap_fraction", info->vessel.cap_frac);
         cJSON_AddNumberToObject(v, "tilt_deg", info->vessel.tilt_deg);
-        cJSON_AddNumberToObject(v, "carved_vertices", (double)info->vessel_carved);
+        cJSON_AddNumberToObject(v, "carved_vertices", (double)info->vessel_carved[0]);
+        cJSON_AddNumberToObject(v, "wall_cells", info->vessel_wall_cells[0]);
+        if (info->vessel_n > 2) { /* auto, a stated wall under MF_VESSEL_THICK_CELLS: the thick one too */
+            cJSON_AddNumberToObject(v, "carved_vertices_thick", (double)info->vessel_carved[1]);
+            cJSON_AddNumberToObject(v, "wall_cells_thick", info->vessel_wall_cells[1]);
+        }
         if (info->vessel_trial_iters) { /* auto: the trials ran */
             cJSON_AddNumberToObject(v, "holdout_psnr_closed", info->vessel_psnr[0]);
             cJSON_AddNumberToObject(v, "holdout_psnr_open", info->vessel_psnr[1]);
+            if (info->vessel_n > 2) cJSON_AddNumberToObject(v, "holdout_psnr_open_thick", info->vessel_psnr[2]);
             cJSON_AddNumberToObject(v, "trial_iters", info->vessel_trial_iters);
         }
         cJSON_AddStringToObject(v, "chosen", info->vessel_chosen ? info->vessel_chosen : "");

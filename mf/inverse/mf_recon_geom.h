@@ -25,13 +25,17 @@
  *          (mf_geom_fit.h), whose shading gradients reach them.
  *   vessel (vhull and dmtet; --vessel auto|open|closed, default auto): silhouettes cannot carve a
  *          cavity, so the field is also tested as an open vessel (mf_vessel.h). When the hull has
- *          a large flat top facing the cameras, auto extracts both the closed mesh and the field
- *          carved below that top (walls vessel_wall x the hull's side), writes them to
- *          <out>/geometry/<source>-closed.obj and -open.obj, and mf_recon_geom_vessel_choose fits
- *          each for a quarter of the run's iterations with every 8th training view held out; the
- *          carved mesh becomes geometry/<source>.obj only when its held-out PSNR is higher by
- *          more than MF_VESSEL_MARGIN_DB. open carves without the test, closed never carves.
- *          run.json's geometry_result.vessel records the axis, the trial PSNRs and the choice.
+ *          a large flat top facing the cameras, auto extracts the closed mesh and the field
+ *          carved below that top (walls vessel_wall x the hull's side, at least
+ *          MF_VESSEL_MIN_CELLS), and, when those walls are thinner than MF_VESSEL_THICK_CELLS
+ *          (DMTet's 64^3 grid), carved again with walls of that many cells; writes them to
+ *          <out>/geometry/<source>-closed.obj, -open.obj and -open-thick.obj, and
+ *          mf_recon_geom_vessel_choose fits each for a quarter of the run's iterations with every
+ *          8th training view held out; the carved mesh with the higher held-out PSNR becomes
+ *          geometry/<source>.obj only when it beats the closed one by more than
+ *          MF_VESSEL_MARGIN_DB. open carves (the stated wall) without the test, closed never
+ *          carves. run.json's geometry_result.vessel records the axis, the walls, the trial PSNRs
+ *          and the choice.
  * One folder, one run: once the mesh is read or built, what an earlier run with another source
  * left in out_dir (geometry/vhull*.obj; geometry/dmtet*.obj, dmtet_state.mfck and geom_log.csv) is removed, with a
  * log line each, so the folder never mixes two runs' geometry; the given mesh itself is never
@@ -52,6 +56,9 @@
 #include "io/mf_image.h"
 #include "scene/mf_camera.h"
 #include "scene/mf_mesh.h"
+
+/* --vessel auto's meshes: closed, open, open-thick */
+#define MF_VESSEL_MESHES 3
 
 typedef struct {
     const char *geometry;     /* "given" | "vhull" | "dmtet"; NULL: given when a mesh exists, else vhull */
@@ -95,11 +102,13 @@ typedef struct {
     int dropped_components;      /* dmtet, built: components dropped by the clean-up */
     int smooth_iters;            /* dmtet, built: Taubin iterations used (dmtet_smooth resolved) */
     MfVesselAxis vessel;         /* vhull/dmtet, built, --vessel auto|open: the opening found (candidate 0: none) */
-    size_t vessel_carved;        /* grid vertices the carved mesh removed */
-    int vessel_pending;          /* auto with a candidate: both meshes written, mf_recon_geom_vessel_choose to choose */
-    double vessel_psnr[2];       /* auto: held-out PSNR of the closed and the open trial fit */
+    int vessel_n;                /* meshes made with a candidate: 2 (closed, open) or 3 (and open-thick) */
+    size_t vessel_carved[2];     /* grid vertices each carved mesh removed: open, open-thick */
+    float vessel_wall_cells[2];  /* their walls, in grid cells (0: not made) */
+    int vessel_pending;          /* auto with a candidate: the meshes written, mf_recon_geom_vessel_choose to choose */
+    double vessel_psnr[MF_VESSEL_MESHES]; /* auto: held-out PSNR of each trial fit (closed, open, open-thick) */
     int vessel_trial_iters;      /* auto: iterations of each trial fit (resolved) */
-    const char *vessel_chosen;   /* "closed" | "open" once decided; NULL: no candidate, or --vessel closed */
+    const char *vessel_chosen;   /* "closed" | "open" | "open-thick" once decided; NULL: no candidate, or --vessel closed */
 } MfReconGeomInfo;
 
 /* Resolves o->geometry into *source ("given", "vhull" or "dmtet"): NULL means given when
@@ -124,12 +133,12 @@ int mf_recon_geom_mesh(const MfReconGeomOpts *o, const char *source, const char 
                        MfReconGeomInfo *info);
 
 /* --vessel auto with a candidate opening (info->vessel_pending): mf_recon_geom_mesh wrote the
- * closed mesh to geometry/<source>-closed.obj (it is in *mesh) and the carved one to
- * geometry/<source>-open.obj, and left geometry/<source>.obj unwritten. This fits each for
- * o->vessel_trial_iters iterations (-1: ro->iters / 4, at least 1) with the run's options ro (no
- * prior term) and views 0, 8, 16,
- * ... held out (ro's early_stop hold-out; the fits' files, under geometry/trial, are removed),
- * keeps the open mesh only when its held-out PSNR beats the closed one's by more than
+ * closed mesh to geometry/<source>-closed.obj (it is in *mesh), the carved ones to
+ * geometry/<source>-open.obj (and -open-thick.obj: info->vessel_n 3), and left
+ * geometry/<source>.obj unwritten. This fits each for o->vessel_trial_iters iterations (-1:
+ * ro->iters / 4, at least 1) with the run's options ro (no prior term) and views 0, 8, 16, ...
+ * held out (ro's early_stop hold-out; the fits' files, under geometry/trial-*, are removed), keeps
+ * the carved mesh with the higher held-out PSNR only when it beats the closed one's by more than
  * MF_VESSEL_MARGIN_DB, writes the chosen mesh to geometry/<source>.obj and puts it in *mesh, so
  * a resumed run reuses it. Nothing to do (MF_OK) when no choice is pending. views: (nviews,), as
  * mf_recon_new takes them (they are copied, not moved). */

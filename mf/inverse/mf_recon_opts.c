@@ -110,10 +110,11 @@ static const MfOpt k_geom_opts[] = {
     MF_OPT_INT(G, geom_seed, 1, 0, 2147483647, "dmtet: the colour term's Monte Carlo seed"),
     MF_OPT_ENUM(G, vessel, MF_VESSEL_AUTO, MF_VESSEL_MODES,
                 "vhull, dmtet: an open vessel (a cup's inside, which silhouettes cannot carve; mf_vessel.h): auto (when the hull has a large "
-                "flat top facing the cameras, fit the closed and the carved mesh for --vessel-trial-iters iterations with every 8th view held out "
-                "and keep the carved one only when its held-out PSNR is higher by more than 0.1 dB), open (carve whenever there is "
-                "such a top), closed (never carve)"),
-    MF_OPT_FLOAT(G, vessel_wall, MF_VESSEL_DEFAULT_WALL, 1e-4, 0.5, "vhull, dmtet: the carved vessel's wall thickness, x the hull's largest side"),
+                "flat top facing the cameras, fit the closed and the carved mesh, and one with 3-cell walls where --vessel-wall gives 1.5 to 3 cells, "
+                "for --vessel-trial-iters iterations with every 8th view held out, and keep the best carved one only when its held-out PSNR is "
+                "higher by more than 0.1 dB), open (carve whenever there is such a top), closed (never carve)"),
+    MF_OPT_FLOAT(G, vessel_wall, MF_VESSEL_DEFAULT_WALL, 1e-4, 0.5,
+                 "vhull, dmtet: the carved vessel's wall thickness, x the hull's largest side (at least 1.5 grid cells)"),
     MF_OPT_INT(G, vessel_trial_iters, -1, -1, 1000000, "--vessel auto: iterations of each trial fit (-1: a quarter of --iters, at least 1)"),
 };
 #undef G
