@@ -46,10 +46,10 @@ int mf_vessel_axis(const MfTetGrid *g, const float *field, const MfCamera *cams,
 /* Walls, in cells: a wall thinner than MF_VESSEL_MIN_CELLS would carve every inside vertex (each
  * is a cell or more from the outside). mf recon --vessel auto also tries walls of
  * MF_VESSEL_THICK_CELLS when the stated fraction gives fewer, but not more than
- * MF_VESSEL_THICK_MAX_X times as many: at DMTet's 64^3 the stated 1.6-cell walls lost every
- * validation trial after the extracted mesh's smoothing and 3-cell ones won most, while at 32^3,
- * where the stated wall is 0.8 cells, 3 cells are far thicker than the object's walls (the CI
- * cup's Chamfer 0.26 -> 1.30; docs/analyses/vessel.md). */
+ * MF_VESSEL_THICK_MAX_X times as many: at DMTet's 64^3, after the extracted mesh's smoothing, the
+ * stated 1.6-cell walls lost 9 of 13 validation vessels' trials to the closed mesh and all 13 to
+ * 3-cell walls, while at 32^3, where the stated wall is 0.8 cells, 3 cells are far thicker than
+ * the object's walls (the CI cup's Chamfer 0.26 -> 1.30; docs/analyses/vessel.md). */
 #define MF_VESSEL_MIN_CELLS 1.5f
 #define MF_VESSEL_THICK_CELLS 3.0f
 #define MF_VESSEL_THICK_MAX_X 2.0f
@@ -67,8 +67,8 @@ int mf_vessel_carve(const MfTetGrid *g, float *field, MfVec3 axis, float wall_ce
 
 /* Both: finds the opening (mf_vessel_axis, into *axis) and, when it is a candidate, carves field
  * (mf_vessel_carve, walls mf_vessel_wall_cells(wall_frac, MF_VESSEL_MIN_CELLS); *carved, may be
- * NULL, is 0 otherwise). The one entry of mf hull --vessel open
- * and mf recon --vessel. */
+ * NULL, is 0 otherwise): mf hull --vessel open (mf_vhull). mf recon --vessel calls the two itself,
+ * to carve more than one wall (mf_recon_geom.c). */
 int mf_vessel_open(const MfTetGrid *g, float *field, const MfCamera *cams, int n, float wall_frac, MfVesselAxis *axis, size_t *carved);
 
 #endif
