@@ -88,17 +88,17 @@ static MfHullOpts hull_opts(const MfReconGeomOpts *o) {
     return (MfHullOpts){o->hull_res, o->hull_extent, o->hull_smooth, o->hull_target_tris, o->hull_min_component, 0.0f};
 }
 
-/* <out>/geometry/<source><suffix>.obj */
-static int geom_path(char *path, size_t cap, const char *out_dir, const char *source, const char *suffix) {
-    char name[64];
-    snprintf(name, sizeof name, "geometry/%s%s.obj", source, suffix);
-    return mf_path_join(path, cap, out_dir, name);
-}
-
 /* The meshes --vessel auto compares, and their files' suffixes: the closed one, the field carved
  * with the stated wall, and carved with walls of MF_VESSEL_THICK_CELLS (only when the stated wall
  * is thinner). */
 static const char *const k_vessel_name[MF_VESSEL_MESHES] = {"closed", "open", "open-thick"};
+
+/* <out>/geometry/<source>-<k_vessel_name[k]>.obj */
+static int vessel_path(char *path, size_t cap, const char *out_dir, const char *source, int k) {
+    char name[64];
+    snprintf(name, sizeof name, "geometry/%s-%s.obj", source, k_vessel_name[k]);
+    return mf_path_join(path, cap, out_dir, name);
+}
 
 /* The field's clean mesh (mf_vhull_extract_clean), unwrapped, to path; with --vessel auto|open and
  * a candidate opening (mf_vessel_axis), the carved meshes too: open writes the one with the stated
@@ -131,13 +131,11 @@ static int extract_write(const MfReconGeomOpts *o, const MfTetGrid *g, float *fi
     if (info->vessel_n > 2 && !copy) rc = mf_fail(MF_ENOMEM, "vessel: out of memory for a copy of the field");
     if (copy) memcpy(copy, field, nv * sizeof *copy);
     char p[MF_PATH_MAX];
-    if (!rc && automode && !(rc = geom_path(p, sizeof p, out_dir, info->source, "-closed"))) rc = unwrap_write(&m, tex_res, p, info);
+    if (!rc && automode && !(rc = vessel_path(p, sizeof p, out_dir, info->source, 0))) rc = unwrap_write(&m, tex_res, p, info);
     mf_mesh_free(&m);
     MfVec3 a = info->vessel.axis;
     for (int k = 0; !rc && k + 1 < info->vessel_n; ++k) {
         float *f = k ? copy : field;
-        char suffix[32];
-        snprintf(suffix, sizeof suffix, "-%s", k_vessel_name[k + 1]);
         rc = mf_vessel_carve(g, f, a, info->vessel_wall_cells[k], &info->vessel_carved[k]);
         if (!rc) rc = mf_vhull_extract_clean(g, f, ho, &open, NULL, NULL);
         if (!rc)
@@ -145,7 +143,7 @@ static int extract_write(const MfReconGeomOpts *o, const MfTetGrid *g, float *fi
                         "%zu grid vertices (walls %.2f cells: %g of the hull's side, at least %g cells)", info->vessel.cap_frac, a.x, a.y,
                         a.z, info->vessel_carved[k], (double)info->vessel_wall_cells[k], (double)o->vessel_wall,
                         (double)(k ? MF_VESSEL_THICK_CELLS : MF_VESSEL_MIN_CELLS));
-        if (!rc && automode) rc = geom_path(p, sizeof p, out_dir, info->source, suffix);
+        if (!rc && automode) rc = vessel_path(p, sizeof p, out_dir, info->source, k + 1);
         if (!rc) rc = unwrap_write(&open, tex_res, automode ? p : path, info);
         mf_mesh_free(&open);
     }
@@ -306,17 +304,15 @@ int mf_recon_geom_mesh(const MfReconGeomOpts *o, const char *source, const char 
     rc = dmtet ? build_dmtet(o, cams, masks, n, tex_res, out_dir, info->mesh_path, resume, info)
                : build_hull(o, cams, masks, n, tex_res, out_dir, info->mesh_path, info);
     if (rc) return rc;
-    /* read back what was written: a resumed run reuses the file, so both optimise the same bytes
-     * (a pending vessel choice: the closed mesh, until mf_recon_geom_vessel_choose) */
     /* an earlier auto run's meshes in this folder that this run did not write are not this run's */
     char vp[MF_VESSEL_MESHES][MF_PATH_MAX];
     for (int k = 0; k < MF_VESSEL_MESHES; ++k) {
-        char suffix[32];
-        snprintf(suffix, sizeof suffix, "-%s", k_vessel_name[k]);
-        if ((rc = geom_path(vp[k], sizeof vp[k], out_dir, source, suffix))) return rc;
+        if ((rc = vessel_path(vp[k], sizeof vp[k], out_dir, source, k))) return rc;
         if ((!info->vessel_pending || k >= info->vessel_n) && mf_file_exists(vp[k]) && remove(vp[k]) != 0)
             return mf_fail(MF_EIO, "%s: cannot remove an earlier run's vessel mesh: %s", vp[k], strerror(errno));
     }
+    /* read back what was written: a resumed run reuses the file, so both optimise the same bytes
+     * (a pending vessel choice: the closed mesh, until mf_recon_geom_vessel_choose) */
     if ((rc = mf_mesh_read(info->vessel_pending ? vp[0] : info->mesh_path, mesh))) return rc;
     info->hull_tris = mesh->nt;
     if ((rc = remove_other_geometry(out_dir, source, NULL, 0))) mf_mesh_free(mesh);
@@ -361,9 +357,8 @@ int mf_recon_geom_vessel_choose(const MfReconGeomOpts *o, MfReconGeomInfo *info,
     iters = iters > 0 ? iters : 1;
     double t0 = mf_now();
     for (int k = 0; k < info->vessel_n && !rc; ++k) {
-        char suffix[32], name[64];
-        snprintf(suffix, sizeof suffix, "-%s", k_vessel_name[k]);
-        if (k && !(rc = geom_path(p, sizeof p, out_dir, info->source, suffix))) rc = mf_mesh_read(p, &open[k - 1]);
+        char name[64];
+        if (k && !(rc = vessel_path(p, sizeof p, out_dir, info->source, k))) rc = mf_mesh_read(p, &open[k - 1]);
         snprintf(name, sizeof name, "geometry/trial-%s", k_vessel_name[k]);
         if (!rc && !(rc = mf_path_join(p, sizeof p, out_dir, name))) rc = trial_fit(m[k], views, nviews, ro, iters, p, &info->vessel_psnr[k]);
         /* an open mesh is kept only when it beats the closed one by the margin, and the other open one */
