@@ -167,6 +167,16 @@ MF_TEST(render_hitgrad_dpos) {
     CHECK(gmax > 0);
     CHECK_MSG(rel < 2e-3, "dpos: max |adjoint - fd| / max |fd| = %.3g at coordinate %ld (fd %.6g, adjoint %.6g)", rel, r.at,
               r.fd, r.g);
+    /* with dnrm the normals' adjoint stops there: through mf_mesh_normals_backward it gives dpos */
+    float *dp2 = calloc((size_t)f.mesh.nv * 3, sizeof(float)), *dn2 = calloc((size_t)f.mesh.nv * 3, sizeof(float));
+    MfDiffGrads g3 = {.dpos = dp2, .dnrm = dn2};
+    CHECK_OK(mf_diff_backward(&s, &f.cam, &o, &adj, &g3));
+    double dn_max = 0, dp_err = 0;
+    for (int i = 0; i < 3 * f.mesh.nv; ++i) dn_max = fmax(dn_max, fabs(dn2[i]));
+    CHECK_OK(mf_mesh_normals_backward(mf_rtscene_mesh(f.rt0), dn2, dp2));
+    for (int i = 0; i < 3 * f.mesh.nv; ++i) dp_err = fmax(dp_err, fabs(dp2[i] - dpos[i]));
+    CHECK_MSG(dn_max > 0 && dp_err <= 1e-5 * gmax, "dnrm: largest %g; dpos through it differs by %g", dn_max, dp_err);
+    free(dp2), free(dn2);
     /* a normal map is refused */
     MfDiffScene sn = s;
     sn.normal = &f.kd;

@@ -350,6 +350,7 @@ static int cmd_recon_run(int argc, char **argv, const MfOptParse *p, ReconArgs *
         o.vertex_lr = mf_recon_geom_vertex_lr(gi.source, &mesh, o.normal_map);
         if (o.vertex_lr > 0) mf_log_info("recon: --geometry %s: the vertices move (--vertex-lr %g, the default on a recovered mesh; 0 fixes them)", gi.source, (double)o.vertex_lr);
     }
+    if (o.normal_smooth < 0) o.normal_smooth = mf_recon_geom_normal_smooth(gi.source);
     if (mf_recon_geom_vessel_choose(go, &gi, views, nviews, &o, out, &mesh)) {
         for (int i = 0; i < nviews; ++i) mf_image_free(&views[i].ref);
         free(views);

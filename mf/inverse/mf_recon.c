@@ -60,12 +60,15 @@ struct MfRecon {
     double grow_prev, grow_sum; /* spp_grow: mean image loss of the last whole window (-1: none), sum of this one */
     int grow_n;                 /* spp_grow: iterations in this window so far */
     int grew_at[16], ngrew;     /* spp_grow: iterations where spp_now grew */
-    /* vertex_lr > 0: the mesh moved by the image loss (verts_init, verts_step) */
+    /* vertex_lr > 0: the mesh moved by the image loss (verts_init, verts_step); normal_smooth > 0
+     * (or vertex_lr > 0): its shading normals recomputed on the welded mesh */
     MfMesh own;                 /* the mutable copy r->mesh points to */
     MfMesh wmesh;               /* welded: (nw) vertices, own's triangles re-indexed; its normals */
     int *wmap;                  /* (nv,) own's vertex -> welded vertex */
     int *adj_off, *adj;         /* welded adjacency (CSR over the triangles' edges) */
-    float *dpos;                /* (nv, 3) the iteration's dLoss/dpos of own */
+    float *dpos, *dnrm;         /* (nv, 3) each: the iteration's dLoss/d own's positions, normals */
+    float *wdn;                 /* (nw, 3) dLoss/d the welded normals */
+    float *nhist;               /* (normal_smooth, nw, 3) the smoothing's inputs (mf_mesh_smooth_normals) */
     MfParamBlock pos;           /* (nw, 3) welded positions */
     MfAdam adam_pos;
 };
@@ -146,7 +149,7 @@ static int env_coverage(MfRecon *r, const MfReconView *views, int nviews) {
     return MF_OK;
 }
 
-/* ---- moving vertices (vertex_lr > 0) ---- */
+/* ---- moving vertices (vertex_lr > 0) and smoothed normals (normal_smooth > 0) ---- */
 
 /* qsort_r order of vertex indices by position (pos (nv, 3) the context). */
 static int cmp_pos(const void *a, const void *b, void *pos) {
@@ -156,10 +159,19 @@ static int cmp_pos(const void *a, const void *b, void *pos) {
     return 0;
 }
 
+/* The welded mesh's area-weighted normals, smoothed normal_smooth times (the inputs kept for the
+ * backward), copied to own's seam copies. */
+static int normals_apply(MfRecon *r) {
+    int rc = mf_mesh_compute_normals(&r->wmesh);
+    if (!rc) rc = mf_mesh_smooth_normals(&r->wmesh, r->o.normal_smooth, MF_RECON_NORMAL_SMOOTH_MIN_COS, r->nhist);
+    for (int v = 0; !rc && v < r->own.nv; ++v) memcpy(r->own.nrm + 3 * v, r->wmesh.nrm + 3 * r->wmap[v], 3 * sizeof(float));
+    return rc;
+}
+
 /* own = a copy of m; its vertices welded by exact position (the copies a UV atlas splits at its
- * seams) into wmesh, whose positions are the optimised block and whose area-weighted normals are
- * copied back, so seams neither open nor crease; the welded mesh's edge adjacency for the
- * Laplacian. */
+ * seams) into wmesh, whose normals (normals_apply) are copied back, so seams do not crease; with
+ * vertex_lr > 0 the welded positions are the optimised block, and the welded mesh's edge
+ * adjacency serves the Laplacian. */
 static int verts_init(MfRecon *r, const MfMesh *m) {
     int nv = m->nv, rc = mf_mesh_alloc(&r->own, nv, m->nt, 1, 1);
     if (rc) return rc;
@@ -170,7 +182,8 @@ static int verts_init(MfRecon *r, const MfMesh *m) {
     int *ord = malloc((size_t)nv * sizeof *ord);
     r->wmap = malloc((size_t)nv * sizeof *r->wmap);
     r->dpos = calloc((size_t)nv * 3, sizeof *r->dpos);
-    if (!ord || !r->wmap || !r->dpos) return free(ord), mf_fail(MF_ENOMEM, "out of memory");
+    r->dnrm = calloc((size_t)nv * 3, sizeof *r->dnrm);
+    if (!ord || !r->wmap || !r->dpos || !r->dnrm) return free(ord), mf_fail(MF_ENOMEM, "out of memory");
     for (int v = 0; v < nv; ++v) ord[v] = v;
     qsort_r(ord, (size_t)nv, sizeof *ord, cmp_pos, m->pos);
     int nw = 0;
@@ -183,13 +196,18 @@ static int verts_init(MfRecon *r, const MfMesh *m) {
     if ((rc = mf_mesh_alloc(&r->wmesh, nw, m->nt, 1, 0))) return rc;
     for (int v = 0; v < nv; ++v) memcpy(r->wmesh.pos + 3 * r->wmap[v], m->pos + 3 * v, 3 * sizeof(float));
     for (int t = 0; t < 3 * m->nt; ++t) r->wmesh.tri[t] = (uint32_t)r->wmap[m->tri[t]];
-    if ((rc = mf_reg_laplacian_adjacency(r->wmesh.tri, m->nt, nw, &r->adj_off, &r->adj))) return rc;
-    if ((rc = mf_param_init(&r->pos, "pos", (size_t)nw * 3, 3, r->wmesh.pos))) return rc;
-    mf_adam_init(&r->adam_pos, r->o.vertex_lr);
-    if ((rc = mf_mesh_compute_normals(&r->wmesh))) return rc;
-    for (int v = 0; v < nv; ++v) memcpy(r->own.nrm + 3 * v, r->wmesh.nrm + 3 * r->wmap[v], 3 * sizeof(float));
-    mf_log_info("recon: vertices move (--vertex-lr %g, --vertex-laplacian %g): %d vertices, %d welded across UV seams", (double)r->o.vertex_lr,
-                (double)r->o.vertex_laplacian, nv, nw);
+    r->wdn = malloc((size_t)nw * 3 * sizeof *r->wdn + 1);
+    r->nhist = malloc((size_t)r->o.normal_smooth * nw * 3 * sizeof *r->nhist + 1);
+    if (!r->wdn || !r->nhist) return mf_fail(MF_ENOMEM, "out of memory");
+    if ((rc = normals_apply(r))) return rc;
+    if (r->o.vertex_lr > 0) {
+        if ((rc = mf_reg_laplacian_adjacency(r->wmesh.tri, m->nt, nw, &r->adj_off, &r->adj))) return rc;
+        if ((rc = mf_param_init(&r->pos, "pos", (size_t)nw * 3, 3, r->wmesh.pos))) return rc;
+        mf_adam_init(&r->adam_pos, r->o.vertex_lr);
+        mf_log_info("recon: vertices move (--vertex-lr %g, --vertex-laplacian %g): %d vertices, %d welded across UV seams",
+                    (double)r->o.vertex_lr, (double)r->o.vertex_laplacian, nv, nw);
+    }
+    if (r->o.normal_smooth > 0) mf_log_info("recon: shading normals smoothed over %d rings (--normal-smooth)", r->o.normal_smooth);
     return MF_OK;
 }
 
@@ -197,12 +215,9 @@ static int verts_init(MfRecon *r, const MfMesh *m) {
 static int verts_apply(MfRecon *r) {
     int nw = r->wmesh.nv, nv = r->own.nv;
     memcpy(r->wmesh.pos, r->pos.p, (size_t)nw * 3 * sizeof(float));
-    int rc = mf_mesh_compute_normals(&r->wmesh);
+    int rc = normals_apply(r);
     if (rc) return rc;
-    for (int v = 0; v < nv; ++v) {
-        memcpy(r->own.pos + 3 * v, r->wmesh.pos + 3 * r->wmap[v], 3 * sizeof(float));
-        memcpy(r->own.nrm + 3 * v, r->wmesh.nrm + 3 * r->wmap[v], 3 * sizeof(float));
-    }
+    for (int v = 0; v < nv; ++v) memcpy(r->own.pos + 3 * v, r->wmesh.pos + 3 * r->wmap[v], 3 * sizeof(float));
     mf_rtscene_free(r->rt);
     r->rt = NULL;
     return mf_rtscene_new(&r->own, &r->rt);
@@ -216,19 +231,24 @@ static int ckpt_blocks(const MfRecon *r, MfParamBlock *all) {
     return r->nblocks + (r->o.vertex_lr > 0);
 }
 
-/* One Adam step of the welded positions on the iteration's image gradient (r->dpos, gathered over
- * the seam copies) plus vertex_laplacian x (1 - it / iters) / nw x the uniform Laplacian
+/* One Adam step of the welded positions on the iteration's image gradient (r->dpos and, through
+ * the welded mesh's normals and their smoothing, r->dnrm, gathered over the seam copies) plus vertex_laplacian x (1 - it / iters) / nw x the uniform Laplacian
  * (mf_reg_laplacian); own, its normals and the Embree scene (rebuilt) follow. */
 static int verts_step(MfRecon *r, int it) {
     int nw = r->wmesh.nv, nv = r->own.nv;
     float *g = r->pos.g, *p = r->pos.p;
     memset(g, 0, (size_t)nw * 3 * sizeof *g);
+    memset(r->wdn, 0, (size_t)nw * 3 * sizeof *r->wdn);
     for (int v = 0; v < nv; ++v)
-        for (int k = 0; k < 3; ++k) g[3 * r->wmap[v] + k] += r->dpos[3 * v + k];
+        for (int k = 0; k < 3; ++k) g[3 * r->wmap[v] + k] += r->dpos[3 * v + k], r->wdn[3 * r->wmap[v] + k] += r->dnrm[3 * v + k];
     memset(r->dpos, 0, (size_t)nv * 3 * sizeof *r->dpos);
+    memset(r->dnrm, 0, (size_t)nv * 3 * sizeof *r->dnrm);
+    int rc = mf_mesh_smooth_normals_backward(&r->wmesh, r->o.normal_smooth, MF_RECON_NORMAL_SMOOTH_MIN_COS, r->nhist, r->wdn);
+    if (!rc) rc = mf_mesh_normals_backward(&r->wmesh, r->wdn, g);
+    if (rc) return rc;
     double lam = (double)r->o.vertex_laplacian * (1.0 - (double)it / r->o.iters) / nw;
     mf_reg_laplacian_bwd(p, nw, r->adj_off, r->adj, (float)lam, g);
-    int rc = mf_adam_step(&r->adam_pos, &r->pos, 1, r->o.vertex_lr * mf_lr_schedule(1.0f, it));
+    rc = mf_adam_step(&r->adam_pos, &r->pos, 1, r->o.vertex_lr * mf_lr_schedule(1.0f, it));
     return rc ? rc : verts_apply(r);
 }
 
@@ -253,7 +273,8 @@ int mf_recon_new(const MfMesh *mesh, MfReconView *views, int nviews, const MfRec
     if (!r) return mf_fail(MF_ENOMEM, "out of memory");
     r->mesh = mesh;
     r->o = *opts;
-    if (r->o.vertex_lr < 0) r->o.vertex_lr = 0; /* unresolved default: fixed */
+    if (r->o.vertex_lr < 0) r->o.vertex_lr = 0;       /* unresolved default: fixed */
+    if (r->o.normal_smooth < 0) r->o.normal_smooth = 0; /* unresolved default: the mesh's normals */
     r->lr_scale = 1.0f;
     r->metal_state = -1;
     r->metal_fraction = -1.0;
@@ -264,7 +285,7 @@ int mf_recon_new(const MfMesh *mesh, MfReconView *views, int nviews, const MfRec
     r->grow_prev = -1.0;
     mf_divguard_init(&r->guard, opts->div_factor, opts->div_patience);
     rc = MF_OK;
-    if (opts->vertex_lr > 0 && !(rc = verts_init(r, mesh))) r->mesh = mesh = &r->own;
+    if ((r->o.vertex_lr > 0 || r->o.normal_smooth > 0) && !(rc = verts_init(r, mesh))) r->mesh = mesh = &r->own;
     if (!rc) rc = mf_rtscene_new(mesh, &r->rt);
     if (!rc && opts->tex_auto && !(rc = mf_budget_texel_side(r->rt, mesh, views, nviews, &r->texel_side, NULL))) {
         r->o.tex_res = mf_budget_pow2_side(r->texel_side, opts->tex_auto_min, opts->tex_auto_max);
@@ -342,7 +363,7 @@ void mf_recon_free(MfRecon *r) {
     if (!r) return;
     mf_rtscene_free(r->rt);
     mf_mesh_free(&r->own), mf_mesh_free(&r->wmesh), mf_param_free(&r->pos);
-    free(r->wmap), free(r->adj_off), free(r->adj), free(r->dpos);
+    free(r->wmap), free(r->adj_off), free(r->adj), free(r->dpos), free(r->dnrm), free(r->wdn), free(r->nhist);
     for (int b = 0; b < MF_NBLOCKS; ++b) mf_param_free(&r->blocks[b]);
     mf_env_free(&r->env);
     mf_bilateral_free(&r->dn);
@@ -667,7 +688,7 @@ static int view_step(MfRecon *r, int vi, uint64_t vseed, float scale, IterStats 
     MfDiffAdjoint adj = {.drgb = drgb, .ddiffuse = dd, .dspecular = ds};
     MfDiffGrads g = {.dkd = r->blocks[MF_BLOCK_KD].g, .dorm = r->blocks[MF_BLOCK_ORM].g, .denv = r->blocks[MF_BLOCK_ENV].g,
                      .dnormal = r->o.normal_map ? r->blocks[MF_BLOCK_NORMAL].g : NULL,
-                     .dpos = r->o.vertex_lr > 0 ? r->dpos : NULL};
+                     .dpos = r->o.vertex_lr > 0 ? r->dpos : NULL, .dnrm = r->o.vertex_lr > 0 ? r->dnrm : NULL};
     if (r->o.denoise) {
         /* through the recombination and F^T: per-pixel light adjoints, and the material AOVs'
          * adjoints (kd (1 - m) multiplies the denoised diffuse light per pixel) */

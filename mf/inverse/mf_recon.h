@@ -118,6 +118,12 @@ typedef struct {
                              Positions are checkpointed; no normal map. -1 (the default): the caller's
                              to resolve (mf recon: mf_recon_geom_vertex_lr); mf_recon_new takes it as 0 */
     float vertex_laplacian; /* the moving vertices' uniform Laplacian weight, x (1 - it / iters) / vertices */
+    int normal_smooth;    /* > 0: the shading normals are the welded mesh's area-weighted normals smoothed
+                             over this many 1-rings (mf_mesh_smooth_normals, neighbours within
+                             MF_RECON_NORMAL_SMOOTH_MIN_COS), recomputed as the vertices move and
+                             differentiated; 0: the mesh's own normals (fixed vertices) or its
+                             area-weighted ones (moving). -1 (the default): the caller's to resolve (mf
+                             recon: mf_recon_geom_normal_smooth); mf_recon_new takes it as 0 */
     float init_kd, init_rough, init_metal, init_light;
     int denoise;          /* 1: bilateral denoiser of the demodulated light (mf_denoise.h) */
     float denoise_sigma;  /* its spatial sigma in pixels (nvdiffrecmc: 2, 23x23 window) */
@@ -191,6 +197,9 @@ int mf_recon_write_result(const MfRecon *r, const char *dir);
  * 0.25); measured means: tiny/000_cup 0.20 (E = 1), tiny/001_vase 0.68 (E = 2), tiny/002_bottle
  * 0.050 (E = 1/4), the sphere of tests/test_inverse_recon.c 0.33 (E = 1). */
 #define MF_RECON_EXPOSURE_REF 0.25f
+/* normal_smooth keeps a neighbour's normal only within 15 degrees of the vertex's own, so creases
+ * (a box's edges, a clock's rim) stay sharp (docs/analyses/normal-smoothing.md) */
+#define MF_RECON_NORMAL_SMOOTH_MIN_COS 0.9659258f
 /* E for views (their ref images); mean (may be NULL) receives m. */
 float mf_recon_exposure_of(const MfReconView *views, int nviews, double *mean);
 /* E of this run. */

@@ -35,6 +35,8 @@ float mf_recon_geom_vertex_lr(const char *source, const MfMesh *mesh, int normal
     return MF_RECON_GEOM_VERTEX_LR * (isfinite(side) && side > 0.0f ? side : 1.0f);
 }
 
+int mf_recon_geom_normal_smooth(const char *source) { return strcmp(source, "given") ? MF_RECON_GEOM_NORMAL_SMOOTH : 0; }
+
 /* The given mesh: it must have UVs. */
 static int read_given(const char *path, MfMesh *mesh) {
     if (mf_mesh_read(path, mesh)) return mf_fail_prefix(MF_EIO, "mesh (supply one with --mesh, or build one with --geometry vhull)");

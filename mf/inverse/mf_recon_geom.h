@@ -122,6 +122,12 @@ int mf_recon_geom_resolve(const MfReconGeomOpts *o, int mesh_exists, const char 
 #define MF_RECON_GEOM_VERTEX_LR 2e-5f
 float mf_recon_geom_vertex_lr(const char *source, const MfMesh *mesh, int normal_map);
 
+/* --normal-smooth's default (-1) resolved for a mesh from source: 0 for a given mesh (its normals
+ * are the asset's), MF_RECON_GEOM_NORMAL_SMOOTH on a recovered one, whose marching-tets facets
+ * leave high-frequency noise in the area-weighted normals (docs/analyses/normal-smoothing.md). */
+#define MF_RECON_GEOM_NORMAL_SMOOTH 5
+int mf_recon_geom_normal_smooth(const char *source);
+
 /* The mesh to optimise on, into *mesh (with UVs), per *source (mf_recon_geom_resolve):
  * given reads given_path; vhull builds from cams (n,) and masks (n,) (last channel = mask, sizes
  * matching the cameras) and writes out_dir/geometry/vhull.obj (reused with resume). tex_res: the

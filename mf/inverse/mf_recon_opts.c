@@ -32,6 +32,7 @@ static const MfOpt k_opts[] = {
     MF_OPT_FLOAT(R, w_nrm_smooth, 0.025, 0, 1000, "normal-map smoothness weight"),
     MF_OPT_FLOAT(R, vertex_lr, -1, -1, 1, "> 0: the vertices move too, at this Adam rate (world units per step; welded across UV seams, normals follow, checkpointed; refuses --normal-map 1); 0: the mesh is fixed; -1: 2e-5 x the mesh's largest side on a recovered mesh (--geometry vhull|dmtet, no normal map), else 0"),
     MF_OPT_FLOAT(R, vertex_laplacian, 30000, 0, 1e9, "--vertex-lr: uniform Laplacian weight on the moving vertices, x (1 - it / iters) / vertex count"),
+    MF_OPT_INT(R, normal_smooth, -1, -1, 100, "> 0: shading normals smoothed over this many 1-rings of the welded mesh (neighbours within 15 degrees; recomputed and differentiated as vertices move); 0: the mesh's normals; -1: 5 on a recovered mesh (--geometry vhull|dmtet), else 0"),
     MF_OPT_FLOAT(R, init_kd, 0.5, 0, 1, "initial albedo"),
     MF_OPT_FLOAT(R, init_rough, 0.5, 0, 1, "initial roughness"),
     MF_OPT_FLOAT(R, init_metal, 0.25, 0, 1, "initial metallic"),

@@ -181,7 +181,9 @@ int mf_diff_backward(const MfDiffScene *s, const MfCamera *cam, const MfDiffOpts
     }
     if (npos) { /* lane 0's buffer now holds the sums: positions, then normals */
         float *dp = buf + per - 2 * npos;
-        if (mesh->nrm && (rc = mf_mesh_normals_backward(mesh, dp + npos, dp))) {
+        if (g->dnrm)
+            for (size_t i = 0; i < npos; ++i) g->dnrm[i] += dp[npos + i];
+        else if (mesh->nrm && (rc = mf_mesh_normals_backward(mesh, dp + npos, dp))) {
             free(buf);
             free(tan_owned);
             free(aa_bufs);

@@ -99,6 +99,9 @@ typedef struct {
     float *denv; /* (eh, ew, 3) +=, or NULL */
     float *dnormal; /* (th, tw, 3) += normal-map texels, or NULL (ignored without a normal map) */
     float *dpos;    /* (nv, 3) += rt's mesh's vertex positions, or NULL; refused with a normal map */
+    float *dnrm;    /* with dpos: (nv, 3) += the mesh's unit vertex normals, which then do not go on into
+                       dpos (for a caller whose normals are another function of the positions); NULL:
+                       they go through mf_mesh_compute_normals into dpos */
     float *dvkd;    /* (res^3 * 3) += the kd volume texture's grid, or NULL (ignored without one) */
     float *dvorm;   /* (res^3 * 3) += the ORM volume texture's grid (channel 0 gets none), or NULL */
 } MfDiffGrads;

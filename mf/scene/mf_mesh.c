@@ -109,6 +109,68 @@ int mf_mesh_normals_backward(const MfMesh *m, const float *dnrm, float *dpos) {
     return MF_OK;
 }
 
+/* One smoothing step's sums: acc (nv, 3) = n_v + the kept neighbours' n (mf_mesh_smooth_normals);
+ * with transpose, the same sums of g (the neighbour relation is symmetric, so the operator is its
+ * own transpose; the choice still comes from n). */
+static void smooth_sums(const MfMesh *m, const float *n, const float *g, float min_cos, float *acc) {
+    memcpy(acc, g, (size_t)m->nv * 3 * sizeof(float));
+    for (int t = 0; t < m->nt; ++t) {
+        const uint32_t *f = m->tri + 3 * t;
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) {
+                const float *a = n + 3 * f[i], *b = n + 3 * f[j];
+                if (i == j || a[0] * b[0] + a[1] * b[1] + a[2] * b[2] < min_cos) continue;
+                for (int c = 0; c < 3; ++c) acc[3 * f[i] + c] += g[3 * f[j] + c];
+            }
+    }
+}
+
+int mf_mesh_smooth_normals(MfMesh *m, int iters, float min_cos, float *hist) {
+    if (iters <= 0) return MF_OK;
+    if (!m->nrm) return mf_fail(MF_EARG, "smoothing normals: the mesh has none");
+    if (!(min_cos >= 0.0f && min_cos <= 1.0f)) return mf_fail(MF_EARG, "smoothing normals: min_cos %g is outside [0, 1]", (double)min_cos);
+    float *acc = malloc((size_t)m->nv * 3 * sizeof(float) + 1), *in = hist;
+    if (!acc || (!hist && !(in = malloc((size_t)m->nv * 3 * sizeof(float) + 1)))) {
+        free(acc);
+        return mf_fail(MF_ENOMEM, "out of memory for smoothing %d vertex normals", m->nv);
+    }
+    for (int k = 0; k < iters; ++k) {
+        float *cur = hist ? hist + (size_t)k * m->nv * 3 : in;
+        memcpy(cur, m->nrm, (size_t)m->nv * 3 * sizeof(float));
+        smooth_sums(m, cur, cur, min_cos, acc);
+        for (int v = 0; v < m->nv; ++v) { /* |sum| >= 1: the unit n_v plus neighbours at a non-negative cosine */
+            MfVec3 a = mf_v3(acc[3 * v], acc[3 * v + 1], acc[3 * v + 2]);
+            a = mf_scale(a, 1.0f / mf_len(a));
+            m->nrm[3 * v] = a.x, m->nrm[3 * v + 1] = a.y, m->nrm[3 * v + 2] = a.z;
+        }
+    }
+    free(acc);
+    if (!hist) free(in);
+    return MF_OK;
+}
+
+int mf_mesh_smooth_normals_backward(const MfMesh *m, int iters, float min_cos, const float *hist, float *dnrm) {
+    if (iters <= 0) return MF_OK;
+    float *acc = malloc((size_t)m->nv * 3 * sizeof(float) + 1), *ga = malloc((size_t)m->nv * 3 * sizeof(float) + 1);
+    if (!acc || !ga) {
+        free(acc), free(ga);
+        return mf_fail(MF_ENOMEM, "out of memory for the adjoint of %d smoothed vertex normals", m->nv);
+    }
+    for (int k = iters - 1; k >= 0; --k) {
+        const float *in = hist + (size_t)k * m->nv * 3;
+        smooth_sums(m, in, in, min_cos, acc);
+        for (int v = 0; v < m->nv; ++v) { /* d(a/|a|) = (g - u (u.g)) / |a| */
+            MfVec3 a = mf_v3(acc[3 * v], acc[3 * v + 1], acc[3 * v + 2]), g = mf_v3(dnrm[3 * v], dnrm[3 * v + 1], dnrm[3 * v + 2]);
+            float l = mf_len(a);
+            MfVec3 u = mf_scale(a, 1.0f / l), d = mf_scale(mf_madd(g, u, -mf_dot(u, g)), 1.0f / l);
+            ga[3 * v] = d.x, ga[3 * v + 1] = d.y, ga[3 * v + 2] = d.z;
+        }
+        smooth_sums(m, in, ga, min_cos, dnrm);
+    }
+    free(acc), free(ga);
+    return MF_OK;
+}
+
 void mf_mesh_bounds(const MfMesh *m, MfVec3 *lo, MfVec3 *hi) {
     MfVec3 a = mf_v3s(FLT_MAX), b = mf_v3s(-FLT_MAX);
     for (int i = 0; i < m->nv; ++i) {

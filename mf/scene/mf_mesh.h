@@ -29,6 +29,16 @@ int mf_mesh_compute_normals(MfMesh *m);
 /* Adjoint of mf_mesh_compute_normals at m's positions: dpos (nv, 3) += from dnrm (nv, 3),
  * dLoss/d(the unit normals). Serial, deterministic. */
 int mf_mesh_normals_backward(const MfMesh *m, const float *dnrm, float *dpos);
+/* Smooths the unit vertex normals over the 1-rings, iters times: each vertex's normal becomes the
+ * normalised sum of itself and, per triangle at it, its two other corners' normals (an edge
+ * inside the mesh counts twice), leaving out a neighbour whose normal is more than acos(min_cos)
+ * from its own (creases stay sharp). hist (iters, nv, 3), or NULL, keeps each iteration's input
+ * for the backward. A zero sum keeps the vertex's normal. Serial, deterministic. */
+int mf_mesh_smooth_normals(MfMesh *m, int iters, float min_cos, float *hist);
+/* Adjoint of mf_mesh_smooth_normals (same m, iters, min_cos and its hist): dnrm (nv, 3), dLoss/d
+ * the smoothed normals, becomes dLoss/d the normals before smoothing, in place. The neighbour
+ * choice is held fixed (exact wherever no normal pair sits on the threshold). */
+int mf_mesh_smooth_normals_backward(const MfMesh *m, int iters, float min_cos, const float *hist, float *dnrm);
 /* Axis-aligned bounds. */
 void mf_mesh_bounds(const MfMesh *m, MfVec3 *lo, MfVec3 *hi);
 /* Counts triangles with area below eps (degenerate). */
