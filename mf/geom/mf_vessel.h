@@ -54,6 +54,13 @@ int mf_vessel_axis(const MfTetGrid *g, const float *field, const MfCamera *cams,
 #define MF_VESSEL_THICK_CELLS 3.0f
 #define MF_VESSEL_THICK_MAX_X 2.0f
 
+/* A carved mesh whose Euler characteristic (V - E + F) lies more than this below the closed
+ * mesh's has walls that broke through (each hole through a wall adds a handle, -2): mf recon
+ * --vessel auto does not try it. A carve may open a handle's loop or a small tunnel; walls thinner
+ * than the grid resolves lose far more: DMTet's 1.6-cell walls at 64^3 dropped it by 98 to 480 on
+ * all 18 validation scenes carved, its 3-cell walls moved it by -2 to +7 (docs/analyses/vessel.md). */
+#define MF_VESSEL_MAX_EULER_DROP 4
+
 /* The wall for wall_frac, in cells of g: wall_frac x the largest side of the bounding box of
  * field's inside vertices, at least min_cells (also on an empty field). */
 float mf_vessel_wall_cells(const MfTetGrid *g, const float *field, float wall_frac, float min_cells);

@@ -141,7 +141,7 @@ int mf_vhull_mesh(const MfCamera *cams, const MfImage *masks, int n, const MfHul
         mf_log_info("vessel: top %.3f of the cross-section, tilt %.1f deg, axis (%.3f, %.3f, %.3f): %s", va.cap_frac, va.tilt_deg,
                     va.axis.x, va.axis.y, va.axis.z, va.candidate ? "carved" : "no opening");
     MfMesh m = {0};
-    if (rc == MF_OK) rc = mf_vhull_extract_clean(&g, f, opt, &m, &r.extracted_tris, &r.dropped_components);
+    if (rc == MF_OK) rc = mf_vhull_extract_clean(&g, f, opt, &m, &r.extracted_tris, &r.dropped_components, NULL);
     free(f);
     if (rc != MF_OK) return mf_fail_prefix(rc, "visual hull");
     *out = m;
@@ -150,7 +150,7 @@ int mf_vhull_mesh(const MfCamera *cams, const MfImage *masks, int n, const MfHul
 }
 
 int mf_vhull_extract_clean(const MfTetGrid *g, const float *field, const MfHullOpts *opt, MfMesh *out, int *extracted_tris,
-                           int *dropped) {
+                           int *dropped, long *euler) {
     MfTetMesh tm = {0};
     int rc = mf_tetgrid_extract(g, field, NULL, &tm);
     if (rc != MF_OK) return rc;
@@ -161,6 +161,8 @@ int mf_vhull_extract_clean(const MfTetGrid *g, const float *field, const MfHullO
     rc = mf_mesh_weld(&m, 1e-4f * g->cell);
     if (rc == MF_OK) rc = mf_mesh_drop_degenerate(&m, 0);
     if (rc == MF_OK) rc = mf_mesh_drop_small_components(&m, opt->min_component, dropped);
+    MfManifoldInfo mi;
+    if (rc == MF_OK && euler && (rc = mf_mesh_manifold_check(&m, &mi)) == MF_OK) *euler = mi.euler;
     if (rc == MF_OK && opt->smooth_iters > 0) rc = mf_mesh_taubin(&m, opt->smooth_iters, 0.5f, -0.53f);
     if (rc == MF_OK && opt->target_tris > 0) rc = mf_mesh_decimate(&m, opt->target_tris, 0.01f);
     if (rc == MF_OK && m.nt == 0) rc = mf_fail(MF_EARG, "nothing left after clean-up");

@@ -74,8 +74,10 @@ int mf_vhull_mesh(const MfCamera *cams, const MfImage *masks, int n, const MfHul
 /* The clean-up half of mf_vhull_mesh, for any field on g (the hull's, or a fitted SDF): extracts
  * by marching tets (no deformation), welds, drops degenerate triangles and components under
  * opt->min_component, smooths and decimates as opt says; nothing left is an error. The triangle
- * count before clean-up and the dropped components go to *extracted_tris / *dropped (may be NULL). */
+ * count before clean-up and the dropped components go to *extracted_tris / *dropped, and the
+ * Euler characteristic (V - E + F) after the clean-up, before smoothing and decimation, to *euler
+ * (each may be NULL). */
 int mf_vhull_extract_clean(const MfTetGrid *g, const float *field, const MfHullOpts *opt, MfMesh *out, int *extracted_tris,
-                           int *dropped);
+                           int *dropped, long *euler);
 
 #endif

@@ -102,6 +102,12 @@ static int vessel_path(char *path, size_t cap, const char *out_dir, const char *
     return mf_path_join(path, cap, out_dir, name);
 }
 
+/* 1 when vessel mesh k's walls broke through: its Euler characteristic more than
+ * MF_VESSEL_MAX_EULER_DROP below the closed mesh's. */
+static int vessel_broken(const MfReconGeomInfo *info, int k) {
+    return k > 0 && info->vessel_euler[k] < info->vessel_euler[0] - MF_VESSEL_MAX_EULER_DROP;
+}
+
 /* The field's clean mesh (mf_vhull_extract_clean), unwrapped, to path; with --vessel auto|open and
  * a candidate opening (mf_vessel_axis), the carved meshes too: open writes the one with the stated
  * wall to path instead of the closed one; auto writes each to <source>-<k_vessel_name>.obj and
@@ -111,7 +117,7 @@ static int extract_write(const MfReconGeomOpts *o, const MfTetGrid *g, float *fi
                          int n, int tex_res, const char *out_dir, const char *path, int *extracted, int *dropped,
                          MfReconGeomInfo *info) {
     MfMesh m = {0}, open = {0};
-    int rc = mf_vhull_extract_clean(g, field, ho, &m, extracted, dropped), automode = o->vessel == MF_VESSEL_AUTO;
+    int rc = mf_vhull_extract_clean(g, field, ho, &m, extracted, dropped, &info->vessel_euler[0]), automode = o->vessel == MF_VESSEL_AUTO;
     if (!rc && o->vessel != MF_VESSEL_CLOSED) rc = mf_vessel_axis(g, field, cams, n, &info->vessel);
     if (rc || o->vessel == MF_VESSEL_CLOSED || !info->vessel.candidate) {
         if (!rc && o->vessel != MF_VESSEL_CLOSED)
@@ -139,12 +145,17 @@ static int extract_write(const MfReconGeomOpts *o, const MfTetGrid *g, float *fi
     for (int k = 0; !rc && k + 1 < info->vessel_n; ++k) {
         float *f = k ? copy : field;
         rc = mf_vessel_carve(g, f, a, info->vessel_wall_cells[k], &info->vessel_carved[k]);
-        if (!rc) rc = mf_vhull_extract_clean(g, f, ho, &open, NULL, NULL);
+        if (!rc) rc = mf_vhull_extract_clean(g, f, ho, &open, NULL, NULL, &info->vessel_euler[k + 1]);
         if (!rc)
             mf_log_info("geometry: vessel: a flat top (%.2f of the cross-section) facing the cameras, axis (%.3f, %.3f, %.3f); carved "
-                        "%zu grid vertices (walls %.2f cells: %g of the hull's side, at least %g cells)", info->vessel.cap_frac, a.x, a.y,
-                        a.z, info->vessel_carved[k], (double)info->vessel_wall_cells[k], (double)o->vessel_wall,
-                        (double)(k ? MF_VESSEL_THICK_CELLS : MF_VESSEL_MIN_CELLS));
+                        "%zu grid vertices (walls %.2f cells: %g of the hull's side, at least %g cells); Euler characteristic %ld "
+                        "(closed %ld)", info->vessel.cap_frac, a.x, a.y, a.z, info->vessel_carved[k], (double)info->vessel_wall_cells[k],
+                        (double)o->vessel_wall, (double)(k ? MF_VESSEL_THICK_CELLS : MF_VESSEL_MIN_CELLS), info->vessel_euler[k + 1],
+                        info->vessel_euler[0]);
+        if (!rc && vessel_broken(info, k + 1))
+            mf_log_warn("geometry: vessel: the %.2f-cell walls broke through (Euler characteristic %ld against the closed mesh's %ld)%s",
+                        (double)info->vessel_wall_cells[k], info->vessel_euler[k + 1], info->vessel_euler[0],
+                        automode ? ": not tried" : "");
         if (!rc && automode) rc = vessel_path(p, sizeof p, out_dir, info->source, k + 1);
         if (!rc) rc = unwrap_write(&open, tex_res, automode ? p : path, info);
         mf_mesh_free(&open);
@@ -362,7 +373,9 @@ int mf_recon_geom_vessel_choose(const MfReconGeomOpts *o, MfReconGeomInfo *info,
         char name[64];
         if (k && !(rc = vessel_path(p, sizeof p, out_dir, info->source, k))) rc = mf_mesh_read(p, &open[k - 1]);
         snprintf(name, sizeof name, "geometry/trial-%s", k_vessel_name[k]);
-        if (!rc && !(rc = mf_path_join(p, sizeof p, out_dir, name))) rc = trial_fit(m[k], views, nviews, ro, iters, p, &info->vessel_psnr[k]);
+        info->vessel_psnr[k] = NAN;
+        if (!rc && !vessel_broken(info, k) && !(rc = mf_path_join(p, sizeof p, out_dir, name)))
+            rc = trial_fit(m[k], views, nviews, ro, iters, p, &info->vessel_psnr[k]);
         /* an open mesh is kept only when it beats the closed one by the margin, and the other open one */
         if (!rc && k && info->vessel_psnr[k] > info->vessel_psnr[0] + MF_VESSEL_MARGIN_DB && info->vessel_psnr[k] > info->vessel_psnr[pick])
             pick = k;
@@ -405,14 +418,18 @@ void mf_recon_geom_to_json(const MfReconGeomInfo *info, cJSON *obj) {
         cJSON_AddNumberToObject(v, "tilt_deg", info->vessel.tilt_deg);
         cJSON_AddNumberToObject(v, "carved_vertices", (double)info->vessel_carved[0]);
         cJSON_AddNumberToObject(v, "wall_cells", info->vessel_wall_cells[0]);
+        cJSON_AddNumberToObject(v, "euler_closed", (double)info->vessel_euler[0]);
+        cJSON_AddNumberToObject(v, "euler_open", (double)info->vessel_euler[1]);
+        if (info->vessel_n > 2) cJSON_AddNumberToObject(v, "euler_open_thick", (double)info->vessel_euler[2]);
         if (info->vessel_n > 2) { /* auto, a stated wall under MF_VESSEL_THICK_CELLS: the thick one too */
             cJSON_AddNumberToObject(v, "carved_vertices_thick", (double)info->vessel_carved[1]);
             cJSON_AddNumberToObject(v, "wall_cells_thick", info->vessel_wall_cells[1]);
         }
         if (info->vessel_trial_iters) { /* auto: the trials ran */
-            cJSON_AddNumberToObject(v, "holdout_psnr_closed", info->vessel_psnr[0]);
-            cJSON_AddNumberToObject(v, "holdout_psnr_open", info->vessel_psnr[1]);
-            if (info->vessel_n > 2) cJSON_AddNumberToObject(v, "holdout_psnr_open_thick", info->vessel_psnr[2]);
+            static const char *const key[MF_VESSEL_MESHES] = {"holdout_psnr_closed", "holdout_psnr_open", "holdout_psnr_open_thick"};
+            for (int k = 0; k < info->vessel_n; ++k) /* null: not tried */
+                if (isfinite(info->vessel_psnr[k])) cJSON_AddNumberToObject(v, key[k], info->vessel_psnr[k]);
+                else cJSON_AddNullToObject(v, key[k]);
             cJSON_AddNumberToObject(v, "trial_iters", info->vessel_trial_iters);
         }
         cJSON_AddStringToObject(v, "chosen", info->vessel_chosen ? info->vessel_chosen : "");

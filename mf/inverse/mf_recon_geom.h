@@ -30,7 +30,8 @@
  *          MF_VESSEL_MIN_CELLS), and, when those walls are thinner than MF_VESSEL_THICK_CELLS
  *          (DMTet's 64^3 grid), carved again with walls of that many cells; writes them to
  *          <out>/geometry/<source>-closed.obj, -open.obj and -open-thick.obj, and
- *          mf_recon_geom_vessel_choose fits each for a quarter of the run's iterations with every
+ *          mf_recon_geom_vessel_choose fits each (but a carved one whose walls broke through:
+ *          its Euler characteristic more than MF_VESSEL_MAX_EULER_DROP below the closed one's) for a quarter of the run's iterations with every
  *          8th training view held out; the carved mesh with the higher held-out PSNR becomes
  *          geometry/<source>.obj only when it beats the closed one by more than
  *          MF_VESSEL_MARGIN_DB. open carves (the stated wall) without the test, closed never
@@ -105,8 +106,10 @@ typedef struct {
     int vessel_n;                /* meshes made with a candidate: 2 (closed, open) or 3 (and open-thick) */
     size_t vessel_carved[2];     /* grid vertices each carved mesh removed: open, open-thick */
     float vessel_wall_cells[2];  /* their walls, in grid cells (0: not made) */
+    long vessel_euler[MF_VESSEL_MESHES]; /* V - E + F of the closed, open and open-thick meshes before the unwrap */
     int vessel_pending;          /* auto with a candidate: the meshes written, mf_recon_geom_vessel_choose to choose */
-    double vessel_psnr[MF_VESSEL_MESHES]; /* auto: held-out PSNR of each trial fit (closed, open, open-thick) */
+    double vessel_psnr[MF_VESSEL_MESHES]; /* auto: held-out PSNR of each trial fit (closed, open, open-thick);
+                                             NAN: not tried (its walls broke through, MF_VESSEL_MAX_EULER_DROP) */
     int vessel_trial_iters;      /* auto: iterations of each trial fit (resolved) */
     const char *vessel_chosen;   /* "closed" | "open" | "open-thick" once decided; NULL: no candidate, or --vessel closed */
 } MfReconGeomInfo;
@@ -141,7 +144,8 @@ int mf_recon_geom_mesh(const MfReconGeomOpts *o, const char *source, const char 
 /* --vessel auto with a candidate opening (info->vessel_pending): mf_recon_geom_mesh wrote the
  * closed mesh to geometry/<source>-closed.obj (it is in *mesh), the carved ones to
  * geometry/<source>-open.obj (and -open-thick.obj: info->vessel_n 3), and left
- * geometry/<source>.obj unwritten. This fits each for o->vessel_trial_iters iterations (-1:
+ * geometry/<source>.obj unwritten. This fits each (not a carved one with broken walls,
+ * MF_VESSEL_MAX_EULER_DROP) for o->vessel_trial_iters iterations (-1:
  * ro->iters / 4, at least 1) with the run's options ro (no prior term) and views 0, 8, 16, ...
  * held out (ro's early_stop hold-out; the fits' files, under geometry/trial-*, are removed), keeps
  * the carved mesh with the higher held-out PSNR only when it beats the closed one's by more than
