@@ -232,8 +232,9 @@ static int ckpt_blocks(const MfRecon *r, MfParamBlock *all) {
 }
 
 /* One Adam step of the welded positions on the iteration's image gradient (r->dpos and, through
- * the welded mesh's normals and their smoothing, r->dnrm, gathered over the seam copies) plus vertex_laplacian x (1 - it / iters) / nw x the uniform Laplacian
- * (mf_reg_laplacian); own, its normals and the Embree scene (rebuilt) follow. */
+ * the welded mesh's normals and their smoothing, r->dnrm, gathered over the seam copies) plus
+ * vertex_laplacian x (1 - it / iters) / nw x the uniform Laplacian (mf_reg_laplacian); own, its
+ * normals and the Embree scene (rebuilt) follow. */
 static int verts_step(MfRecon *r, int it) {
     int nw = r->wmesh.nv, nv = r->own.nv;
     float *g = r->pos.g, *p = r->pos.p;

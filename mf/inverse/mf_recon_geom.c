@@ -383,10 +383,12 @@ int mf_recon_geom_vessel_choose(const MfReconGeomOpts *o, MfReconGeomInfo *info,
     info->vessel_trial_iters = iters;
     if (!rc) {
         info->vessel_chosen = k_vessel_name[pick];
-        mf_log_info("geometry: vessel: trial fits of %d iterations in %.1f s, held-out PSNR closed %.3f dB, open %.3f dB%s%.3f%s: keeping "
-                    "the %s mesh", iters, mf_now() - t0, info->vessel_psnr[0], info->vessel_psnr[1],
-                    info->vessel_n > 2 ? ", open-thick " : "", info->vessel_n > 2 ? info->vessel_psnr[2] : 0.0,
-                    info->vessel_n > 2 ? " dB" : "", k_vessel_name[pick]);
+        char held[MF_VESSEL_MESHES][32] = {"", "", ""};
+        for (int k = 0; k < info->vessel_n; ++k)
+            if (isfinite(info->vessel_psnr[k])) snprintf(held[k], sizeof held[k], "%s %.3f dB", k_vessel_name[k], info->vessel_psnr[k]);
+            else snprintf(held[k], sizeof held[k], "%s not tried", k_vessel_name[k]);
+        mf_log_info("geometry: vessel: trial fits of %d iterations in %.1f s, held-out PSNR %s, %s%s%s: keeping the %s mesh", iters,
+                    mf_now() - t0, held[0], held[1], info->vessel_n > 2 ? ", " : "", held[2], k_vessel_name[pick]);
         rc = mf_obj_write(info->mesh_path, m[pick], NULL);
     }
     if (!rc && pick) {
@@ -420,10 +422,10 @@ void mf_recon_geom_to_json(const MfReconGeomInfo *info, cJSON *obj) {
         cJSON_AddNumberToObject(v, "wall_cells", info->vessel_wall_cells[0]);
         cJSON_AddNumberToObject(v, "euler_closed", (double)info->vessel_euler[0]);
         cJSON_AddNumberToObject(v, "euler_open", (double)info->vessel_euler[1]);
-        if (info->vessel_n > 2) cJSON_AddNumberToObject(v, "euler_open_thick", (double)info->vessel_euler[2]);
         if (info->vessel_n > 2) { /* auto, a stated wall under MF_VESSEL_THICK_CELLS: the thick one too */
             cJSON_AddNumberToObject(v, "carved_vertices_thick", (double)info->vessel_carved[1]);
             cJSON_AddNumberToObject(v, "wall_cells_thick", info->vessel_wall_cells[1]);
+            cJSON_AddNumberToObject(v, "euler_open_thick", (double)info->vessel_euler[2]);
         }
         if (info->vessel_trial_iters) { /* auto: the trials ran */
             static const char *const key[MF_VESSEL_MESHES] = {"holdout_psnr_closed", "holdout_psnr_open", "holdout_psnr_open_thick"};

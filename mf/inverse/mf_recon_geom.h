@@ -31,8 +31,8 @@
  *          (DMTet's 64^3 grid), carved again with walls of that many cells; writes them to
  *          <out>/geometry/<source>-closed.obj, -open.obj and -open-thick.obj, and
  *          mf_recon_geom_vessel_choose fits each (but a carved one whose walls broke through:
- *          its Euler characteristic more than MF_VESSEL_MAX_EULER_DROP below the closed one's) for a quarter of the run's iterations with every
- *          8th training view held out; the carved mesh with the higher held-out PSNR becomes
+ *          its Euler characteristic more than MF_VESSEL_MAX_EULER_DROP below the closed one's)
+ *          for a quarter of the run's iterations with every 8th training view held out; the carved mesh with the higher held-out PSNR becomes
  *          geometry/<source>.obj only when it beats the closed one by more than
  *          MF_VESSEL_MARGIN_DB. open carves (the stated wall) without the test, closed never
  *          carves. run.json's geometry_result.vessel records the axis, the walls, the trial PSNRs
@@ -106,7 +106,8 @@ typedef struct {
     int vessel_n;                /* meshes made with a candidate: 2 (closed, open) or 3 (and open-thick) */
     size_t vessel_carved[2];     /* grid vertices each carved mesh removed: open, open-thick */
     float vessel_wall_cells[2];  /* their walls, in grid cells (0: not made) */
-    long vessel_euler[MF_VESSEL_MESHES]; /* V - E + F of the closed, open and open-thick meshes before the unwrap */
+    long vessel_euler[MF_VESSEL_MESHES]; /* V - E + F of the closed, open and open-thick clean meshes, before
+                                            smoothing and decimation (mf_vhull_extract_clean) */
     int vessel_pending;          /* auto with a candidate: the meshes written, mf_recon_geom_vessel_choose to choose */
     double vessel_psnr[MF_VESSEL_MESHES]; /* auto: held-out PSNR of each trial fit (closed, open, open-thick);
                                              NAN: not tried (its walls broke through, MF_VESSEL_MAX_EULER_DROP) */
