@@ -30,7 +30,7 @@ static double loss(void *p) {
     return s;
 }
 
-/* a welded bumpy sphere (a function of position, so neighbouring normals differ by a few
+/* a bumpy UV sphere (the bump a function of position, so neighbouring normals differ by a few
  * degrees) with random weights */
 static int bumpy(Ctx *c, uint64_t seed) {
     int rc = mf_shape_uv_sphere(&c->m, mf_v3(0, 0, 0), 0.5f, 16, 8);

@@ -371,11 +371,11 @@ int mf_recon_geom_vessel_choose(const MfReconGeomOpts *o, MfReconGeomInfo *info,
     double t0 = mf_now();
     for (int k = 0; k < info->vessel_n && !rc; ++k) {
         char name[64];
+        info->vessel_psnr[k] = NAN;
+        if (vessel_broken(info, k)) continue; /* not tried: its mesh is not read either */
         if (k && !(rc = vessel_path(p, sizeof p, out_dir, info->source, k))) rc = mf_mesh_read(p, &open[k - 1]);
         snprintf(name, sizeof name, "geometry/trial-%s", k_vessel_name[k]);
-        info->vessel_psnr[k] = NAN;
-        if (!rc && !vessel_broken(info, k) && !(rc = mf_path_join(p, sizeof p, out_dir, name)))
-            rc = trial_fit(m[k], views, nviews, ro, iters, p, &info->vessel_psnr[k]);
+        if (!rc && !(rc = mf_path_join(p, sizeof p, out_dir, name))) rc = trial_fit(m[k], views, nviews, ro, iters, p, &info->vessel_psnr[k]);
         /* an open mesh is kept only when it beats the closed one by the margin, and the other open one */
         if (!rc && k && info->vessel_psnr[k] > info->vessel_psnr[0] + MF_VESSEL_MARGIN_DB && info->vessel_psnr[k] > info->vessel_psnr[pick])
             pick = k;

@@ -33,7 +33,8 @@ int mf_mesh_normals_backward(const MfMesh *m, const float *dnrm, float *dpos);
  * normalised sum of itself and, per triangle at it, its two other corners' normals (an edge
  * inside the mesh counts twice), leaving out a neighbour whose normal is more than acos(min_cos)
  * from its own (creases stay sharp). hist (iters, nv, 3), or NULL, keeps each iteration's input
- * for the backward. A zero sum keeps the vertex's normal. Serial, deterministic. */
+ * for the backward. min_cos must lie in [0, 1] (else MF_EARG), so each sum is at least the unit
+ * normal itself and never vanishes. Serial, deterministic. */
 int mf_mesh_smooth_normals(MfMesh *m, int iters, float min_cos, float *hist);
 /* Adjoint of mf_mesh_smooth_normals (same m, iters, min_cos and its hist): dnrm (nv, 3), dLoss/d
  * the smoothed normals, becomes dLoss/d the normals before smoothing, in place. The neighbour
