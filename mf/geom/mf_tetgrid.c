@@ -28,6 +28,23 @@ MfVec3 mf_tetgrid_base(const MfTetGrid *g, size_t v) {
     return mf_add(g->lo, mf_v3(g->cell * (float)i, g->cell * (float)j, g->cell * (float)k));
 }
 
+float mf_tetgrid_sample(const MfTetGrid *g, const float *field, MfVec3 p, float outside) {
+    float x[3] = {(p.x - g->lo.x) / g->cell, (p.y - g->lo.y) / g->cell, (p.z - g->lo.z) / g->cell}, t[3];
+    size_t n = (size_t)g->res + 1, i[3];
+    for (int a = 0; a < 3; ++a) {
+        if (!(x[a] >= 0 && x[a] <= (float)g->res)) return outside;
+        float c = fminf(floorf(x[a]), (float)(g->res - 1));
+        i[a] = (size_t)c, t[a] = x[a] - c;
+    }
+    float v = 0;
+    for (int c = 0; c < 8; ++c) {
+        float w = 1;
+        for (int a = 0; a < 3; ++a) w *= c >> a & 1 ? t[a] : 1 - t[a];
+        v += w * field[(i[0] + (c & 1)) + n * ((i[1] + (c >> 1 & 1)) + n * (i[2] + (c >> 2 & 1)))];
+    }
+    return v;
+}
+
 static MfVec3 vert_pos(const MfTetGrid *g, const float *deform, size_t v) {
     MfVec3 p = mf_tetgrid_base(g, v);
     if (!deform) return p;

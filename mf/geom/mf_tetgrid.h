@@ -40,6 +40,9 @@ size_t mf_tetgrid_nverts(const MfTetGrid *g);
 /* Undeformed position of grid vertex v. */
 MfVec3 mf_tetgrid_base(const MfTetGrid *g, size_t v);
 
+/* The trilinear interpolation of field (nv,) at p; outside (a value) beyond the grid. */
+float mf_tetgrid_sample(const MfTetGrid *g, const float *field, MfVec3 p, float outside);
+
 /* Marching tets. sdf: (nv,) grid values; deform: (nv, 3) or NULL. Fails with MF_EARG
  * ("marching tets: the field has no zero crossing (empty grid)") when no edge changes sign,
  * and MF_ENAN on a non-finite value; out is untouched on failure. */
