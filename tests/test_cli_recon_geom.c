@@ -199,7 +199,10 @@ MF_TEST(recon_geometry_dmtet_tiny) {
     snprintf(p, sizeof p, "%s_2views", run);
     CHECK_MSG(!mf_file_exists(p), "%s: a refused run left a folder", p);
 
-#define DMTET "--geometry dmtet --dmtet-res 32 --geom-iters 30 --geom-views 0 --geom-lr 0.05 " SMALL
+    /* from the soft hull (--dmtet-init soft), whose masks the steps can still improve: from the hull
+     * mesh the start is fitted already and 30 steps at 0.05 cells raise the loss (0.0080 -> 0.0086);
+     * recon_geometry_carve_ci covers that start */
+#define DMTET "--geometry dmtet --dmtet-init soft --dmtet-res 32 --geom-iters 30 --geom-views 0 --geom-lr 0.05 " SMALL
     snprintf(args, sizeof args, "recon %s -o %s --iters 4 " DMTET, bare, run);
     rc = mf_test_run_mf(args, NULL, err, sizeof err);
     CHECK_MSG(rc == 0 && strstr(err, "mask term only"), "--geometry dmtet: exit %d, '%s'", rc, err);

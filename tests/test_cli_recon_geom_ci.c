@@ -51,18 +51,22 @@
  * through stopped being tried (MF_VESSEL_MAX_EULER_DROP): the cup's 1.5-1.62-cell walls break
  * through on both grids (Euler characteristic -334 for the hull, -104 for DMTet, against 2 closed),
  * so DMTet keeps its closed cup (it had taken the holed one: 0.2575 / 9.6 / 0.977 / 20.18; the hull's
- * cup was 0.2490 / 6.2 / 0.982 / 20.58). */
+ * cup was 0.2490 / 6.2 / 0.982 / 20.58). DMTet's columns again when it began to start from the hull
+ * mesh's signed distance and to carve what the hull carves (--dmtet-init hull; with the soft hull
+ * start they were torus 0.1101 / 12.7 / 0.969 / 28.26, cup, closed, 1.8312 / 12.2 / 0.980 / 19.55):
+ * its cup takes the hull's 3-cell walls now, cut into its fitted SDF on the hull's grid. */
 typedef struct {
     const char *scene;
     double given_relit;
     double chamfer[2], normal_deg[2], iou[2], relit[2]; /* [0] vhull, [1] dmtet */
     const char *vessel[2];                              /* --vessel auto's choice */
     int thin_broke;                                     /* the stated walls broke through on both grids */
+    double loss_ratio;                                  /* DMTet's mask loss, last / first step, at most */
 } CiMeasured;
 
 static const CiMeasured k_measured[] = {
-    {"006_torus", 28.74, {0.0854, 0.1101}, {7.8, 12.7}, {0.991, 0.969}, {28.87, 28.26}, {"closed", "closed"}, 1},
-    {"000_cup", 20.93, {0.2490, 1.8312}, {5.5, 12.2}, {0.982, 0.980}, {20.68, 19.55}, {"open-thick", "closed"}, 1},
+    {"006_torus", 28.74, {0.0854, 0.0869}, {7.8, 8.4}, {0.991, 0.979}, {28.87, 28.72}, {"closed", "closed"}, 1, 1.05},
+    {"000_cup", 20.93, {0.2490, 0.2527}, {5.5, 4.9}, {0.982, 0.979}, {20.68, 20.60}, {"open-thick", "open-thick"}, 1, 0.95},
 };
 /* The closed hull's cup Chamfer x1e3 (above): issue 14 asks the carved cavity for <= 0.5x of it. */
 #define CI_CUP_CLOSED_CHAMFER 1.830
@@ -70,13 +74,16 @@ static const CiMeasured k_measured[] = {
 
 /* Margins: Chamfer <= 1.5x measured (a hull that does not carve is 40x above: 85-115 on cup),
  * normal error <= measured + 4 deg, IoU >= measured - 0.03, relit PSNR >= the given mesh's minus
- * (the measured gap + 1 dB). DMTet's mask loss over all training views must fall to <= 0.95 of its
- * first step's (measured 0.77 cup, 0.86 torus; a skipped SDF step leaves 1). */
+ * (the measured gap + 1 dB). DMTet's mask loss over all training views, last step over first, must
+ * stay under loss_ratio: started from the hull, the torus's masks are fitted already and its 12
+ * steps at 0.05 cells move the loss by x1.024; the cup's must fall to <= 0.95 (measured 0.895; a
+ * skipped SDF step leaves 1). DMTet's test-view normal error must lie within CI_DMTET_HULL_DEG of
+ * the hull's (measured +0.6 torus, -0.6 cup; from the soft hull, the former start, +4.9 and +6.7). */
 #define CI_CHAMFER_X 1.5
 #define CI_NORMAL_DEG 4.0
 #define CI_IOU_DROP 0.03
 #define CI_RELIT_DB 1.0
-#define CI_LOSS_RATIO 0.95
+#define CI_DMTET_HULL_DEG 2.0
 /* Checked to fail (each broken by hand, then restored): hull carving by every third view only
  * (torus: Chamfer 0.26 and 0.20, normals 14.6 deg), no view carving (both mesh-less runs refuse:
  * the field has no zero crossing), DMTet's Adam step skipped (mask loss x1.000; its geometry then
@@ -117,9 +124,9 @@ MF_TEST(recon_geometry_carve_ci) {
         /* the SDF step did its job on the training masks (same views first and last: --geom-views 0) */
         double first = geom_result(run, "mask_loss_first", NULL, 0), last = geom_result(run, "mask_loss_last", NULL, 0);
         if (getenv("MF_TEST_VERBOSE")) printf("    %s dmtet: mask loss %.5f -> %.5f (x%.3f)\n", sc, first, last, last / first);
-        CHECK_MSG(geom_result(run, "steps", NULL, 0) == CI_STEPS && first > 0 && last <= CI_LOSS_RATIO * first,
-                  "%s dmtet: %g steps, mask loss %g -> %g (must fall to <= %.2fx)", sc, geom_result(run, "steps", NULL, 0), first, last,
-                  CI_LOSS_RATIO);
+        CHECK_MSG(geom_result(run, "steps", NULL, 0) == CI_STEPS && first > 0 && last <= k_measured[s].loss_ratio * first,
+                  "%s dmtet: %g steps, mask loss %g -> %g (must be <= %.2fx)", sc, geom_result(run, "steps", NULL, 0), first, last,
+                  k_measured[s].loss_ratio);
     }
 
     snprintf(args, sizeof args, "eval %s --results %s -o %s --dataset tiny --scenes " CI_SCENES " --no-curves", data, res, rep);
@@ -132,6 +139,9 @@ MF_TEST(recon_geometry_carve_ci) {
     const char *mode[2] = {"vhull", "dmtet"};
     for (int s = 0; s < ns; ++s) {
         const CiMeasured *m = &k_measured[s];
+        double nd_hull = metric(&t, "vhull", m->scene, "geom_view_normal_deg"), nd_dmtet = metric(&t, "dmtet", m->scene, "geom_view_normal_deg");
+        CHECK_MSG(fabs(nd_dmtet - nd_hull) <= CI_DMTET_HULL_DEG, "%s: DMTet's normal error %g deg, the hull's %g: more than %g apart", m->scene,
+                  nd_dmtet, nd_hull, CI_DMTET_HULL_DEG);
         double given = metric(&t, "given", m->scene, "relit_psnr"), given_ch = metric(&t, "given", m->scene, "geom_chamfer");
         if (getenv("MF_TEST_VERBOSE")) printf("    %s given: Chamfer x1e3 %.4f, relit PSNR %.2f\n", m->scene, given_ch, given);
         CHECK_MSG(isfinite(given) && given >= m->given_relit - CI_RELIT_DB, "%s given: relit PSNR %g < measured %g - %g dB", m->scene, given,

@@ -237,7 +237,7 @@ MF_TEST(inverse_geom_fit_colour_sphere) {
 
 /* A fit stopped at step 5 and resumed from its state file reaches the bytes of an uninterrupted
  * 8-step fit (SDF, deformation, log), with every block kind (SDF, deformation, the colour term's
- * volumes and env) and 4 of the 8 views a step; a state written with other options, or holding
+ * volumes and env) and 4 of the 8 views a step; a state written with other options (or another start), or holding
  * more steps than asked for, is refused. Checked to fail: without the Adam moments' load the SDF
  * differs; without the env's refresh after the load the SDF and the log differ. */
 MF_TEST(inverse_geom_fit_resume) {
@@ -276,7 +276,9 @@ MF_TEST(inverse_geom_fit_resume) {
     /* refusals: other options; more steps held than asked for */
     h.seed = 4;
     CHECK_ERR(mf_geom_fit(&g, sdf[1], def[1], cams, imgs, NVIEW, &h, log[1], NULL), "other geometry-fit options");
-    h.seed = 3, h.iters = HALF;
+    h.seed = 3, h.start = 1; /* another start of the SDF (mf recon --dmtet-init) */
+    CHECK_ERR(mf_geom_fit(&g, sdf[1], def[1], cams, imgs, NVIEW, &h, log[1], NULL), "other geometry-fit options");
+    h.start = 0, h.iters = HALF;
     CHECK_ERR(mf_geom_fit(&g, sdf[1], def[1], cams, imgs, NVIEW, &h, log[1], NULL), "holds 8 steps");
     for (int v = 0; v < NVIEW; ++v) mf_image_free(&imgs[v]);
     for (int r = 0; r < 2; ++r) free(sdf[r]), free(def[r]);
@@ -337,35 +339,43 @@ MF_TEST(inverse_geom_fit_sdf_reg_grad) {
 
 /* mf recon --geometry dmtet's grid (mf_recon_geom_mesh): on a grid of side 1.4 the hull of the
  * R1 = 0.7 sphere's masks touches the border, so the grid is enlarged 1.5x once, as the vhull path
- * does (mf_vhull_grid), and the extracted mesh is closed and reaches beyond the first grid. Without
- * the enlargement the mesh is cut open at |x| = 0.7 (boundary edges, side 1.4). */
+ * does (mf_vhull_grid), and the extracted mesh is closed and reaches beyond the first grid, from
+ * either start (--dmtet-init). Without the enlargement the mesh is cut open at |x| = 0.7 (boundary
+ * edges, side 1.4). From the hull mesh, whose 128^3 grid enlarges itself, it reaches 0.709; a
+ * decimated hull's fold-over once left an island 3 cells out (2 components) before the far
+ * vertices' signs went by region (mf_meshsdf.h). */
 MF_TEST(inverse_recon_geom_dmtet_enlarges_grid) {
     MfCamera cams[NVIEW];
     MfImage masks[NVIEW];
     memset(masks, 0, sizeof masks);
     CHECK_OK(make_cams(cams));
     CHECK_OK(make_masks(cams, masks));
-    MfReconGeomOpts o = mf_recon_geom_opts_default();
-    o.geometry = "dmtet", o.dmtet_res = 24, o.geom_iters = 0, o.hull_extent = 1.4f, o.hull_target_tris = 3000;
-    MfMesh m = {0};
-    MfReconGeomInfo info;
-    CHECK_OK(mf_recon_geom_mesh(&o, "dmtet", NULL, cams, masks, NVIEW, 64, mf_test_path("recon_geom_dmtet_border"), 0, &m, &info));
-    CHECK_MSG(fabs(info.hull.extent - 2.1) < 1e-4 && !info.hull.touches_border, "grid side %g (want 2.1), still touching %d",
-              (double)info.hull.extent, info.hull.touches_border);
-    float mx = 0;
-    for (int i = 0; i < 3 * m.nv; ++i) mx = fmaxf(mx, fabsf(m.pos[i]));
-    MfManifoldInfo mi = {0};
-    if (m.nv) {
-        CHECK_OK(mf_mesh_weld(&m, 1e-5f)); /* the unwrap's seams split vertices */
-        CHECK_OK(mf_mesh_manifold_check(&m, &mi));
+    for (int init = 0; init < 2; ++init) {
+        MfReconGeomOpts o = mf_recon_geom_opts_default();
+        o.geometry = "dmtet", o.dmtet_init = init ? MF_DMTET_INIT_HULL : MF_DMTET_INIT_SOFT;
+        o.dmtet_res = 24, o.geom_iters = 0, o.hull_extent = 1.4f, o.hull_target_tris = 3000;
+        MfMesh m = {0};
+        MfReconGeomInfo info;
+        CHECK_OK(mf_recon_geom_mesh(&o, "dmtet", NULL, cams, masks, NVIEW, 64, mf_test_path("recon_geom_dmtet_border"), 0, &m, &info));
+        CHECK_MSG(fabs(info.hull.extent - 2.1) < 1e-4 && !info.hull.touches_border, "grid side %g (want 2.1), still touching %d",
+                  (double)info.hull.extent, info.hull.touches_border);
+        float mx = 0;
+        for (int i = 0; i < 3 * m.nv; ++i) mx = fmaxf(mx, fabsf(m.pos[i]));
+        MfManifoldInfo mi = {0};
+        if (m.nv) {
+            CHECK_OK(mf_mesh_weld(&m, 1e-5f)); /* the unwrap's seams split vertices */
+            CHECK_OK(mf_mesh_manifold_check(&m, &mi));
+        }
+        /* closed (no boundary edge) and one piece: the 4 islands near (+-0.8, +-0.8, 0) that no view
+         * sees are carved by the views whose masks lie inside their frames (mf_vhull.h; before that
+         * rule they stayed, 5 components) */
+        CHECK_MSG(m.nt > 100 && mf_manifold_ok(&mi) && mi.components == 1,
+                  "dmtet mesh (start %d): %d triangles, %d boundary edges, %d components, euler %ld", init, m.nt, mi.boundary_edges,
+                  mi.components, mi.euler);
+        float reach = init ? 0.705f : 0.72f;
+        CHECK_MSG(mx > reach && mx < 1.05f, "dmtet mesh (start %d) reaches |coordinate| %g: the first grid's border is 0.7", init,
+                  (double)mx);
+        mf_mesh_free(&m);
     }
-    /* closed (no boundary edge) and one piece: the 4 islands near (+-0.8, +-0.8, 0) that no view
-     * sees are carved by the views whose masks lie inside their frames (mf_vhull.h; before that
-     * rule they stayed, 5 components) */
-    CHECK_MSG(m.nt > 100 && mf_manifold_ok(&mi) && mi.components == 1,
-              "dmtet mesh: %d triangles, %d boundary edges, %d components, euler %ld", m.nt, mi.boundary_edges,
-              mi.components, mi.euler);
-    CHECK_MSG(mx > 0.72f && mx < 1.05f, "dmtet mesh reaches |coordinate| %g: the first grid's border is 0.7", (double)mx);
-    mf_mesh_free(&m);
     for (int v = 0; v < NVIEW; ++v) mf_image_free(&masks[v]);
 }

@@ -49,7 +49,8 @@ int mf_vessel_axis(const MfTetGrid *g, const float *field, const MfCamera *cams,
  * MF_VESSEL_THICK_MAX_X times as many: at DMTet's 64^3, after the extracted mesh's smoothing, the
  * stated 1.6-cell walls lost 9 of 13 validation vessels' trials to the closed mesh and all 13 to
  * 3-cell walls, while at 32^3, where the stated wall is 0.8 cells, 3 cells are far thicker than
- * the object's walls (the CI cup's Chamfer 0.26 -> 1.30; docs/analyses/vessel.md). */
+ * the object's walls (the CI cup's Chamfer 0.26 -> 1.30; docs/analyses/vessel.md). DMTet from the
+ * hull (mf recon --dmtet-init hull, the default) carves the hull on its own grid instead. */
 #define MF_VESSEL_MIN_CELLS 1.5f
 #define MF_VESSEL_THICK_CELLS 3.0f
 #define MF_VESSEL_THICK_MAX_X 2.0f

@@ -254,9 +254,10 @@ static float reference_level(const MfImage *imgs, int n) {
 
 /* The options a state must match, as "key":value pairs of its meta. */
 static int state_opts(const MfGeomFitOpts *o, char *buf, size_t cap) {
-    return snprintf(buf, cap, "\"lr_sdf\":%.9g,\"lr_deform\":%.9g,\"sdf_reg\":%.9g,\"views_per_step\":%d,\"color\":%.9g,\"seed\":%llu",
+    return snprintf(buf, cap, "\"lr_sdf\":%.9g,\"lr_deform\":%.9g,\"sdf_reg\":%.9g,\"views_per_step\":%d,\"color\":%.9g,\"seed\":%llu,"
+                    "\"start\":%d",
                     (double)o->lr_sdf, (double)o->lr_deform, (double)o->sdf_reg, o->views_per_step, (double)o->color,
-                    (unsigned long long)o->seed);
+                    (unsigned long long)o->seed, o->start);
 }
 
 static int state_save(const char *path, const MfParamBlock *b, int nb, const MfAdam *adam, int step, const MfGeomFitOpts *o,

@@ -59,6 +59,7 @@ typedef struct {
     int views_per_step; /* views per step, taken in turn (0: all) */
     float color;        /* weight of the colour term (0: mask term only; > 0 needs RGBA references) */
     uint64_t seed;      /* the colour term's Monte Carlo samples */
+    int start;          /* the caller's code for where sdf came from (checked on resume like the options) */
     const char *state;  /* NULL: no checkpoints; else the fit's state file (below) */
     int state_every;    /* steps between state files (the last step always writes one) */
     int resume;         /* 1: continue from the state file when it exists */
@@ -80,7 +81,7 @@ typedef struct {
 
 /* The state file (opt->state; an MFCK checkpoint, io/mf_ckpt.h, written atomically): every block's
  * values and Adam moments, Adam's step count, the steps done, the options that shape the steps
- * (learning rates, regulariser, views per step, colour weight, seed) and the log rows so far in
+ * (learning rates, regulariser, views per step, colour weight, seed, start) and the log rows so far in
  * its meta. Every step depends on the step index, not on opt->iters, so a fit stopped at step k
  * and resumed from its state reaches the bytes of an uninterrupted one (same build and thread
  * count), also when the resumed run asks for more steps. A state whose grid size or options

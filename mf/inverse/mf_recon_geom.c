@@ -10,6 +10,7 @@
 
 #include "core/mf_error.h"
 #include "core/mf_log.h"
+#include "geom/mf_meshsdf.h"
 #include "inverse/mf_budget.h"
 #include "inverse/mf_geom_fit.h"
 #include "io/mf_gltf_read.h"
@@ -108,17 +109,30 @@ static int vessel_broken(const MfReconGeomInfo *info, int k) {
     return k > 0 && info->vessel_euler[k] < info->vessel_euler[0] - MF_VESSEL_MAX_EULER_DROP;
 }
 
+/* The walls --vessel tries on g, into info: the stated fraction of field's side (at least
+ * MF_VESSEL_MIN_CELLS) and, under auto where that is thinner than MF_VESSEL_THICK_CELLS but at
+ * least half of it, that many cells. */
+static void vessel_walls(const MfReconGeomOpts *o, const MfTetGrid *g, const float *field, MfReconGeomInfo *info) {
+    float w = mf_vessel_wall_cells(g, field, o->vessel_wall, 0.0f);
+    info->vessel_n = 2 + (o->vessel == MF_VESSEL_AUTO && w < MF_VESSEL_THICK_CELLS && MF_VESSEL_THICK_CELLS <= MF_VESSEL_THICK_MAX_X * w);
+    info->vessel_wall_cells[0] = fmaxf(w, MF_VESSEL_MIN_CELLS);
+    info->vessel_wall_cells[1] = info->vessel_n > 2 ? MF_VESSEL_THICK_CELLS : 0.0f;
+}
+
 /* The field's clean mesh (mf_vhull_extract_clean), unwrapped, to path; with --vessel auto|open and
- * a candidate opening (mf_vessel_axis), the carved meshes too: open writes the one with the stated
- * wall to path instead of the closed one; auto writes each to <source>-<k_vessel_name>.obj and
- * leaves the choice pending (mf_recon_geom_vessel_choose). field is changed (carved) when a
- * candidate exists. */
-static int extract_write(const MfReconGeomOpts *o, const MfTetGrid *g, float *field, const MfHullOpts *ho, const MfCamera *cams,
-                         int n, int tex_res, const char *out_dir, const char *path, int *extracted, int *dropped,
+ * a candidate opening, the carved meshes too: open writes the one with the stated wall to path
+ * instead of the closed one; auto writes each to <source>-<k_vessel_name>.obj and leaves the
+ * choice pending (mf_recon_geom_vessel_choose). cut NULL: the opening is field's (mf_vessel_axis)
+ * and each carved mesh is field carved (mf_vessel_carve, walls vessel_walls); else the caller
+ * looked for the opening (info->vessel; no candidate: closed) and set the walls, and carved mesh k
+ * is field cut by cut[k] (nverts,): their minimum, the intersection of the two solids (DMTet
+ * started from the hull: hull_start). */
+static int extract_write(const MfReconGeomOpts *o, const MfTetGrid *g, const float *field, float *const *cut, const MfHullOpts *ho,
+                         const MfCamera *cams, int n, int tex_res, const char *out_dir, const char *path, int *extracted, int *dropped,
                          MfReconGeomInfo *info) {
     MfMesh m = {0}, open = {0};
     int rc = mf_vhull_extract_clean(g, field, ho, &m, extracted, dropped, &info->vessel_euler[0]), automode = o->vessel == MF_VESSEL_AUTO;
-    if (!rc && o->vessel != MF_VESSEL_CLOSED) rc = mf_vessel_axis(g, field, cams, n, &info->vessel);
+    if (!rc && o->vessel != MF_VESSEL_CLOSED && !cut) rc = mf_vessel_axis(g, field, cams, n, &info->vessel);
     if (rc || o->vessel == MF_VESSEL_CLOSED || !info->vessel.candidate) {
         if (!rc && o->vessel != MF_VESSEL_CLOSED)
             mf_log_info("geometry: vessel: no opening to test (top %.2f of the cross-section, tilt %.1f deg; needs >= %.2f, <= %.0f deg)",
@@ -127,31 +141,27 @@ static int extract_write(const MfReconGeomOpts *o, const MfTetGrid *g, float *fi
         mf_mesh_free(&m);
         return rc;
     }
-    /* walls: the stated fraction of the hull's side (at least MF_VESSEL_MIN_CELLS) and, under auto
-     * where that is thinner than MF_VESSEL_THICK_CELLS but at least half of it, that many cells,
-     * carved from a copy of the uncarved field */
-    float w = mf_vessel_wall_cells(g, field, o->vessel_wall, 0.0f);
-    info->vessel_n = 2 + (automode && w < MF_VESSEL_THICK_CELLS && MF_VESSEL_THICK_CELLS <= MF_VESSEL_THICK_MAX_X * w);
-    info->vessel_wall_cells[0] = fmaxf(w, MF_VESSEL_MIN_CELLS);
-    info->vessel_wall_cells[1] = info->vessel_n > 2 ? MF_VESSEL_THICK_CELLS : 0.0f;
+    if (!cut) vessel_walls(o, g, field, info);
     size_t nv = mf_tetgrid_nverts(g);
-    float *copy = info->vessel_n > 2 ? malloc(nv * sizeof *copy) : NULL;
-    if (info->vessel_n > 2 && !copy) rc = mf_fail(MF_ENOMEM, "vessel: out of memory for a copy of the field");
-    if (copy) memcpy(copy, field, nv * sizeof *copy);
+    float *f = malloc(nv * sizeof *f);
+    if (!f) rc = mf_fail(MF_ENOMEM, "vessel: out of memory for a copy of the field");
     char p[MF_PATH_MAX];
     if (!rc && automode && !(rc = vessel_path(p, sizeof p, out_dir, info->source, 0))) rc = unwrap_write(&m, tex_res, p, info);
     mf_mesh_free(&m);
     MfVec3 a = info->vessel.axis;
     for (int k = 0; !rc && k + 1 < info->vessel_n; ++k) {
-        float *f = k ? copy : field;
-        rc = mf_vessel_carve(g, f, a, info->vessel_wall_cells[k], &info->vessel_carved[k]);
+        memcpy(f, field, nv * sizeof *f);
+        if (cut)
+            for (size_t v = 0; v < nv; ++v) f[v] = fminf(f[v], cut[k][v]);
+        else
+            rc = mf_vessel_carve(g, f, a, info->vessel_wall_cells[k], &info->vessel_carved[k]);
         if (!rc) rc = mf_vhull_extract_clean(g, f, ho, &open, NULL, NULL, &info->vessel_euler[k + 1]);
         if (!rc)
             mf_log_info("geometry: vessel: a flat top (%.2f of the cross-section) facing the cameras, axis (%.3f, %.3f, %.3f); carved "
-                        "%zu grid vertices (walls %.2f cells: %g of the hull's side, at least %g cells); Euler characteristic %ld "
-                        "(closed %ld)", info->vessel.cap_frac, a.x, a.y, a.z, info->vessel_carved[k], (double)info->vessel_wall_cells[k],
-                        (double)o->vessel_wall, (double)(k ? MF_VESSEL_THICK_CELLS : MF_VESSEL_MIN_CELLS), info->vessel_euler[k + 1],
-                        info->vessel_euler[0]);
+                        "%zu %sgrid vertices (walls %.2f cells: %g of the hull's side, at least %g cells); Euler characteristic %ld "
+                        "(closed %ld)", info->vessel.cap_frac, a.x, a.y, a.z, info->vessel_carved[k], cut ? "hull " : "",
+                        (double)info->vessel_wall_cells[k], (double)o->vessel_wall, (double)(k ? MF_VESSEL_THICK_CELLS : MF_VESSEL_MIN_CELLS),
+                        info->vessel_euler[k + 1], info->vessel_euler[0]);
         if (!rc && vessel_broken(info, k + 1))
             mf_log_warn("geometry: vessel: the %.2f-cell walls broke through (Euler characteristic %ld against the closed mesh's %ld)%s",
                         (double)info->vessel_wall_cells[k], info->vessel_euler[k + 1], info->vessel_euler[0],
@@ -160,7 +170,7 @@ static int extract_write(const MfReconGeomOpts *o, const MfTetGrid *g, float *fi
         if (!rc) rc = unwrap_write(&open, tex_res, automode ? p : path, info);
         mf_mesh_free(&open);
     }
-    free(copy);
+    free(f);
     if (!rc && automode) info->vessel_pending = 1;
     if (!rc && !automode) info->vessel_chosen = k_vessel_name[1];
     return rc;
@@ -176,7 +186,7 @@ static int build_hull(const MfReconGeomOpts *o, const MfCamera *cams, const MfIm
     int rc = mf_vhull_check_masks(masks, n, &info->hull.masked_views);
     if (!rc) rc = mf_vhull_grid(cams, masks, n, ho.res, ho.extent, &g, &f, &info->hull.touches_border);
     if (!rc) info->hull.extent = g.cell * (float)g.res;
-    if (!rc) rc = extract_write(o, &g, f, &ho, cams, n, tex_res, out_dir, path, &info->hull.extracted_tris,
+    if (!rc) rc = extract_write(o, &g, f, NULL, &ho, cams, n, tex_res, out_dir, path, &info->hull.extracted_tris,
                                 &info->hull.dropped_components, info);
     free(f);
     info->hull_s = mf_now() - t0 - info->unwrap_s;
@@ -202,7 +212,43 @@ static int write_geom_log(const char *out_dir, const MfGeomFitStep *log, int ste
     return rc;
 }
 
-/* DMTet's mask term: soft hull (in cell units) -> geom_iters Adam steps -> clean mesh -> unwrap.
+/* DMTet's start from the hull (--dmtet-init hull): the hull mesh vhull builds (its grid *gh and
+ * clean-up, the hull_* options), its signed distance on g replacing sdf (the soft hull on g, which
+ * gives the sign beyond MF_DMTET_INIT_BAND cells). With --vessel auto|open and an opening in the
+ * hull's field (info->vessel), the hull is carved as vhull carves it (its walls, into info, on its
+ * finer grid, where they do not break through), and each carved hull's signed distance on *gh goes
+ * to cut[k] (malloc'd, the caller frees them): build_dmtet cuts the fitted SDF with them there. */
+static int hull_start(const MfReconGeomOpts *o, const MfCamera *cams, const MfImage *masks, int n, const MfTetGrid *g, float *sdf,
+                      MfTetGrid *gh, float *cut[2], MfReconGeomInfo *info) {
+    MfHullOpts ho = hull_opts(o);
+    float *fh = NULL, *tmp = NULL;
+    MfMesh m = {0};
+    int rc = mf_vhull_grid(cams, masks, n, ho.res, ho.extent, gh, &fh, NULL);
+    if (!rc) rc = mf_vhull_extract_clean(gh, fh, &ho, &m, NULL, NULL, NULL);
+    if (!rc) rc = mf_meshsdf_grid(g, &m, sdf, MF_DMTET_INIT_BAND, sdf);
+    if (!rc) mf_log_info("geometry: DMTet starts from the hull mesh's signed distance (%d^3 hull, %d triangles; band %g cells)", ho.res,
+                         m.nt, (double)MF_DMTET_INIT_BAND);
+    mf_mesh_free(&m);
+    if (!rc && o->vessel != MF_VESSEL_CLOSED) rc = mf_vessel_axis(gh, fh, cams, n, &info->vessel);
+    if (!rc && o->vessel != MF_VESSEL_CLOSED && info->vessel.candidate) {
+        size_t nh = mf_tetgrid_nverts(gh);
+        vessel_walls(o, gh, fh, info);
+        if (!(tmp = malloc(nh * sizeof *tmp))) rc = mf_fail(MF_ENOMEM, "out of memory for the carved hull");
+        for (int k = 0; !rc && k + 1 < info->vessel_n; ++k) {
+            memcpy(tmp, fh, nh * sizeof *tmp);
+            rc = mf_vessel_carve(gh, tmp, info->vessel.axis, info->vessel_wall_cells[k], &info->vessel_carved[k]);
+            if (!rc) rc = mf_vhull_extract_clean(gh, tmp, &ho, &m, NULL, NULL, NULL);
+            if (!rc && !(cut[k] = malloc(nh * sizeof *cut[k]))) rc = mf_fail(MF_ENOMEM, "out of memory for the carved hull's SDF");
+            if (!rc) rc = mf_meshsdf_grid(gh, &m, tmp, MF_DMTET_INIT_BAND, cut[k]);
+            mf_mesh_free(&m);
+        }
+    }
+    free(fh), free(tmp);
+    return rc;
+}
+
+/* DMTet's mask term: the hull mesh's signed distance (hull_start) or the soft hull (in cell units)
+ * -> geom_iters Adam steps -> clean mesh (cut by the carved hulls) -> unwrap.
  * The fit's state goes to geometry/dmtet_state.mfck every MF_GEOM_STATE_EVERY steps; resume
  * continues from it; it is removed once dmtet.obj is written (which resume then reuses whole). */
 #define MF_GEOM_STATE_EVERY 25
@@ -218,13 +264,19 @@ static int build_dmtet(const MfReconGeomOpts *o, const MfCamera *cams, const MfI
     if (!rc) rc = mf_vhull_grid(cams, masks, n, o->dmtet_res, o->hull_extent, &g, &sdf, &info->hull.touches_border);
     info->hull.extent = g.cell * (float)g.res;
     size_t nv = rc ? 0 : mf_tetgrid_nverts(&g);
-    /* mask - 0.5 in [-0.5, 0.5]: as a distance, in cells, so geom_lr is in cells per step */
-    for (size_t v = 0; v < nv; ++v) sdf[v] *= g.cell;
+    float *cut[2] = {NULL, NULL};
+    MfTetGrid gh = {0};
+    if (!rc && o->dmtet_init == MF_DMTET_INIT_HULL) {
+        rc = hull_start(o, cams, masks, n, &g, sdf, &gh, cut, info);
+    } else {
+        /* mask - 0.5 in [-0.5, 0.5]: as a distance, in cells, so geom_lr is in cells per step */
+        for (size_t v = 0; v < nv; ++v) sdf[v] *= g.cell;
+    }
     info->hull_s = mf_now() - t0;
     char state[MF_PATH_MAX];
     if (!rc && !(rc = mf_path_join(state, sizeof state, out_dir, "geometry/dmtet_state.mfck"))) rc = mf_mkdirs_for(state);
     MfGeomFitOpts fo = {.iters = o->geom_iters, .lr_sdf = o->geom_lr * g.cell, .sdf_reg = o->geom_sdf_reg, .views_per_step = o->geom_views,
-                        .color = o->geom_color, .seed = o->geom_seed, .state = state, .state_every = MF_GEOM_STATE_EVERY,
+                        .color = o->geom_color, .seed = o->geom_seed, .start = o->dmtet_init, .state = state, .state_every = MF_GEOM_STATE_EVERY,
                         .resume = resume, .resumed = &info->resumed_at};
     if (!rc && o->geom_iters > 0) {
         t0 = mf_now();
@@ -244,11 +296,21 @@ static int build_dmtet(const MfReconGeomOpts *o, const MfCamera *cams, const MfI
         mf_log_info("geometry: DMTet, %s: %d^3 grid, %d steps of %d views in %.2f s (%.1f ms/step), "
                     "mask loss %.5f -> %.5f", o->geom_color > 0 ? "mask and colour terms" : "mask term only (no colour loss)", o->dmtet_res,
                     info->steps, o->geom_views ? o->geom_views : n, info->geom_s, info->step_ms, info->loss_first, info->loss_last);
+    /* a vessel found in the hull: every mesh is extracted on the hull's grid, the fitted SDF
+     * interpolated onto it, so the carved hull's walls keep the cells they were carved with */
+    float *up = NULL;
+    const MfTetGrid *ge = cut[0] ? &gh : &g;
+    if (!rc && cut[0]) {
+        size_t nh = mf_tetgrid_nverts(&gh);
+        if (!(up = malloc(nh * sizeof *up))) rc = mf_fail(MF_ENOMEM, "out of memory for the fitted SDF on the hull's grid");
+        for (size_t v = 0; !rc && v < nh; ++v) up[v] = mf_tetgrid_sample(&g, sdf, mf_tetgrid_base(&gh, v), -MF_DMTET_INIT_BAND * g.cell);
+    }
     MfHullOpts ho = hull_opts(o);
-    ho.smooth_iters = info->smooth_iters = o->dmtet_smooth >= 0 ? o->dmtet_smooth
-                                              : (int)lround(100.0 * o->dmtet_res * o->dmtet_res / (64.0 * 64.0));
-    if (!rc) rc = extract_write(o, &g, sdf, &ho, cams, n, tex_res, out_dir, path, NULL, &info->dropped_components, info);
-    free(sdf), free(log);
+    ho.smooth_iters = info->smooth_iters = o->dmtet_smooth >= 0 ? o->dmtet_smooth : (int)lround(100.0 * o->dmtet_res * o->dmtet_res / (64.0 * 64.0));
+    if (!rc)
+        rc = extract_write(o, ge, up ? up : sdf, o->dmtet_init == MF_DMTET_INIT_HULL ? cut : NULL, &ho, cams, n, tex_res, out_dir, path,
+                           NULL, &info->dropped_components, info);
+    free(sdf), free(up), free(log), free(cut[0]), free(cut[1]);
     if (!rc && o->geom_iters > 0 && remove(state) != 0)
         rc = mf_fail(MF_EIO, "%s: cannot remove the finished fit's state: %s", state, strerror(errno));
     return rc == MF_OK ? MF_OK : mf_fail_prefix(rc, "--geometry dmtet");

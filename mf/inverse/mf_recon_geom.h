@@ -12,7 +12,8 @@
  *          with a warning).
  *   dmtet  DMTet's mask term (mf_geom_fit, issue 14 pass 1 without its colour loss): an SDF on a
  *          dmtet_res^3 tet grid (side hull_extent, enlarged 1.5x once when the hull touches its
- *          border: mf_vhull_grid, as vhull) initialised from the soft visual hull
+ *          border: mf_vhull_grid, as vhull) initialised (dmtet_init) from the signed distance to
+ *          the hull mesh vhull builds (mf_meshsdf; the default) or from the soft visual hull
  *          (mf_vhull, scaled to cell units), geom_iters Adam steps on the training views' masks
  *          (geom_views per step, in turn), then extraction and the hull's clean-up (weld, small
  *          components dropped, Taubin, decimation: the hull_* options), unwrapped as vhull ->
@@ -28,7 +29,10 @@
  *          a large flat top facing the cameras, auto extracts the closed mesh and the field
  *          carved below that top (walls vessel_wall x the hull's side, at least
  *          MF_VESSEL_MIN_CELLS), and, when those walls are thinner than MF_VESSEL_THICK_CELLS
- *          (DMTet's 64^3 grid), carved again with walls of that many cells; writes them to
+ *          (DMTet's 64^3 grid), carved again with walls of that many cells (dmtet from the hull:
+ *          the opening is the hull's, the hull is carved on its own grid as vhull carves it, and
+ *          the fitted SDF, interpolated onto that grid, is cut by each carved hull's signed
+ *          distance; every candidate is extracted there); writes them to
  *          <out>/geometry/<source>-closed.obj, -open.obj and -open-thick.obj, and
  *          mf_recon_geom_vessel_choose fits each (but a carved one whose walls broke through:
  *          its Euler characteristic more than MF_VESSEL_MAX_EULER_DROP below the closed one's)
@@ -58,6 +62,12 @@
 #include "scene/mf_camera.h"
 #include "scene/mf_mesh.h"
 
+/* DMTet's starting SDF: the soft hull's mask - 0.5 on its grid (in cell units), or the signed
+ * distance to the visual hull mesh vhull builds (mf_meshsdf, within MF_DMTET_INIT_BAND cells). */
+typedef enum { MF_DMTET_INIT_SOFT, MF_DMTET_INIT_HULL } MfDmtetInit;
+#define MF_DMTET_INITS "soft|hull"
+#define MF_DMTET_INIT_BAND 4.0f
+
 /* --vessel auto's meshes: closed, open, open-thick */
 #define MF_VESSEL_MESHES 3
 
@@ -69,6 +79,7 @@ typedef struct {
     int hull_target_tris;
     float hull_min_component;
     int dmtet_res;            /* dmtet: grid cubes per axis */
+    int dmtet_init;           /* dmtet: MfDmtetInit, the SDF's start */
     int dmtet_smooth;         /* dmtet: Taubin iterations of the extracted mesh (-1: 100 (res/64)^2; hull_smooth is the hull's) */
     int geom_iters;           /* dmtet: Adam steps of the mask term */
     int geom_views;           /* dmtet: views per step (0: all) */

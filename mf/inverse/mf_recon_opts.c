@@ -93,7 +93,11 @@ static const MfOpt k_geom_opts[] = {
     MF_OPT_INT(G, hull_target_tris, MF_HULL_DEFAULT_TARGET_TRIS, 0, 100000000, "vhull, dmtet: decimate to at most this many triangles (0: keep all)"),
     MF_OPT_FLOAT(G, hull_min_component, MF_HULL_DEFAULT_MIN_COMPONENT, 0, 1, "vhull, dmtet: drop components with fewer than this fraction of the largest's triangles"),
     /* the hull_* decimation and component options also clean the DMTet mesh; hull_extent is its grid's side */
-    MF_OPT_INT(G, dmtet_res, 64, 4, 512, "dmtet: tet grid cubes per axis (side --hull-extent; the SDF starts as the soft visual hull on it)"),
+    MF_OPT_INT(G, dmtet_res, 64, 4, 512, "dmtet: tet grid cubes per axis (side --hull-extent; the SDF's start is --dmtet-init's)"),
+    /* hull: relit +0.23 dB [+0.06, +0.40], 15/18 validation scenes, against soft (docs/analyses/dmtet-init.md) */
+    MF_OPT_ENUM(G, dmtet_init, MF_DMTET_INIT_HULL, MF_DMTET_INITS,
+                "dmtet: the SDF's start: hull (the signed distance to --geometry vhull's hull mesh, built with the hull_* options; "
+                "a vessel is then carved as the hull is) or soft (the soft visual hull's mask - 0.5 on the tet grid, the former start)"),
     /* -1: 100 at the default 64^3, chosen on val-3d (relit +0.14 dB [+0.09, +0.20] against 10, the
      * former value; docs/analyses/hull-smoothing.md), scaled by (res / 64)^2 for other grids: an
      * iteration acts per mesh edge, and the length it smooths grows as the edge x sqrt(iterations);
