@@ -30,14 +30,14 @@ mesh and the relit test views:
 - **given**: the scene's own mesh;
 - **vhull**: the visual hull of the same 64 training masks at 128 px (\`mf recon --geometry
   vhull\`: \`mf hull\`'s defaults, 128^3 grid, 40k triangles, then \`mf unwrap\`'s atlas);
-- **dmtet**: DMTet's pass 1 from the soft hull on a 64^3 tet grid (\`--geometry dmtet\`: 200 Adam
-  steps of the mask term, 4 views a step; no colour term, which is off by default), cleaned and
-  unwrapped like the hull.
+- **dmtet**: DMTet's pass 1 on a 64^3 tet grid from the hull mesh's signed distance
+  (\`--geometry dmtet\`, \`--dmtet-init hull\`: 200 Adam steps of the mask term, 4 views a step; no
+  colour term, which is off by default), cleaned and unwrapped like the hull.
 
 Silhouettes cannot carve a cavity. Where the hull has a large flat top facing the cameras, \`mf
 recon\`'s default \`--vessel auto\` also carves it as an open vessel (mf/geom/mf_vessel.h: walls
-0.03 of the hull's side; where that is under 3 grid cells, as on DMTet's 64^3 grid, also with
-3-cell walls) and keeps a carved mesh only when a trial fit on it (a quarter of the iterations,
+0.03 of the hull's side; where that is under 3 grid cells, also with 3-cell walls; DMTet cuts
+its fitted SDF with the hull carved on the hull's grid) and keeps a carved mesh only when a trial fit on it (a quarter of the iterations,
 every 8th training view held out) beats the closed mesh's on the held-out views by more than 0.1
 dB. Column vessel: the mesh kept (closed, open, open-thick: the 3-cell walls; -: no such top).
 
