@@ -39,11 +39,10 @@ static int clampi(int x, int lo, int hi) { return x < lo ? lo : x > hi ? hi : x;
 
 /* The vertices farther than the shell from the mesh (best[v] >= shell2) form regions that the
  * shell separates (it is more than a cell thick on each side of the surface, and the regions are
- * joined by grid edges, 6-neighbours); each region takes the sign most of its vertices have in
- * far_sign (a tie: outside), with its vertices' own distances (best, at most the band). Only the
- * shell keeps the nearest feature's sign, which a fold-over of a decimated mesh can get wrong far
- * from the surface; a coarse field's stray inside vertices (a floater the mesh dropped) stay out. */
-static int far_regions(const MfTetGrid *g, const float *best, float shell2, const float *far_sign, float *sdf) {
+ * joined by grid edges, 6-neighbours); each region takes the sign most of its vertices have (a
+ * tie: outside): inside the band (best[v] < band2) the nearest feature's, already in sdf, beyond
+ * it far_sign's; with its vertices' own distances (best, at most the band). */
+static int far_regions(const MfTetGrid *g, const float *best, float shell2, float band2, const float *far_sign, float *sdf) {
     size_t nv = mf_tetgrid_nverts(g), n1 = (size_t)g->res + 1;
     int32_t *label = malloc(nv * sizeof *label);
     size_t *queue = malloc(nv * sizeof *queue);
@@ -59,7 +58,7 @@ static int far_regions(const MfTetGrid *g, const float *best, float shell2, cons
         queue[tail++] = seed, label[seed] = 1;
         while (head < tail) { /* breadth-first over the region, which queue then lists */
             size_t v = queue[head++], i = v % n1, j = v / n1 % n1, k = v / (n1 * n1);
-            vote += far_sign[v] > 0 ? 1 : -1;
+            vote += (best[v] < band2 ? sdf[v] : far_sign[v]) > 0 ? 1 : -1;
             size_t nb[6] = {i > 0 ? v - 1 : v, i + 1 < n1 ? v + 1 : v, j > 0 ? v - n1 : v,
                             j + 1 < n1 ? v + n1 : v, k > 0 ? v - n1 * n1 : v, k + 1 < n1 ? v + n1 * n1 : v};
             for (int a = 0; a < 6; ++a)
@@ -161,7 +160,7 @@ int mf_meshsdf_grid(const MfTetGrid *g, const MfMesh *m, const float *far_sign, 
                 }
         }
     float shell = MF_MESHSDF_SHELL * g->cell;
-    rc = far_regions(g, best, shell * shell, far_sign, sdf);
+    rc = far_regions(g, best, shell * shell, band * band, far_sign, sdf);
     free(best), free(fn), free(vn), free(en);
     return rc;
 }
