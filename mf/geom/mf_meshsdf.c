@@ -44,13 +44,13 @@ static int clampi(int x, int lo, int hi) { return x < lo ? lo : x > hi ? hi : x;
  * it far_sign's; with its vertices' own distances (best, at most the band). */
 static int far_regions(const MfTetGrid *g, const float *best, float shell2, float band2, const float *far_sign, float *sdf) {
     size_t nv = mf_tetgrid_nverts(g), n1 = (size_t)g->res + 1;
-    int32_t *label = malloc(nv * sizeof *label);
+    signed char *label = malloc(nv * sizeof *label); /* -1: in the shell; 0: beyond it, not yet reached; 1: reached */
     size_t *queue = malloc(nv * sizeof *queue);
     if (!label || !queue) {
         free(label), free(queue);
         return mf_fail(MF_ENOMEM, "mesh SDF: out of memory");
     }
-    for (size_t v = 0; v < nv; ++v) label[v] = best[v] < shell2 ? -1 : 0; /* 0: beyond the shell, not yet visited */
+    for (size_t v = 0; v < nv; ++v) label[v] = best[v] < shell2 ? -1 : 0;
     for (size_t seed = 0; seed < nv; ++seed) {
         if (label[seed] != 0) continue;
         size_t head = 0, tail = 0;
@@ -64,7 +64,7 @@ static int far_regions(const MfTetGrid *g, const float *best, float shell2, floa
             for (int a = 0; a < 6; ++a)
                 if (label[nb[a]] == 0) label[nb[a]] = 1, queue[tail++] = nb[a];
         }
-        for (size_t q = 0; q < tail; ++q) sdf[queue[q]] = vote > 0 ? sqrtf(best[queue[q]]) : -sqrtf(best[queue[q]]), label[queue[q]] = 2;
+        for (size_t q = 0; q < tail; ++q) sdf[queue[q]] = vote > 0 ? sqrtf(best[queue[q]]) : -sqrtf(best[queue[q]]);
     }
     free(label), free(queue);
     return MF_OK;
