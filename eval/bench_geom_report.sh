@@ -30,8 +30,8 @@ mesh and the relit test views:
 - **given**: the scene's own mesh;
 - **vhull**: the visual hull of the same 64 training masks at 128 px (\`mf recon --geometry
   vhull\`: \`mf hull\`'s defaults, 128^3 grid, 40k triangles, then \`mf unwrap\`'s atlas);
-- **dmtet**: DMTet's pass 1 on a 64^3 tet grid from the hull mesh's signed distance
-  (\`--geometry dmtet\`, \`--dmtet-init hull\`: 200 Adam steps of the mask term, 4 views a step; no
+- **dmtet**: DMTet's pass 1 on the hull's 128^3 grid from the hull mesh's signed distance
+  (\`--geometry dmtet\`, \`--dmtet-init hull\`, \`--dmtet-res 0\`: 200 Adam steps of the mask term, 4 views a step; no
   colour term, which is off by default), cleaned and unwrapped like the hull.
 
 Silhouettes cannot carve a cavity. Where the hull has a large flat top facing the cameras, \`mf

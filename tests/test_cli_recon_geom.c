@@ -244,10 +244,15 @@ MF_TEST(recon_geometry_dmtet_tiny) {
     CHECK(nb == na && before && after && !memcmp(before, after, nb));
     free(before), free(after);
     CHECK(geom_result(run, "hull_s", NULL, 0) == 0 && isnan(geom_result(run, "geom_s", NULL, 0)));
-    /* a new run into the folder with --geom-iters 0: its log has no step, not the 30 of the first run */
-    snprintf(args, sizeof args, "recon %s -o %s --iters 1 --geometry dmtet --dmtet-res 32 --geom-iters 0 " SMALL, bare, run);
+    /* a new run into the folder with --geom-iters 0: its log has no step, not the 30 of the first run;
+     * from the hull (the default start) with the default --dmtet-res 0, DMTet's grid is the hull's
+     * (--hull-res 64) and its mesh gets 100 Taubin iterations there */
+    snprintf(args, sizeof args, "recon %s -o %s --iters 1 --geometry dmtet --geom-iters 0 " SMALL, bare, run);
     rc = mf_test_run_mf(args, NULL, err, sizeof err);
-    CHECK_MSG(rc == 0 && strstr(err, "0 steps"), "--geom-iters 0: exit %d, '%s'", rc, err);
+    CHECK_MSG(rc == 0 && strstr(err, "0 steps") && strstr(err, "64^3 grid"), "--geom-iters 0: exit %d, '%s'", rc, err);
+    CHECK_MSG(geom_result(run, "dmtet_res", NULL, 0) == 64 && geom_result(run, "smooth_iters", NULL, 0) == 100,
+              "run.json from the hull: dmtet_res %g (want --hull-res 64), smooth_iters %g (want 100)", geom_result(run, "dmtet_res", NULL, 0),
+              geom_result(run, "smooth_iters", NULL, 0));
     rows = read_geom_log(q, &first, &last);
     CHECK_MSG(rows == 0, "geom_log.csv after a --geom-iters 0 run: %d rows (an earlier run's log left?)", rows);
     /* --resume with another --geometry is refused, naming the other run's file, which stays */

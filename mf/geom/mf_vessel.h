@@ -46,7 +46,7 @@ int mf_vessel_axis(const MfTetGrid *g, const float *field, const MfCamera *cams,
 /* Walls, in cells: a wall thinner than MF_VESSEL_MIN_CELLS would carve every inside vertex (each
  * is a cell or more from the outside). mf recon --vessel auto also tries walls of
  * MF_VESSEL_THICK_CELLS when the stated fraction gives fewer, but not more than
- * MF_VESSEL_THICK_MAX_X times as many: at DMTet's 64^3, after the extracted mesh's smoothing, the
+ * MF_VESSEL_THICK_MAX_X times as many: at DMTet's former 64^3, after the extracted mesh's smoothing, the
  * stated 1.6-cell walls lost 9 of 13 validation vessels' trials to the closed mesh and all 13 to
  * 3-cell walls, while at 32^3, where the stated wall is 0.8 cells, 3 cells are far thicker than
  * the object's walls (the CI cup's Chamfer 0.26 -> 1.30; docs/analyses/vessel.md). DMTet from the

@@ -212,9 +212,9 @@ static int write_geom_log(const char *out_dir, const MfGeomFitStep *log, int ste
     return rc;
 }
 
-/* DMTet's start from the hull (--dmtet-init hull): the hull mesh vhull builds (its grid *gh and
- * clean-up, the hull_* options), its signed distance on g replacing sdf (the soft hull on g, which
- * gives the sign beyond MF_DMTET_INIT_BAND cells). With --vessel auto|open and an opening in the
+/* DMTet's start from the hull (--dmtet-init hull): the hull mesh vhull builds (its grid *gh, which
+ * is g when g has the hull's resolution, and clean-up, the hull_* options), its signed distance on
+ * g replacing sdf (the soft hull on g, which gives the sign beyond MF_DMTET_INIT_BAND cells). With --vessel auto|open and an opening in the
  * hull's field (info->vessel), the hull is carved as vhull carves it (its walls, into info, on its
  * finer grid, where they do not break through), and each carved hull's signed distance on *gh goes
  * to cut[k] (malloc'd, the caller frees them): build_dmtet cuts the fitted SDF with them there. */
@@ -223,7 +223,15 @@ static int hull_start(const MfReconGeomOpts *o, const MfCamera *cams, const MfIm
     MfHullOpts ho = hull_opts(o);
     float *fh = NULL, *tmp = NULL;
     MfMesh m = {0};
-    int rc = mf_vhull_grid(cams, masks, n, ho.res, ho.extent, gh, &fh, NULL);
+    int rc = MF_OK;
+    if (g->res == ho.res) { /* DMTet on the hull's grid (mf_vhull_grid is deterministic): sdf holds its field */
+        size_t nv = mf_tetgrid_nverts(g);
+        *gh = *g;
+        if (!(fh = malloc(nv * sizeof *fh))) rc = mf_fail(MF_ENOMEM, "out of memory for the hull's field");
+        else memcpy(fh, sdf, nv * sizeof *fh);
+    } else {
+        rc = mf_vhull_grid(cams, masks, n, ho.res, ho.extent, gh, &fh, NULL);
+    }
     if (!rc) rc = mf_vhull_extract_clean(gh, fh, &ho, &m, NULL, NULL, NULL);
     if (!rc) rc = mf_meshsdf_grid(g, &m, sdf, MF_DMTET_INIT_BAND, sdf);
     if (!rc) mf_log_info("geometry: DMTet starts from the hull mesh's signed distance (%d^3 hull, %d triangles; band %g cells)", ho.res,
@@ -252,6 +260,15 @@ static int hull_start(const MfReconGeomOpts *o, const MfCamera *cams, const MfIm
  * The fit's state goes to geometry/dmtet_state.mfck every MF_GEOM_STATE_EVERY steps; resume
  * continues from it; it is removed once dmtet.obj is written (which resume then reuses whole). */
 #define MF_GEOM_STATE_EVERY 25
+
+/* Taubin iterations of DMTet's mesh on a res^3 grid: dmtet_smooth, or by default 100 at the start's
+ * resolution (the hull's, hull_res: its mesh is smoothed already; MF_DMTET_SOFT_RES for the soft
+ * hull) scaled by (res / that)^2 (mf_recon_opts.c). */
+static int dmtet_smooth(const MfReconGeomOpts *o, int res) {
+    double base = o->dmtet_init == MF_DMTET_INIT_HULL ? o->hull_res : MF_DMTET_SOFT_RES;
+    return o->dmtet_smooth >= 0 ? o->dmtet_smooth : (int)lround(100.0 * res * res / (base * base));
+}
+
 static int build_dmtet(const MfReconGeomOpts *o, const MfCamera *cams, const MfImage *masks, int n, int tex_res,
                        const char *out_dir, const char *path, int resume, MfReconGeomInfo *info) {
     MfTetGrid g = {0};
@@ -261,7 +278,8 @@ static int build_dmtet(const MfReconGeomOpts *o, const MfCamera *cams, const MfI
     double t0 = mf_now();
     if (!rc) rc = mf_vhull_check_masks(masks, n, &info->hull.masked_views);
     /* the hull's grid: enlarged 1.5x once when the hull touches its border, as mf_vhull_mesh does */
-    if (!rc) rc = mf_vhull_grid(cams, masks, n, o->dmtet_res, o->hull_extent, &g, &sdf, &info->hull.touches_border);
+    info->dmtet_res = o->dmtet_res ? o->dmtet_res : o->dmtet_init == MF_DMTET_INIT_HULL ? o->hull_res : MF_DMTET_SOFT_RES;
+    if (!rc) rc = mf_vhull_grid(cams, masks, n, info->dmtet_res, o->hull_extent, &g, &sdf, &info->hull.touches_border);
     info->hull.extent = g.cell * (float)g.res;
     size_t nv = rc ? 0 : mf_tetgrid_nverts(&g);
     float *cut[2] = {NULL, NULL};
@@ -294,19 +312,20 @@ static int build_dmtet(const MfReconGeomOpts *o, const MfCamera *cams, const MfI
     }
     if (!rc)
         mf_log_info("geometry: DMTet, %s: %d^3 grid, %d steps of %d views in %.2f s (%.1f ms/step), "
-                    "mask loss %.5f -> %.5f", o->geom_color > 0 ? "mask and colour terms" : "mask term only (no colour loss)", o->dmtet_res,
+                    "mask loss %.5f -> %.5f", o->geom_color > 0 ? "mask and colour terms" : "mask term only (no colour loss)", info->dmtet_res,
                     info->steps, o->geom_views ? o->geom_views : n, info->geom_s, info->step_ms, info->loss_first, info->loss_last);
     /* a vessel found in the hull: every mesh is extracted on the hull's grid, the fitted SDF
-     * interpolated onto it, so the carved hull's walls keep the cells they were carved with */
+     * interpolated onto it (when it is another grid), so the carved hull's walls keep the cells they
+     * were carved with */
     float *up = NULL;
     const MfTetGrid *ge = cut[0] ? &gh : &g;
-    if (!rc && cut[0]) {
+    if (!rc && cut[0] && gh.res != g.res) {
         size_t nh = mf_tetgrid_nverts(&gh);
         if (!(up = malloc(nh * sizeof *up))) rc = mf_fail(MF_ENOMEM, "out of memory for the fitted SDF on the hull's grid");
         for (size_t v = 0; !rc && v < nh; ++v) up[v] = mf_tetgrid_sample(&g, sdf, mf_tetgrid_base(&gh, v), -MF_DMTET_INIT_BAND * g.cell);
     }
     MfHullOpts ho = hull_opts(o);
-    ho.smooth_iters = info->smooth_iters = o->dmtet_smooth >= 0 ? o->dmtet_smooth : (int)lround(100.0 * o->dmtet_res * o->dmtet_res / (64.0 * 64.0));
+    ho.smooth_iters = info->smooth_iters = dmtet_smooth(o, info->dmtet_res);
     if (!rc)
         rc = extract_write(o, ge, up ? up : sdf, o->dmtet_init == MF_DMTET_INIT_HULL ? cut : NULL, &ho, cams, n, tex_res, out_dir, path,
                            NULL, &info->dropped_components, info);
@@ -508,6 +527,7 @@ void mf_recon_geom_to_json(const MfReconGeomInfo *info, cJSON *obj) {
         cJSON_AddNumberToObject(g, "rgb_loss_first", info->rgb_first); /* the colour term's logl1 (0 without it) */
         cJSON_AddNumberToObject(g, "rgb_loss_last", info->rgb_last);
         cJSON_AddNumberToObject(g, "dropped_components", info->dropped_components);
+        cJSON_AddNumberToObject(g, "dmtet_res", info->dmtet_res);       /* the grid's resolution (--dmtet-res resolved) */
         cJSON_AddNumberToObject(g, "smooth_iters", info->smooth_iters); /* Taubin iterations of the extracted mesh */
         cJSON_AddNumberToObject(g, "grid_extent", info->hull.extent);
         cJSON_AddBoolToObject(g, "touches_border", info->hull.touches_border);

@@ -12,10 +12,11 @@
  *          with a warning).
  *   dmtet  DMTet's mask term (mf_geom_fit, issue 14 pass 1 without its colour loss): an SDF on a
  *          dmtet_res^3 tet grid (side hull_extent, enlarged 1.5x once when the hull touches its
- *          border: mf_vhull_grid, as vhull) initialised (dmtet_init) from the signed distance to
- *          the hull mesh vhull builds (mf_meshsdf; the default) or from the soft visual hull
- *          (mf_vhull, scaled to cell units), geom_iters Adam steps on the training views' masks
- *          (geom_views per step, in turn), then extraction and the hull's clean-up (weld, small
+ *          border: mf_vhull_grid, as vhull; by default the start's resolution: hull_res, the
+ *          hull's own grid, or MF_DMTET_SOFT_RES) initialised (dmtet_init) from the signed
+ *          distance to the hull mesh vhull builds (mf_meshsdf; the default) or from the soft
+ *          visual hull (mf_vhull, scaled to cell units), geom_iters Adam steps on the training
+ *          views' masks (geom_views per step, in turn), then extraction and the hull's clean-up (weld, small
  *          components dropped, Taubin, decimation: the hull_* options), unwrapped as vhull ->
  *          <out>/geometry/dmtet.obj; the per-step loss -> <out>/geom_log.csv. Reused with resume
  *          like vhull.obj. While the fit runs, its state (SDF, Adam moments, step, log) goes to
@@ -29,10 +30,10 @@
  *          a large flat top facing the cameras, auto extracts the closed mesh and the field
  *          carved below that top (walls vessel_wall x the hull's side, at least
  *          MF_VESSEL_MIN_CELLS), and, when those walls are thinner than MF_VESSEL_THICK_CELLS
- *          (DMTet's 64^3 grid), carved again with walls of that many cells (dmtet from the hull:
+ *          (e.g. a 64^3 grid), carved again with walls of that many cells (dmtet from the hull:
  *          the opening is the hull's, the hull is carved on its own grid as vhull carves it, and
- *          the fitted SDF, interpolated onto that grid, is cut by each carved hull's signed
- *          distance; every candidate is extracted there); writes them to
+ *          the fitted SDF, interpolated onto that grid when it is another, is cut by each carved
+ *          hull's signed distance; every candidate is extracted there); writes them to
  *          <out>/geometry/<source>-closed.obj, -open.obj and -open-thick.obj, and
  *          mf_recon_geom_vessel_choose fits each (but a carved one whose walls broke through:
  *          its Euler characteristic more than MF_VESSEL_MAX_EULER_DROP below the closed one's)
@@ -67,6 +68,8 @@
 typedef enum { MF_DMTET_INIT_SOFT, MF_DMTET_INIT_HULL } MfDmtetInit;
 #define MF_DMTET_INITS "soft|hull"
 #define MF_DMTET_INIT_BAND 4.0f
+/* The soft start's grid when dmtet_res is 0 (the hull start's is hull_res). */
+#define MF_DMTET_SOFT_RES 64
 
 /* --vessel auto's meshes: closed, open, open-thick */
 #define MF_VESSEL_MESHES 3
@@ -78,9 +81,10 @@ typedef struct {
     int hull_smooth;
     int hull_target_tris;
     float hull_min_component;
-    int dmtet_res;            /* dmtet: grid cubes per axis */
+    int dmtet_res;            /* dmtet: grid cubes per axis (0: the start's: hull_res from the hull, MF_DMTET_SOFT_RES from soft) */
     int dmtet_init;           /* dmtet: MfDmtetInit, the SDF's start */
-    int dmtet_smooth;         /* dmtet: Taubin iterations of the extracted mesh (-1: 100 (res/64)^2; hull_smooth is the hull's) */
+    int dmtet_smooth;         /* dmtet: Taubin iterations of the extracted mesh (-1: 100 (res/hull_res)^2 from the hull, 100 (res/64)^2 from soft;
+                                 hull_smooth is the hull's) */
     int geom_iters;           /* dmtet: Adam steps of the mask term */
     int geom_views;           /* dmtet: views per step (0: all) */
     float geom_lr;            /* dmtet: SDF learning rate, in grid cells per step */
@@ -112,6 +116,7 @@ typedef struct {
     double loss_first, loss_last;/* dmtet, built: mask loss of the first and last step */
     double rgb_first, rgb_last;  /* dmtet, built: the colour term's logl1 of the first and last step (0 without it) */
     int dropped_components;      /* dmtet, built: components dropped by the clean-up */
+    int dmtet_res;               /* dmtet, built: the grid's resolution (dmtet_res resolved) */
     int smooth_iters;            /* dmtet, built: Taubin iterations used (dmtet_smooth resolved) */
     MfVesselAxis vessel;         /* vhull/dmtet, built, --vessel auto|open: the opening found (candidate 0: none) */
     int vessel_n;                /* meshes made with a candidate: 2 (closed, open) or 3 (and open-thick) */

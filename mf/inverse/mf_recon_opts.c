@@ -93,16 +93,21 @@ static const MfOpt k_geom_opts[] = {
     MF_OPT_INT(G, hull_target_tris, MF_HULL_DEFAULT_TARGET_TRIS, 0, 100000000, "vhull, dmtet: decimate to at most this many triangles (0: keep all)"),
     MF_OPT_FLOAT(G, hull_min_component, MF_HULL_DEFAULT_MIN_COMPONENT, 0, 1, "vhull, dmtet: drop components with fewer than this fraction of the largest's triangles"),
     /* the hull_* decimation and component options also clean the DMTet mesh; hull_extent is its grid's side */
-    MF_OPT_INT(G, dmtet_res, 64, 4, 512, "dmtet: tet grid cubes per axis (side --hull-extent; the SDF's start is --dmtet-init's)"),
+    /* 0 from the hull: its own grid (--hull-res), where the 64^3 grid lost what the hull resolved
+     * (docs/analyses/dmtet-grid.md) */
+    MF_OPT_INT(G, dmtet_res, 0, 0, 512, "dmtet: tet grid cubes per axis, 4-512 (side --hull-extent; 0: the start's, --hull-res from "
+               "--dmtet-init hull, 64 from soft)"),
     /* hull: relit +0.23 dB [+0.06, +0.40], 15/18 validation scenes, against soft (docs/analyses/dmtet-init.md) */
     MF_OPT_ENUM(G, dmtet_init, MF_DMTET_INIT_HULL, MF_DMTET_INITS,
                 "dmtet: the SDF's start: hull (the signed distance to --geometry vhull's hull mesh, built with the hull_* options; "
                 "a vessel is then carved as the hull is) or soft (the soft visual hull's mask - 0.5 on the tet grid, the former start)"),
-    /* -1: 100 at the default 64^3, chosen on val-3d (relit +0.14 dB [+0.09, +0.20] against 10, the
-     * former value; docs/analyses/hull-smoothing.md), scaled by (res / 64)^2 for other grids: an
-     * iteration acts per mesh edge, and the length it smooths grows as the edge x sqrt(iterations);
-     * 100 at 64^3 is the hull's 400 at 128^3 by the same rule. Only 64^3 was validated. */
-    MF_OPT_INT(G, dmtet_smooth, -1, -1, 10000, "dmtet: Taubin smoothing iterations of the extracted mesh (-1: 100 x (dmtet_res / 64)^2, rounded)"),
+    /* -1 from the soft hull: 100 at 64^3, chosen on val-3d (relit +0.14 dB [+0.09, +0.20] against
+     * 10, the former value; docs/analyses/hull-smoothing.md); from the hull, whose mesh is smoothed
+     * already, 100 on the hull's grid (validated at the default 128^3, docs/analyses/dmtet-grid.md).
+     * Scaled by the resolution squared on other grids: an iteration acts per mesh edge, and the
+     * length it smooths grows as the edge x sqrt(iterations). Only those two points were validated. */
+    MF_OPT_INT(G, dmtet_smooth, -1, -1, 10000, "dmtet: Taubin smoothing iterations of the extracted mesh (-1: 100 x (res / --hull-res)^2 "
+               "from --dmtet-init hull, 100 x (res / 64)^2 from soft, rounded)"),
     MF_OPT_INT(G, geom_iters, 200, 0, 1000000, "dmtet: Adam steps of the mask term (and the colour term with --geom-color; 0: the hull's SDF extracted as is)"),
     MF_OPT_INT(G, geom_views, 4, 0, 100000, "dmtet: training views per step, taken in turn (0: all)"),
     /* 0.01: on val-3d's box, superquadric and torus (hull start, 64^3, 200 mask-term steps) 0.05
