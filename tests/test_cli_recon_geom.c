@@ -221,9 +221,10 @@ MF_TEST(recon_geometry_dmtet_tiny) {
     CHECK_MSG(rows == 30 && first > 0 && last < first, "geom_log.csv: %d rows, mask loss %g -> %g", rows, first, last);
     char src[32] = "";
     double geom_s = geom_result(run, "geom_s", src, sizeof src), step_ms = geom_result(run, "step_ms", NULL, 0);
+    double share = geom_result(run, "rebuild_share", NULL, 0); /* extraction and Embree build, of geom_s */
     CHECK_MSG(!strcmp(src, "dmtet") && geom_s > 0 && step_ms > 0 && geom_result(run, "steps", NULL, 0) == 30 &&
-                  geom_result(run, "unwrap_s", NULL, 0) > 0,
-              "run.json: source '%s', geom_s %g, step_ms %g", src, geom_s, step_ms);
+                  geom_result(run, "unwrap_s", NULL, 0) > 0 && share > 0 && share <= 1,
+              "run.json: source '%s', geom_s %g, step_ms %g, rebuild_share %g", src, geom_s, step_ms, share);
     /* --dmtet-smooth -1 (the default) follows the grid: 100 x (32 / 64)^2 */
     CHECK_MSG(geom_result(run, "smooth_iters", NULL, 0) == 25, "run.json: smooth_iters %g, want 25 at 32^3",
               geom_result(run, "smooth_iters", NULL, 0));

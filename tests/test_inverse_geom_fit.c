@@ -98,6 +98,15 @@ static int radius_err(const MfTetGrid *g, const float *sdf, const float *deform,
     return rc;
 }
 
+/* 1 when log rows a and b (n,) agree in every field but the timing (rebuild_s), bit for bit */
+static int same_rows(const MfGeomFitStep *a, const MfGeomFitStep *b, int n) {
+    for (int i = 0; i < n; ++i)
+        if (memcmp(&a[i].rgb, &b[i].rgb, sizeof a[i].rgb) || memcmp(&a[i].mask, &b[i].mask, sizeof a[i].mask) ||
+            memcmp(&a[i].reg, &b[i].reg, sizeof a[i].reg) || a[i].nt != b[i].nt)
+            return 0;
+    return 1;
+}
+
 static void print_err(const char *what, const RadiusErr *r) {
     printf("    %s: %d vertices, %d components, |r - R1| mean %.4f max %.4f, %.1f%% within a cell\n", what, r->nv,
            r->comps, r->mean, r->max, 100 * r->near);
@@ -212,7 +221,7 @@ MF_TEST(inverse_geom_fit_colour_sphere) {
         CHECK_OK(mf_geom_fit(&g, sdf, NULL, cams, imgs, NVIEW, &o, log[run], &done));
         CHECK(done == o.iters);
     }
-    CHECK_MSG(!memcmp(log[0], log[1], CI2 * sizeof log[0][0]), "two runs with the same seed differ");
+    CHECK_MSG(same_rows(log[0], log[1], CI2), "two runs with the same seed differ");
     o.iters = CI;
     double r0 = log[0][0].rgb, r1 = 0;
     for (int i = CI - 5; i < CI; ++i) r1 += log[0][i].rgb / 5;
@@ -271,7 +280,7 @@ MF_TEST(inverse_geom_fit_resume) {
     CHECK(done == FULL);
     CHECK_MSG(!memcmp(sdf[0], sdf[1], nv * sizeof(float)), "the resumed SDF differs from the uninterrupted one");
     CHECK_MSG(!memcmp(def[0], def[1], nv * 3 * sizeof(float)), "the resumed deformation differs");
-    CHECK_MSG(!memcmp(log[0], log[1], sizeof log[0]), "the resumed log differs");
+    CHECK_MSG(same_rows(log[0], log[1], FULL), "the resumed log differs");
     CHECK(log[0][FULL - 1].rgb > 0);
     /* refusals: other options; more steps held than asked for */
     h.seed = 4;

@@ -59,10 +59,12 @@ typedef int (*ViewGrad)(void *ctx, const MfRtScene *rt, int k, double scale, flo
 
 /* The skeleton both terms share: extract the mesh from (sdf, deform), build its Embree scene
  * (with vertex normals when normals), run fn on each of views (nviews,), check the vertex
- * gradient, and send it through marching tets into dsdf and ddeform (+=). */
+ * gradient, and send it through marching tets into dsdf and ddeform (+=). *rebuild_s (if not
+ * NULL) = wall seconds of the extraction and the scene build. */
 static int over_views(const MfTetGrid *g, const float *sdf, const float *deform, const MfCamera *cams, const int *views,
-                      int nviews, int normals, ViewGrad fn, void *ctx, float *dsdf, float *ddeform, int *nt) {
+                      int nviews, int normals, ViewGrad fn, void *ctx, float *dsdf, float *ddeform, int *nt, double *rebuild_s) {
     MfTetMesh tm;
+    double t0 = mf_now();
     int rc = mf_tetgrid_extract(g, sdf, deform, &tm);
     if (rc) return rc;
     MfRtScene *rt = NULL;
@@ -70,6 +72,7 @@ static int over_views(const MfTetGrid *g, const float *sdf, const float *deform,
     if (!dpos) rc = mf_fail(MF_ENOMEM, "geometry fit: out of memory for %d vertices", tm.mesh.nv);
     if (!rc && normals) rc = mf_mesh_compute_normals(&tm.mesh);
     if (!rc) rc = mf_rtscene_new(&tm.mesh, &rt);
+    if (rebuild_s) *rebuild_s = mf_now() - t0;
     size_t npix = 0;
     for (int k = 0; k < nviews; ++k) npix += (size_t)cams[views[k]].w * cams[views[k]].h;
     for (int k = 0; k < nviews && !rc; ++k) rc = fn(ctx, rt, k, 1.0 / (double)npix, dpos);
@@ -101,10 +104,10 @@ static int mask_view(void *ctx, const MfRtScene *rt, int k, double scale, float 
 
 int mf_geom_mask_grad(const MfTetGrid *g, const float *sdf, const float *deform, const MfCamera *cams,
                       const MfImage *masks, const int *views, int nviews, float *dsdf, float *ddeform, double *loss,
-                      int *nt) {
+                      int *nt, double *rebuild_s) {
     if (nviews < 1) return mf_fail(MF_EARG, "geometry fit: no views");
     MaskCtx c = {cams, masks, views, 0};
-    int rc = over_views(g, sdf, deform, cams, views, nviews, 0, mask_view, &c, dsdf, ddeform, nt);
+    int rc = over_views(g, sdf, deform, cams, views, nviews, 0, mask_view, &c, dsdf, ddeform, nt, rebuild_s);
     if (!rc) *loss = c.mse;
     return rc;
 }
@@ -181,7 +184,7 @@ static int color_grad(const MfTetGrid *g, const float *sdf, const float *deform,
                       float *ddeform, float *dvkd, float *dvorm, float *denv, MfGeomFitStep *st) {
     ColorCtx c = {cams, imgs, views, cs, color, seed, dvkd, dvorm, denv, st};
     st->rgb = st->mask = 0;
-    return over_views(g, sdf, deform, cams, views, nviews, 1, color_view_k, &c, dsdf, ddeform, &st->nt);
+    return over_views(g, sdf, deform, cams, views, nviews, 1, color_view_k, &c, dsdf, ddeform, &st->nt, &st->rebuild_s);
 }
 
 static double sigmoid(double x) { return 1.0 / (1.0 + exp(-x)); }
@@ -400,7 +403,7 @@ int mf_geom_fit(const MfTetGrid *g, float *sdf, float *deform, const MfCamera *c
             rc = color_grad(g, b[0].p, def, cams, masks, views, bsize, &cs, opt->color, mf_hash64(opt->seed, (uint64_t)it), b[0].g, ddef,
                             b[ikd].g, b[iorm].g, b[ienv].g, &st);
         else
-            rc = mf_geom_mask_grad(g, b[0].p, def, cams, masks, views, bsize, b[0].g, ddef, &st.mask, &st.nt);
+            rc = mf_geom_mask_grad(g, b[0].p, def, cams, masks, views, bsize, b[0].g, ddef, &st.mask, &st.nt, &st.rebuild_s);
         if (rc) break;
         st.reg = opt->sdf_reg > 0 ? mf_geom_sdf_reg(g, b[0].p, opt->sdf_reg, b[0].g) : 0;
         if (log) log[it] = st;

@@ -40,12 +40,13 @@
 /* Mask loss and its gradient for views views[0..nviews) of cams/masks (masks: images whose last
  * channel is the target alpha, of the camera's size). dsdf (nv,) and, when deform and ddeform
  * are non-NULL, ddeform (nv, 3) are ACCUMULATED (+=); *loss = L_mask; *nt (if not NULL) = the
- * extracted mesh's triangles. Fails with MF_EARG ("... no zero crossing (empty grid)") when the
+ * extracted mesh's triangles; *rebuild_s (if not NULL) = wall seconds of the extraction and the
+ * Embree scene build. Fails with MF_EARG ("... no zero crossing (empty grid)") when the
  * SDF has no surface, MF_ENAN on a non-finite value, MF_EARG on a mask of the wrong size;
  * dsdf/ddeform untouched on failure. */
 int mf_geom_mask_grad(const MfTetGrid *g, const float *sdf, const float *deform, const MfCamera *cams,
                       const MfImage *masks, const int *views, int nviews, float *dsdf, float *ddeform, double *loss,
-                      int *nt);
+                      int *nt, double *rebuild_s);
 
 /* Sign-change regulariser: returns weight * L_reg and adds weight * dL_reg/dsdf to dsdf (nv,)
  * (if not NULL). 0 when no edge changes sign. */
@@ -77,6 +78,8 @@ typedef struct {
     double mask; /* L_mask of the step's views, before the step */
     double reg;  /* weighted L_reg, before the step */
     int nt;      /* triangles of the extracted mesh */
+    double rebuild_s; /* wall s of the step's extraction and Embree build (a timing: 0 in rows a resumed
+                         fit read from its state file, which does not keep it) */
 } MfGeomFitStep;
 
 /* The state file (opt->state; an MFCK checkpoint, io/mf_ckpt.h, written atomically): every block's

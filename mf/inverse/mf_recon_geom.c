@@ -301,6 +301,9 @@ static int build_dmtet(const MfReconGeomOpts *o, const MfCamera *cams, const MfI
         rc = mf_geom_fit(&g, sdf, NULL, cams, masks, n, &fo, log, &info->steps);
         info->geom_s = mf_now() - t0;
         info->step_ms = info->steps > info->resumed_at ? 1e3 * info->geom_s / (info->steps - info->resumed_at) : 0;
+        double rebuild = 0;
+        for (int i = info->resumed_at; i < info->steps; ++i) rebuild += log[i].rebuild_s;
+        info->rebuild_share = info->geom_s > 0 ? rebuild / info->geom_s : 0;
         if (info->steps) info->loss_first = log[0].mask, info->loss_last = log[info->steps - 1].mask;
         if (info->steps) info->rgb_first = log[0].rgb, info->rgb_last = log[info->steps - 1].rgb;
     }
@@ -311,9 +314,10 @@ static int build_dmtet(const MfReconGeomOpts *o, const MfCamera *cams, const MfI
         if (!rc) rc = wrc;
     }
     if (!rc)
-        mf_log_info("geometry: DMTet, %s: %d^3 grid, %d steps of %d views in %.2f s (%.1f ms/step), "
-                    "mask loss %.5f -> %.5f", o->geom_color > 0 ? "mask and colour terms" : "mask term only (no colour loss)", info->dmtet_res,
-                    info->steps, o->geom_views ? o->geom_views : n, info->geom_s, info->step_ms, info->loss_first, info->loss_last);
+        mf_log_info("geometry: DMTet, %s: %d^3 grid, %d steps of %d views in %.2f s (%.1f ms/step, %.0f%% extraction and Embree "
+                    "build), mask loss %.5f -> %.5f", o->geom_color > 0 ? "mask and colour terms" : "mask term only (no colour loss)",
+                    info->dmtet_res, info->steps, o->geom_views ? o->geom_views : n, info->geom_s, info->step_ms,
+                    100 * info->rebuild_share, info->loss_first, info->loss_last);
     /* a vessel found in the hull: every mesh is extracted on the hull's grid, the fitted SDF
      * interpolated onto it (when it is another grid), so the carved hull's walls keep the cells they
      * were carved with */
@@ -520,6 +524,7 @@ void mf_recon_geom_to_json(const MfReconGeomInfo *info, cJSON *obj) {
     if (!strcmp(info->source, "dmtet")) {
         cJSON_AddNumberToObject(g, "geom_s", info->geom_s);   /* wall s: the DMTet steps */
         cJSON_AddNumberToObject(g, "step_ms", info->step_ms); /* wall ms per step */
+        cJSON_AddNumberToObject(g, "rebuild_share", info->rebuild_share); /* of geom_s: extraction and Embree build */
         cJSON_AddNumberToObject(g, "steps", info->steps);
         cJSON_AddNumberToObject(g, "resumed_at", info->resumed_at); /* steps a resumed fit's state held */
         cJSON_AddNumberToObject(g, "mask_loss_first", info->loss_first);

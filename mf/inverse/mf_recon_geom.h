@@ -111,6 +111,8 @@ typedef struct {
     MfUvAtlasInfo atlas;         /* vhull, built: the unwrap's report */
     double geom_s;               /* dmtet, built: wall s of this process's mask-term steps */
     double step_ms;              /* dmtet, built: mean wall ms per step of this process */
+    double rebuild_share;        /* dmtet, built: the share of geom_s spent extracting the mesh and building its
+                                    Embree scene (issue 14's "rebuild share") */
     int steps;                   /* dmtet, built: steps taken */
     int resumed_at;              /* dmtet, built: steps its state file held (resume; 0: started afresh) */
     double loss_first, loss_last;/* dmtet, built: mask loss of the first and last step */
