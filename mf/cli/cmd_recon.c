@@ -135,7 +135,8 @@ static int geom_args_ok(const ReconArgs *a, const MfReconGeomOpts *go, const cha
     if (!src && mf_recon_geom_resolve(go, 1, &src)) return MF_EARG;
     int built = g && (!strcmp(g, "vhull") || !strcmp(g, "dmtet"));
     if (built && a->mesh) return mf_fail(MF_EARG, "--mesh %s is for --geometry given, not %s", a->mesh, g);
-    if (go->dmtet_res > 0 && go->dmtet_res < 4) return mf_fail(MF_EARG, "--dmtet-res %d: expected 0 (the start's grid) or 4 to 512", go->dmtet_res);
+    if (go->dmtet_res > 0 && go->dmtet_res < 4)
+        return mf_fail(MF_EARG, "--dmtet-res %d: expected 0 (the start's grid) or 4 to 512", go->dmtet_res);
     if (built && strcmp(a->side, "all"))
         return mf_fail(MF_EARG, "--side %s needs a given mesh (--geometry %s: the hull would be carved by every view)", a->side, g);
     return MF_OK;

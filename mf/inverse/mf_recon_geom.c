@@ -214,10 +214,11 @@ static int write_geom_log(const char *out_dir, const MfGeomFitStep *log, int ste
 
 /* DMTet's start from the hull (--dmtet-init hull): the hull mesh vhull builds (its grid *gh, which
  * is g when g has the hull's resolution, and clean-up, the hull_* options), its signed distance on
- * g replacing sdf (the soft hull on g, which gives the sign beyond MF_DMTET_INIT_BAND cells). With --vessel auto|open and an opening in the
- * hull's field (info->vessel), the hull is carved as vhull carves it (its walls, into info, on its
- * finer grid, where they do not break through), and each carved hull's signed distance on *gh goes
- * to cut[k] (malloc'd, the caller frees them): build_dmtet cuts the fitted SDF with them there. */
+ * g replacing sdf (the soft hull on g, which gives the sign beyond MF_DMTET_INIT_BAND cells). With
+ * --vessel auto|open and an opening in the hull's field (info->vessel), the hull is carved as vhull
+ * carves it (its walls, into info, on its grid, where they do not break through), and each carved
+ * hull's signed distance on *gh goes to cut[k] (malloc'd, the caller frees them): build_dmtet cuts
+ * the fitted SDF with them there. */
 static int hull_start(const MfReconGeomOpts *o, const MfCamera *cams, const MfImage *masks, int n, const MfTetGrid *g, float *sdf,
                       MfTetGrid *gh, float *cut[2], MfReconGeomInfo *info) {
     MfHullOpts ho = hull_opts(o);

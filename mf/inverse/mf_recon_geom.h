@@ -83,8 +83,8 @@ typedef struct {
     float hull_min_component;
     int dmtet_res;            /* dmtet: grid cubes per axis (0: the start's: hull_res from the hull, MF_DMTET_SOFT_RES from soft) */
     int dmtet_init;           /* dmtet: MfDmtetInit, the SDF's start */
-    int dmtet_smooth;         /* dmtet: Taubin iterations of the extracted mesh (-1: 100 (res/hull_res)^2 from the hull, 100 (res/64)^2 from soft;
-                                 hull_smooth is the hull's) */
+    int dmtet_smooth;         /* dmtet: Taubin iterations of the extracted mesh (-1: 100 (res/hull_res)^2 from
+                                 the hull, 100 (res/64)^2 from soft; hull_smooth is the hull's) */
     int geom_iters;           /* dmtet: Adam steps of the mask term */
     int geom_views;           /* dmtet: views per step (0: all) */
     float geom_lr;            /* dmtet: SDF learning rate, in grid cells per step */
