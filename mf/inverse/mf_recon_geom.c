@@ -262,11 +262,15 @@ static int hull_start(const MfReconGeomOpts *o, const MfCamera *cams, const MfIm
  * continues from it; it is removed once dmtet.obj is written (which resume then reuses whole). */
 #define MF_GEOM_STATE_EVERY 25
 
+/* The resolution of DMTet's start: the hull's (hull_res) or the soft hull's (MF_DMTET_SOFT_RES). */
+static int dmtet_start_res(const MfReconGeomOpts *o) {
+    return o->dmtet_init == MF_DMTET_INIT_HULL ? o->hull_res : MF_DMTET_SOFT_RES;
+}
+
 /* Taubin iterations of DMTet's mesh on a res^3 grid: dmtet_smooth, or by default 100 at the start's
- * resolution (the hull's, hull_res: its mesh is smoothed already; MF_DMTET_SOFT_RES for the soft
- * hull) scaled by (res / that)^2 (mf_recon_opts.c). */
+ * resolution (the hull's mesh is smoothed already) scaled by (res / that)^2 (mf_recon_opts.c). */
 static int dmtet_smooth(const MfReconGeomOpts *o, int res) {
-    double base = o->dmtet_init == MF_DMTET_INIT_HULL ? o->hull_res : MF_DMTET_SOFT_RES;
+    double base = dmtet_start_res(o);
     return o->dmtet_smooth >= 0 ? o->dmtet_smooth : (int)lround(100.0 * res * res / (base * base));
 }
 
@@ -279,7 +283,7 @@ static int build_dmtet(const MfReconGeomOpts *o, const MfCamera *cams, const MfI
     double t0 = mf_now();
     if (!rc) rc = mf_vhull_check_masks(masks, n, &info->hull.masked_views);
     /* the hull's grid: enlarged 1.5x once when the hull touches its border, as mf_vhull_mesh does */
-    info->dmtet_res = o->dmtet_res ? o->dmtet_res : o->dmtet_init == MF_DMTET_INIT_HULL ? o->hull_res : MF_DMTET_SOFT_RES;
+    info->dmtet_res = o->dmtet_res ? o->dmtet_res : dmtet_start_res(o);
     if (!rc) rc = mf_vhull_grid(cams, masks, n, info->dmtet_res, o->hull_extent, &g, &sdf, &info->hull.touches_border);
     info->hull.extent = g.cell * (float)g.res;
     size_t nv = rc ? 0 : mf_tetgrid_nverts(&g);
